@@ -1,0 +1,44 @@
+"""BO2 Lighting add-on: registration of the Blender classes, in one explicit ordered list.
+
+``addon/core`` is pure NumPy and never imports ``bpy``; ``addon/blender`` is the Blender glue.
+The Blender modules are imported inside ``register()`` so that the ``bo2`` command and the core
+tests can import this package without loading ``bpy``.
+"""
+
+_registered: list = []
+
+
+def _classes() -> list:
+    from .blender import engine, props, ui
+
+    return [*props.CLASSES, *engine.CLASSES, *ui.CLASSES]
+
+
+def register() -> None:
+    """Register every class of the add-on, in order; safe to call after ``unregister()``."""
+    import bpy
+
+    from .blender import props, ui
+
+    if _registered:
+        return
+    for cls in _classes():
+        bpy.utils.register_class(cls)
+        _registered.append(cls)
+    props.attach()
+    ui.enable_panels()
+
+
+def unregister() -> None:
+    """Remove everything ``register()`` added, in reverse order."""
+    import bpy
+
+    from .blender import props, ui
+
+    if not _registered:
+        return
+    ui.disable_panels()
+    props.detach()
+    for cls in reversed(_registered):
+        bpy.utils.unregister_class(cls)
+    _registered.clear()

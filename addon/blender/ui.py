@@ -1,0 +1,87 @@
+"""Panels: the engine's own render settings, plus Blender's stock panels that apply to it.
+
+Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external engines do;
+``disable_panels()`` removes exactly what ``enable_panels()`` added.
+"""
+
+import bpy
+
+ENGINE_ID = "BO2_LIGHTING"
+
+# Blender's panels that show settings this engine honours.
+_STOCK_PANELS = (
+    "RENDER_PT_format", "RENDER_PT_frame_range", "RENDER_PT_time_stretching",
+    "RENDER_PT_color_management", "RENDER_PT_color_management_curves",
+    "RENDER_PT_output", "RENDER_PT_encoding", "RENDER_PT_stamp", "RENDER_PT_post_processing",
+    "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
+    "DATA_PT_context_light", "DATA_PT_light", "DATA_PT_spot",
+    "DATA_PT_context_mesh", "DATA_PT_normals", "DATA_PT_uv_texture", "DATA_PT_vertex_groups",
+    "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_viewport",
+    "WORLD_PT_context_world", "VIEWLAYER_PT_layer",
+)
+_enabled: list[type] = []
+
+
+class RENDER_PT_bo2_settings(bpy.types.Panel):
+    bl_label = "BO2 Lighting"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.bo2
+        layout.prop(settings, "samples")
+        layout.prop(settings, "specular_model")
+        layout.prop(context.scene.render, "film_transparent")
+
+
+class MATERIAL_PT_bo2_surface(bpy.types.Panel):
+    bl_label = "Surface"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "material"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+    def draw(self, context):
+        mat = context.material
+        tree = mat.node_tree
+        output = None
+        if tree is not None:
+            output = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"
+                           and n.is_active_output), None)
+        if output is None:
+            self.layout.label(text="No material output node")
+            return
+        self.layout.template_node_view(tree, output, output.inputs["Surface"])
+
+
+CLASSES = [RENDER_PT_bo2_settings, MATERIAL_PT_bo2_surface]
+
+
+def enable_panels() -> None:
+    """Add this engine to the ``COMPAT_ENGINES`` of the stock panels listed above."""
+    for name in _STOCK_PANELS:
+        panel = getattr(bpy.types, name, None)
+        engines = getattr(panel, "COMPAT_ENGINES", None)
+        if engines is not None and ENGINE_ID not in engines:
+            engines.add(ENGINE_ID)
+            _enabled.append(panel)
+
+
+def disable_panels() -> None:
+    """Undo ``enable_panels()``."""
+    for panel in _enabled:
+        panel.COMPAT_ENGINES.discard(ENGINE_ID)
+    _enabled.clear()

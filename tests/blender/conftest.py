@@ -1,0 +1,21 @@
+"""Blender tests run against the real ``bpy`` module; each starts from factory settings."""
+
+import bpy
+import pytest
+
+
+@pytest.fixture
+def empty_scene():
+    """A fresh factory-startup file with no objects."""
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    return bpy.context.scene
+
+
+@pytest.fixture
+def addon(empty_scene):
+    """The add-on registered from the source tree (as the ``bo2`` command does) for one test."""
+    import bo2_lighting
+
+    bo2_lighting.register()
+    yield bo2_lighting
+    bo2_lighting.unregister()

@@ -1,0 +1,104 @@
+"""Install the built extension zip the way a user does, render with it, and remove it."""
+
+import os
+import tempfile
+import tomllib
+from pathlib import Path
+
+import bpy
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+with open(ROOT / "blender_manifest.toml", "rb") as _fh:
+    MANIFEST = tomllib.load(_fh)
+ZIP = ROOT / "dist" / f"{MANIFEST['id']}-{MANIFEST['version']}.zip"
+REPO = "bo2_install_test"
+MODULE = f"bl_ext.{REPO}.bo2_lighting"
+
+
+def engines():
+    return {e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
+
+
+def small_scene():
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location = (0.0, 0.0, 3.0)
+    bpy.context.scene.collection.objects.link(cam)
+    bpy.context.scene.camera = cam
+    light = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    bpy.context.scene.collection.objects.link(light)
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 24
+    scene.render.resolution_percentage = 100
+
+
+@pytest.fixture
+def user_repo():
+    if not ZIP.exists():
+        pytest.fail(f"{ZIP.name} is missing: run 'make build' (tools/build_extension.py) first")
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    with tempfile.TemporaryDirectory() as directory:
+        repos = bpy.context.preferences.extensions.repos
+        repo = repos.new(name="BO2 install test", module=REPO, custom_directory=directory)
+        yield repo, Path(directory)
+        if MODULE in bpy.context.preferences.addons:
+            bpy.ops.preferences.addon_disable(module=MODULE)
+        repos.remove(repo)
+
+
+def install(repo):
+    result = bpy.ops.extensions.package_install_files(
+        filepath=str(ZIP), repo=REPO, enable_on_install=True)
+    assert result == {"FINISHED"}
+
+
+def uninstall(repo):
+    index = list(bpy.context.preferences.extensions.repos).index(repo)
+    assert bpy.ops.extensions.package_uninstall(
+        repo_index=index, pkg_id=MANIFEST["id"]) == {"FINISHED"}
+
+
+def test_install_render_disable_remove(user_repo):
+    repo, directory = user_repo
+    assert "BO2_LIGHTING" not in engines()
+    install(repo)
+    assert (directory / "bo2_lighting" / "blender_manifest.toml").exists()
+    assert MODULE in bpy.context.preferences.addons
+    assert "BO2_LIGHTING" in engines()
+    # The bundled OpenEXR wheel is installed for this platform and importable.
+    import OpenEXR  # noqa: F401
+
+    small_scene()
+    scene = bpy.context.scene
+    scene.render.engine = "BO2_LIGHTING"
+    assert scene.bo2.samples >= 1
+    with tempfile.TemporaryDirectory() as out:
+        scene.render.filepath = os.path.join(out, "frame.png")
+        assert bpy.ops.render.render(write_still=True) == {"FINISHED"}
+        image = bpy.data.images.load(scene.render.filepath)
+        pixels = list(image.pixels)
+        assert image.size[0] == 24 and max(pixels[0::4]) > 0.05
+
+    bpy.ops.preferences.addon_disable(module=MODULE)
+    assert "BO2_LIGHTING" not in engines()
+    assert not hasattr(bpy.types.Scene, "bo2")
+    assert "BO2_LIGHTING" not in bpy.types.RENDER_PT_format.COMPAT_ENGINES
+    assert not hasattr(bpy.types, "RENDER_PT_bo2_settings")
+    uninstall(repo)
+    assert not (directory / "bo2_lighting").exists()
+
+
+def test_install_twice_and_toggle_never_raises(user_repo):
+    repo, _ = user_repo
+    install(repo)
+    bpy.ops.preferences.addon_disable(module=MODULE)
+    bpy.ops.preferences.addon_enable(module=MODULE)
+    bpy.ops.preferences.addon_enable(module=MODULE)
+    result = bpy.ops.extensions.package_install_files(
+        filepath=str(ZIP), repo=REPO, enable_on_install=True, overwrite=True)
+    assert result == {"FINISHED"}
+    assert "BO2_LIGHTING" in engines()
+    bpy.ops.preferences.addon_disable(module=MODULE)
+    assert "BO2_LIGHTING" not in engines()
+    uninstall(repo)

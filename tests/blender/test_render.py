@@ -1,0 +1,135 @@
+"""The engine renders real scenes through bpy.ops.render.render.
+
+Independent values: Cycles renders of the same scene (a white Lambert plane under one light of
+each type), and the closed-form irradiance of each light in Blender's units.
+"""
+
+import math
+
+import bpy
+import numpy as np
+import pytest
+
+RES = 16
+
+
+def engines():
+    return {e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
+
+
+def lambert_plane_scene(kind, **light_settings):
+    """A white Lambert plane seen from above by an orthographic camera, one light 2 m above."""
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = RES
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    bpy.ops.mesh.primitive_plane_add(size=0.2)
+    mat = bpy.data.materials.new("White")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    node = mat.node_tree.nodes["Principled BSDF"]
+    node.inputs["Base Color"].default_value = (1, 1, 1, 1)
+    node.inputs["Roughness"].default_value = 1.0
+    node.inputs["Specular IOR Level"].default_value = 0.0
+    bpy.context.object.data.materials.append(mat)
+    cam_data = bpy.data.cameras.new("Camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = 0.1
+    cam = bpy.data.objects.new("Camera", cam_data)
+    cam.location = (0, 0, 1)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    data = bpy.data.lights.new("Light", kind)
+    for key, value in light_settings.items():
+        setattr(data, key, value)
+    light = bpy.data.objects.new("Light", data)
+    light.location = (0, 0, 2)
+    scene.collection.objects.link(light)
+    world = bpy.data.worlds.new("Black")
+    world.color = (0, 0, 0)
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    scene.world = world
+    return scene
+
+
+def render_pixels(scene, engine, samples=4):
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.samples = samples
+        scene.cycles.device = "CPU"
+    else:
+        scene.bo2.samples = samples
+    assert bpy.ops.render.render() == {"FINISHED"}
+    result = bpy.data.images["Render Result"]
+    # The Render Result image has no pixel buffer in background mode: save it as linear EXR.
+    import tempfile
+    from pathlib import Path
+
+    with tempfile.TemporaryDirectory() as tmp:
+        path = str(Path(tmp) / "r.exr")
+        scene.render.image_settings.file_format = "OPEN_EXR"
+        scene.render.image_settings.color_depth = "32"
+        result.save_render(filepath=path, scene=scene)
+        img = bpy.data.images.load(path)
+        px = np.array(img.pixels[:], np.float32).reshape(RES, RES, 4)
+        bpy.data.images.remove(img)
+    return px
+
+
+def test_engine_registered(addon):
+    assert "BO2_LIGHTING" in engines()
+    assert bpy.types.Scene.bo2 is not None
+
+
+def test_unregister_leaves_nothing(empty_scene):
+    import bo2_lighting
+
+    before = engines()
+    bo2_lighting.register()
+    bo2_lighting.unregister()
+    assert engines() == before
+    assert not hasattr(bpy.types.Scene, "bo2")
+    assert "BO2_LIGHTING" not in bpy.types.RENDER_PT_format.COMPAT_ENGINES
+    bo2_lighting.register()  # and again, in the same session
+    assert "BO2_LIGHTING" in engines()
+    bo2_lighting.unregister()
+
+
+# Closed-form irradiance at the plane, 2 m below the light, in Blender's units (W or W/m^2).
+LIGHTS = [
+    ("POINT", dict(energy=100.0, shadow_soft_size=0.01), 100.0 / (4 * math.pi * 4.0)),
+    ("SPOT", dict(energy=100.0, shadow_soft_size=0.01, spot_size=math.radians(60)),
+     100.0 / (4 * math.pi * 4.0)),
+    ("SUN", dict(energy=2.0), 2.0),
+    ("AREA", dict(energy=100.0, size=0.01), 100.0 / (math.pi * 4.0)),
+]
+
+
+@pytest.mark.parametrize(("kind", "settings", "irradiance"), LIGHTS, ids=[x[0] for x in LIGHTS])
+def test_lambert_plane_matches_cycles(addon, kind, settings, irradiance):
+    scene = lambert_plane_scene(kind, **settings)
+    ours = render_pixels(scene, "BO2_LIGHTING")[..., :3].mean()
+    cycles = render_pixels(scene, "CYCLES", samples=16)[..., :3].mean()
+    expected = irradiance / math.pi  # Lambert radiance, albedo 1
+    assert ours == pytest.approx(expected, rel=0.01)
+    assert ours == pytest.approx(cycles, rel=0.03)
+
+
+def test_no_camera_is_one_clear_error(addon):
+    scene = bpy.context.scene
+    scene.render.engine = "BO2_LIGHTING"
+    bpy.ops.mesh.primitive_plane_add()
+    with pytest.raises(RuntimeError, match="no active camera"):
+        bpy.ops.render.render()
+
+
+def test_nan_vertices_still_render(addon):
+    scene = lambert_plane_scene("SUN", energy=1.0)
+    plane = bpy.data.objects["Plane"]
+    plane.data.vertices[0].co = (float("nan"), 0.0, 0.0)
+    px = render_pixels(scene, "BO2_LIGHTING")
+    assert np.isfinite(px).all()
+    # The triangle without the NaN corner still shows.
+    assert (px[..., 0] > 0.2).sum() > 0

@@ -1,0 +1,82 @@
+"""The ``bo2`` command, run as a user runs it: a subprocess, checked by exit code and output."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+BO2 = Path(sys.executable).parent / "bo2"
+DEMO = ROOT / "demo_blends" / "first_light.blend"
+
+
+def bo2(*args, timeout=300):
+    return subprocess.run([str(BO2), *map(str, args)], capture_output=True, text=True,
+                          timeout=timeout)
+
+
+def one_error_line(proc):
+    lines = [s for s in proc.stderr.splitlines() if s.strip()]
+    assert len(lines) == 1, proc.stderr
+    assert lines[0].startswith("bo2: error: ")
+    return lines[0]
+
+
+def test_help_lists_commands():
+    proc = bo2("--help")
+    assert proc.returncode == 0
+    assert "render" in proc.stdout and "version" in proc.stdout
+
+
+def test_version():
+    proc = bo2("version")
+    assert proc.returncode == 0
+    assert proc.stdout.startswith("BO2 Lighting 0.")
+
+
+@pytest.mark.parametrize("args", [
+    ("frobnicate",),
+    (),
+    ("render",),
+    ("render", "x.blend", "-o", "x.png", "--samples", "zero"),
+    ("render", "x.blend", "-o", "x.png", "--resolution", "12by7"),
+    ("render", "x.blend", "-o", "x.png", "--engine", "eevee"),
+])
+def test_bad_usage_is_one_line_exit_2(args):
+    proc = bo2(*args)
+    assert proc.returncode == 2
+    one_error_line(proc)
+
+
+def test_missing_blend(tmp_path):
+    proc = bo2("render", tmp_path / "nope.blend", "-o", tmp_path / "x.png")
+    assert proc.returncode == 1
+    assert "no such .blend file" in one_error_line(proc)
+
+
+@pytest.mark.parametrize("content", [b"\x00garbage" * 100, b"BLENDER-v405" + b"\xff" * 500])
+def test_corrupt_blend(tmp_path, content):
+    bad = tmp_path / "bad.blend"
+    bad.write_bytes(content)
+    proc = bo2("render", bad, "-o", tmp_path / "x.png")
+    assert proc.returncode == 1
+    line = one_error_line(proc)
+    assert "bad.blend" in line or "ead" in line  # names the file or says it cannot be read
+    assert not (tmp_path / "x.png").exists()
+
+
+def test_unknown_output_type(tmp_path):
+    proc = bo2("render", DEMO, "-o", tmp_path / "x.gif")
+    assert proc.returncode == 1
+    assert "unknown image type" in one_error_line(proc)
+
+
+def test_render_demo_png_and_exr(tmp_path):
+    png, exr = tmp_path / "a.png", tmp_path / "a.exr"
+    proc = bo2("render", DEMO, "-o", png, "--resolution", "64x36", "--samples", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    proc = bo2("render", DEMO, "-o", exr, "--resolution", "64x36", "--samples", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert exr.read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR magic
