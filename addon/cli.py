@@ -52,7 +52,8 @@ def quiet_blender():
             log.seek(0)
             lines = [s.strip() for s in log.read().decode(errors="replace").splitlines()]
             detail = next((s for s in reversed(lines) if s), "")
-            message = str(exc).strip().splitlines()[-1] if str(exc).strip() else type(exc).__name__
+            text = str(exc).strip()
+            message = text.splitlines()[-1].removeprefix("Error: ") if text else type(exc).__name__
             if detail and detail not in message:
                 message = f"{message} ({detail})"
             raise CommandError(message) from exc
@@ -137,10 +138,7 @@ def cmd_render(args) -> int:
     start = time.perf_counter()
     with quiet_blender():
         bpy.ops.render.render(write_still=False)
-        image = bpy.data.images["Render Result"]
-        if not image.has_data and args.engine == "bo2":
-            raise RuntimeError("the render produced no image")
-        image.save_render(filepath=str(out.resolve()), scene=scene)
+        bpy.data.images["Render Result"].save_render(filepath=str(out.resolve()), scene=scene)
     seconds = time.perf_counter() - start
     if not out.exists():
         raise CommandError(f"{out}: the render did not produce an image")
@@ -165,7 +163,8 @@ def build_parser() -> argparse.ArgumentParser:
                             description="Render one frame with BO2 Lighting or Cycles.")
     render.add_argument("scene", help=".blend file")
     render.add_argument("-o", "--output", required=True,
-                        help="image to write (.png through the scene's view transform, .exr linear)")
+                        help="image to write: .png through the scene's view transform, "
+                        ".exr scene-linear")
     render.add_argument("--frame", type=int, help="frame number (default: the file's current)")
     render.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
     render.add_argument("--samples", type=_positive, help="samples per pixel")

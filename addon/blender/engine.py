@@ -45,27 +45,31 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 self.report({"WARNING"}, message)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
-            passes = pipeline.render_frame(frame, progress=self.update_progress,
-                                           should_stop=self.test_break)
+            passes = pipeline.render_frame(
+                frame, progress=self.update_progress, should_stop=self.test_break,
+                warn=lambda message: self.report({"WARNING"}, message))
+            self._write_result(passes, frame.camera.width, frame.camera.height)
         except pipeline.Cancelled:
             return
         except extract.SceneError as exc:
-            self.error_set(str(exc))
+            self._fail(str(exc))
             return
         except Exception as exc:  # noqa: BLE001 - the UI gets one line, the console the trace
             traceback.print_exc(file=sys.stderr)
-            self.error_set(f"BO2 Lighting failed: {type(exc).__name__}: {exc}")
+            self._fail(f"BO2 Lighting failed: {type(exc).__name__}: {exc}")
             return
-        self._write_result(passes, frame.camera.width, frame.camera.height)
         self.update_stats("BO2 Lighting", f"Done in {time.perf_counter() - start:.2f} s")
+
+    def _fail(self, message: str) -> None:
+        """Show one error: in the render window (``error_set``) and as the operator's report."""
+        self.error_set(message)
+        self.report({"ERROR"}, message)
 
     def _write_result(self, passes: dict, width: int, height: int) -> None:
         result = self.begin_result(0, 0, width, height)
         layer = result.layers[0]
         for name, image in passes.items():
-            rp = layer.passes.find_by_name(name, self.view_layer_name or "")
-            if rp is None:
-                rp = layer.passes.get(name)
+            rp = layer.passes.find_by_name(name, "")
             if rp is None:
                 continue
             # Blender's pixel rows run bottom to top; the core's run top to bottom.

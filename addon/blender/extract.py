@@ -8,6 +8,7 @@ ignored; panoramic cameras are refused with a clear error.
 
 from __future__ import annotations
 
+import bpy
 import numpy as np
 
 from ..core import scene as cs
@@ -56,7 +57,10 @@ def extract_camera(depsgraph) -> cs.Camera:
 
 
 def _read_mesh(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Object-space triangles of an evaluated mesh: positions, corner normals (T,3,3), slots (T,)."""
+    """Object-space triangles of an evaluated mesh.
+
+    returns: positions (T, 3, 3), corner normals (T, 3, 3), material slot (T,)
+    """
     mesh.calc_loop_triangles()
     tris = mesh.loop_triangles
     nt = len(tris)
@@ -117,7 +121,8 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
     if world is None:
         return cs.World(color=np.zeros(3, np.float32))
     tree = world.node_tree
-    if tree is None or not getattr(world, "use_nodes", True):
+    # World.use_nodes is deprecated (always on) from Blender 5.0.
+    if tree is None or (bpy.app.version < (5, 0, 0) and not world.use_nodes):
         return cs.World(color=np.array(world.color[:3], np.float32))
     out = next((n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output), None)
     links = out.inputs["Surface"].links if out is not None else ()

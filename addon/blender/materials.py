@@ -79,8 +79,9 @@ def convert_material(material, warnings: list[str]) -> Material:
         result = convert_principled(node, name, warnings)
     elif node is not None and node.type == "EMISSION":
         color = _input(node, "Color", np.ones(4, np.float32))[:3]
+        strength = float(_input(node, "Strength", 1.0))
         result = Material(name=name, albedo=np.zeros(3, np.float32), rf0=np.zeros(3, np.float32),
-                          emission=(color * float(_input(node, "Strength", 1.0))).astype(np.float32))
+                          emission=(color * strength).astype(np.float32))
     else:
         kind = "no surface node" if node is None else f"node '{node.name}' ({node.bl_idname})"
         warnings.append(f"Material '{name}': {kind} is not supported; rendered as grey dielectric")

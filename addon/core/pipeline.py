@@ -40,16 +40,34 @@ def _gather_geometry(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return pos, nrm, mat
 
 
+def _drop_broken(positions, normals, mat_index, warn):
+    """Remove triangles with non-finite corners or zero area; warn once with the counts."""
+    finite = np.isfinite(positions).all(axis=(1, 2))
+    with np.errstate(invalid="ignore", over="ignore"):
+        cross = np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0])
+        area2 = np.einsum("tc,tc->t", cross, cross)
+    flat = finite & ~(area2 > 0.0)
+    keep = finite & ~flat
+    if keep.all():
+        return positions, normals, mat_index
+    if warn is not None:
+        warn(f"Skipped {int((~finite).sum())} triangles with NaN or infinite vertices and "
+             f"{int(flat.sum())} with zero area")
+    return positions[keep], np.nan_to_num(normals[keep]), mat_index[keep]
+
+
 def render_frame(
     scene: Scene,
     progress: Callable[[float], None] | None = None,
     should_stop: Callable[[], bool] | None = None,
+    warn: Callable[[str], None] | None = None,
 ) -> dict[str, np.ndarray]:
     """Render one frame.
 
     scene:       the frame's plain-data description
     progress:    called with the finished fraction in [0, 1]
     should_stop: polled between samples; returning True raises ``Cancelled``
+    warn:        called once with a message when triangles are skipped (NaN or zero area)
     returns:     {"Combined": (H, W, 4) float32 RGBA scene-linear radiance, row 0 at the top}
     """
     cam = scene.camera
@@ -64,6 +82,7 @@ def render_frame(
     if len(positions) and (mat_index.max(initial=0) >= len(mats) or mat_index.min() < 0):
         raise ValueError("a triangle refers to a material index outside Scene.materials")
 
+    positions, normals, mat_index = _drop_broken(positions, normals, mat_index, warn)
     view_proj = cam.projection @ cam.world_to_camera
     homog = np.concatenate([positions, np.ones(positions.shape[:2] + (1,), np.float32)], -1)
     clip = (homog.astype(np.float64) @ view_proj.T).astype(np.float32)

@@ -8,6 +8,8 @@ from pathlib import Path
 import bpy
 import pytest
 
+from util import engine_available
+
 ROOT = Path(__file__).resolve().parents[2]
 with open(ROOT / "blender_manifest.toml", "rb") as _fh:
     MANIFEST = tomllib.load(_fh)
@@ -15,9 +17,6 @@ ZIP = ROOT / "dist" / f"{MANIFEST['id']}-{MANIFEST['version']}.zip"
 REPO = "bo2_install_test"
 MODULE = f"bl_ext.{REPO}.bo2_lighting"
 
-
-def engines():
-    return {e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
 
 
 def small_scene():
@@ -61,11 +60,11 @@ def uninstall(repo):
 
 def test_install_render_disable_remove(user_repo):
     repo, directory = user_repo
-    assert "BO2_LIGHTING" not in engines()
+    assert not engine_available("BO2_LIGHTING")
     install(repo)
     assert (directory / "bo2_lighting" / "blender_manifest.toml").exists()
     assert MODULE in bpy.context.preferences.addons
-    assert "BO2_LIGHTING" in engines()
+    assert engine_available("BO2_LIGHTING")
     # The bundled OpenEXR wheel is installed for this platform and importable.
     import OpenEXR  # noqa: F401
 
@@ -81,7 +80,7 @@ def test_install_render_disable_remove(user_repo):
         assert image.size[0] == 24 and max(pixels[0::4]) > 0.05
 
     bpy.ops.preferences.addon_disable(module=MODULE)
-    assert "BO2_LIGHTING" not in engines()
+    assert not engine_available("BO2_LIGHTING")
     assert not hasattr(bpy.types.Scene, "bo2")
     assert "BO2_LIGHTING" not in bpy.types.RENDER_PT_format.COMPAT_ENGINES
     assert not hasattr(bpy.types, "RENDER_PT_bo2_settings")
@@ -98,7 +97,7 @@ def test_install_twice_and_toggle_never_raises(user_repo):
     result = bpy.ops.extensions.package_install_files(
         filepath=str(ZIP), repo=REPO, enable_on_install=True, overwrite=True)
     assert result == {"FINISHED"}
-    assert "BO2_LIGHTING" in engines()
+    assert engine_available("BO2_LIGHTING")
     bpy.ops.preferences.addon_disable(module=MODULE)
-    assert "BO2_LIGHTING" not in engines()
+    assert not engine_available("BO2_LIGHTING")
     uninstall(repo)

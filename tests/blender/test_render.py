@@ -10,11 +10,10 @@ import bpy
 import numpy as np
 import pytest
 
+from util import engine_available
+
 RES = 16
 
-
-def engines():
-    return {e.identifier for e in bpy.types.RenderSettings.bl_rna.properties["engine"].enum_items}
 
 
 def lambert_plane_scene(kind, **light_settings):
@@ -79,21 +78,21 @@ def render_pixels(scene, engine, samples=4):
 
 
 def test_engine_registered(addon):
-    assert "BO2_LIGHTING" in engines()
+    assert engine_available("BO2_LIGHTING")
     assert bpy.types.Scene.bo2 is not None
 
 
 def test_unregister_leaves_nothing(empty_scene):
     import bo2_lighting
 
-    before = engines()
+    assert not engine_available("BO2_LIGHTING")
     bo2_lighting.register()
     bo2_lighting.unregister()
-    assert engines() == before
+    assert not engine_available("BO2_LIGHTING")
     assert not hasattr(bpy.types.Scene, "bo2")
     assert "BO2_LIGHTING" not in bpy.types.RENDER_PT_format.COMPAT_ENGINES
     bo2_lighting.register()  # and again, in the same session
-    assert "BO2_LIGHTING" in engines()
+    assert engine_available("BO2_LIGHTING")
     bo2_lighting.unregister()
 
 
@@ -121,15 +120,32 @@ def test_no_camera_is_one_clear_error(addon):
     scene = bpy.context.scene
     scene.render.engine = "BO2_LIGHTING"
     bpy.ops.mesh.primitive_plane_add()
-    with pytest.raises(RuntimeError, match="no active camera"):
+    with pytest.raises(RuntimeError, match="no camera"):
         bpy.ops.render.render()
 
 
-def test_nan_vertices_still_render(addon):
+def test_panoramic_camera_is_one_clear_error(addon):
     scene = lambert_plane_scene("SUN", energy=1.0)
-    plane = bpy.data.objects["Plane"]
-    plane.data.vertices[0].co = (float("nan"), 0.0, 0.0)
+    scene.camera.data.type = "PANO"
+    scene.render.engine = "BO2_LIGHTING"
+    with pytest.raises(RuntimeError, match="panoramic") as info:
+        bpy.ops.render.render()
+    assert "Traceback" not in str(info.value)
+
+
+def test_nan_vertices_still_render(addon, capfd):
+    scene = lambert_plane_scene("SUN", energy=1.0)
+    nan = float("nan")
+    mesh = bpy.data.meshes.new("Broken")
+    mesh.from_pydata(
+        [(nan, 0, 0.1), (0.01, 0, 0.1), (0, 0.01, 0.1),  # a NaN corner
+         (0, 0, 0.1), (0.01, 0.01, 0.1), (0.02, 0.02, 0.1)],  # collinear: zero area
+        [], [(0, 1, 2), (3, 4, 5)])
+    scene.collection.objects.link(bpy.data.objects.new("Broken", mesh))
     px = render_pixels(scene, "BO2_LIGHTING")
     assert np.isfinite(px).all()
-    # The triangle without the NaN corner still shows.
-    assert (px[..., 0] > 0.2).sum() > 0
+    # The white plane around the broken one still renders at its Lambert value.
+    assert np.median(px[..., 0]) == pytest.approx(1.0 / math.pi, rel=0.01)
+    out = capfd.readouterr()
+    assert (out.out + out.err).count(
+        "Skipped 1 triangles with NaN or infinite vertices and 1 with zero area") == 1

@@ -8,7 +8,9 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 FORBIDDEN = {"bpy", "mathutils", "gpu", "bmesh", "bl_math"}
-FILES = sorted((ROOT / "addon" / "core").rglob("*.py")) + sorted((ROOT / "tests" / "core").rglob("*.py"))
+FILES = sorted((ROOT / "addon" / "core").rglob("*.py")) + sorted(
+    (ROOT / "tests" / "core").rglob("*.py")
+)
 
 
 def imported_roots(path: Path) -> set[str]:
