@@ -7,7 +7,6 @@ from pathlib import Path
 
 import bpy
 import pytest
-
 from util import engine_available
 
 ROOT = Path(__file__).resolve().parents[2]

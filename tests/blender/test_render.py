@@ -9,7 +9,6 @@ import math
 import bpy
 import numpy as np
 import pytest
-
 from util import engine_available
 
 RES = 16
