@@ -16,6 +16,7 @@ import warnings
 
 import numpy as np
 import pytest
+
 from bo2_lighting.addon.core import brdf
 
 GLOSSES = (0.0, 0.25, 0.5, 0.75, 1.0)

@@ -13,6 +13,7 @@ import warnings
 
 import numpy as np
 import pytest
+
 from bo2_lighting.addon.core import raster
 
 # --------------------------------------------------------------------------------------------

@@ -1,0 +1,122 @@
+"""One frame through the core pipeline, checked per pixel against closed-form radiance.
+
+Independent values: the world position under each pixel centre is computed here from the
+orthographic camera's definition, and the radiance from the light's closed-form irradiance
+(E = P / (4 pi d^2) for a point light, E = S for a sun) times the Lambert BRDF albedo / pi.
+"""
+
+import numpy as np
+import pytest
+
+from bo2_lighting.addon.core import pipeline
+from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
+
+W, H = 40, 30
+HALF_W, HALF_H = 2.0, 1.5  # orthographic half extents, metres (4:3 like the image)
+
+
+def ortho_camera(height=5.0):
+    """Looking straight down -Z from (0, 0, height); x right, y up in the image."""
+    view = np.eye(4)
+    view[2, 3] = -height
+    near, far = 0.1, 100.0
+    proj = np.diag([1 / HALF_W, 1 / HALF_H, -2 / (far - near), 1.0])
+    proj[2, 3] = -(far + near) / (far - near)
+    return Camera(world_to_camera=view, projection=proj, width=W, height=H, orthographic=True)
+
+
+def floor(size=10.0):
+    """A square in the z = 0 plane, two counter-clockwise triangles facing +Z."""
+    s = size / 2
+    quad = np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32)
+    pos = quad[[[0, 1, 2], [0, 2, 3]]]
+    nrm = np.broadcast_to(np.float32([0, 0, 1]), pos.shape).copy()
+    return MeshBatch(pos, nrm, np.array([1, 1], np.int32), name="floor")
+
+
+def pixel_centres():
+    """(H, W, 3) world positions of the pixel centres on the floor, row 0 at the top."""
+    x = (np.arange(W) + 0.5) / W * 2 * HALF_W - HALF_W
+    y = HALF_H - (np.arange(H) + 0.5) / H * 2 * HALF_H
+    xx, yy = np.meshgrid(x, y)
+    return np.stack([xx, yy, np.zeros_like(xx)], -1)
+
+
+def lambert_scene(light, albedo=0.6):
+    mat = Material(name="lambert", albedo=np.full(3, albedo, np.float32),
+                   rf0=np.zeros(3, np.float32), gloss=0.0)
+    return Scene(camera=ortho_camera(), meshes=[floor()], materials=[Material(), mat],
+                 lights=[light], settings=RenderSettings(samples=1))
+
+
+def test_point_light_matches_closed_form():
+    light_pos = np.array([0.7, -0.4, 1.5])
+    power = 80.0
+    scene = lambert_scene(Light("POINT", color=np.full(3, power), position=light_pos))
+    image = pipeline.render_frame(scene)["Combined"]
+    p = pixel_centres()
+    to_light = light_pos - p
+    d2 = np.sum(to_light**2, -1)
+    cos = to_light[..., 2] / np.sqrt(d2)
+    expected = 0.6 / np.pi * power / (4 * np.pi * d2) * cos
+    # rf0 = 0 leaves a Schlick Fresnel tail (1 - l.h)^5 that is < 1e-3 of the diffuse here.
+    np.testing.assert_allclose(image[..., 0], expected, rtol=2e-3)
+    assert (image[..., 3] == 1).all()
+
+
+def test_sun_and_background_and_samples():
+    sun = Light("SUN", color=np.array([2.0, 1.0, 0.5]), direction=np.array([0.0, 0.0, -1.0]))
+    scene = lambert_scene(sun)
+    scene.meshes[0] = floor(size=2.0)  # leaves background visible at the sides
+    scene.world.color = np.array([0.1, 0.2, 0.3], np.float32)
+    scene.settings.samples = 16
+    image = pipeline.render_frame(scene)["Combined"]
+    inside = np.abs(pixel_centres()[..., :2]).max(-1) < 0.9
+    outside = np.abs(pixel_centres()[..., :2]).max(-1) > 1.1
+    lit = 0.6 / np.pi * np.array([2.0, 1.0, 0.5])
+    np.testing.assert_allclose(image[inside, :3], np.broadcast_to(lit, (inside.sum(), 3)),
+                               rtol=1e-4)
+    np.testing.assert_allclose(image[outside, :3],
+                               np.broadcast_to([0.1, 0.2, 0.3], (outside.sum(), 3)), rtol=1e-6)
+    # Edge pixels are partly covered: the average of the sample values lies in between.
+    edge = ~inside & ~outside
+    assert ((image[edge, 0] > 0.1) & (image[edge, 0] < 0.6 * 2 / np.pi)).any()
+
+
+def test_film_transparent_alpha():
+    scene = lambert_scene(Light("SUN", color=np.ones(3)))
+    scene.meshes[0] = floor(size=2.0)
+    scene.settings.film_transparent = True
+    image = pipeline.render_frame(scene)["Combined"]
+    assert image[0, 0, 3] == 0 and image[H // 2, W // 2, 3] == 1
+
+
+def test_cancel_and_progress():
+    scene = lambert_scene(Light("SUN", color=np.ones(3)))
+    scene.settings.samples = 8
+    seen = []
+    with pytest.raises(pipeline.Cancelled):
+        pipeline.render_frame(scene, progress=seen.append, should_stop=lambda: len(seen) >= 3)
+    assert seen == [1 / 8, 2 / 8, 3 / 8]
+
+
+def test_broken_triangles_are_skipped_and_reported_once():
+    scene = lambert_scene(Light("SUN", color=np.ones(3)))
+    bad = floor()
+    bad.positions[0, 0, 0] = np.nan  # one NaN triangle
+    bad.positions[1, :, :] = bad.positions[1, 0]  # one zero-area triangle
+    scene.meshes.append(bad)
+    messages = []
+    image = pipeline.render_frame(scene, warn=messages.append)["Combined"]
+    assert messages == ["Skipped 1 triangles with NaN or infinite vertices and 1 with zero area"]
+    assert np.isfinite(image).all()
+    np.testing.assert_allclose(image[..., 0], 0.6 / np.pi, rtol=1e-4)
+
+
+def test_sample_offsets_are_stratified():
+    offsets = pipeline.sample_offsets(64)
+    assert offsets.shape == (64, 2) and (offsets >= 0).all() and (offsets < 1).all()
+    # Low discrepancy: 64 samples fill at least 52 of the 64 cells of an 8x8 grid over the
+    # pixel (independent uniform random samples fill 64 (1 - 1/e) ~= 40 on average).
+    cells = np.unique((offsets * 8).astype(int), axis=0)
+    assert len(cells) >= 52
