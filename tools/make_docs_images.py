@@ -1,0 +1,106 @@
+"""Render the pictures of docs/model.md with the core pipeline alone (no Blender needed).
+
+Usage: python tools/make_docs_images.py [OUT_DIR]   (default docs/images)
+
+``specular_models.png``: one row per direct specular model of ``brdf.MODELS`` (top to bottom),
+spheres of gloss 0, 0.25, 0.5, 0.75 and 1 (left to right), dielectric rf0 = 0.04 over a black
+albedo, lit by a point light from behind on the right, whose highlights sit at grazing angles
+where the visibility terms differ most, and by a weaker light near the camera.
+"""
+
+from __future__ import annotations
+
+import struct
+import sys
+import zlib
+from pathlib import Path
+
+import numpy as np
+
+from bo2_lighting.addon.core import brdf, pipeline
+from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
+
+ROOT = Path(__file__).resolve().parent.parent
+
+GLOSSES = (0.0, 0.25, 0.5, 0.75, 1.0)
+
+
+def uv_sphere(center, radius, segments=96, rings=48):
+    """(T, 3, 3) positions and exact normals of a UV sphere, counter-clockwise outside."""
+    theta = np.linspace(0, np.pi, rings + 1)
+    phi = np.linspace(0, 2 * np.pi, segments + 1)
+    t, p = np.meshgrid(theta, phi, indexing="ij")
+    n = np.stack([np.sin(t) * np.cos(p), np.sin(t) * np.sin(p), np.cos(t)], -1)
+    a, b, c, d = n[:-1, :-1], n[1:, :-1], n[1:, 1:], n[:-1, 1:]
+    tris = np.concatenate([np.stack([a, b, c], 2).reshape(-1, 3, 3),
+                           np.stack([a, c, d], 2).reshape(-1, 3, 3)])
+    return (tris * radius + center).astype(np.float32), tris.astype(np.float32)
+
+
+def perspective_camera(eye, target, fov_y, width, height, near=0.1, far=100.0):
+    forward = target - eye
+    forward = forward / np.linalg.norm(forward)
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    view = np.eye(4)
+    view[0, :3], view[1, :3], view[2, :3] = right, up, -forward
+    view[:3, 3] = -view[:3, :3] @ eye
+    f = 1.0 / np.tan(fov_y / 2)
+    proj = np.array([[f * height / width, 0, 0, 0], [0, f, 0, 0],
+                     [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
+                     [0, 0, -1, 0]])
+    return Camera(world_to_camera=view, projection=proj, width=width, height=height)
+
+
+def model_row(model: str, width=600, height=130) -> np.ndarray:
+    meshes, materials = [], [Material()]
+    for i, g in enumerate(GLOSSES):
+        pos, nrm = uv_sphere(np.array([(i - 2) * 1.15, 0.0, 0.0]), 0.5)
+        materials.append(Material(name=f"g{g}", albedo=np.zeros(3, np.float32),
+                                  rf0=np.full(3, 0.04, np.float32), gloss=g))
+        meshes.append(MeshBatch(pos, nrm, np.full(len(pos), i + 1, np.int32)))
+    grazing = Light("POINT", color=np.full(3, 3000.0), position=np.array([6.0, 3.0, 2.0]))
+    frontal = Light("POINT", color=np.full(3, 300.0), position=np.array([-2.0, -6.0, 2.0]))
+    cam = perspective_camera(np.array([0.0, -9.0, 0.0]), np.zeros(3), np.radians(8.6),
+                             width, height)
+    scene = Scene(camera=cam, meshes=meshes, materials=materials, lights=[grazing, frontal],
+                  settings=RenderSettings(samples=8, specular_model=model))
+    scene.world.color = np.full(3, 0.02, np.float32)
+    return pipeline.render_frame(scene)["Combined"][..., :3]
+
+
+def srgb8(linear: np.ndarray) -> np.ndarray:
+    x = np.clip(linear, 0.0, 1.0)
+    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return (s * 255 + 0.5).astype(np.uint8)
+
+
+def write_png(path: Path, rgb8: np.ndarray) -> None:
+    """Minimal RGB8 PNG writer (PNG spec, filter type 0 on every row)."""
+    h, w, _ = rgb8.shape
+    raw = np.concatenate([np.zeros((h, 1), np.uint8), rgb8.reshape(h, -1)], 1).tobytes()
+
+    def chunk(kind: bytes, data: bytes) -> bytes:
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(
+            ">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
+
+    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+                     + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
+
+
+def main() -> int:
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs" / "images"
+    out.mkdir(parents=True, exist_ok=True)
+    rows = [model_row(m) for m in brdf.MODELS]
+    gap = np.full((4, rows[0].shape[1], 3), 0.2, np.float32)
+    image = np.concatenate([x for r in rows for x in (r, gap)][:-1])
+    path = out / "specular_models.png"
+    write_png(path, srgb8(image))
+    print(f"wrote {path} (rows: {', '.join(brdf.MODELS)})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
