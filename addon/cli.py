@@ -1,7 +1,7 @@
 """The ``bo2`` command: BO2 Lighting headless, in a Python environment with the ``bpy`` module.
 
     bo2 render SCENE.blend -o OUT.png [--frame N] [--engine bo2|cycles] [--samples N]
-                                      [--resolution WxH]
+                                      [--resolution WxH] [--specular-model MODEL]
     bo2 version
 
 Errors print one line, ``bo2: error: ...``, and exit non-zero (2 for bad usage, 1 for a failed
@@ -18,6 +18,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+from .core import brdf
 
 _BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")  # plain, gzip, zstd
 _IMAGE_FORMATS = {".png": "PNG", ".exr": "OPEN_EXR", ".jpg": "JPEG", ".jpeg": "JPEG",
@@ -127,6 +129,8 @@ def cmd_render(args) -> int:
     if args.resolution:
         scene.render.resolution_x, scene.render.resolution_y = args.resolution
         scene.render.resolution_percentage = 100
+    if args.specular_model:
+        scene.bo2.specular_model = args.specular_model
     if args.samples:
         if args.engine == "cycles":
             scene.cycles.samples = args.samples
@@ -169,6 +173,8 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
     render.add_argument("--samples", type=_positive, help="samples per pixel")
     render.add_argument("--resolution", type=_resolution, help="output size WxH in pixels")
+    render.add_argument("--specular-model", choices=brdf.MODELS,
+                        help="direct specular terms of the BO2 engine (default: the file's)")
     render.set_defaults(func=cmd_render)
     version = sub.add_parser("version", help="print the add-on version")
     version.set_defaults(func=cmd_version)

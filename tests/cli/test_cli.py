@@ -4,6 +4,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -66,6 +67,38 @@ def test_corrupt_blend(tmp_path, content):
     assert not (tmp_path / "x.png").exists()
 
 
+def test_scene_without_camera(tmp_path):
+    blend = tmp_path / "empty.blend"
+    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
+              f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})")
+    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    proc = bo2("render", blend, "-o", tmp_path / "x.png")
+    assert proc.returncode == 1
+    assert "no active camera" in one_error_line(proc)
+
+
+def read_exr(path):
+    import OpenEXR
+
+    return OpenEXR.File(str(path)).channels()["RGBA"].pixels
+
+
+def test_specular_model_changes_the_image(tmp_path):
+    images = {}
+    for model in ("reference", "none", "reference"):
+        out = tmp_path / f"{model}.exr"
+        proc = bo2("render", DEMO, "-o", out, "--resolution", "64x36", "--samples", "1",
+                   "--specular-model", model)
+        assert proc.returncode == 0, proc.stderr
+        image = read_exr(out)
+        if model in images:
+            np.testing.assert_array_equal(image, images[model])  # deterministic
+        images[model] = image
+    assert images["reference"].shape == (36, 64, 4)
+    # No visibility term makes grazing highlights dimmer: the images differ.
+    assert np.abs(images["reference"] - images["none"]).max() > 0.01
+
+
 def test_unknown_output_type(tmp_path):
     proc = bo2("render", DEMO, "-o", tmp_path / "x.gif")
     assert proc.returncode == 1
@@ -80,3 +113,4 @@ def test_render_demo_png_and_exr(tmp_path):
     proc = bo2("render", DEMO, "-o", exr, "--resolution", "64x36", "--samples", "1")
     assert proc.returncode == 0, proc.stderr
     assert exr.read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR magic
+    assert read_exr(exr).shape == (36, 64, 4) and np.isfinite(read_exr(exr)).all()
