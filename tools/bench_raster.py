@@ -12,29 +12,12 @@ pixels covered, and the peak of NumPy's allocations during one more run, traced 
 from __future__ import annotations
 
 import argparse
-import importlib.util
 import time
 import tracemalloc
-from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parent.parent
-
-
-def load_raster():
-    """The raster module of this checkout (the installed package, else loaded by path)."""
-    try:
-        from bo2_lighting.addon.core import raster
-    except ImportError:
-        path = ROOT / "addon" / "core" / "raster.py"
-        spec = importlib.util.spec_from_file_location("bo2_raster", path)
-        raster = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(raster)
-    return raster
-
-
-raster = load_raster()
+from bo2_lighting.addon.core import raster
 
 
 def window_to_clip(pts, width, height, z, w):
