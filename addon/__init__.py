@@ -9,16 +9,16 @@ _registered: list = []
 
 
 def _classes() -> list:
-    from .blender import engine, props, ui
+    from .blender import engine, node_groups, props, ui
 
-    return [*props.CLASSES, *engine.CLASSES, *ui.CLASSES]
+    return [*props.CLASSES, *engine.CLASSES, *node_groups.CLASSES, *ui.CLASSES]
 
 
 def register() -> None:
     """Register every class of the add-on, in order; safe to call after ``unregister()``."""
     import bpy
 
-    from .blender import props, ui
+    from .blender import node_groups, props, ui
 
     if _registered:
         return
@@ -27,16 +27,18 @@ def register() -> None:
         _registered.append(cls)
     props.attach()
     ui.enable_panels()
+    node_groups.append_menus()
 
 
 def unregister() -> None:
     """Remove everything ``register()`` added, in reverse order."""
     import bpy
 
-    from .blender import props, ui
+    from .blender import node_groups, props, ui
 
     if not _registered:
         return
+    node_groups.remove_menus()
     ui.disable_panels()
     props.detach()
     for cls in reversed(_registered):

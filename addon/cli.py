@@ -2,6 +2,7 @@
 
     bo2 render SCENE.blend -o OUT.png [--frame N] [--engine bo2|cycles] [--samples N]
                                       [--resolution WxH] [--specular-model MODEL]
+                                      [--all-passes]
     bo2 version
 
 Errors print one line, ``bo2: error: ...``, and exit non-zero (2 for bad usage, 1 for a failed
@@ -110,6 +111,28 @@ def _positive(text: str) -> int:
     return value
 
 
+def set_output_format(settings, fmt: str) -> None:
+    """Image settings for ``fmt``; EXR is written multilayer (every pass), 32-bit float."""
+    if fmt != "OPEN_EXR":
+        settings.file_format = fmt
+    else:
+        if hasattr(settings, "media_type"):  # Blender 5.0 chooses multilayer by media type
+            settings.media_type = "MULTI_LAYER_IMAGE"
+        settings.file_format = "OPEN_EXR_MULTILAYER"
+    if fmt == "OPEN_EXR":
+        settings.color_depth = "32"
+
+
+def enable_all_passes(view_layer, engine: str) -> None:
+    """Turn on every pass the chosen engine writes (BO2: the engine's; Cycles: the same names)."""
+    for flag in ("use_pass_z", "use_pass_normal", "use_pass_diffuse_direct",
+                 "use_pass_glossy_direct", "use_pass_emit"):
+        setattr(view_layer, flag, True)
+    if engine == "bo2":
+        for flag in ("use_pass_albedo", "use_pass_specular_color", "use_pass_gloss"):
+            setattr(view_layer.bo2, flag, True)
+
+
 def cmd_render(args) -> int:
     out = Path(args.output)
     fmt = _IMAGE_FORMATS.get(out.suffix.lower())
@@ -136,9 +159,9 @@ def cmd_render(args) -> int:
             scene.cycles.samples = args.samples
         else:
             scene.bo2.samples = args.samples
-    scene.render.image_settings.file_format = fmt
-    if fmt == "OPEN_EXR":
-        scene.render.image_settings.color_depth = "32"
+    set_output_format(scene.render.image_settings, fmt)
+    if args.all_passes:
+        enable_all_passes(bpy.context.view_layer, args.engine)
     start = time.perf_counter()
     with quiet_blender():
         bpy.ops.render.render(write_still=False)
@@ -168,11 +191,13 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("scene", help=".blend file")
     render.add_argument("-o", "--output", required=True,
                         help="image to write: .png through the scene's view transform, "
-                        ".exr scene-linear")
+                        ".exr scene-linear with every enabled pass as a layer")
     render.add_argument("--frame", type=int, help="frame number (default: the file's current)")
     render.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
     render.add_argument("--samples", type=_positive, help="samples per pixel")
     render.add_argument("--resolution", type=_resolution, help="output size WxH in pixels")
+    render.add_argument("--all-passes", action="store_true",
+                        help="write every render pass to the EXR (default: the view layer's)")
     render.add_argument("--specular-model", choices=brdf.MODELS,
                         help="direct specular terms of the BO2 engine (default: the file's)")
     render.set_defaults(func=cmd_render)
@@ -191,6 +216,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("bo2: interrupted", file=sys.stderr)
         return 130
+    except Exception as exc:  # noqa: BLE001 - one line for the user, never a traceback
+        print(f"bo2: error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 1
 
 
 if __name__ == "__main__":

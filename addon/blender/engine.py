@@ -18,14 +18,47 @@ from ..core import pipeline
 from ..core.scene import RenderSettings
 from . import extract
 
+# Blender's pass name -> (channels, channel ids, type, view layer flag or bo2 AOV flag).
+PASS_LAYOUT = {
+    "Depth": (1, "Z", "VALUE", "use_pass_z"),
+    "Normal": (3, "XYZ", "VECTOR", "use_pass_normal"),
+    "DiffDir": (3, "RGB", "COLOR", "use_pass_diffuse_direct"),
+    "GlossDir": (3, "RGB", "COLOR", "use_pass_glossy_direct"),
+    "Emit": (3, "RGB", "COLOR", "use_pass_emit"),
+    "Albedo": (3, "RGB", "COLOR", "bo2.use_pass_albedo"),
+    "Specular Color": (3, "RGB", "COLOR", "bo2.use_pass_specular_color"),
+    "Gloss": (1, "X", "VALUE", "bo2.use_pass_gloss"),
+}
+
+
+def pass_enabled(view_layer, flag: str) -> bool:
+    owner = view_layer.bo2 if flag.startswith("bo2.") else view_layer
+    return bool(getattr(owner, flag.removeprefix("bo2."), False))
+
+
+def render_border(scene, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """Blender's render border as a pixel rectangle (x0, y0, x1, y1), top-left origin."""
+    r = scene.render
+    if not r.use_border:
+        return None
+    x0, x1 = int(r.border_min_x * width), int(np.ceil(r.border_max_x * width))
+    y0, y1 = int((1.0 - r.border_max_y) * height), int(np.ceil((1.0 - r.border_min_y) * height))
+    x0, y0 = max(0, min(x0, width - 1)), max(0, min(y0, height - 1))
+    x1, y1 = max(x0 + 1, min(x1, width)), max(y0 + 1, min(y1, height))
+    return x0, y0, x1, y1
+
 
 def render_settings(scene) -> RenderSettings:
     """The engine's settings of a Blender scene as ``core.scene.RenderSettings``."""
     s = scene.bo2
+    width, height = extract.resolution(scene)
     return RenderSettings(
         samples=int(s.samples),
+        filter_width=float(scene.render.filter_size),
         specular_model=str(s.specular_model),
         film_transparent=bool(scene.render.film_transparent),
+        shadow_resolution=int(s.shadow_resolution),
+        border=render_border(scene, width, height),
     )
 
 
@@ -45,10 +78,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 self.report({"WARNING"}, message)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
-            passes = pipeline.render_frame(
+            tiles = pipeline.render_tiles(
                 frame, progress=self.update_progress, should_stop=self.test_break,
                 warn=lambda message: self.report({"WARNING"}, message))
-            self._write_result(passes, frame.camera.width, frame.camera.height)
+            for tile, passes in tiles:
+                self._write_tile(tile, passes, frame)
         except pipeline.Cancelled:
             return
         except extract.SceneError as exc:
@@ -65,16 +99,24 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         self.error_set(message)
         self.report({"ERROR"}, message)
 
-    def _write_result(self, passes: dict, width: int, height: int) -> None:
-        result = self.begin_result(0, 0, width, height)
+    def _write_tile(self, tile, passes: dict, frame) -> None:
+        x0, y0, x1, y1 = tile
+        border = frame.settings.border
+        # Blender's result rows run bottom to top, relative to the border when there is one.
+        bx, by = (border[0], frame.camera.height - border[3]) if border else (0, 0)
+        result = self.begin_result(x0 - bx, frame.camera.height - y1 - by, x1 - x0, y1 - y0)
         layer = result.layers[0]
         for name, image in passes.items():
             rp = layer.passes.find_by_name(name, "")
-            if rp is None:
-                continue
-            # Blender's pixel rows run bottom to top; the core's run top to bottom.
-            rp.rect.foreach_set(np.ascontiguousarray(image[::-1], np.float32).ravel())
+            if rp is not None:
+                rp.rect.foreach_set(np.ascontiguousarray(image[::-1], np.float32).ravel())
         self.end_result(result)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
+        for name, (channels, ids, kind, flag) in PASS_LAYOUT.items():
+            if pass_enabled(renderlayer, flag):
+                self.register_pass(scene, renderlayer, name, channels, ids, kind)
 
 
 CLASSES = [BO2RenderEngine]

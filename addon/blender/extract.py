@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 
 from ..core import scene as cs
-from .materials import convert_material
+from .materials import convert_material, load_image
 
 _GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
@@ -56,10 +56,11 @@ def extract_camera(depsgraph) -> cs.Camera:
     )
 
 
-def _read_mesh(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _read_mesh(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
     """Object-space triangles of an evaluated mesh.
 
-    returns: positions (T, 3, 3), corner normals (T, 3, 3), material slot (T,)
+    returns: positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
+             UV map (T, 3, 2) or None, material slot (T,)
     """
     mesh.calc_loop_triangles()
     tris = mesh.loop_triangles
@@ -76,18 +77,29 @@ def _read_mesh(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     mesh.corner_normals.foreach_get("vector", corner)
     pos = co.reshape(-1, 3)[vert_idx].reshape(nt, 3, 3)
     nrm = corner.reshape(-1, 3)[loop_idx].reshape(nt, 3, 3)
-    return pos, nrm, slot
+    uvs = None
+    layer = next((uv for uv in mesh.uv_layers if uv.active_render), None)
+    if layer is not None and len(layer.uv) == len(mesh.loops):
+        flat = np.empty(len(mesh.loops) * 2, np.float32)
+        layer.uv.foreach_get("vector", flat)
+        uvs = flat.reshape(-1, 2)[loop_idx].reshape(nt, 3, 2)
+    return pos, nrm, uvs, slot
 
 
-def _to_world(pos: np.ndarray, nrm: np.ndarray, matrix: np.ndarray):
+def _to_world(pos: np.ndarray, nrm: np.ndarray, uvs: np.ndarray | None, matrix: np.ndarray):
+    """Object-space triangles -> world space; mirrored matrices keep counter-clockwise fronts."""
     lin = matrix[:3, :3]
+    det = np.linalg.det(lin)
     wpos = pos @ lin.T.astype(np.float32) + matrix[:3, 3].astype(np.float32)
-    normal_matrix = np.linalg.inv(lin).T if abs(np.linalg.det(lin)) > 1e-20 else lin
+    normal_matrix = np.linalg.inv(lin).T if abs(det) > 1e-20 else lin
     wn = nrm @ normal_matrix.T.astype(np.float32)
     wn /= np.maximum(np.linalg.norm(wn, axis=-1, keepdims=True), 1e-20)
-    if np.linalg.det(lin) < 0:  # mirrored: keep counter-clockwise front faces
+    if det < 0:
         wpos, wn = wpos[:, ::-1], wn[:, ::-1]
-    return np.ascontiguousarray(wpos, np.float32), np.ascontiguousarray(wn, np.float32)
+        uvs = uvs[:, ::-1] if uvs is not None else None
+    contiguous = (np.ascontiguousarray(a, np.float32) if a is not None else None
+                  for a in (wpos, wn, uvs))
+    return tuple(contiguous)
 
 
 def _light(obj, matrix: np.ndarray) -> cs.Light:
@@ -115,8 +127,36 @@ def _light(obj, matrix: np.ndarray) -> cs.Light:
     return light
 
 
+def _euler_xyz(rx: float, ry: float, rz: float) -> np.ndarray:
+    """(3, 3) rotation of Blender's XYZ Euler angles (radians): Rz Ry Rx."""
+    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
+    rot_x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
+    rot_y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
+    rot_z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
+    return rot_z @ rot_y @ rot_x
+
+
+def _environment(node, world_name: str, warnings: list[str]):
+    """(texture, rotation) of an Environment Texture node, or (None, None) with a warning."""
+    where = f"World '{world_name}', node '{node.name}'"
+    if node.projection != "EQUIRECTANGULAR":
+        warnings.append(f"{where}: only the equirectangular projection is supported")
+        return None, None
+    rotation = np.eye(3)
+    vec = node.inputs["Vector"].links
+    if vec:
+        mapping = vec[0].from_node
+        if mapping.type == "MAPPING" and mapping.vector_type in {"POINT", "VECTOR"}:
+            rotation = _euler_xyz(*mapping.inputs["Rotation"].default_value)
+            # The Mapping node rotates the lookup vector: texture = image(R d).
+        elif mapping.type != "TEX_COORD":
+            warnings.append(f"{where}: node '{mapping.name}' on its vector is not supported")
+    tex = load_image(node.image, "REPEAT", node.interpolation, warnings, where)
+    return tex, rotation
+
+
 def extract_world(scene, warnings: list[str]) -> cs.World:
-    """The world's background colour times strength (a constant; textures arrive later)."""
+    """The background: the Background node's colour or equirectangular texture, times strength."""
     world = scene.world
     if world is None:
         return cs.World(color=np.zeros(3, np.float32))
@@ -133,11 +173,47 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
                             "the world colour is used")
         return cs.World(color=np.array(world.color[:3], np.float32))
     color_in, strength_in = node.inputs["Color"], node.inputs["Strength"]
-    if color_in.is_linked or strength_in.is_linked:
-        warnings.append(f"World '{world.name}': textured backgrounds are not supported yet; "
-                        "the Background node's own colour is used")
-    color = np.array(color_in.default_value[:3], np.float32) * float(strength_in.default_value)
-    return cs.World(color=color)
+    strength = float(strength_in.default_value)
+    if strength_in.is_linked:
+        warnings.append(f"World '{world.name}': a node on Strength is not supported")
+    color = np.array(color_in.default_value[:3], np.float32)
+    if color_in.is_linked:
+        src = color_in.links[0].from_node
+        if src.type == "TEX_ENVIRONMENT":
+            tex, rotation = _environment(src, world.name, warnings)
+            if tex is not None:
+                return cs.World(color=color * strength, texture=tex, strength=strength,
+                                rotation=rotation)
+        else:
+            warnings.append(f"World '{world.name}': node '{src.name}' on the background colour "
+                            "is not supported; the Background node's own colour is used")
+    return cs.World(color=color * strength)
+
+
+def _visible(obj) -> bool:
+    """Render visibility that the depsgraph does not filter: the camera ray visibility."""
+    return bool(getattr(obj, "visible_camera", True))
+
+
+def _object_data(obj, materials, mat_ids, warnings):
+    """Object-space triangles and global material indices of an evaluated object, or None."""
+    mesh = obj.to_mesh()
+    try:
+        if mesh is None or len(mesh.polygons) == 0:
+            return None
+        pos, nrm, uvs, slot = _read_mesh(mesh)
+        slot_ids = []
+        for ms in obj.material_slots:
+            mat = ms.material
+            key = mat.name_full if mat is not None else ""
+            if key not in mat_ids:
+                mat_ids[key] = len(materials)
+                materials.append(convert_material(mat, warnings))
+            slot_ids.append(mat_ids[key])
+        lut = np.array(slot_ids or [0], np.int32)
+        return pos, nrm, uvs, lut[np.clip(slot, 0, len(lut) - 1)]
+    finally:
+        obj.to_mesh_clear()
 
 
 def extract_scene(depsgraph, settings: cs.RenderSettings | None = None):
@@ -152,32 +228,24 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None):
     mat_ids: dict[str, int] = {}
     meshes: list[cs.MeshBatch] = []
     lights: list[cs.Light] = []
+    cache: dict[tuple, tuple | None] = {}  # object-space data shared by instances
     for inst in depsgraph.object_instances:
         obj = inst.object
         if obj.type == "LIGHT":
             lights.append(_light(obj, _matrix(inst.matrix_world)))
             continue
-        if obj.type not in _GEOMETRY_TYPES or not getattr(obj, "visible_camera", True):
+        if obj.type not in _GEOMETRY_TYPES or not _visible(obj):
             continue
-        mesh = obj.to_mesh()
-        try:
-            if mesh is None or len(mesh.polygons) == 0:
-                continue
-            pos, nrm, slot = _read_mesh(mesh)
-            slot_ids = []
-            for ms in obj.material_slots:
-                mat = ms.material
-                key = mat.name_full if mat is not None else ""
-                if key not in mat_ids:
-                    mat_ids[key] = len(materials)
-                    materials.append(convert_material(mat, warnings))
-                slot_ids.append(mat_ids[key])
-            lut = np.array(slot_ids or [0], np.int32)
-            mat_index = lut[np.clip(slot, 0, len(lut) - 1)]
-        finally:
-            obj.to_mesh_clear()
-        wpos, wn = _to_world(pos, nrm, _matrix(inst.matrix_world))
-        meshes.append(cs.MeshBatch(wpos, wn, mat_index, name=obj.name))
+        key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
+        if key not in cache:
+            cache[key] = _object_data(obj, materials, mat_ids, warnings)
+        data = cache[key]
+        if data is None:
+            continue
+        pos, nrm, uvs, mat_index = data
+        wpos, wn, wuv = _to_world(pos, nrm, uvs, _matrix(inst.matrix_world))
+        meshes.append(cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
+                                   holdout=bool(getattr(obj, "is_holdout", False))))
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
     return cs.Scene(

@@ -21,6 +21,12 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         description="Anti-aliasing samples per pixel",
         default=4, min=1, max=1024, soft_max=64,
     )
+    shadow_resolution: bpy.props.EnumProperty(
+        name="Shadow Resolution",
+        description="Size of each shadow map: per cube face, spot map or sun cascade",
+        items=[(str(n), f"{n} px", "") for n in (256, 512, 1024, 2048, 4096)],
+        default="1024",
+    )
     specular_model: bpy.props.EnumProperty(
         name="Direct Specular",
         description="Terms of the direct specular BRDF",
@@ -29,14 +35,27 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     )
 
 
-CLASSES = [BO2SceneSettings]
+class BO2ViewLayerSettings(bpy.types.PropertyGroup):
+    """Render passes of the BO2 Lighting engine beyond Blender's own (``view_layer.bo2``)."""
+
+    use_pass_albedo: bpy.props.BoolProperty(
+        name="Albedo", description="The talk's diffuse albedo after texture lookups")
+    use_pass_specular_color: bpy.props.BoolProperty(
+        name="Specular Color", description="The talk's rf0 after texture lookups")
+    use_pass_gloss: bpy.props.BoolProperty(
+        name="Gloss", description="Gloss after texture lookups (specular power 8192^gloss)")
+
+
+CLASSES = [BO2SceneSettings, BO2ViewLayerSettings]
 
 
 def attach() -> None:
     """Add the pointer properties to the ID types."""
     bpy.types.Scene.bo2 = bpy.props.PointerProperty(type=BO2SceneSettings)
+    bpy.types.ViewLayer.bo2 = bpy.props.PointerProperty(type=BO2ViewLayerSettings)
 
 
 def detach() -> None:
     """Remove what ``attach()`` added."""
     del bpy.types.Scene.bo2
+    del bpy.types.ViewLayer.bo2

@@ -39,8 +39,40 @@ class RENDER_PT_bo2_settings(bpy.types.Panel):
         layout.use_property_decorate = False
         settings = context.scene.bo2
         layout.prop(settings, "samples")
+        layout.prop(context.scene.render, "filter_size", text="Filter Width")
         layout.prop(settings, "specular_model")
+        layout.prop(settings, "shadow_resolution")
         layout.prop(context.scene.render, "film_transparent")
+
+
+class VIEWLAYER_PT_bo2_passes(bpy.types.Panel):
+    bl_label = "Passes"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "view_layer"
+    COMPAT_ENGINES = {ENGINE_ID}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        view_layer = context.view_layer
+        col = layout.column(heading="Data", align=True)
+        col.prop(view_layer, "use_pass_combined")
+        col.prop(view_layer, "use_pass_z")
+        col.prop(view_layer, "use_pass_normal")
+        col = layout.column(heading="Light", align=True)
+        col.prop(view_layer, "use_pass_diffuse_direct", text="Diffuse Direct")
+        col.prop(view_layer, "use_pass_glossy_direct", text="Glossy Direct")
+        col.prop(view_layer, "use_pass_emit", text="Emission")
+        col = layout.column(heading="Material", align=True)
+        col.prop(view_layer.bo2, "use_pass_albedo")
+        col.prop(view_layer.bo2, "use_pass_specular_color")
+        col.prop(view_layer.bo2, "use_pass_gloss")
 
 
 class MATERIAL_PT_bo2_surface(bpy.types.Panel):
@@ -52,10 +84,13 @@ class MATERIAL_PT_bo2_surface(bpy.types.Panel):
 
     @classmethod
     def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+        return context.engine in cls.COMPAT_ENGINES and context.object is not None
 
     def draw(self, context):
         mat = context.material
+        self.layout.operator("material.bo2_new", icon="ADD")
+        if mat is None:
+            return
         tree = mat.node_tree
         output = None
         if tree is not None:
@@ -67,7 +102,7 @@ class MATERIAL_PT_bo2_surface(bpy.types.Panel):
         self.layout.template_node_view(tree, output, output.inputs["Surface"])
 
 
-CLASSES = [RENDER_PT_bo2_settings, MATERIAL_PT_bo2_surface]
+CLASSES = [RENDER_PT_bo2_settings, VIEWLAYER_PT_bo2_passes, MATERIAL_PT_bo2_surface]
 
 
 def enable_panels() -> None:

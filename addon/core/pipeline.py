@@ -1,46 +1,97 @@
-"""One frame: rasterize -> look up materials -> shade direct light -> resolve samples.
+"""One frame: raster -> materials -> shadows -> direct light -> passes, tile by tile.
 
-Anti-aliasing: ``settings.samples`` sample positions per pixel from the R2 low-discrepancy
-sequence (Roberts 2018), averaged with a one-pixel box filter; each sample is a full rasterize
-and deferred-shade pass over the visible points only.
+- Anti-aliasing as Cycles does it: every sample position is drawn from the pixel filter
+  (Blackman-Harris, 1.5 px wide by default; filter importance sampling, Ernst et al. 2006) and
+  contributes to its own pixel only, so a plain average of the samples is the filtered pixel.
+  Sample positions follow the R2 low-discrepancy sequence (Roberts 2018) mapped through the
+  filter's inverse CDF, independently in x and y as in Cycles' filter table.
+- Tiles: the frame is cut into square tiles; each tile is rasterized with a projection that maps
+  the tile to the whole viewport, so memory depends on the tile size, not the resolution.
+- Deferred: per sample, only visible points are shaded, once.
+
+Render passes (Blender's names): Combined (RGBA), Depth (view-axis distance, nearest over the
+samples, 1e10 for the background), Normal (world-space shading normal), DiffDir, GlossDir,
+Emit, and the AOVs Albedo, Specular Color, Gloss. All but Depth are averaged over every sample,
+the background counting as 0 in all but Combined, as Cycles accumulates them.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
-from . import raster, shade
-from .scene import Scene
+from . import brdf, raster, shade, shadows, surface, texture
+from .scene import Material, Scene
+
+PASSES = {"Combined": 4, "Depth": 1, "Normal": 3, "DiffDir": 3, "GlossDir": 3, "Emit": 3,
+          "Albedo": 3, "Specular Color": 3, "Gloss": 1}
+EMPTY_DEPTH = 1e10
 
 
 class Cancelled(Exception):
     """The host asked the render to stop."""
 
 
-def sample_offsets(count: int) -> np.ndarray:
-    """(count, 2) float64 sub-pixel sample positions in [0, 1)^2 (R2 sequence, Roberts 2018)."""
+def _blackman_harris(x: np.ndarray, width: float) -> np.ndarray:
+    """Blackman-Harris window over [-width/2, width/2] (the form Cycles' filter table uses)."""
+    t = 2.0 * np.pi * (x / width + 0.5)
+    return 0.35875 - 0.48829 * np.cos(t) + 0.14128 * np.cos(2 * t) - 0.01168 * np.cos(3 * t)
+
+
+def sample_offsets(count: int, filter_width: float = 1.5) -> np.ndarray:
+    """(count, 2) float64 sample positions relative to the pixel's top-left corner.
+
+    Distributed as the Blackman-Harris filter of ``filter_width`` pixels centred on the pixel
+    (so they reach (1 - width)/2 .. (1 + width)/2); a single sample sits at the centre.
+    """
     if count == 1:
         return np.array([[0.5, 0.5]])
     g = 1.32471795724474602596  # plastic number: root of x^3 = x + 1
-    a = np.array([1.0 / g, 1.0 / (g * g)])
-    i = np.arange(count)[:, None]
-    return (0.5 + a * i) % 1.0
+    u = (0.5 + np.array([1.0 / g, 1.0 / (g * g)]) * np.arange(count)[:, None]) % 1.0
+    if filter_width <= 0.01:
+        return np.full((count, 2), 0.5)
+    xs = np.linspace(-filter_width / 2, filter_width / 2, 1025)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (_blackman_harris(xs[1:], filter_width)
+                                                  + _blackman_harris(xs[:-1], filter_width)))])
+    cdf /= cdf[-1]
+    return 0.5 + np.interp(u, cdf, xs)
 
 
-def _gather_geometry(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Concatenate all mesh batches: positions (T,3,3), normals (T,3,3), material (T,)."""
-    if not scene.meshes:
-        empty = np.zeros((0, 3, 3), np.float32)
-        return empty, empty, np.zeros(0, np.int32)
-    pos = np.concatenate([m.positions for m in scene.meshes]).astype(np.float32, copy=False)
-    nrm = np.concatenate([m.normals for m in scene.meshes]).astype(np.float32, copy=False)
-    mat = np.concatenate([m.material for m in scene.meshes]).astype(np.int32, copy=False)
-    return pos, nrm, mat
+@dataclass
+class Frame:
+    """A scene prepared for rendering: all triangles concatenated, tables, shadow maps."""
+
+    scene: Scene
+    positions: np.ndarray   # (T, 3, 3) float32
+    normals: np.ndarray     # (T, 3, 3) float32
+    uvs: np.ndarray         # (T, 3, 2) float32 (zeros where has_uv is False)
+    has_uv: np.ndarray      # (T,) bool
+    holdout: np.ndarray     # (T,) bool
+    material: np.ndarray    # (T,) int32
+    clip: np.ndarray        # (T, 3, 4) float32 clip-space corners of the whole frame
+    cull: np.ndarray | None
+    shadow_maps: list
+    tables: dict            # constant material parameters per material: name -> array
 
 
-def _drop_broken(positions, normals, mat_index, warn):
+def _constant_tables(materials: list[Material]) -> dict:
+    """Per-material constants for the untextured fast path."""
+    n = len(materials)
+    zero = surface.Lookup(None, None, None)
+    params = [surface.evaluate(m, 1, zero) if not m.textured else None for m in materials]
+    table = {k: np.zeros((n, c), np.float32) for k, c in
+             (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1), ("alpha", 1))}
+    for i, p in enumerate(params):
+        if p is not None:
+            for k in table:
+                table[k][i] = getattr(p, k).reshape(-1)[: table[k].shape[1]]
+    table["textured"] = np.array([p is None for p in params], bool)
+    return table
+
+
+def _drop_broken(positions, normals, uvs, has_uv, holdout, mat_index, warn):
     """Remove triangles with non-finite corners or zero area; warn once with the counts."""
     finite = np.isfinite(positions).all(axis=(1, 2))
     with np.errstate(invalid="ignore", over="ignore"):
@@ -49,82 +100,251 @@ def _drop_broken(positions, normals, mat_index, warn):
     flat = finite & ~(area2 > 0.0)
     keep = finite & ~flat
     if keep.all():
-        return positions, normals, mat_index
+        return positions, normals, uvs, has_uv, holdout, mat_index
     if warn is not None:
         warn(f"Skipped {int((~finite).sum())} triangles with NaN or infinite vertices and "
              f"{int(flat.sum())} with zero area")
-    return positions[keep], np.nan_to_num(normals[keep]), mat_index[keep]
+    return (positions[keep], np.nan_to_num(normals[keep]), np.nan_to_num(uvs[keep]),
+            has_uv[keep], holdout[keep], mat_index[keep])
 
 
-def render_frame(
+def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
+            should_stop: Callable[[], bool] | None = None) -> Frame:
+    """Concatenate the meshes, project them, and build every light's shadow map."""
+    meshes = scene.meshes
+    if meshes:
+        positions = np.concatenate([m.positions for m in meshes]).astype(np.float32, copy=False)
+        normals = np.concatenate([m.normals for m in meshes]).astype(np.float32, copy=False)
+        mat_index = np.concatenate([m.material for m in meshes]).astype(np.int32, copy=False)
+        uvs = np.concatenate([m.uvs if m.uvs is not None else
+                              np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes])
+        has_uv = np.concatenate([np.full(len(m.positions), m.uvs is not None) for m in meshes])
+        holdout = np.concatenate([np.full(len(m.positions), m.holdout) for m in meshes])
+    else:
+        positions = normals = np.zeros((0, 3, 3), np.float32)
+        uvs = np.zeros((0, 3, 2), np.float32)
+        mat_index = np.zeros(0, np.int32)
+        has_uv = holdout = np.zeros(0, bool)
+    mats = scene.materials or [Material()]
+    if len(mat_index) and (mat_index.max() >= len(mats) or mat_index.min() < 0):
+        raise ValueError("a triangle refers to a material index outside Scene.materials")
+    positions, normals, uvs, has_uv, holdout, mat_index = _drop_broken(
+        positions, normals, uvs.astype(np.float32), has_uv, holdout, mat_index, warn)
+
+    cam = scene.camera
+    view_proj = cam.projection @ cam.world_to_camera
+    homog = np.concatenate([positions, np.ones(positions.shape[:2] + (1,), np.float32)], -1)
+    clip = (homog.astype(np.float64) @ view_proj.T).astype(np.float32)
+    cull_t = np.array([m.backface_culling for m in mats], bool)
+    cull = cull_t[mat_index] if cull_t.any() else None
+    maps = []
+    for light in scene.lights:
+        if should_stop is not None and should_stop():
+            raise Cancelled()
+        maps.append(shadows.build_shadow_map(light, positions, cam,
+                                             resolution=scene.settings.shadow_resolution)
+                    if len(positions) else None)
+    return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
+                 _constant_tables(mats))
+
+
+def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
+    """(x0, y0, x1, y1) tiles covering the render border (or the frame), top-left origin."""
+    cam, st = scene.camera, scene.settings
+    bx0, by0, bx1, by1 = st.border or (0, 0, cam.width, cam.height)
+    size = max(16, int(st.tile_size))
+    return [(x, y, min(x + size, bx1), min(y + size, by1))
+            for y in range(by0, by1, size) for x in range(bx0, bx1, size)]
+
+
+def _tile_clip(clip: np.ndarray, width: int, height: int, tile) -> np.ndarray:
+    """Clip coordinates re-projected so that ``tile`` fills the viewport."""
+    x0, y0, x1, y1 = tile
+    tw, th = x1 - x0, y1 - y0
+    out = clip.copy()
+    w = clip[..., 3]
+    out[..., 0] = clip[..., 0] * (width / tw) + w * ((width - 2.0 * x0) / tw - 1.0)
+    out[..., 1] = clip[..., 1] * (height / th) + w * (1.0 - height / th + 2.0 * y0 / th)
+    return out
+
+
+def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """(N, 3) world radiance seen through window positions x, y (N,)."""
+    world = scene.world
+    if world.texture is None:
+        return np.broadcast_to(np.asarray(world.color, np.float32), (len(x), 3))
+    _, d = scene.camera.rays(x, y)
+    d = d @ np.asarray(world.rotation, np.float32).T
+    px = texture.sample(world.texture, texture.direction_to_equirect_uv(d))
+    return (px[:, :3] * np.float32(world.strength)).astype(np.float32)
+
+
+def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.SurfaceParams:
+    """Material parameters of the points on triangles ``tri`` (N,)."""
+    n = len(tri)
+    mid = frame.material[tri]
+    t = frame.tables
+    albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
+    emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
+    normal_map = np.full((n, 3), np.nan, np.float32) if t["textured"].any() else None
+    strength = np.ones(n, np.float32)
+    mats = frame.scene.materials or [Material()]
+    for m in np.flatnonzero(t["textured"]):
+        sel = np.flatnonzero(mid == m)
+        if not len(sel):
+            continue
+        with_uv = has_uv[sel]
+        lookup = surface.Lookup(np.where(with_uv[:, None], uv[sel], 0.0),
+                                duv_dx[sel], duv_dy[sel])
+        p = surface.evaluate(mats[m], len(sel), lookup)
+        albedo[sel], rf0[sel], emission[sel] = p.albedo, p.rf0, p.emission
+        gloss[sel], alpha[sel] = p.gloss, p.alpha
+        if p.normal_map is not None:
+            normal_map[sel] = np.where(with_uv[:, None], p.normal_map, np.nan)
+            strength[sel] = p.normal_strength
+    params = surface.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal_map)
+    params.normal_strength = strength
+    return params
+
+
+def _shade_sample(frame: Frame, tile, offset, acc: dict) -> None:
+    """Rasterize and shade one sample position over one tile; add it to ``acc``."""
+    scene, cam = frame.scene, frame.scene.camera
+    x0, y0, x1, y1 = tile
+    tw, th = x1 - x0, y1 - y0
+    # Filter-distributed samples reach up to 0.75 px beyond their pixel: rasterize a one-pixel
+    # margin around the tile so that no triangle next to the tile is rejected.
+    margin = (x0 - 1, y0 - 1, x1 + 1, y1 + 1)
+    frags = raster.rasterize(_tile_clip(frame.clip, cam.width, cam.height, margin), tw + 2,
+                             th + 2, cull=frame.cull, sample_offset=tuple(offset))
+    tri_all = np.ascontiguousarray(frags.tri[1:-1, 1:-1]).reshape(-1)
+    bary_all = frags.bary[1:-1, 1:-1].reshape(-1, 3)
+    depth_all = frags.depth[1:-1, 1:-1].reshape(-1)
+    hit = tri_all >= 0
+    if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind
+        hit[hit] = ~frame.holdout[tri_all[hit]]
+        covered = tri_all >= 0
+    else:
+        covered = hit
+    rows, cols = np.divmod(np.arange(tw * th), tw)
+    sx = (x0 + cols + offset[0]).astype(np.float64)
+    sy = (y0 + rows + offset[1]).astype(np.float64)
+
+    combined = acc["Combined"]
+    miss = ~covered
+    if miss.any() and not scene.settings.film_transparent:  # transparent film: alpha 0, RGB 0
+        combined[miss, :3] += _background(scene, sx[miss], sy[miss])
+        combined[miss, 3] += 1.0
+    if not hit.any():
+        return
+
+    tri = tri_all[hit]
+    bary = bary_all[hit]
+    corners = frame.positions[tri]
+    p = np.einsum("nk,nkc->nc", bary, corners)
+    n = np.einsum("nk,nkc->nc", bary, frame.normals[tri])
+    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-20)
+    geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    geo /= np.maximum(np.linalg.norm(geo, axis=-1, keepdims=True), 1e-30)
+    hx, hy = sx[hit], sy[hit]
+    origin, d = cam.rays(hx, hy)
+    v = -d
+    backside = np.sum(geo * v, -1) < 0  # seen from behind: shade the side facing the camera
+    geo[backside] *= -1.0
+    n[backside] *= -1.0
+
+    uv = np.einsum("nk,nkc->nc", bary, frame.uvs[tri])
+    has_uv = frame.has_uv[tri]
+    duv_dx = duv_dy = np.zeros_like(uv)
+    if frame.tables["textured"][frame.material[tri]].any():
+        o_dx, d_dx = cam.rays(hx + 1.0, hy)
+        o_dy, d_dy = cam.rays(hx, hy + 1.0)
+        duv_dx, duv_dy = texture.uv_derivatives(corners, frame.uvs[tri], p,
+                                                o_dx, d_dx, o_dy, d_dy)
+    mat = _materials(frame, tri, uv, duv_dx, duv_dy, has_uv)
+    if mat.normal_map is not None:
+        mapped = np.isfinite(mat.normal_map[:, 0])
+        if mapped.any():
+            t, sign = texture.tangent_frame(corners[mapped], frame.uvs[tri][mapped], n[mapped])
+            n[mapped] = texture.apply_normal_map(n[mapped], t, sign, mat.normal_map[mapped],
+                                                 mat.normal_strength[mapped])
+
+    diffuse = np.zeros((len(tri), 3), np.float32)
+    specular = np.zeros((len(tri), 3), np.float32)
+    model = scene.settings.specular_model
+    for light, smap in zip(scene.lights, frame.shadow_maps, strict=True):
+        l_dir, irradiance = shade.light_incidence(light, p)
+        lit = (np.sum(geo * l_dir, -1) > 0) & (irradiance.max(-1) > 0)
+        if not lit.any():
+            continue
+        if smap is not None:
+            irradiance[lit] *= shadows.shadow_visibility(smap, p[lit], geo[lit])[:, None]
+        d_term, s_term = brdf.direct_brdf(n[lit], v[lit], l_dir[lit], mat.albedo[lit],
+                                          mat.rf0[lit], mat.gloss[lit], model=model)
+        diffuse[lit] += d_term * irradiance[lit]
+        specular[lit] += s_term * irradiance[lit]
+
+    combined[hit, :3] += diffuse + specular + mat.emission
+    combined[hit, 3] += 1.0
+    acc["DiffDir"][hit] += diffuse
+    acc["GlossDir"][hit] += specular
+    acc["Emit"][hit] += mat.emission
+    acc["Normal"][hit] += n
+    acc["Albedo"][hit] += mat.albedo
+    acc["Specular Color"][hit] += mat.rf0
+    acc["Gloss"][hit, 0] += mat.gloss
+    depth = acc["Depth"][:, 0]
+    depth[hit] = np.minimum(depth[hit], depth_all[hit])
+
+
+def render_tiles(
     scene: Scene,
     progress: Callable[[float], None] | None = None,
     should_stop: Callable[[], bool] | None = None,
     warn: Callable[[str], None] | None = None,
-) -> dict[str, np.ndarray]:
-    """Render one frame.
+) -> Iterator[tuple[tuple[int, int, int, int], dict[str, np.ndarray]]]:
+    """Render tile by tile.
 
-    scene:       the frame's plain-data description
     progress:    called with the finished fraction in [0, 1]
-    should_stop: polled between samples; returning True raises ``Cancelled``
-    warn:        called once with a message when triangles are skipped (NaN or zero area)
-    returns:     {"Combined": (H, W, 4) float32 RGBA scene-linear radiance, row 0 at the top}
+    should_stop: polled before every sample of every tile; True raises ``Cancelled``
+    warn:        called once per distinct problem (skipped triangles)
+    yields:      ((x0, y0, x1, y1), {pass name: (y1 - y0, x1 - x0, C) float32}), row 0 at the
+                 top, for every tile of ``tiles(scene)``
+    """
+    frame = prepare(scene, warn, should_stop)
+    offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
+    todo = tiles(scene)
+    total, done = len(todo) * len(offsets), 0
+    for tile in todo:
+        x0, y0, x1, y1 = tile
+        npx = (x1 - x0) * (y1 - y0)
+        acc = {name: np.zeros((npx, c), np.float32) for name, c in PASSES.items()}
+        acc["Depth"][:] = EMPTY_DEPTH
+        for offset in offsets:
+            if should_stop is not None and should_stop():
+                raise Cancelled()
+            _shade_sample(frame, tile, offset, acc)
+            done += 1
+            if progress is not None:
+                progress(done / total)
+        scale = np.float32(1.0 / len(offsets))
+        out = {}
+        for name, buf in acc.items():
+            if name != "Depth":
+                buf *= scale
+            out[name] = buf.reshape(y1 - y0, x1 - x0, -1)
+        yield tile, out
+
+
+def render_frame(scene: Scene, progress=None, should_stop=None, warn=None) -> dict:
+    """Render the whole frame: {pass name: (H, W, C) float32}, row 0 at the top.
+
+    Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``.
     """
     cam = scene.camera
-    h, w = cam.height, cam.width
-    positions, normals, mat_index = _gather_geometry(scene)
-    mats = scene.materials or []
-    albedo_t = np.array([m.albedo for m in mats], np.float32).reshape(-1, 3)
-    rf0_t = np.array([m.rf0 for m in mats], np.float32).reshape(-1, 3)
-    gloss_t = np.array([m.gloss for m in mats], np.float32).reshape(-1)
-    emit_t = np.array([m.emission for m in mats], np.float32).reshape(-1, 3)
-    cull_t = np.array([m.backface_culling for m in mats], bool).reshape(-1)
-    if len(positions) and (mat_index.max(initial=0) >= len(mats) or mat_index.min() < 0):
-        raise ValueError("a triangle refers to a material index outside Scene.materials")
-
-    positions, normals, mat_index = _drop_broken(positions, normals, mat_index, warn)
-    view_proj = cam.projection @ cam.world_to_camera
-    homog = np.concatenate([positions, np.ones(positions.shape[:2] + (1,), np.float32)], -1)
-    clip = (homog.astype(np.float64) @ view_proj.T).astype(np.float32)
-    cull = cull_t[mat_index] if len(mat_index) else None
-    eye = cam.position.astype(np.float32)
-    forward = cam.forward.astype(np.float32)
-
-    background = np.zeros(4, np.float32)
-    if not scene.settings.film_transparent:
-        background[:3] = scene.world.color
-        background[3] = 1.0
-    accum = np.zeros((h, w, 4), np.float32)
-    offsets = sample_offsets(max(1, int(scene.settings.samples)))
-    for k, offset in enumerate(offsets):
-        if should_stop is not None and should_stop():
-            raise Cancelled()
-        frags = raster.rasterize(clip, w, h, cull=cull, sample_offset=tuple(offset))
-        hit = frags.tri >= 0
-        sample = np.empty((h, w, 4), np.float32)
-        sample[~hit] = background
-        tri = frags.tri[hit]
-        if tri.size:
-            bary = frags.bary[hit]
-            p = np.einsum("nk,nkc->nc", bary, positions[tri])
-            n = np.einsum("nk,nkc->nc", bary, normals[tri])
-            n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-20)
-            if cam.orthographic:
-                v = np.broadcast_to(-forward, p.shape).astype(np.float32)
-            else:
-                v = eye - p
-                v /= np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-20)
-            # Seen from behind: shade the side facing the camera, as Cycles does.
-            n = np.where((np.sum(n * v, -1) < 0)[:, None], -n, n)
-            m = mat_index[tri]
-            diffuse, specular = shade.shade_direct(
-                p, n, v, albedo_t[m], rf0_t[m], gloss_t[m], scene.lights,
-                model=scene.settings.specular_model,
-            )
-            sample[hit, :3] = diffuse + specular + emit_t[m]
-            sample[hit, 3] = 1.0
-        accum += sample
-        if progress is not None:
-            progress((k + 1) / len(offsets))
-    accum /= len(offsets)
-    return {"Combined": accum}
+    out = {name: np.zeros((cam.height, cam.width, c), np.float32) for name, c in PASSES.items()}
+    out["Depth"][:] = EMPTY_DEPTH
+    for (x0, y0, x1, y1), passes in render_tiles(scene, progress, should_stop, warn):
+        for name, image in passes.items():
+            out[name][y0:y1, x0:x1] = image
+    return out

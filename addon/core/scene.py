@@ -9,6 +9,7 @@ Blender's units (W for point, spot and area lights; W/m^2 irradiance for sun).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -47,24 +48,98 @@ class Camera:
         f = -self.camera_to_world[:3, 2]
         return f / np.linalg.norm(f)
 
+    def rays(self, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """World-space camera rays through window positions.
+
+        x, y:    (N,) float pixel coordinates from the image's top-left corner (pixel (r, c)
+                 spans x in [c, c + 1), y in [r, r + 1))
+        returns: origins (N, 3) on the near plane and unit directions (N, 3), float32
+        """
+        ndc = np.stack([2.0 * np.asarray(x, np.float64) / self.width - 1.0,
+                        1.0 - 2.0 * np.asarray(y, np.float64) / self.height], -1)
+        inv = np.linalg.inv(self.projection @ self.world_to_camera)
+        near = np.concatenate([ndc, -np.ones_like(ndc[:, :1]), np.ones_like(ndc[:, :1])], -1)
+        far = near.copy()
+        far[:, 2] = 1.0
+        p0, p1 = near @ inv.T, far @ inv.T
+        p0 = p0[:, :3] / p0[:, 3:]
+        p1 = p1[:, :3] / p1[:, 3:]
+        d = p1 - p0
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        return p0.astype(np.float32), d.astype(np.float32)
+
+
+@dataclass
+class TextureInput:
+    """An image texture feeding a material input, sampled by the mesh's render UV map.
+
+    texture: a ``core.texture.Texture`` (linear, mipmapped)
+    channel: "color" (RGB; its luminance for a scalar input) or "alpha"
+    """
+
+    texture: Any
+    channel: str = "color"
+
+
+# A material input: a constant (float or (3,) colour) or a texture.
+Value = float | np.ndarray | TextureInput
+
+
+@dataclass
+class NormalMap:
+    """A tangent-space normal map (Blender's Normal Map node): texture (Non-Color), strength."""
+
+    texture: TextureInput
+    strength: float = 1.0
+
+
+@dataclass
+class Principled:
+    """Inputs of a Principled BSDF; ``core.surface`` converts them to the talk's parameters
+    per pixel. Colours are (3,) linear, scalars floats, either may be a ``TextureInput``."""
+
+    base_color: Value = field(default_factory=lambda: np.full(3, 0.8, np.float32))
+    metallic: Value = 0.0
+    roughness: Value = 0.5
+    ior: float = 1.5
+    specular_level: Value = 0.5
+    specular_tint: np.ndarray = field(default_factory=lambda: np.ones(3, np.float32))
+    transmission: float = 0.0
+
 
 @dataclass
 class Material:
-    """The talk's material parameters, constant over a surface.
+    """A surface in the talk's parameters, constant or textured.
 
-    albedo:   (3,) diffuse reflectance, linear
-    rf0:      (3,) specular colour: base reflectance at normal incidence, linear
-    gloss:    gloss in [0, 1]; specular power alpha = 8192^gloss
-    emission: (3,) emitted radiance, W/(m^2 sr), colour times strength
+    albedo:   (3,) diffuse reflectance, linear, or a TextureInput
+    rf0:      (3,) specular colour: base reflectance at normal incidence, or a TextureInput
+    gloss:    gloss in [0, 1] (specular power alpha = 8192^gloss), or a TextureInput
+    emission: (3,) emitted colour or a TextureInput, times ``emission_strength``: W/(m^2 sr)
+    alpha:    coverage in [0, 1] (a float or TextureInput); below 0.5 the surface is cut out
+    normal_map: optional tangent-space normal map
+    principled: when set, albedo and rf0 and gloss come from these inputs instead
     backface_culling: cull faces seen from behind
     """
 
     name: str = "Material"
-    albedo: np.ndarray = field(default_factory=lambda: np.full(3, 0.8, np.float32))
-    rf0: np.ndarray = field(default_factory=lambda: np.full(3, 0.04, np.float32))
-    gloss: float = 0.5
-    emission: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))
+    albedo: Value = field(default_factory=lambda: np.full(3, 0.8, np.float32))
+    rf0: Value = field(default_factory=lambda: np.full(3, 0.04, np.float32))
+    gloss: Value = 0.5
+    emission: Value = field(default_factory=lambda: np.zeros(3, np.float32))
+    emission_strength: float = 1.0
+    alpha: Value = 1.0
+    normal_map: NormalMap | None = None
+    principled: Principled | None = None
     backface_culling: bool = False
+
+    @property
+    def textured(self) -> bool:
+        """True when any input is a texture or a normal map."""
+        values = [self.albedo, self.rf0, self.gloss, self.emission, self.alpha, self.normal_map]
+        if self.principled is not None:
+            p = self.principled
+            values += [p.base_color, p.metallic, p.roughness, p.specular_level]
+        return any(isinstance(v, TextureInput | NormalMap) for v in values)
 
 
 @dataclass
@@ -74,13 +149,17 @@ class MeshBatch:
     positions: (T, 3, 3) float32 corner positions, metres
     normals:   (T, 3, 3) float32 unit corner normals (smooth, flat or custom split normals)
     material:  (T,) int32 index into ``Scene.materials``
+    uvs:       (T, 3, 2) float32 corner UVs of the active render UV map, or None
     name:      the object's name, for messages
+    holdout:   the object cuts a hole: alpha 0 and no colour where it is visible
     """
 
     positions: np.ndarray
     normals: np.ndarray
     material: np.ndarray
+    uvs: np.ndarray | None = None
     name: str = ""
+    holdout: bool = False
 
 
 @dataclass
@@ -116,23 +195,42 @@ class Light:
 
 @dataclass
 class World:
-    """The background: a constant radiance seen by the camera. color: (3,) W/(m^2 sr)."""
+    """The background seen by the camera.
+
+    color:    (3,) constant radiance, W/(m^2 sr), used when there is no texture
+    texture:  optional equirectangular ``core.texture.Texture`` (Blender's Environment Texture
+              mapping), radiance = texture * strength
+    strength: multiplier of the texture
+    rotation: (3, 3) world-to-texture rotation (a Mapping node's rotation), identity by default
+    """
 
     color: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
+    texture: Any = None
+    strength: float = 1.0
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
 
 @dataclass
 class RenderSettings:
     """Engine settings that change the image.
 
-    samples:        anti-aliasing samples per pixel (stratified over the pixel)
+    samples:        anti-aliasing samples per pixel
+    filter_width:   Blackman-Harris pixel filter width in pixels (Cycles' default 1.5)
     specular_model: one of ``brdf.MODELS``
     film_transparent: background alpha 0 instead of the world colour
+    shadow_resolution: shadow map size in texels (per cube face or cascade)
+    tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
+    border:         optional (x0, y0, x1, y1) pixel region to render, top-left origin,
+                    x1 and y1 exclusive (Blender's render border)
     """
 
     samples: int = 4
+    filter_width: float = 1.5
     specular_model: str = "reference"
     film_transparent: bool = False
+    shadow_resolution: int = 1024
+    tile_size: int = 512
+    border: tuple[int, int, int, int] | None = None
 
 
 @dataclass

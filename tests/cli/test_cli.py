@@ -77,10 +77,17 @@ def test_scene_without_camera(tmp_path):
     assert "no active camera" in one_error_line(proc)
 
 
-def read_exr(path):
+def read_exr(path, layer="Combined"):
+    """One pass of a multilayer EXR written by Blender: (H, W, C) float32."""
     import OpenEXR
 
-    return OpenEXR.File(str(path)).channels()["RGBA"].pixels
+    for part in OpenEXR.File(str(path)).parts:
+        if part.name() == f"ViewLayer.{layer}":
+            channels = list(part.channels.values())
+            if len(channels) == 1:
+                return channels[0].pixels.reshape(*channels[0].pixels.shape[:2], -1)
+            return np.stack([c.pixels for c in channels], -1)
+    raise KeyError(layer)
 
 
 def test_specular_model_changes_the_image(tmp_path):
@@ -110,7 +117,17 @@ def test_render_demo_png_and_exr(tmp_path):
     proc = bo2("render", DEMO, "-o", png, "--resolution", "64x36", "--samples", "1")
     assert proc.returncode == 0, proc.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    proc = bo2("render", DEMO, "-o", exr, "--resolution", "64x36", "--samples", "1")
+    proc = bo2("render", DEMO, "-o", exr, "--resolution", "64x36", "--samples", "1",
+               "--all-passes")
     assert proc.returncode == 0, proc.stderr
     assert exr.read_bytes()[:4] == b"\x76\x2f\x31\x01"  # OpenEXR magic
-    assert read_exr(exr).shape == (36, 64, 4) and np.isfinite(read_exr(exr)).all()
+    combined = read_exr(exr)
+    assert combined.shape == (36, 64, 4) and np.isfinite(combined).all()
+    # Every pass is a layer; the light passes add up to Combined where there is geometry.
+    parts = {name: read_exr(exr, name) for name in
+             ("Depth", "Normal", "DiffDir", "GlossDir", "Emit", "Albedo", "Specular Color",
+              "Gloss")}
+    assert parts["Normal"].shape == (36, 64, 3) and parts["Gloss"].shape == (36, 64, 1)
+    total = parts["DiffDir"] + parts["GlossDir"] + parts["Emit"]
+    ground = parts["Depth"][..., 0] < 1e9
+    np.testing.assert_allclose(total[ground], combined[ground, :3], rtol=1e-4, atol=1e-5)

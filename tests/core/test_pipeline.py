@@ -113,10 +113,16 @@ def test_broken_triangles_are_skipped_and_reported_once():
     np.testing.assert_allclose(image[..., 0], 0.6 / np.pi, rtol=1e-4)
 
 
-def test_sample_offsets_are_stratified():
-    offsets = pipeline.sample_offsets(64)
-    assert offsets.shape == (64, 2) and (offsets >= 0).all() and (offsets < 1).all()
-    # Low discrepancy: 64 samples fill at least 52 of the 64 cells of an 8x8 grid over the
-    # pixel (independent uniform random samples fill 64 (1 - 1/e) ~= 40 on average).
-    cells = np.unique((offsets * 8).astype(int), axis=0)
-    assert len(cells) >= 52
+def test_sample_offsets_follow_the_blackman_harris_filter():
+    """Filter importance sampling: the offsets are distributed as Cycles' 1.5 px wide
+    Blackman-Harris window; its mean and variance come from a direct numerical integral."""
+    offsets = pipeline.sample_offsets(4096, filter_width=1.5)
+    assert offsets.shape == (4096, 2)
+    assert offsets.min() >= 0.5 - 0.75 and offsets.max() <= 0.5 + 0.75
+    x = np.linspace(-0.75, 0.75, 200001)
+    t = 2 * np.pi * (x / 1.5 + 0.5)
+    w = 0.35875 - 0.48829 * np.cos(t) + 0.14128 * np.cos(2 * t) - 0.01168 * np.cos(3 * t)
+    variance = np.sum(w * x * x) / np.sum(w)
+    np.testing.assert_allclose(offsets.mean(0), 0.5, atol=2e-3)
+    np.testing.assert_allclose(offsets.var(0), variance, rtol=0.02)
+    assert (pipeline.sample_offsets(1) == 0.5).all()

@@ -1,0 +1,524 @@
+"""Image textures: sRGB decoding, mip chains, trilinear sampling, ray-differential LOD, tangent
+frames for normal maps, and the equirectangular (lat-long) mapping of the Environment Texture.
+
+What the module follows, and where from:
+
+- sRGB: the exact piecewise transfer functions of IEC 61966-2-1:1999 (linear segment below
+  0.04045 / 0.0031308, power 2.4 above), which is what Blender's "sRGB" colour space decodes.
+- Mip maps: Williams 1983, "Pyramidal parametrics". Level k+1 halves level k with a box filter
+  (size max(1, floor(n / 2)) per axis, the OpenGL rule); an odd axis of n = 2m + 1 texels uses
+  the exact area weights of output texel i over input texels 2i, 2i+1, 2i+2:
+  ((m - i) / n, m / n, (i + 1) / n), so every level keeps the mean of the image (the
+  polyphase box filter of Sandmel et al., "Non-power-of-two mipmapping", NVIDIA 2005).
+  Channels are filtered independently on straight alpha; the data may be channel-packed
+  (gloss in alpha, say), so colour is never weighted by alpha. Cycles filters colour images on
+  associated alpha: texels next to fully transparent ones can therefore differ in colour.
+- Sampling: Blender's Image Texture conventions (Cycles ``kernel/device/cpu/image.h``): UV (0, 0)
+  is the bottom-left corner, (1, 1) the top-right, texel centres at (i + 0.5) / w; extension
+  modes REPEAT (wrap), EXTEND (clamp to the edge texel), CLIP (taps outside the image read
+  transparent black, and the result is 0 outside the unit square; Cycles instead fades out
+  over the half texel beyond the edge) and MIRROR (mirrored repeat, the edge texel repeated:
+  ... 1 0 | 0 1 ... w-1 | w-1 w-2 ...). Bilinear within a level, linear between
+  the two nearest levels (trilinear, Williams 1983). "Closest" reads the nearest texel of level 0.
+  "Cubic" and "Smart" are treated as "Linear" (no bicubic B-spline filter here).
+- LOD: the isotropic scale factor of the OpenGL 4.6 specification (section 8.14.1),
+  rho = max(|d(uv * size)/dx|, |d(uv * size)/dy|), lod = log2(rho).
+- UV derivatives: ray differentials (Igehy 1999, "Tracing ray differentials"): the rays of the
+  neighbouring pixels are intersected with the plane of the shaded triangle, and the hit points'
+  barycentric coordinates give their UVs.
+- Normal maps: per-triangle tangents dP/du made orthogonal to the normal (Gram-Schmidt), the
+  bitangent sign from the UV winding, as in MikkTSpace (Mikkelsen 2008, "Simulation of wrinkled
+  surfaces revisited"); Blender uses MikkTSpace's per-vertex tangents, the per-triangle tangent
+  here is an approximation that agrees on flat regions. Normal Map node, Tangent Space mode, as
+  in Cycles ``svm_node_normal_map`` (Blender 4.x and 5.x).
+- Equirectangular: the mapping of Blender's Environment Texture node in Blender world axes (Z
+  up), measured with Cycles renders (``tests/blender/test_environment_mapping.py``):
+  u = 0.5 - atan2(d_y, d_x) / (2 pi), v = 0.5 + atan2(d_z, hypot(d_x, d_y)) / pi. So -X is at the
+  left and right edges, +X at the centre, +Y at u = 0.25, -Y at u = 0.75, +Z at the top.
+
+Arrays are float32 unless stated; images are (H, W, C) with row 0 at the TOP (the project's
+convention), while UV v grows upwards, so v = 1 is row 0.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "EXTENSIONS",
+    "INTERPOLATIONS",
+    "Texture",
+    "apply_normal_map",
+    "build_mips",
+    "direction_to_equirect_uv",
+    "equirect_uv_to_direction",
+    "linear_to_srgb",
+    "lod_from_uv_derivatives",
+    "make_texture",
+    "sample",
+    "srgb_to_linear",
+    "tangent_frame",
+    "uv_derivatives",
+]
+
+EXTENSIONS = ("REPEAT", "EXTEND", "CLIP", "MIRROR")
+INTERPOLATIONS = ("Linear", "Closest", "Cubic", "Smart")
+
+# UV change per pixel reported where the ray differential is undefined (neighbour ray parallel
+# to the triangle's plane, zero-area triangle or UV triangle): one whole texture per pixel, which
+# puts the lod at (or beyond) the coarsest level of any texture.
+DEGENERATE_DUV = 1.0
+
+
+# ---------------------------------------------------------------------------------------------
+# sRGB transfer functions (IEC 61966-2-1)
+
+
+def srgb_to_linear(x):
+    """Decode sRGB-encoded values to linear: x / 12.92 below 0.04045, ((x + 0.055) / 1.055)^2.4
+    above (IEC 61966-2-1).
+
+    x:       any shape, encoded values (negative values stay on the linear segment)
+    returns: same shape, float32 linear values
+    """
+    x = np.asarray(x, np.float32)
+    power = ((np.maximum(x, np.float32(0.04045)) + np.float32(0.055)) / np.float32(1.055)) ** (
+        np.float32(2.4)
+    )
+    return np.where(x <= np.float32(0.04045), x / np.float32(12.92), power).astype(np.float32)
+
+
+def linear_to_srgb(x):
+    """Encode linear values to sRGB: 12.92 x below 0.0031308, 1.055 x^(1/2.4) - 0.055 above
+    (IEC 61966-2-1).
+
+    x:       any shape, linear values (negative values stay on the linear segment)
+    returns: same shape, float32 encoded values
+    """
+    x = np.asarray(x, np.float32)
+    power = np.float32(1.055) * np.maximum(x, np.float32(0.0031308)) ** np.float32(
+        1.0 / 2.4
+    ) - np.float32(0.055)
+    return np.where(x <= np.float32(0.0031308), x * np.float32(12.92), power).astype(np.float32)
+
+
+# ---------------------------------------------------------------------------------------------
+# Textures and mip chains
+
+
+@dataclass
+class Texture:
+    """An image texture with its full mip chain.
+
+    mips:          list of (h_k, w_k, C) float32 arrays, scene-linear (or Non-Color data), row 0
+                   at the top; mips[0] is the image, the last level is 1 x 1
+    extension:     "REPEAT", "EXTEND", "CLIP" or "MIRROR" (Image Texture node's Extension)
+    interpolation: "Linear", "Closest"; "Cubic" and "Smart" sample as "Linear"
+    name:          the image's name, for messages
+    """
+
+    mips: list[np.ndarray]
+    extension: str = "REPEAT"
+    interpolation: str = "Linear"
+    name: str = ""
+
+    @property
+    def size(self) -> tuple[int, int]:
+        """(width, height) of level 0 in texels."""
+        h, w = self.mips[0].shape[:2]
+        return w, h
+
+    @property
+    def channels(self) -> int:
+        """Number of channels C."""
+        return self.mips[0].shape[2]
+
+    @property
+    def levels(self) -> int:
+        """Number of mip levels."""
+        return len(self.mips)
+
+
+def _halve_axis(a: np.ndarray, axis: int) -> np.ndarray:
+    """Box-filter one axis down to max(1, n // 2) samples, keeping the mean exactly.
+
+    Even n: mean of pairs. Odd n = 2m + 1: output i averages input texels 2i, 2i+1, 2i+2 with the
+    area weights (m - i) / n, m / n, (i + 1) / n. n = 1 is returned unchanged.
+    """
+    n = a.shape[axis]
+    if n == 1:
+        return a
+    a = np.moveaxis(a, axis, 0)
+    if n % 2 == 0:
+        out = 0.5 * (a[0::2] + a[1::2])
+    else:
+        m = (n - 1) // 2
+        i = np.arange(m, dtype=np.float32).reshape((m,) + (1,) * (a.ndim - 1))
+        out = ((m - i) / n) * a[0:-1:2] + np.float32(m / n) * a[1::2] + ((i + 1) / n) * a[2::2]
+    return np.moveaxis(out.astype(np.float32, copy=False), 0, axis)
+
+
+def build_mips(image: np.ndarray) -> list[np.ndarray]:
+    """The mip chain of an image, from the image itself down to 1 x 1 (Williams 1983).
+
+    image:   (H, W, C) float32
+    returns: list of (h_k, w_k, C) float32 with h_{k+1} = max(1, h_k // 2), same for w
+    """
+    mips = [image]
+    while mips[-1].shape[0] > 1 or mips[-1].shape[1] > 1:
+        mips.append(np.ascontiguousarray(_halve_axis(_halve_axis(mips[-1], 0), 1)))
+    return mips
+
+
+def make_texture(
+    pixels,
+    *,
+    srgb: bool,
+    extension: str = "REPEAT",
+    interpolation: str = "Linear",
+    name: str = "",
+) -> Texture:
+    """Build a texture and its mip chain from an image.
+
+    pixels:        (H, W, C) or (H, W) image, row 0 at the top, C in {1, 3, 4}; non-finite
+                   values are replaced by 0
+    srgb:          True when the values are sRGB-encoded colour: the colour channels (all of
+                   C = 1 or 3, the first three of C = 4; never alpha) are decoded to linear here,
+                   once (IEC 61966-2-1). False for linear or Non-Color data
+    extension:     one of ``EXTENSIONS``
+    interpolation: one of ``INTERPOLATIONS``
+    returns:       Texture with float32 straight-alpha mips
+    """
+    if extension not in EXTENSIONS:
+        raise ValueError(f"unknown texture extension {extension!r}, expected one of {EXTENSIONS}")
+    if interpolation not in INTERPOLATIONS:
+        raise ValueError(
+            f"unknown texture interpolation {interpolation!r}, expected one of {INTERPOLATIONS}"
+        )
+    image = np.asarray(pixels, np.float32)
+    if image.ndim == 2:
+        image = image[:, :, None]
+    if image.ndim != 3 or image.shape[2] not in (1, 3, 4) or 0 in image.shape[:2]:
+        raise ValueError(f"expected an (H, W, C) image with C in 1, 3, 4, got {image.shape}")
+    image = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0)
+    if srgb:
+        image = image.copy()
+        colour = slice(0, 3) if image.shape[2] == 4 else slice(None)
+        image[..., colour] = srgb_to_linear(image[..., colour])
+    image = np.ascontiguousarray(image, np.float32)
+    return Texture(build_mips(image), extension, interpolation, name)
+
+
+# ---------------------------------------------------------------------------------------------
+# Sampling
+
+
+def _wrap(i: np.ndarray, n: int, extension: str) -> tuple[np.ndarray, np.ndarray | None]:
+    """Texel indices wrapped into [0, n) by an extension mode (Cycles' wrap_* functions).
+
+    i:       (N,) int64 texel indices, any integer
+    returns: (indices (N,) in [0, n), valid (N,) bool for CLIP, else None)
+    """
+    if extension == "REPEAT":
+        return np.mod(i, n), None
+    if extension == "MIRROR":
+        m = np.mod(np.abs(i + (i < 0)), 2 * n)
+        return np.where(m >= n, 2 * n - m - 1, m), None
+    clamped = np.clip(i, 0, n - 1)
+    if extension == "CLIP":
+        return clamped, (i >= 0) & (i < n)
+    return clamped, None
+
+
+def _bilinear(level: np.ndarray, u: np.ndarray, v: np.ndarray, extension: str) -> np.ndarray:
+    """Bilinear filter of one mip level at UV positions.
+
+    level:   (h, w, C) float32, row 0 at the top
+    u, v:    (N,) float64 UV, v up
+    returns: (N, C) float32
+    """
+    h, w, c = level.shape
+    flat = level.reshape(h * w, c)
+    x = u * w - 0.5
+    y = v * h - 0.5  # texel rows counted from the bottom
+    x0 = np.floor(x)
+    y0 = np.floor(y)
+    tx = (x - x0).astype(np.float32)[:, None]
+    ty = (y - y0).astype(np.float32)[:, None]
+    x0 = x0.astype(np.int64)
+    y0 = y0.astype(np.int64)
+    cols = [_wrap(x0, w, extension), _wrap(x0 + 1, w, extension)]
+    rows = [_wrap(y0, h, extension), _wrap(y0 + 1, h, extension)]
+    weights_x = (1.0 - tx, tx)
+    weights_y = (1.0 - ty, ty)
+    out = np.zeros((len(u), c), np.float32)
+    for (row, row_ok), wy in zip(rows, weights_y, strict=True):
+        base = (h - 1 - row) * w
+        for (col, col_ok), wx in zip(cols, weights_x, strict=True):
+            weight = wx * wy
+            if row_ok is not None:
+                weight = weight * (row_ok & col_ok)[:, None]
+            out += weight * flat[base + col]
+    return out
+
+
+def _closest(level: np.ndarray, u: np.ndarray, v: np.ndarray, extension: str) -> np.ndarray:
+    """Nearest texel of one level at UV positions: (N,) u, v -> (N, C) float32."""
+    h, w, c = level.shape
+    col, col_ok = _wrap(np.floor(u * w).astype(np.int64), w, extension)
+    row, row_ok = _wrap(np.floor(v * h).astype(np.int64), h, extension)
+    out = level.reshape(h * w, c)[(h - 1 - row) * w + col]
+    if col_ok is not None:
+        out = out * (col_ok & row_ok)[:, None]
+    return out
+
+
+def sample(texture: Texture, uv, lod=None) -> np.ndarray:
+    """Filtered texture lookups (Williams 1983 trilinear filtering, Blender's UV conventions).
+
+    texture: the texture
+    uv:      (N, 2) UV; (0, 0) is the bottom-left corner of the image, (1, 1) the top-right,
+             texel centres at ((i + 0.5) / w, (j + 0.5) / h) with j counted from the bottom;
+             non-finite UVs read as (0, 0)
+    lod:     None for level 0, or a scalar or (N,) level of detail (log2 of the footprint in
+             level-0 texels), clamped to [0, levels - 1]; NaN means the coarsest level
+    returns: (N, C) float32; with CLIP, 0 (all channels, alpha too) outside the unit square
+    """
+    uv = np.nan_to_num(np.asarray(uv, np.float64).reshape(-1, 2), posinf=0.0, neginf=0.0)
+    u, v = uv[:, 0], uv[:, 1]
+    n = len(uv)
+    ext = texture.extension
+    if texture.interpolation == "Closest":
+        out = _closest(texture.mips[0], u, v, ext)
+    elif lod is None:
+        out = _bilinear(texture.mips[0], u, v, ext)
+    else:
+        top = texture.levels - 1
+        lod = np.broadcast_to(np.asarray(lod, np.float64), (n,))
+        lod = np.clip(np.nan_to_num(lod, nan=top), 0.0, top)
+        base = np.floor(lod).astype(np.int64)
+        frac = (lod - base).astype(np.float32)
+        out = np.zeros((n, texture.channels), np.float32)
+        for k in range(int(base.min(initial=0)), int(base.max(initial=0)) + 2):
+            if k > top:
+                break
+            weight = np.where(base == k, 1.0 - frac, 0.0) + np.where(base + 1 == k, frac, 0.0)
+            idx = np.flatnonzero(weight > 0.0)
+            if idx.size:
+                out[idx] += weight[idx, None] * _bilinear(texture.mips[k], u[idx], v[idx], ext)
+    if ext == "CLIP":
+        inside = (u >= 0.0) & (u <= 1.0) & (v >= 0.0) & (v <= 1.0)
+        out = np.where(inside[:, None], out, np.float32(0.0))
+    return out.astype(np.float32, copy=False)
+
+
+# ---------------------------------------------------------------------------------------------
+# Level of detail from ray differentials
+
+
+def lod_from_uv_derivatives(texture: Texture, duv_dx, duv_dy) -> np.ndarray:
+    """Isotropic level of detail, lod = log2(max(|duv/dx * size|, |duv/dy * size|)).
+
+    OpenGL 4.6 specification, section 8.14.1 (scale factor rho), with size = (w, h) of level 0.
+
+    texture: the texture (only its level-0 size is used)
+    duv_dx:  (N, 2) UV change for one pixel step in x
+    duv_dy:  (N, 2) UV change for one pixel step in y
+    returns: (N,) float32 lod, unclamped (``sample`` clamps it); non-finite derivatives give a
+             lod beyond the coarsest level
+    """
+    size = np.array(texture.size, np.float64)
+    a = np.linalg.norm(np.asarray(duv_dx, np.float64).reshape(-1, 2) * size, axis=-1)
+    b = np.linalg.norm(np.asarray(duv_dy, np.float64).reshape(-1, 2) * size, axis=-1)
+    rho = np.maximum(a, b)
+    rho = np.where(np.isfinite(rho), rho, np.float64(texture.levels) * max(texture.size))
+    return np.log2(np.maximum(rho, 1e-30)).astype(np.float32)
+
+
+def uv_derivatives(
+    tri_positions, tri_uvs, points, origin_dx, direction_dx, origin_dy, direction_dy
+) -> tuple[np.ndarray, np.ndarray]:
+    """UV screen derivatives by ray differentials (Igehy 1999, "Tracing ray differentials").
+
+    The rays of the neighbouring pixels (x + 1 and y + 1) are intersected with the plane of the
+    triangle under each shaded point; the UVs of the hit points, from their barycentric
+    coordinates in that triangle, minus the point's UV are the derivatives. Rays are lines (a hit
+    behind the origin still counts, so any point of a ray is a valid origin). Both camera kinds
+    work: a perspective camera's rays share one origin (its position, or any point on each ray,
+    such as the near-plane points of ``Camera.rays``) and differ in direction; an orthographic
+    camera's rays share the direction ((3,) broadcasts) and differ in origin. With a
+    ``core.scene.Camera`` and a pixel centre (x, y) in window coordinates:
+    ``uv_derivatives(..., *cam.rays(x + 1, y), *cam.rays(x, y + 1))``.
+
+    tri_positions: (N, 3, 3) world-space corners of the triangle under each point, metres
+    tri_uvs:       (N, 3, 2) corner UVs
+    points:        (N, 3) shaded points on those triangles, metres
+    origin_dx:     (N, 3) or (3,) a point on the ray through the pixel to the right, metres
+    direction_dx:  (N, 3) or (3,) direction of that ray (any length)
+    origin_dy:     (N, 3) or (3,) a point on the ray through the next pixel in y, metres
+    direction_dy:  (N, 3) or (3,) direction of that ray (any length)
+    returns:       duv_dx, duv_dy, each (N, 2) float32 UV change per pixel step. Where a
+                   neighbour ray is parallel to the plane, or the triangle or its UV triangle
+                   has zero area, both are ``DEGENERATE_DUV`` in u and v (coarsest lod).
+    """
+    p = np.asarray(tri_positions, np.float64).reshape(-1, 3, 3)
+    t = np.asarray(tri_uvs, np.float64).reshape(-1, 3, 2)
+    q = np.asarray(points, np.float64).reshape(-1, 3)
+    e1 = p[:, 1] - p[:, 0]
+    e2 = p[:, 2] - p[:, 0]
+    normal = np.cross(e1, e2)
+    nn = np.einsum("nc,nc->n", normal, normal)
+    f1 = t[:, 1] - t[:, 0]
+    f2 = t[:, 2] - t[:, 0]
+    uv_area = np.abs(f1[:, 0] * f2[:, 1] - f1[:, 1] * f2[:, 0])
+    scale = np.maximum(np.einsum("nc,nc->n", e1, e1), np.einsum("nc,nc->n", e2, e2))
+    uv_scale = np.maximum(np.einsum("nc,nc->n", f1, f1), np.einsum("nc,nc->n", f2, f2))
+    bad = ~(nn > 1e-12 * scale * scale) | ~(uv_area > 1e-9 * uv_scale)
+    safe_nn = np.where(bad, 1.0, nn)
+    # Barycentric gradients: for s in the plane, s - p0 = b1 e1 + b2 e2 with
+    # b1 = (s - p0) . (e2 x n) / |n|^2 and b2 = (s - p0) . (n x e1) / |n|^2.
+    g1 = np.cross(e2, normal) / safe_nn[:, None]
+    g2 = np.cross(normal, e1) / safe_nn[:, None]
+
+    def uv_step(origin, direction):
+        o = np.asarray(origin, np.float64)
+        d = np.asarray(direction, np.float64)
+        denom = np.einsum("nc,nc->n", normal, np.broadcast_to(d, q.shape))
+        d_len = np.linalg.norm(np.broadcast_to(d, q.shape), axis=-1)
+        parallel = ~(np.abs(denom) > 1e-9 * np.sqrt(nn) * d_len)
+        dist = np.einsum("nc,nc->n", normal, q - o) / np.where(parallel, 1.0, denom)
+        delta = o + dist[:, None] * d - q  # hit point minus shaded point, in the plane
+        db1 = np.einsum("nc,nc->n", delta, g1)
+        db2 = np.einsum("nc,nc->n", delta, g2)
+        duv = db1[:, None] * f1 + db2[:, None] * f2
+        broken = bad | parallel | ~np.isfinite(duv).all(axis=-1)
+        return np.where(broken[:, None], DEGENERATE_DUV, duv), broken
+
+    duv_dx, broken_x = uv_step(origin_dx, direction_dx)
+    duv_dy, broken_y = uv_step(origin_dy, direction_dy)
+    broken = (broken_x | broken_y)[:, None]
+    duv_dx = np.where(broken, DEGENERATE_DUV, duv_dx)
+    duv_dy = np.where(broken, DEGENERATE_DUV, duv_dy)
+    return duv_dx.astype(np.float32), duv_dy.astype(np.float32)
+
+
+# ---------------------------------------------------------------------------------------------
+# Tangent space and normal maps
+
+
+def _any_perpendicular(n: np.ndarray) -> np.ndarray:
+    """(N, 3) unit vectors perpendicular to unit normals n (Duff et al. 2017, branchless ONB)."""
+    sign = np.where(n[:, 2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    return np.stack([1.0 + sign * n[:, 0] * n[:, 0] * a, sign * b, -sign * n[:, 0]], -1)
+
+
+def tangent_frame(tri_positions, tri_uvs, normals) -> tuple[np.ndarray, np.ndarray]:
+    """Per-triangle tangent-space frame for tangent-space normal maps.
+
+    The tangent is dP/du of the triangle, made orthogonal to the per-point normal
+    (Gram-Schmidt); the bitangent is sign * cross(normal, tangent), where the sign is +1 when
+    dP/dv points along cross(normal, tangent) and -1 for mirrored UVs (MikkTSpace convention,
+    Mikkelsen 2008). Blender computes MikkTSpace per-vertex tangents; one tangent per triangle
+    is an approximation that matches on flat regions and at UV-continuous flat quads.
+
+    tri_positions: (N, 3, 3) world-space corners of the triangle under each point
+    tri_uvs:       (N, 3, 2) corner UVs
+    normals:       (N, 3) unit shading normals at the points
+    returns:       tangent (N, 3) float32 unit, orthogonal to the normal; bitangent_sign (N,)
+                   float32 in {-1, +1}. Zero-area UV triangles give an arbitrary tangent
+                   perpendicular to the normal and sign +1.
+    """
+    p = np.asarray(tri_positions, np.float64).reshape(-1, 3, 3)
+    t = np.asarray(tri_uvs, np.float64).reshape(-1, 3, 2)
+    n = np.asarray(normals, np.float64).reshape(-1, 3)
+    n = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-30)
+    e1 = p[:, 1] - p[:, 0]
+    e2 = p[:, 2] - p[:, 0]
+    du1, dv1 = t[:, 1, 0] - t[:, 0, 0], t[:, 1, 1] - t[:, 0, 1]
+    du2, dv2 = t[:, 2, 0] - t[:, 0, 0], t[:, 2, 1] - t[:, 0, 1]
+    det = du1 * dv2 - du2 * dv1
+    # dP/du and dP/dv times det; dividing by det's sign keeps their orientation.
+    sgn = np.where(det < 0.0, -1.0, 1.0)[:, None]
+    dpdu = (e1 * dv2[:, None] - e2 * dv1[:, None]) * sgn
+    dpdv = (e2 * du1[:, None] - e1 * du2[:, None]) * sgn
+    tangent = dpdu - n * np.einsum("nc,nc->n", n, dpdu)[:, None]
+    length = np.linalg.norm(tangent, axis=-1)
+    uv_sizes = np.hypot(du1, dv1) * np.hypot(du2, dv2)
+    # A UV triangle of (relative) zero area, or dP/du along the normal, has no usable tangent.
+    good = (np.abs(det) > 1e-9 * uv_sizes) & (length > 1e-6 * np.linalg.norm(dpdu, axis=-1))
+    tangent = np.where(
+        good[:, None], tangent / np.where(good, length, 1.0)[:, None], _any_perpendicular(n)
+    )
+    sign = np.where(np.einsum("nc,nc->n", np.cross(n, tangent), dpdv) < 0.0, -1.0, 1.0)
+    sign = np.where(good, sign, 1.0)
+    return tangent.astype(np.float32), sign.astype(np.float32)
+
+
+def apply_normal_map(normal, tangent, bitangent_sign, map_rgb, strength=1.0) -> np.ndarray:
+    """Blender's Normal Map node in Tangent Space mode (Cycles ``svm_node_normal_map``).
+
+    c = 2 rgb - 1; strength s scales the tangential part and blends the normal part:
+    c_xy *= max(s, 0), c_z = 1 + (c_z - 1) clamp(s, 0, 1); then
+    n' = normalize(c_x t + c_y b + c_z n) with b = sign cross(n, t). So s = 0 returns n and
+    s = 1 the plain mapping (Cycles and EEVEE of Blender 4.x and 5.x; older releases blended the
+    mapped normal with n instead). For a back face, Cycles maps with the front-facing normal
+    and frame and negates the result: pass the front normal and negate the output.
+
+    normal:         (N, 3) unit shading normal
+    tangent:        (N, 3) unit tangent orthogonal to the normal (``tangent_frame``)
+    bitangent_sign: (N,) +1 or -1
+    map_rgb:        (N, 3) normal map colour in [0, 1], Non-Color data
+    strength:       scalar or (N,) Strength input
+    returns:        (N, 3) float32 unit normals; where the mapped vector vanishes, the input n
+    """
+    n = np.asarray(normal, np.float32).reshape(-1, 3)
+    t = np.asarray(tangent, np.float32).reshape(-1, 3)
+    sign = np.asarray(bitangent_sign, np.float32).reshape(-1, 1)
+    c = 2.0 * np.asarray(map_rgb, np.float32).reshape(-1, 3) - 1.0
+    s = np.asarray(strength, np.float32).reshape(-1, 1)
+    cxy = c[:, :2] * np.maximum(s, 0.0)
+    cz = 1.0 + (c[:, 2:] - 1.0) * np.clip(s, 0.0, 1.0)
+    b = sign * np.cross(n, t)
+    out = cxy[:, :1] * t + cxy[:, 1:] * b + cz * n
+    length = np.linalg.norm(out, axis=-1, keepdims=True)
+    ok = length > 1e-12
+    return np.where(ok, out / np.where(ok, length, 1.0), n).astype(np.float32)
+
+
+# ---------------------------------------------------------------------------------------------
+# Equirectangular (lat-long) mapping of the Environment Texture node
+
+
+def direction_to_equirect_uv(d) -> np.ndarray:
+    """UV of a direction in a lat-long image, as Blender's Environment Texture (Equirectangular).
+
+    u = 0.5 - atan2(d_y, d_x) / (2 pi), v = 0.5 + atan2(d_z, hypot(d_x, d_y)) / pi (measured
+    with Cycles renders, see the module docstring).
+
+    d:       (..., 3) directions in Blender world axes (Z up), any non-zero length
+    returns: (..., 2) float32 UV in [0, 1]; v = 1 is +Z (row 0 of a top-first image)
+    """
+    d = np.asarray(d, np.float64)
+    x, y, z = d[..., 0], d[..., 1], d[..., 2]
+    u = 0.5 - np.arctan2(y, x) / (2.0 * np.pi)
+    v = 0.5 + np.arctan2(z, np.hypot(x, y)) / np.pi
+    return np.stack([u, v], -1).astype(np.float32)
+
+
+def equirect_uv_to_direction(uv) -> np.ndarray:
+    """Unit direction of a lat-long UV, the inverse of ``direction_to_equirect_uv``.
+
+    uv:      (..., 2) UV of Blender's Environment Texture (Equirectangular)
+    returns: (..., 3) float32 unit directions in Blender world axes (Z up)
+    """
+    uv = np.asarray(uv, np.float64)
+    azimuth = 2.0 * np.pi * (0.5 - uv[..., 0])
+    elevation = np.pi * (uv[..., 1] - 0.5)
+    c = np.cos(elevation)
+    return np.stack([c * np.cos(azimuth), c * np.sin(azimuth), np.sin(elevation)], -1).astype(
+        np.float32
+    )

@@ -1,0 +1,146 @@
+"""Benchmark of the shadow maps (``addon/core/shadows.py``): build and query time, peak memory.
+
+Usage: python tools/bench_shadows.py [--points N] [--triangles N] [--resolutions 1024 2048]
+
+Scene: ~1e5 random small triangles (0.05-0.2 m) scattered over a 20 x 20 x 3 m volume above a
+ground quad, seen by a camera from 14 m away. Query points: N points on the casters' surfaces
+(half on the ground, half on the random triangles) with their geometric normals, as a G-buffer
+would give them. Cases: cube map (point light, hard and soft), spot map (soft), sun cascades
+(hard and soft), at each resolution. For each case it prints the wall time of building the
+maps and of one query of all points, the time per query point, the maps' size, and the peak of
+NumPy's allocations during one more build and one more query traced with ``tracemalloc``.
+Prints figures only.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+import tracemalloc
+
+import numpy as np
+
+from bo2_lighting.addon.core import shadows
+from bo2_lighting.addon.core.scene import Camera, Light
+
+
+def random_scene(n_tri: int, seed: int = 0) -> np.ndarray:
+    """(n_tri + 2, 3, 3) float32 triangles: random small ones in a volume, and a ground quad."""
+    rng = np.random.default_rng(seed)
+    centre = rng.uniform([-10.0, -10.0, 0.0], [10.0, 10.0, 3.0], (n_tri, 1, 3))
+    size = rng.uniform(0.05, 0.2, (n_tri, 1, 1))
+    tris = centre + size * rng.normal(size=(n_tri, 3, 3)) / np.sqrt(3.0)
+    g = 12.0
+    quad = np.array([[[-g, -g, 0], [g, -g, 0], [g, g, 0]], [[-g, -g, 0], [g, g, 0], [-g, g, 0]]])
+    return np.concatenate([tris, quad]).astype(np.float32)
+
+
+def surface_points(tris: np.ndarray, count: int, seed: int = 1):
+    """(count, 3) points on the ground and the triangles, and (count, 3) unit normals."""
+    rng = np.random.default_rng(seed)
+    half = count // 2
+    ground = np.zeros((half, 3), np.float32)
+    ground[:, :2] = rng.uniform(-10.0, 10.0, (half, 2))
+    ground_n = np.tile(np.float32([0.0, 0.0, 1.0]), (half, 1))
+    pick = rng.integers(0, len(tris) - 2, count - half)
+    bary = rng.dirichlet(np.ones(3), count - half).astype(np.float32)
+    on_tri = np.einsum("nk,nkc->nc", bary, tris[pick])
+    normal = np.cross(tris[pick, 1] - tris[pick, 0], tris[pick, 2] - tris[pick, 0])
+    normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+    return (
+        np.concatenate([ground, on_tri]).astype(np.float32),
+        np.concatenate([ground_n, normal]).astype(np.float32),
+    )
+
+
+def camera() -> Camera:
+    """A 1920x1080 perspective camera 14 m from the scene centre, looking at it."""
+    eye, target = np.array([0.0, -12.0, 7.0]), np.zeros(3)
+    f = (target - eye) / np.linalg.norm(target - eye)
+    r = np.cross(f, [0.0, 0.0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    view = np.eye(4)
+    view[0, :3], view[1, :3], view[2, :3] = r, u, -f
+    view[:3, 3] = -view[:3, :3] @ eye
+    t, aspect, near, far = 1.0 / np.tan(np.radians(25.0)), 16.0 / 9.0, 0.1, 100.0
+    proj = np.array(
+        [
+            [t / aspect, 0, 0, 0],
+            [0, t, 0, 0],
+            [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
+            [0, 0, -1, 0],
+        ]
+    )
+    return Camera(view, proj, 1920, 1080)
+
+
+def lights() -> list[tuple[str, Light]]:
+    pos = np.array([2.0, -1.0, 6.0])
+    sun_dir = np.array([0.4, 0.3, -0.85]) / np.linalg.norm([0.4, 0.3, -0.85])
+    return [
+        ("point, cube, hard", Light("POINT", np.ones(3), position=pos)),
+        ("point, cube, R = 0.25 m", Light("POINT", np.ones(3), position=pos, radius=0.25)),
+        (
+            "spot 120 deg, R = 0.1 m",
+            Light("SPOT", np.ones(3), position=pos, direction=np.array([0.0, 0.0, -1.0]),
+                  spot_size=np.radians(120.0), radius=0.1),
+        ),
+        ("sun, hard", Light("SUN", np.ones(3), direction=sun_dir)),
+        ("sun, 2 deg", Light("SUN", np.ones(3), direction=sun_dir, radius=np.radians(2.0))),
+    ]
+
+
+def run_case(name, light, tris, cam, points, normals, res) -> None:
+    start = time.perf_counter()
+    sm = shadows.build_shadow_map(light, tris, cam, resolution=res)
+    t_build = time.perf_counter() - start
+    start = time.perf_counter()
+    vis = shadows.shadow_visibility(sm, points, normals)
+    t_query = time.perf_counter() - start
+    lit = float(vis.mean())
+    maps = sm.nbytes
+    del vis, sm
+    tracemalloc.start()
+    sm = shadows.build_shadow_map(light, tris, cam, resolution=res)
+    peak_build = tracemalloc.get_traced_memory()[1]
+    tracemalloc.reset_peak()
+    vis = shadows.shadow_visibility(sm, points, normals)
+    peak_query = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    del vis, sm
+    n = len(points)
+    print(
+        f"{name:<26} {res:>5} {sm_faces(light, tris, cam, res):>5} {t_build:>8.2f} {t_query:>8.2f} "
+        f"{t_query / n * 1e6:>8.2f} {lit:>6.3f} {maps / 2**20:>8.1f} "
+        f"{peak_build / 2**20:>10.0f} {peak_query / 2**20:>10.0f}"
+    )
+
+
+def sm_faces(light, tris, cam, res) -> str:
+    """Faces or cascades the light uses (rebuilt at 16 texels: cheap)."""
+    sm = shadows.build_shadow_map(light, tris, cam, resolution=16)
+    return str(sm.depth.shape[0])
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--points", type=int, default=2_000_000, help="query points")
+    parser.add_argument("--triangles", type=int, default=100_000, help="random casters")
+    parser.add_argument("--resolutions", type=int, nargs="+", default=[1024, 2048])
+    args = parser.parse_args()
+    tris = random_scene(args.triangles)
+    points, normals = surface_points(tris, args.points)
+    cam = camera()
+    print(f"{len(tris)} triangles, {len(points)} query points")
+    print(
+        f"{'case':<26} {'res':>5} {'maps':>5} {'build s':>8} {'query s':>8} {'us/point':>8} "
+        f"{'lit':>6} {'maps MiB':>8} {'build MiB':>10} {'query MiB':>10}"
+    )
+    for res in args.resolutions:
+        for name, light in lights():
+            run_case(name, light, tris, cam, points, normals, res)
+
+
+if __name__ == "__main__":
+    main()
