@@ -183,19 +183,26 @@ def _homogeneous(tris: np.ndarray) -> np.ndarray:
 
 
 def _min_pyramid(dist: np.ndarray) -> list[np.ndarray]:
-    """Min-reduction pyramid of (F, res, res) maps: levels MIP_FIRST_LEVEL, ... (odd sides are
+    """Min-reduction pyramid of a (res, res) map: levels MIP_FIRST_LEVEL, ... (odd sides are
     padded with inf)."""
     levels = []
     cur = dist
     while cur.shape[-1] > 1:
         if cur.shape[-1] % 2:
-            cur = np.pad(cur, ((0, 0), (0, 1), (0, 1)), constant_values=np.inf)
+            cur = np.pad(cur, ((0, 1), (0, 1)), constant_values=np.inf)
         cur = np.minimum(
-            np.minimum(cur[:, 0::2, 0::2], cur[:, 1::2, 0::2]),
-            np.minimum(cur[:, 0::2, 1::2], cur[:, 1::2, 1::2]),
+            np.minimum(cur[0::2, 0::2], cur[1::2, 0::2]),
+            np.minimum(cur[0::2, 1::2], cur[1::2, 1::2]),
         )
         levels.append(cur)
     return levels[MIP_FIRST_LEVEL - 1 :]
+
+
+def _stack_pyramids(pyramids: list[list[np.ndarray]]) -> list[np.ndarray]:
+    """Per-face pyramids -> one (F, side, side) array per level."""
+    if not pyramids:
+        return []
+    return [np.stack(level) for level in zip(*pyramids, strict=True)]
 
 
 def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
@@ -214,16 +221,20 @@ def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
     near = max(1e-5 * far, 1e-6)
     proj = _perspective(tan_half, near, far)
     homog = _homogeneous(tris)
+    centre = (np.arange(res) + 0.5) * (2.0 / res) - 1.0
+    ray_len = np.sqrt(1.0 + tan_half**2 * (centre[:, None] ** 2 + centre[None, :] ** 2))
+    ray_len = ray_len.astype(np.float32)  # distance from the light / face-axis depth
     depth = np.empty((len(basis), res, res), np.float32)
     view_proj = np.empty((len(basis), 4, 4))
+    pyramids, min_depth = [], np.inf
     for f, frame in enumerate(basis):
         view_proj[f] = proj @ _view(frame, origin)
         frags = raster.rasterize(homog @ view_proj[f].T, res, res)
         depth[f] = frags.depth
-    centre = (np.arange(res) + 0.5) * (2.0 / res) - 1.0
-    ray_len = np.sqrt(1.0 + tan_half**2 * (centre[:, None] ** 2 + centre[None, :] ** 2))
-    dist = depth * ray_len.astype(np.float32)  # distance from the light, metres
-    mips = _min_pyramid(dist)
+        del frags
+        dist = depth[f] * ray_len  # distance from the light, metres
+        min_depth = min(min_depth, float(dist.min()))
+        pyramids.append(_min_pyramid(dist))
     return ShadowMap(
         kind=kind,
         light_kind=light.kind,
@@ -234,8 +245,8 @@ def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
         tan_half=float(tan_half),
         near=near,
         light_size=max(size, 0.0),
-        min_mips=mips,
-        min_depth=float(dist.min()) if dist.size else np.inf,
+        min_mips=_stack_pyramids(pyramids),
+        min_depth=min_depth,
     )
 
 
@@ -331,6 +342,7 @@ def _build_sun(light: Light, tris: np.ndarray, camera: Camera, res: int) -> Shad
         d = np.full((res, res), np.inf, np.float32)
         d[hit] = np.einsum("nk,nk->n", frags.bary[hit].astype(np.float64), zs[frags.tri[hit]])
         depth[c] = d
+        del frags, hit, d
     return ShadowMap(
         kind="ORTHO",
         light_kind="SUN",
@@ -341,7 +353,7 @@ def _build_sun(light: Light, tris: np.ndarray, camera: Camera, res: int) -> Shad
         z_min=z_lo,
         light_size=tan_half,
         splits=splits,
-        min_mips=_min_pyramid(depth),
+        min_mips=_stack_pyramids([_min_pyramid(d) for d in depth]),
         min_depth=float(depth.min()) if depth.size else np.inf,
     )
 

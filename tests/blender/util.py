@@ -1,6 +1,10 @@
 """Helpers shared by the Blender tests."""
 
+import tempfile
+from pathlib import Path
+
 import bpy
+import numpy as np
 
 
 def engine_available(identifier: str) -> bool:
@@ -13,3 +17,30 @@ def engine_available(identifier: str) -> bool:
         return False
     render.engine = previous
     return bpy.types.RenderEngine.bl_rna_get_subclass_py(identifier) is not None
+
+
+def render_pixels(scene, engine: str, samples: int = 4) -> np.ndarray:
+    """Render ``scene`` with ``engine`` and return the Combined pass, (H, W, 4) float32 linear,
+    row 0 at the bottom as Blender stores it."""
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.samples = samples
+        scene.cycles.device = "CPU"
+        scene.cycles.use_denoising = False
+    else:
+        scene.bo2.samples = samples
+    assert bpy.ops.render.render() == {"FINISHED"}
+    width = scene.render.resolution_x * scene.render.resolution_percentage // 100
+    height = scene.render.resolution_y * scene.render.resolution_percentage // 100
+    settings = scene.render.image_settings
+    with tempfile.TemporaryDirectory() as tmp:
+        path = str(Path(tmp) / "render.exr")
+        if hasattr(settings, "media_type"):
+            settings.media_type = "IMAGE"
+        settings.file_format = "OPEN_EXR"
+        settings.color_depth = "32"
+        bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
+        img = bpy.data.images.load(path)
+        px = np.array(img.pixels[:], np.float32).reshape(height, width, 4)
+        bpy.data.images.remove(img)
+    return px

@@ -496,6 +496,6 @@ def test_sun_without_camera_covers_every_caster():
     light = Light("SUN", np.ones(3), direction=unit([-0.4, -0.25, -1.0]))
     sm = shadows.build_shadow_map(light, occluder_scene(), None, resolution=256)
     assert sm.depth.shape == (1, 256, 256)
-    p = np.array([[0.4, 0.25, 0.0], [4.0, 4.0, 0.0], [-4.5, -4.5, 0.0]])
+    p = np.array([[-0.4, -0.25, 0.0], [4.0, 4.0, 0.0], [-4.5, -4.5, 0.0]])  # shadow centre
     n = np.tile([0.0, 0.0, 1.0], (3, 1))
     np.testing.assert_array_equal(shadows.shadow_visibility(sm, p, n), [0.0, 1.0, 1.0])

@@ -1,0 +1,126 @@
+"""BO2 Lighting against Cycles on the same scene, both rendered here.
+
+- Glossy spheres (the BO2 Material node group, so both engines read the same material; Cycles
+  renders it as Beckmann with Schlick Fresnel) under one point light: the highlight's peak
+  position and its energy.
+- The Ignis evaluation box scene: renders without error; the difference against a Cycles
+  direct-light-only render is printed and bounded loosely.
+"""
+
+import math
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+from util import render_pixels
+
+ROOT = Path(__file__).resolve().parents[2]
+IGNIS_BOX = ROOT.parent / "shared" / "reference" / "scenes" / "ignis" / "box.blend"
+RES = 96
+
+
+def glossy_sphere_scene(gloss: float):
+    from bo2_lighting.addon.blender import node_groups
+
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = RES
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.cycles.max_bounces = 0
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
+    bpy.ops.object.shade_smooth()
+    mat = node_groups.new_material("Glossy")
+    group = next(n for n in mat.node_tree.nodes if node_groups.is_bo2_material_node(n))
+    group.inputs["Albedo"].default_value = (0, 0, 0, 1)
+    group.inputs["Specular Color"].default_value = (1, 1, 1, 1)
+    group.inputs["Gloss"].default_value = gloss
+    bpy.context.object.data.materials.append(mat)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = 50
+    cam.location = (0.0, -5.0, 0.0)
+    cam.rotation_euler = (math.pi / 2, 0.0, 0.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    light = bpy.data.objects.new("Light", bpy.data.lights.new("Light", "POINT"))
+    light.data.energy = 1000.0
+    light.data.shadow_soft_size = 0.0
+    light.location = (2.0, -4.0, 1.5)
+    scene.collection.objects.link(light)
+    world = bpy.data.worlds.new("Black")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    scene.world = world
+    return scene
+
+
+# Highlight energy bound per gloss. At gloss 0.2 the lobe is wide and Cycles' Beckmann NDF with
+# Smith shadowing differs from the talk's Blinn-Phong NDF with Schlick-Smith visibility by more
+# than 15% (measured: BO2/Cycles = 0.83; the engine itself matches the talk's BRDF to 0.1% at
+# the peak pixel, see the closed-form test below), so that case is held to 20%.
+ENERGY_BOUND = {0.2: 0.20, 0.5: 0.15, 0.8: 0.15}
+
+
+@pytest.mark.parametrize("gloss", sorted(ENERGY_BOUND))
+def test_glossy_highlight_matches_cycles(addon, gloss):
+    scene = glossy_sphere_scene(gloss)
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3].mean(-1)
+    cycles = render_pixels(scene, "CYCLES", samples=256)[..., :3].mean(-1)
+    peak_ours = np.array(np.unravel_index(np.argmax(ours), ours.shape))
+    peak_cycles = np.array(np.unravel_index(np.argmax(cycles), cycles.shape))
+    # Energy of the highlight: the sum over the pixels above 5% of Cycles' peak.
+    region = cycles > 0.05 * cycles.max()
+    ratio = ours[region].sum() / cycles[region].sum()
+    offset = np.abs(peak_ours - peak_cycles).max()
+    print(f"gloss {gloss}: peak offset {offset} px, highlight energy BO2/Cycles {ratio:.3f}")
+    assert offset <= 2
+    assert abs(ratio - 1.0) <= ENERGY_BOUND[gloss]
+
+
+@pytest.mark.parametrize("gloss", [0.2, 0.8])
+def test_glossy_sphere_pixels_match_the_talks_brdf(addon, gloss):
+    """Pixels of the sphere against the closed form: ray-sphere intersection through each
+    pixel centre, then (1/pi) D_pl F V (n.l) E with E = P / (4 pi d^2), computed here."""
+    from bo2_lighting.addon.core import brdf
+
+    scene = glossy_sphere_scene(gloss)
+    scene.render.filter_size = 0.0  # one sample at each pixel centre
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=1)[..., 0]
+    rows, cols = np.mgrid[0:RES, 0:RES]
+    half = 0.5 * 36.0 / 50.0  # sensor 36 mm, lens 50 mm
+    d = np.stack([((cols + 0.5) / RES - 0.5) * 2 * half, np.ones((RES, RES)),
+                  ((rows + 0.5) / RES - 0.5) * 2 * half], -1)  # row 0 at the bottom
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    eye = np.array([0.0, -5.0, 0.0])
+    b = d @ eye
+    disc = b * b - (eye @ eye - 1.0)
+    hit = disc > 0.05  # away from the silhouette
+    t = -b - np.sqrt(np.maximum(disc, 0.0))
+    p = eye + t[..., None] * d
+    n = p / np.linalg.norm(p, axis=-1, keepdims=True)
+    to_light = np.array([2.0, -4.0, 1.5]) - p
+    dist2 = np.sum(to_light**2, -1)
+    l_dir = to_light / np.sqrt(dist2)[..., None]
+    _, spec = brdf.direct_brdf(n, -d, l_dir, np.zeros(3), np.ones(3), gloss)
+    expected = spec[..., 0] * 1000.0 / (4 * np.pi * dist2)
+    bright = hit & (expected > 0.05 * expected.max())
+    np.testing.assert_allclose(ours[bright], expected[bright], rtol=0.02)
+
+
+@pytest.mark.skipif(not IGNIS_BOX.exists(), reason="reference scenes are not available")
+def test_ignis_box_renders_and_is_close_to_cycles_direct(addon):
+    bpy.ops.wm.open_mainfile(filepath=str(IGNIS_BOX))
+    scene = bpy.context.scene
+    scene.render.resolution_percentage = 50
+    scene.cycles.max_bounces = 0  # direct light only, as BO2 Lighting has no indirect yet
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", samples=128)[..., :3]
+    assert np.isfinite(ours).all()
+    lit = cycles.mean(-1) > 0.02
+    rel = np.abs(ours - cycles).mean(-1)[lit] / cycles.mean(-1)[lit]
+    rmse = float(np.sqrt(np.mean((ours - cycles) ** 2)))
+    print(f"ignis box: mean relative error {rel.mean():.3f}, median {np.median(rel):.3f}, "
+          f"RMSE {rmse:.4f}, mean BO2 {ours.mean():.4f} vs Cycles {cycles.mean():.4f}")
+    assert lit.sum() > 0.2 * lit.size
+    assert np.median(rel) < 0.25
