@@ -1,0 +1,245 @@
+"""Scene features the engine reads, each checked against Cycles or a closed form.
+
+Textures (sRGB and Non-Color, mipmapped), normal maps, the world's Environment Texture,
+render border, holdout, backface culling, passes in the compositor, and bad input (missing
+image, unsupported node, empty scene, tiny and huge resolutions).
+"""
+
+import math
+
+import bpy
+import numpy as np
+import pytest
+from util import render_pixels
+
+RES = 32
+
+
+def top_view_scene(view=2.0, res=RES):
+    """Orthographic camera 1 m above the origin looking down, a sun from straight above."""
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = res
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    scene.cycles.max_bounces = 0
+    cam_data = bpy.data.cameras.new("Camera")
+    cam_data.type = "ORTHO"
+    cam_data.ortho_scale = view
+    cam = bpy.data.objects.new("Camera", cam_data)
+    cam.location = (0, 0, 1)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = math.pi  # a white Lambert surface facing it renders 1.0
+    sun.data.angle = 0.0
+    scene.collection.objects.link(sun)
+    world = bpy.data.worlds.new("Black")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
+    scene.world = world
+    return scene
+
+
+def checker_image(name, size=64, colorspace="sRGB", float_buffer=False):
+    img = bpy.data.images.new(name, size, size, alpha=True, float_buffer=float_buffer)
+    img.colorspace_settings.name = colorspace
+    yy, xx = np.mgrid[0:size, 0:size]
+    check = ((xx // 8 + yy // 8) % 2).astype(np.float32)
+    px = np.ones((size, size, 4), np.float32)
+    px[..., 0] = 0.1 + 0.8 * check
+    px[..., 1] = 0.2 + 0.5 * (xx / size)
+    px[..., 2] = 0.3
+    img.pixels.foreach_set(px.ravel())
+    img.pack()
+    return img
+
+
+def lambert_material(name):
+    mat = bpy.data.materials.new(name)
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    node = mat.node_tree.nodes["Principled BSDF"]
+    node.inputs["Roughness"].default_value = 1.0
+    node.inputs["Specular IOR Level"].default_value = 0.0
+    return mat, node
+
+
+def add_plane(material, size=2.0, location=(0, 0, 0)):
+    bpy.ops.mesh.primitive_plane_add(size=size, location=location)
+    obj = bpy.context.object
+    obj.data.materials.append(material)
+    return obj
+
+
+@pytest.mark.parametrize("colorspace", ["sRGB", "Non-Color"])
+def test_base_color_texture_matches_cycles(addon, colorspace):
+    scene = top_view_scene()
+    mat, node = lambert_material("Textured")
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = checker_image("checker", colorspace=colorspace)
+    mat.node_tree.links.new(tex.outputs["Color"], node.inputs["Base Color"])
+    add_plane(mat)
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", samples=64)[..., :3]
+    error = np.abs(ours - cycles).mean()
+    print(f"{colorspace}: mean absolute difference {error:.4f}")
+    assert error < 0.02
+    # sRGB decoding: the dark squares' red is 0.1 encoded, 0.0100 linear.
+    low = 0.0100 if colorspace == "sRGB" else 0.1
+    assert np.percentile(ours[..., 0], 5) == pytest.approx(low, abs=0.01)
+
+
+def test_normal_map_matches_cycles(addon):
+    scene = top_view_scene()
+    scene.objects["Sun"].rotation_euler = (math.radians(40), 0, math.radians(30))
+    mat, node = lambert_material("Bumpy")
+    node.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1)
+    img = bpy.data.images.new("normals", 64, 64, float_buffer=True)
+    img.colorspace_settings.name = "Non-Color"
+    yy, xx = np.mgrid[0:64, 0:64]
+    angle = np.where((xx // 16) % 2 == 0, 0.4, -0.4)  # stripes tilted +-23 degrees about y
+    px = np.stack([0.5 + 0.5 * np.sin(angle), np.full_like(angle, 0.5),
+                   0.5 + 0.5 * np.cos(angle), np.ones_like(angle)], -1).astype(np.float32)
+    img.pixels.foreach_set(px.ravel())
+    img.pack()
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    tex.image = img
+    tex.interpolation = "Closest"
+    nmap = mat.node_tree.nodes.new("ShaderNodeNormalMap")
+    mat.node_tree.links.new(tex.outputs["Color"], nmap.inputs["Color"])
+    mat.node_tree.links.new(nmap.outputs["Normal"], node.inputs["Normal"])
+    add_plane(mat)
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., 0]
+    cycles = render_pixels(scene, "CYCLES", samples=64)[..., 0]
+    flat = 0.8 * math.cos(math.radians(40))
+    assert abs(ours.mean() - flat) > 0.02 or ours.std() > 0.05  # the map changes the shading
+    assert np.abs(ours - cycles).mean() < 0.03
+
+
+def test_environment_background_matches_cycles(addon):
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 64, 32
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = 12
+    cam.rotation_euler = (math.radians(80), 0, math.radians(20))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("Env")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = checker_image("sky", size=128, colorspace="Linear Rec.709", float_buffer=True)
+    background = world.node_tree.nodes["Background"]
+    background.inputs["Strength"].default_value = 2.0
+    world.node_tree.links.new(env.outputs["Color"], background.inputs["Color"])
+    scene.world = world
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
+    cycles = render_pixels(scene, "CYCLES", samples=64)[..., :3]
+    assert ours.max() > 1.0  # strength applied
+    assert np.abs(ours - cycles).mean() < 0.03
+
+
+def test_missing_image_and_unsupported_node_warn_once(addon, capfd):
+    scene = top_view_scene()
+    mat, node = lambert_material("Missing")
+    tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+    missing = bpy.data.images.new("gone", 4, 4)
+    missing.source = "FILE"
+    missing.filepath = "//no/such/file.png"
+    tex.image = missing
+    mat.node_tree.links.new(tex.outputs["Color"], node.inputs["Base Color"])
+    noise = mat.node_tree.nodes.new("ShaderNodeTexNoise")
+    mat.node_tree.links.new(noise.outputs["Fac"], node.inputs["Roughness"])
+    node.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1)
+    add_plane(mat)
+    other, _ = lambert_material("Toon")
+    other.node_tree.nodes.remove(other.node_tree.nodes["Principled BSDF"])
+    toon = other.node_tree.nodes.new("ShaderNodeBsdfToon")
+    other.node_tree.links.new(toon.outputs[0],
+                              other.node_tree.nodes["Material Output"].inputs["Surface"])
+    add_plane(other, size=0.5, location=(0, 0, 0.1))
+    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert np.isfinite(px).all()
+    assert px[2, 2, 0] == pytest.approx(0.5, rel=0.02)  # the socket's own value
+    text = capfd.readouterr().out
+    assert text.count("could not be loaded") == 1
+    assert text.count("Noise Texture") == 1
+    assert text.count("(ShaderNodeBsdfToon) is not supported") == 1
+
+
+def test_render_border(addon):
+    scene = top_view_scene()
+    mat, _ = lambert_material("White")
+    add_plane(mat)
+    full = render_pixels(scene, "BO2_LIGHTING", samples=4)
+    scene.render.use_border = True
+    scene.render.border_min_x, scene.render.border_max_x = 0.25, 0.75
+    scene.render.border_min_y, scene.render.border_max_y = 0.5, 1.0
+    scene.render.use_crop_to_border = False
+    part = render_pixels(scene, "BO2_LIGHTING", samples=4)
+    inside = (slice(16, 32), slice(8, 24))  # rows from the bottom, as Blender stores them
+    np.testing.assert_allclose(part[inside], full[inside], atol=1e-6)
+    outside = np.ones((RES, RES), bool)
+    outside[inside] = False
+    assert np.abs(part[outside]).max() == 0.0
+
+
+def test_holdout_and_backface_culling(addon):
+    scene = top_view_scene()
+    scene.objects["Sun"].data.use_shadow = False  # culled faces still cast shadows
+    mat, _ = lambert_material("White")
+    add_plane(mat)
+    hole = add_plane(mat, size=0.5, location=(0.5, 0.5, 0.2))
+    hole.is_holdout = True
+    culled, _ = lambert_material("Culled")
+    culled.use_backface_culling = True
+    back = add_plane(culled, size=0.5, location=(-0.5, -0.5, 0.2))
+    back.rotation_euler = (math.pi, 0, 0)  # facing away from the camera
+    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert px[24, 24, 3] == 0.0 and px[24, 24, :3].max() == 0.0  # holdout: nothing, alpha 0
+    assert px[8, 8, 0] == pytest.approx(0.8, rel=0.02)  # culled plane shows the floor
+    assert px[16, 4, 3] == 1.0
+
+
+def test_passes_reach_the_compositor(addon):
+    scene = top_view_scene()
+    view_layer = bpy.context.view_layer
+    view_layer.use_pass_z = True
+    view_layer.use_pass_diffuse_direct = True
+    view_layer.bo2.use_pass_gloss = True
+    scene.render.engine = "BO2_LIGHTING"
+    if bpy.app.version >= (5, 0, 0):
+        tree = bpy.data.node_groups.new("Compositing", "CompositorNodeTree")
+        scene.compositing_node_group = tree
+    else:
+        scene.use_nodes = True
+        tree = scene.node_tree
+    layers = tree.nodes.new("CompositorNodeRLayers")
+    layers.scene = scene
+    outputs = {s.name for s in layers.outputs if s.enabled}
+    assert {"Image", "Depth", "DiffDir", "Gloss"} <= outputs
+    assert "Albedo" not in outputs
+
+
+def test_empty_scene_tiny_resolution(addon):
+    scene = top_view_scene(res=4)
+    scene.render.resolution_percentage = 25  # 1 x 1 pixel
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1)
+    px = render_pixels(scene, "BO2_LIGHTING", samples=4)
+    assert px.shape == (1, 1, 4)
+    np.testing.assert_allclose(px[0, 0], [0.2, 0.3, 0.4, 1.0], rtol=1e-5)
+
+
+def test_8k_renders_in_tiles(addon):
+    scene = top_view_scene()
+    mat, _ = lambert_material("White")
+    add_plane(mat, size=1.0)
+    scene.render.resolution_x, scene.render.resolution_y = 7680, 4320
+    scene.render.resolution_percentage = 100
+    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert px.shape == (4320, 7680, 4)
+    assert px[2160, 3840, 0] == pytest.approx(0.8, rel=0.02)
+    assert px[0, 0, 3] == 1.0 and px[0, 0, 0] == 0.0
