@@ -207,9 +207,10 @@ def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.Surface
     return params
 
 
-def _shade_sample(frame: Frame, tile, offset, acc: dict) -> None:
-    """Rasterize and shade one sample position over one tile; add it to ``acc``."""
-    scene, cam = frame.scene, frame.scene.camera
+def _raster(frame: Frame, tile, offset):
+    """One sample position over one tile: (tri, bary, depth) per pixel, flattened, and the
+    sample's window coordinates sx, sy (npx,) in the whole frame."""
+    cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
     # Filter-distributed samples reach up to 0.75 px beyond their pixel: rasterize a one-pixel
@@ -217,51 +218,37 @@ def _shade_sample(frame: Frame, tile, offset, acc: dict) -> None:
     margin = (x0 - 1, y0 - 1, x1 + 1, y1 + 1)
     frags = raster.rasterize(_tile_clip(frame.clip, cam.width, cam.height, margin), tw + 2,
                              th + 2, cull=frame.cull, sample_offset=tuple(offset))
-    tri_all = np.ascontiguousarray(frags.tri[1:-1, 1:-1]).reshape(-1)
-    bary_all = frags.bary[1:-1, 1:-1].reshape(-1, 3)
-    depth_all = frags.depth[1:-1, 1:-1].reshape(-1)
-    hit = tri_all >= 0
-    if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind
-        hit[hit] = ~frame.holdout[tri_all[hit]]
-        covered = tri_all >= 0
-    else:
-        covered = hit
+    tri = np.ascontiguousarray(frags.tri[1:-1, 1:-1]).reshape(-1)
+    bary = frags.bary[1:-1, 1:-1].reshape(-1, 3)
+    depth = frags.depth[1:-1, 1:-1].reshape(-1)
     rows, cols = np.divmod(np.arange(tw * th), tw)
-    sx = (x0 + cols + offset[0]).astype(np.float64)
-    sy = (y0 + rows + offset[1]).astype(np.float64)
+    return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1]
 
-    combined = acc["Combined"]
-    miss = ~covered
-    if miss.any() and not scene.settings.film_transparent:  # transparent film: alpha 0, RGB 0
-        combined[miss, :3] += _background(scene, sx[miss], sy[miss])
-        combined[miss, 3] += 1.0
-    if not hit.any():
-        return
 
-    tri = tri_all[hit]
-    bary = bary_all[hit]
+def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
+    """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,).
+
+    returns: {pass name: (N, C)} for every pass but Depth (Combined with alpha 1)
+    """
+    scene, cam = frame.scene, frame.scene.camera
     corners = frame.positions[tri]
     p = np.einsum("nk,nkc->nc", bary, corners)
     n = np.einsum("nk,nkc->nc", bary, frame.normals[tri])
     n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-20)
     geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     geo /= np.maximum(np.linalg.norm(geo, axis=-1, keepdims=True), 1e-30)
-    hx, hy = sx[hit], sy[hit]
-    origin, d = cam.rays(hx, hy)
+    _, d = cam.rays(sx, sy)
     v = -d
     backside = np.sum(geo * v, -1) < 0  # seen from behind: shade the side facing the camera
     geo[backside] *= -1.0
     n[backside] *= -1.0
 
     uv = np.einsum("nk,nkc->nc", bary, frame.uvs[tri])
-    has_uv = frame.has_uv[tri]
     duv_dx = duv_dy = np.zeros_like(uv)
     if frame.tables["textured"][frame.material[tri]].any():
-        o_dx, d_dx = cam.rays(hx + 1.0, hy)
-        o_dy, d_dy = cam.rays(hx, hy + 1.0)
         duv_dx, duv_dy = texture.uv_derivatives(corners, frame.uvs[tri], p,
-                                                o_dx, d_dx, o_dy, d_dy)
-    mat = _materials(frame, tri, uv, duv_dx, duv_dy, has_uv)
+                                                *cam.rays(sx + 1.0, sy), *cam.rays(sx, sy + 1.0))
+    mat = _materials(frame, tri, uv, duv_dx, duv_dy, frame.has_uv[tri])
     if mat.normal_map is not None:
         mapped = np.isfinite(mat.normal_map[:, 0])
         if mapped.any():
@@ -283,18 +270,70 @@ def _shade_sample(frame: Frame, tile, offset, acc: dict) -> None:
                                           mat.rf0[lit], mat.gloss[lit], model=model)
         diffuse[lit] += d_term * irradiance[lit]
         specular[lit] += s_term * irradiance[lit]
+    combined = np.concatenate([diffuse + specular + mat.emission,
+                               np.ones((len(tri), 1), np.float32)], -1)
+    return {"Combined": combined, "Normal": n, "DiffDir": diffuse, "GlossDir": specular,
+            "Emit": mat.emission, "Albedo": mat.albedo, "Specular Color": mat.rf0,
+            "Gloss": mat.gloss[:, None]}
 
-    combined[hit, :3] += diffuse + specular + mat.emission
-    combined[hit, 3] += 1.0
-    acc["DiffDir"][hit] += diffuse
-    acc["GlossDir"][hit] += specular
-    acc["Emit"][hit] += mat.emission
-    acc["Normal"][hit] += n
-    acc["Albedo"][hit] += mat.albedo
-    acc["Specular Color"][hit] += mat.rf0
-    acc["Gloss"][hit, 0] += mat.gloss
-    depth = acc["Depth"][:, 0]
-    depth[hit] = np.minimum(depth[hit], depth_all[hit])
+
+def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
+    """All samples of one tile, accumulated: {pass name: (npx, C)}.
+
+    Shading is done once per pixel and triangle, as in multisample anti-aliasing: every
+    sample position is rasterized, but a sample that sees the same triangle as the pixel's
+    first sample reuses that sample's shading; only samples that see another triangle (edges)
+    are shaded on their own.
+    """
+    scene = frame.scene
+    x0, y0, x1, y1 = tile
+    npx = (x1 - x0) * (y1 - y0)
+    acc = {name: np.zeros((npx, c), np.float32) for name, c in PASSES.items()}
+    depth_acc = acc["Depth"][:, 0]
+    depth_acc[:] = EMPTY_DEPTH
+    first_tri = first = None
+    reuse_count = np.zeros(npx, np.float32)  # samples that reuse the first sample's shading
+    miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
+    constant_world = scene.world.texture is None
+    for offset in offsets:
+        tick()
+        tri, bary, depth, sx, sy = _raster(frame, tile, offset)
+        covered = tri >= 0
+        hit = covered.copy()
+        if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind
+            hit[covered] = ~frame.holdout[tri[covered]]
+        if not scene.settings.film_transparent:  # transparent film: background alpha 0, RGB 0
+            if constant_world:
+                miss_count += ~covered
+            elif (~covered).any():
+                miss = ~covered
+                acc["Combined"][miss, :3] += _background(scene, sx[miss], sy[miss])
+                acc["Combined"][miss, 3] += 1.0
+        if first is None:
+            first_tri, fresh = tri, hit
+            first = {name: np.zeros((npx, c), np.float32) for name, c in PASSES.items()
+                     if name != "Depth"}
+        else:
+            reuse = hit & (tri == first_tri)
+            reuse_count += reuse
+            fresh = hit & ~reuse
+        if fresh.any():
+            values = _shade_points(frame, tri[fresh], bary[fresh], sx[fresh], sy[fresh])
+            target = first if first_tri is tri else acc
+            for name, value in values.items():
+                target[name][fresh] += value
+        depth_acc[hit] = np.minimum(depth_acc[hit], depth[hit])
+    reuse_count += first_tri >= 0  # the first sample itself
+    for name, value in first.items():
+        acc[name] += value * reuse_count[:, None]
+    if constant_world and miss_count.any():
+        color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
+        acc["Combined"] += miss_count[:, None] * color
+    scale = np.float32(1.0 / len(offsets))
+    for name, buf in acc.items():
+        if name != "Depth":
+            buf *= scale
+    return acc
 
 
 def render_tiles(
@@ -314,26 +353,22 @@ def render_tiles(
     frame = prepare(scene, warn, should_stop)
     offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
     todo = tiles(scene)
-    total, done = len(todo) * len(offsets), 0
+    total = len(todo) * len(offsets)
+    state = {"done": 0}
+
+    def tick() -> None:
+        if should_stop is not None and should_stop():
+            raise Cancelled()
+        if progress is not None and state["done"]:
+            progress(state["done"] / total)
+        state["done"] += 1
+
     for tile in todo:
         x0, y0, x1, y1 = tile
-        npx = (x1 - x0) * (y1 - y0)
-        acc = {name: np.zeros((npx, c), np.float32) for name, c in PASSES.items()}
-        acc["Depth"][:] = EMPTY_DEPTH
-        for offset in offsets:
-            if should_stop is not None and should_stop():
-                raise Cancelled()
-            _shade_sample(frame, tile, offset, acc)
-            done += 1
-            if progress is not None:
-                progress(done / total)
-        scale = np.float32(1.0 / len(offsets))
-        out = {}
-        for name, buf in acc.items():
-            if name != "Depth":
-                buf *= scale
-            out[name] = buf.reshape(y1 - y0, x1 - x0, -1)
-        yield tile, out
+        acc = _render_tile(frame, tile, offsets, tick)
+        if progress is not None:
+            progress(state["done"] / total)
+        yield tile, {name: buf.reshape(y1 - y0, x1 - x0, -1) for name, buf in acc.items()}
 
 
 def render_frame(scene: Scene, progress=None, should_stop=None, warn=None) -> dict:

@@ -67,7 +67,7 @@ def test_point_light_matches_closed_form():
 def test_sun_and_background_and_samples():
     sun = Light("SUN", color=np.array([2.0, 1.0, 0.5]), direction=np.array([0.0, 0.0, -1.0]))
     scene = lambert_scene(sun)
-    scene.meshes[0] = floor(size=2.0)  # leaves background visible at the sides
+    scene.meshes[0] = floor(size=1.9)  # edges through pixel centres; background at the sides
     scene.world.color = np.array([0.1, 0.2, 0.3], np.float32)
     scene.settings.samples = 16
     image = pipeline.render_frame(scene)["Combined"]
@@ -78,9 +78,11 @@ def test_sun_and_background_and_samples():
                                rtol=1e-4)
     np.testing.assert_allclose(image[outside, :3],
                                np.broadcast_to([0.1, 0.2, 0.3], (outside.sum(), 3)), rtol=1e-6)
-    # Edge pixels are partly covered: the average of the sample values lies in between.
-    edge = ~inside & ~outside
-    assert ((image[edge, 0] > 0.1) & (image[edge, 0] < 0.6 * 2 / np.pi)).any()
+    # Pixels centred on the edge are half covered: about half of the filter's samples hit.
+    edge = np.abs(np.abs(pixel_centres()[..., 0]) - 0.95) < 1e-6
+    edge &= np.abs(pixel_centres()[..., 1]) < 0.8
+    half = 0.5 * (0.1 + lit[0])
+    np.testing.assert_allclose(image[edge, 0], half, atol=0.25 * (lit[0] - 0.1))
 
 
 def test_film_transparent_alpha():
