@@ -162,14 +162,14 @@ def cmd_render(args) -> int:
     set_output_format(scene.render.image_settings, fmt)
     if args.all_passes:
         enable_all_passes(bpy.context.view_layer, args.engine)
-    start = time.perf_counter()
     with quiet_blender():
+        start = time.perf_counter()
         bpy.ops.render.render(write_still=False)
+        seconds = time.perf_counter() - start
         bpy.data.images["Render Result"].save_render(filepath=str(out.resolve()), scene=scene)
-    seconds = time.perf_counter() - start
     if not out.exists():
         raise CommandError(f"{out}: the render did not produce an image")
-    print(f"{args.engine}: {out} ({seconds:.2f} s)")
+    print(f"{args.engine}: {out} (rendered in {seconds:.2f} s)")
     return 0
 
 

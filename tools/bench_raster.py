@@ -2,8 +2,11 @@
 
 Usage: python tools/bench_raster.py [--repeat N]
 
-Cases: 1e5 small random triangles and a 1e5-triangle screen-filling grid mesh at 1920x1080, and
-one full-screen quad at 3840x2160 and 7680x4320. For each case it prints the best wall time of
+Cases: 1e5 small random triangles and a 1e5-triangle screen-filling grid mesh at 1920x1080; the
+same scenes seen through one 514x514 tile of the 1920x1080 frame (a 512x512 render tile and its
+one-pixel margin, as the renderer rasterizes them: most triangles lie outside the tile), with a
+sample offset and back-face culling; a 1024x1024 shadow-map face of the grid mesh; and one
+full-screen quad at 3840x2160 and 7680x4320. For each case it prints the best wall time of
 ``--repeat`` runs, triangles/s and pixels/s (image pixels per second of that time), the share of
 pixels covered, and the peak of NumPy's allocations during one more run, traced with
 ``tracemalloc`` (the output Fragments included: 20 bytes per pixel). Prints figures only.
@@ -59,16 +62,27 @@ def full_screen_quad():
     return c[[[0, 1, 2], [0, 2, 3]]]
 
 
-def run_case(name, clip, width, height, repeat):
+def tile_view(clip, width, height, tile):
+    """Clip coordinates re-projected so that the window rectangle ``tile`` fills the viewport."""
+    x0, y0, x1, y1 = tile
+    tw, th = x1 - x0, y1 - y0
+    out = clip.copy()
+    w = clip[..., 3]
+    out[..., 0] = clip[..., 0] * (width / tw) + w * ((width - 2.0 * x0) / tw - 1.0)
+    out[..., 1] = clip[..., 1] * (height / th) + w * (1.0 - height / th + 2.0 * y0 / th)
+    return out
+
+
+def run_case(name, clip, width, height, repeat, **kw):
     best = np.inf
     for _ in range(repeat):
         start = time.perf_counter()
-        frags = raster.rasterize(clip, width, height)
+        frags = raster.rasterize(clip, width, height, **kw)
         best = min(best, time.perf_counter() - start)
     covered = float(raster.coverage(frags).mean())
     del frags
     tracemalloc.start()
-    frags = raster.rasterize(clip, width, height)
+    frags = raster.rasterize(clip, width, height, **kw)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     del frags
@@ -94,7 +108,21 @@ def main() -> None:
         1080,
         args.repeat,
     )
-    run_case("1e5-triangle grid mesh", grid_mesh(100_000, 1920, 1080), 1920, 1080, args.repeat)
+    grid = grid_mesh(100_000, 1920, 1080)
+    run_case("1e5-triangle grid mesh", grid, 1920, 1080, args.repeat)
+    tile = (703, 283, 1217, 797)  # a 512x512 tile near the centre and its one-pixel margin
+    for name, clip in (("random", random_triangles(100_000, 1920, 1080)), ("grid mesh", grid)):
+        cull = np.random.default_rng(1).random(len(clip)) < 0.5
+        run_case(
+            f"1e5 {name}, 514x514 tile, culled",
+            tile_view(clip, 1920, 1080, tile),
+            514,
+            514,
+            args.repeat,
+            cull=cull,
+            sample_offset=(0.83, 0.21),
+        )
+    run_case("grid mesh, shadow-map face", grid, 1024, 1024, args.repeat)
     run_case("full-screen quad", full_screen_quad(), 3840, 2160, args.repeat)
     run_case("full-screen quad", full_screen_quad(), 7680, 4320, max(1, args.repeat - 1))
 

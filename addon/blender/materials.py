@@ -6,10 +6,13 @@ mesh's active render UV map), and for Normal a Normal Map node (tangent space) f
 Texture. Surfaces it understands:
 
 - Principled BSDF: base color, metallic, roughness, IOR, specular IOR level, specular tint,
-  transmission, emission and alpha; converted to the talk's albedo, rf0 and gloss per pixel by
+  transmission and emission; converted to the talk's albedo, rf0 and gloss per pixel by
   ``core.surface.principled_to_talk`` (formulas in its module docstring).
 - The BO2 Material node group: Albedo, Specular Color, Gloss, Normal, Emission, Emission
-  Strength, Alpha, read as they are.
+  Strength, read as they are.
+
+Alpha (transparency, cut-outs) is not rendered yet: a material that uses it renders opaque, with
+one warning.
 - Emission: an emitter with no reflection. Diffuse BSDF: albedo = its colour, rf0 = 0.
 
 Anything else (other shader nodes, node chains between a texture and a socket, a UV map other
@@ -144,9 +147,16 @@ def _principled(node, name: str, warnings: list[str]) -> Material:
         ),
         emission=v("Emission Color", np.zeros(3, np.float32)),
         emission_strength=float(emission_strength.default_value) if emission_strength else 0.0,
-        alpha=v("Alpha", 1.0),
         normal_map=_normal_map(node, name, warnings),
     )
+
+
+def _check_alpha(node, name: str, warnings: list[str]) -> None:
+    """Transparency is not rendered: say so once when a material asks for it."""
+    sock = node.inputs.get("Alpha")
+    if sock is not None and (sock.is_linked or float(sock.default_value) < 1.0):
+        warnings.append(f"Material '{name}': Alpha is not supported by BO2 Lighting yet; "
+                        "the surface renders opaque")
 
 
 def _bo2_group(node, name: str, warnings: list[str]) -> Material:
@@ -164,7 +174,6 @@ def _bo2_group(node, name: str, warnings: list[str]) -> Material:
         gloss=v("Gloss", 0.5),
         emission=v("Emission", np.zeros(3, np.float32)),
         emission_strength=float(strength),
-        alpha=v("Alpha", 1.0),
         normal_map=_normal_map(node, name, warnings),
     )
 
@@ -189,8 +198,10 @@ def convert_material(material, warnings: list[str]) -> Material:
     node = _surface_node(material)
     if node is not None and node.type == "BSDF_PRINCIPLED":
         result = _principled(node, name, warnings)
+        _check_alpha(node, name, warnings)
     elif node is not None and is_bo2_material_node(node):
         result = _bo2_group(node, name, warnings)
+        _check_alpha(node, name, warnings)
     elif node is not None and node.type == "EMISSION":
         result = Material(name=name, albedo=np.zeros(3, np.float32),
                           rf0=np.zeros(3, np.float32),

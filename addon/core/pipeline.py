@@ -82,7 +82,7 @@ def _constant_tables(materials: list[Material]) -> dict:
     zero = surface.Lookup(None, None, None)
     params = [surface.evaluate(m, 1, zero) if not m.textured else None for m in materials]
     table = {k: np.zeros((n, c), np.float32) for k, c in
-             (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1), ("alpha", 1))}
+             (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1))}
     for i, p in enumerate(params):
         if p is not None:
             for k in table:
@@ -185,7 +185,7 @@ def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.Surface
     mid = frame.material[tri]
     t = frame.tables
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
-    emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
+    emission, gloss = t["emission"][mid], t["gloss"][mid, 0]
     normal_map = np.full((n, 3), np.nan, np.float32) if t["textured"].any() else None
     strength = np.ones(n, np.float32)
     mats = frame.scene.materials or [Material()]
@@ -198,11 +198,11 @@ def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.Surface
                                 duv_dx[sel], duv_dy[sel])
         p = surface.evaluate(mats[m], len(sel), lookup)
         albedo[sel], rf0[sel], emission[sel] = p.albedo, p.rf0, p.emission
-        gloss[sel], alpha[sel] = p.gloss, p.alpha
+        gloss[sel] = p.gloss
         if p.normal_map is not None:
             normal_map[sel] = np.where(with_uv[:, None], p.normal_map, np.nan)
             strength[sel] = p.normal_strength
-    params = surface.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal_map)
+    params = surface.SurfaceParams(albedo, rf0, gloss, emission, normal_map)
     params.normal_strength = strength
     return params
 

@@ -55,18 +55,20 @@ class Camera:
                  spans x in [c, c + 1), y in [r, r + 1))
         returns: origins (N, 3) on the near plane and unit directions (N, 3), float32
         """
-        ndc = np.stack([2.0 * np.asarray(x, np.float64) / self.width - 1.0,
-                        1.0 - 2.0 * np.asarray(y, np.float64) / self.height], -1)
         inv = np.linalg.inv(self.projection @ self.world_to_camera)
-        near = np.concatenate([ndc, -np.ones_like(ndc[:, :1]), np.ones_like(ndc[:, :1])], -1)
-        far = near.copy()
-        far[:, 2] = 1.0
-        p0, p1 = near @ inv.T, far @ inv.T
-        p0 = p0[:, :3] / p0[:, 3:]
-        p1 = p1[:, :3] / p1[:, 3:]
-        d = p1 - p0
+        # Clip-space points on the near (z = -1) and far (z = 1) planes, as affine functions of
+        # the pixel position: p(x, y) = a x + b y + c.
+        sx, sy = 2.0 / self.width, -2.0 / self.height
+        x = np.asarray(x, np.float64)[:, None]
+        y = np.asarray(y, np.float64)[:, None]
+        ends = []
+        for z in (-1.0, 1.0):
+            c = inv @ np.array([-1.0, 1.0, z, 1.0])
+            h = x * (sx * inv[:, 0]) + y * (sy * inv[:, 1]) + c
+            ends.append(h[:, :3] / h[:, 3:])
+        d = ends[1] - ends[0]
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        return p0.astype(np.float32), d.astype(np.float32)
+        return ends[0].astype(np.float32), d.astype(np.float32)
 
 
 @dataclass
@@ -115,7 +117,6 @@ class Material:
     rf0:      (3,) specular colour: base reflectance at normal incidence, or a TextureInput
     gloss:    gloss in [0, 1] (specular power alpha = 8192^gloss), or a TextureInput
     emission: (3,) emitted colour or a TextureInput, times ``emission_strength``: W/(m^2 sr)
-    alpha:    coverage in [0, 1] (a float or TextureInput); below 0.5 the surface is cut out
     normal_map: optional tangent-space normal map
     principled: when set, albedo and rf0 and gloss come from these inputs instead
     backface_culling: cull faces seen from behind
@@ -127,7 +128,6 @@ class Material:
     gloss: Value = 0.5
     emission: Value = field(default_factory=lambda: np.zeros(3, np.float32))
     emission_strength: float = 1.0
-    alpha: Value = 1.0
     normal_map: NormalMap | None = None
     principled: Principled | None = None
     backface_culling: bool = False
@@ -135,7 +135,7 @@ class Material:
     @property
     def textured(self) -> bool:
         """True when any input is a texture or a normal map."""
-        values = [self.albedo, self.rf0, self.gloss, self.emission, self.alpha, self.normal_map]
+        values = [self.albedo, self.rf0, self.gloss, self.emission, self.normal_map]
         if self.principled is not None:
             p = self.principled
             values += [p.base_color, p.metallic, p.roughness, p.specular_level]

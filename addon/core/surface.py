@@ -36,13 +36,12 @@ class Lookup:
 
 @dataclass
 class SurfaceParams:
-    """The talk's parameters at N points: albedo, rf0, emission (N, 3); gloss, alpha (N,)."""
+    """The talk's parameters at N points: albedo, rf0, emission (N, 3); gloss (N,)."""
 
     albedo: np.ndarray
     rf0: np.ndarray
     gloss: np.ndarray
     emission: np.ndarray
-    alpha: np.ndarray
     normal_map: np.ndarray | None  # (N, 3) tangent-space map values in [0, 1], or None
     normal_strength: float = 1.0
 
@@ -105,7 +104,6 @@ def evaluate(material: Material, n: int, lookup: Lookup) -> SurfaceParams:
         rf0=np.asarray(rf0, np.float32),
         gloss=np.asarray(gloss, np.float32),
         emission=np.asarray(emission, np.float32),
-        alpha=np.asarray(_value(material.alpha, n, lookup, 1), np.float32),
         normal_map=normal_values,
         normal_strength=nmap.strength if nmap is not None else 1.0,
     )
