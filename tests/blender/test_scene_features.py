@@ -117,7 +117,8 @@ def test_normal_map_matches_cycles(addon):
     assert np.abs(ours - cycles).mean() < 0.03
 
 
-def test_environment_background_matches_cycles(addon):
+@pytest.mark.parametrize("rotation", [None, (0.3, -0.2, 0.7)])
+def test_environment_background_matches_cycles(addon, rotation):
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = 64, 32
     scene.render.resolution_percentage = 100
@@ -135,6 +136,12 @@ def test_environment_background_matches_cycles(addon):
     background = world.node_tree.nodes["Background"]
     background.inputs["Strength"].default_value = 2.0
     world.node_tree.links.new(env.outputs["Color"], background.inputs["Color"])
+    if rotation is not None:
+        coords = world.node_tree.nodes.new("ShaderNodeTexCoord")
+        mapping = world.node_tree.nodes.new("ShaderNodeMapping")
+        mapping.inputs["Rotation"].default_value = rotation
+        world.node_tree.links.new(coords.outputs["Generated"], mapping.inputs["Vector"])
+        world.node_tree.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
     scene.world = world
     ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
     cycles = render_pixels(scene, "CYCLES", samples=64)[..., :3]
@@ -170,7 +177,8 @@ def test_missing_image_and_unsupported_node_warn_once(addon, capfd):
     assert text.count("(ShaderNodeBsdfToon) is not supported") == 1
 
 
-def test_render_border(addon):
+@pytest.mark.parametrize("crop", [False, True])
+def test_render_border(addon, crop):
     scene = top_view_scene()
     mat, _ = lambert_material("White")
     add_plane(mat)
@@ -178,9 +186,14 @@ def test_render_border(addon):
     scene.render.use_border = True
     scene.render.border_min_x, scene.render.border_max_x = 0.25, 0.75
     scene.render.border_min_y, scene.render.border_max_y = 0.5, 1.0
-    scene.render.use_crop_to_border = False
-    part = render_pixels(scene, "BO2_LIGHTING", samples=4)
+    scene.render.use_crop_to_border = crop
     inside = (slice(16, 32), slice(8, 24))  # rows from the bottom, as Blender stores them
+    if crop:
+        scene.render.resolution_x = scene.render.resolution_y = RES  # cropped result size
+        part = render_pixels(scene, "BO2_LIGHTING", samples=4, size=(16, 16))
+        np.testing.assert_allclose(part, full[inside], atol=1e-6)
+        return
+    part = render_pixels(scene, "BO2_LIGHTING", samples=4)
     np.testing.assert_allclose(part[inside], full[inside], atol=1e-6)
     outside = np.ones((RES, RES), bool)
     outside[inside] = False

@@ -19,9 +19,10 @@ def engine_available(identifier: str) -> bool:
     return bpy.types.RenderEngine.bl_rna_get_subclass_py(identifier) is not None
 
 
-def render_pixels(scene, engine: str, samples: int = 4) -> np.ndarray:
+def render_pixels(scene, engine: str, samples: int = 4, size=None) -> np.ndarray:
     """Render ``scene`` with ``engine`` and return the Combined pass, (H, W, 4) float32 linear,
-    row 0 at the bottom as Blender stores it."""
+    row 0 at the bottom as Blender stores it. ``size``: (width, height) of the result when it
+    is not the scene's resolution (a cropped render border)."""
     scene.render.engine = engine
     if engine == "CYCLES":
         scene.cycles.samples = samples
@@ -32,6 +33,8 @@ def render_pixels(scene, engine: str, samples: int = 4) -> np.ndarray:
     assert bpy.ops.render.render() == {"FINISHED"}
     width = scene.render.resolution_x * scene.render.resolution_percentage // 100
     height = scene.render.resolution_y * scene.render.resolution_percentage // 100
+    if size is not None:
+        width, height = size
     settings = scene.render.image_settings
     with tempfile.TemporaryDirectory() as tmp:
         path = str(Path(tmp) / "render.exr")
