@@ -261,15 +261,17 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     model = scene.settings.specular_model
     for light, smap in zip(scene.lights, frame.shadow_maps, strict=True):
         l_dir, irradiance = shade.light_incidence(light, p)
-        lit = (np.sum(geo * l_dir, -1) > 0) & (irradiance.max(-1) > 0)
+        # The geometric normal decides what faces the light (a shading normal may not).
+        lit = (np.einsum("nc,nc->n", geo, l_dir) > 0) & (irradiance.max(-1) > 0)
         if not lit.any():
             continue
+        irradiance *= lit[:, None]
         if smap is not None:
             irradiance[lit] *= shadows.shadow_visibility(smap, p[lit], geo[lit])[:, None]
-        d_term, s_term = brdf.direct_brdf(n[lit], v[lit], l_dir[lit], mat.albedo[lit],
-                                          mat.rf0[lit], mat.gloss[lit], model=model)
-        diffuse[lit] += d_term * irradiance[lit]
-        specular[lit] += s_term * irradiance[lit]
+        d_term, s_term = brdf.direct_brdf(n, v, l_dir, mat.albedo, mat.rf0, mat.gloss,
+                                          model=model)
+        diffuse += d_term * irradiance
+        specular += s_term * irradiance
     combined = np.concatenate([diffuse + specular + mat.emission,
                                np.ones((len(tri), 1), np.float32)], -1)
     return {"Combined": combined, "Normal": n, "DiffDir": diffuse, "GlossDir": specular,
@@ -322,7 +324,7 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
             target = first if first_tri is tri else acc
             for name, value in values.items():
                 target[name][fresh] += value
-        depth_acc[hit] = np.minimum(depth_acc[hit], depth[hit])
+        np.minimum(depth_acc, np.where(hit, depth, np.float32(EMPTY_DEPTH)), out=depth_acc)
     reuse_count += first_tri >= 0  # the first sample itself
     for name, value in first.items():
         acc[name] += value * reuse_count[:, None]

@@ -122,6 +122,10 @@ def test_panoramic_camera_is_one_clear_error(addon):
     with pytest.raises(RuntimeError, match="panoramic") as info:
         bpy.ops.render.render()
     assert "Traceback" not in str(info.value)
+    # The session is not broken: the next render works.
+    scene.camera.data.type = "ORTHO"
+    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert px[..., 0].mean() == pytest.approx(1.0 / math.pi, rel=0.01)
 
 
 def test_nan_vertices_still_render(addon, capfd):
