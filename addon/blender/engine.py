@@ -82,7 +82,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 frame, progress=self.update_progress, should_stop=self.test_break,
                 warn=lambda message: self.report({"WARNING"}, message))
             for tile, passes in tiles:
-                self._write_tile(tile, passes, frame)
+                self._write_tile(tile, passes, frame, depsgraph.view_layer.name)
         except pipeline.Cancelled:
             return
         except extract.SceneError as exc:
@@ -99,12 +99,13 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         self.error_set(message)
         self.report({"ERROR"}, message)
 
-    def _write_tile(self, tile, passes: dict, frame) -> None:
+    def _write_tile(self, tile, passes: dict, frame, layer_name: str) -> None:
         x0, y0, x1, y1 = tile
         border = frame.settings.border
         # Blender's result rows run bottom to top, relative to the border when there is one.
         bx, by = (border[0], frame.camera.height - border[3]) if border else (0, 0)
-        result = self.begin_result(x0 - bx, frame.camera.height - y1 - by, x1 - x0, y1 - y0)
+        result = self.begin_result(x0 - bx, frame.camera.height - y1 - by, x1 - x0, y1 - y0,
+                                   layer=layer_name)
         layer = result.layers[0]
         for name, image in passes.items():
             rp = layer.passes.find_by_name(name, "")

@@ -244,8 +244,9 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None):
             continue
         pos, nrm, uvs, mat_index = data
         wpos, wn, wuv = _to_world(pos, nrm, uvs, _matrix(inst.matrix_world))
+        holdout = obj.is_holdout or obj.original.holdout_get(view_layer=depsgraph.view_layer)
         meshes.append(cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
-                                   holdout=bool(getattr(obj, "is_holdout", False))))
+                                   holdout=bool(holdout)))
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
     return cs.Scene(

@@ -206,7 +206,11 @@ def test_holdout_and_backface_culling(addon):
     mat, _ = lambert_material("White")
     add_plane(mat)
     hole = add_plane(mat, size=0.5, location=(0.5, 0.5, 0.2))
-    hole.is_holdout = True
+    holdouts = bpy.data.collections.new("Holdouts")  # holdout set on the view layer
+    scene.collection.children.link(holdouts)
+    scene.collection.objects.unlink(hole)
+    holdouts.objects.link(hole)
+    bpy.context.view_layer.layer_collection.children["Holdouts"].holdout = True
     culled, _ = lambert_material("Culled")
     culled.use_backface_culling = True
     back = add_plane(culled, size=0.5, location=(-0.5, -0.5, 0.2))
