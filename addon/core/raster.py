@@ -4,33 +4,47 @@ The output is the visibility part of a G-buffer: for every pixel, the index of t
 triangle, the perspective-correct barycentric weights of its three corners and the view depth.
 Materials and shading read attributes through ``interpolate`` (deferred shading).
 
-Method, vectorized over triangles and pixels (Python loops run over clip planes, box-size bins
-and chunks only):
+Method, vectorized over triangles and pixels (Python loops run over clip planes, box-height
+bins and chunks only):
 
-1. Trivial rejection of triangles outside one plane of the clip-space frustum, then clipping in
-   homogeneous coordinates (Sutherland & Hodgman 1974; Blinn & Newell 1978, "Clipping using
-   homogeneous coordinates") against the near plane z = -w and against a guard band far outside
-   the screen (which keeps window coordinates small enough for exact integer edge functions).
-   A clipped triangle becomes one or two triangles whose corners carry their barycentric
-   coordinates in the original triangle, so the original corners' attributes interpolate exactly.
-   A crossing point is always computed from the inside corner towards the outside one, so two
-   triangles sharing an edge get bit-identical new corners.
+1. Trivial rejection of triangles outside one plane of the clip-space frustum (per-corner
+   outcodes), then clipping in homogeneous coordinates (Sutherland & Hodgman 1974; Blinn &
+   Newell 1978, "Clipping using homogeneous coordinates") against the near plane z = -w and
+   against a guard band far outside the screen (which keeps window coordinates small enough for
+   exact integer edge functions). A clipped triangle becomes one or two triangles whose corners
+   carry their barycentric coordinates in the original triangle, so the original corners'
+   attributes interpolate exactly. A crossing point is always computed from the inside corner
+   towards the outside one, so two triangles sharing an edge get bit-identical new corners.
 2. Edge functions (Pineda 1988, "A parallel algorithm for polygon rasterization") on window
-   coordinates snapped to a fixed-point grid of 2^-12 pixel (as GPUs do), evaluated exactly in
-   int64, with the top-left fill rule of Direct3D/OpenGL: a sample exactly on an edge belongs to
-   the triangle whose inward edge normal (A, B) has A > 0, or A == 0 and B > 0 (window y down).
+   coordinates snapped to a fixed-point grid of 2^-12 pixel (as GPUs do), exact in int64, with
+   the top-left fill rule of Direct3D/OpenGL: a sample exactly on an edge belongs to the
+   triangle whose inward edge normal (A, B) has A > 0, or A == 0 and B > 0 (window y down).
    That equals moving the sample by (eps, eps^2); with exact arithmetic, triangles sharing an
    edge, and fans around a vertex, cover every sample exactly once.
-3. Binning: each triangle's pixel bounding box is cut into screen tiles; (triangle, tile) pairs
-   whose tile lies outside an edge are dropped, pairs whose tile lies inside all three edges skip
-   the per-sample edge test (hierarchical rasterization, Greene 1996; McCormack & McNamara 2000).
-   Candidate (triangle, pixel) pairs are expanded with ``np.repeat`` in chunks of bounded size.
+3. Scan conversion by spans. On sample row r, an edge with A != 0 bounds the covered columns
+   on one side: c >= floor(m / A) + 1 if A > 0, c <= -floor(m / -A) - 1 if A < 0, with
+   m = floor(-E(0, r) / 2^S) an integer (nested floor divisions) and E(0, r) the edge function
+   at the row's sample of column 0. For images under 2^20 pixels a side, |m| < 2^53 and
+   |A| <= 2^30 + 2^(S+1) are exact in float64, and the correctly rounded quotient m / |A| has
+   the exact floor while it is under 2^23 (a non-integer quotient lies at least 1 / |A| below
+   the next integer, more than half its ulp); beyond, rounding (monotonic) keeps it beyond the
+   image. So the spans equal the per-sample edge tests exactly (larger images divide in int64).
+   Triangles are grouped by box height, rounded up to a few bins, and a group's rows form
+   broadcast (rows, P) arrays; rows outside a triangle get empty spans by themselves. The
+   covered (triangle, pixel) fragments are expanded from the spans in chunks of bounded size.
 4. Depth test with one packed 64-bit key per fragment: quantized z_ndc in the high bits (NDC z is
    affine in window space), the clipped triangle's index in the low bits, resolved per pixel with
-   ``np.minimum.at``; ties go to the lower triangle index whatever the tiling or chunking.
+   ``np.minimum.at``; ties go to the lower triangle index whatever the grouping or chunking. A
+   triangle whose key depth provably stays inside [0, qmax] at its corners skips the far-plane
+   test and the clamp.
 5. Perspective-correct barycentrics of the visible fragments only: screen-space weights divided
    by w and renormalized (Heckbert & Moreton 1991, "Interpolation for polygon texture mapping and
-   shading"; Olano & Greer 1997, "Triangle scan conversion using 2D homogeneous coordinates").
+   shading"; Olano & Greer 1997, "Triangle scan conversion using 2D homogeneous coordinates"),
+   in blocks of rows; a triangle's coefficients are repeated over long runs of its pixels
+   rather than gathered pixel by pixel.
+
+Steps 1 and 2 and the grouping do not depend on the sample offset: their result for the last
+input (compared bit for bit) is kept, so that the samples of one image or tile set it up once.
 
 Conventions: clip space as in OpenGL (x/w, y/w, z/w in [-1, 1]; y up; z = -w is the near plane;
 w > 0 in front of the camera). Pixel (r, c) has row 0 at the top; its sample lies at window
@@ -48,10 +62,17 @@ import numpy as np
 __all__ = ["Fragments", "coverage", "interpolate", "rasterize"]
 
 _EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
-_MAX_CANDIDATES = 1 << 21  # (triangle, pixel) candidates expanded at once: ~0.1 GB of temporaries
+_MAX_CANDIDATES = 1 << 21  # default bound on the (triangle, pixel) fragments expanded at once
 # Fixed point: window coordinates in units of 2^-S pixel, |x| <= 2^G pixels (guard band), with
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
 _FIXED_BITS = 29
+_ROWS = 1 << 15  # (triangle, row) pairs whose spans are computed at once
+_RESOLVE = 1 << 15  # pixels resolved at once
+_CHUNK = 1 << 16  # fragments expanded at once (fewer if max_candidates says so): in cache
+_RUN = 8  # mean length of the runs of one triangle above which a block repeats its values
+_FLOAT_SPANS = 1 << 20  # images under this side get their spans in float64 (exact: see step 3)
+_NEVER = 2.0**-40  # |A| standing in for a horizontal edge: its bound is +-2^39 columns
+_KEEP_BYTES = 1 << 28  # largest set-up kept for the next call
 
 
 @dataclass
@@ -150,127 +171,513 @@ def _clip(verts: np.ndarray, orig: np.ndarray, planes) -> tuple[np.ndarray, np.n
     return verts, orig
 
 
-@dataclass
-class _Setup:
-    """Per clipped triangle set-up (N,); edge i is the one opposite corner i.
-
-    Edge functions in fixed-point units, exact in int64, with the fill rule folded into the
-    constant: a sample is inside iff E_i = ea_i x + eb_i y + ec_i > 0 for i = 0, 1, 2 (a top-left
-    edge has 1 added to ec_i, so that E_i == 0 counts as inside there).
-    """
-
-    ea: np.ndarray  # (3, N) int64
-    eb: np.ndarray
-    ec: np.ndarray
-    za: np.ndarray  # (N,) float64 key depth u = za x + zb y + zc, x and y in pixels, with
-    zb: np.ndarray  # u = (z_ndc + 1) / 2 * qmax (affine in window space)
-    zc: np.ndarray
-
-
 def _bin_size(n: np.ndarray) -> np.ndarray:
     """Round box sides (P,) >= 1 up to 1..8, 12, 16, 24, 32, 48, ... (few bins, < 34% padding)."""
     p2 = np.left_shift(1, np.ceil(np.log2(np.maximum(n, 1))).astype(np.int64))
     return np.where(n <= 8, n, np.where(n <= 3 * p2 // 4, 3 * p2 // 4, p2))
 
 
-def _scan(keybuf, s, pairs, test_edges, width, offset, unit, ibits, qmax, max_candidates):
-    """Test the samples of (triangle, tile) pairs and depth-resolve them into ``keybuf``.
+@dataclass
+class _Setup:
+    """Offset-independent set-up of one input (clip, width, height, cull).
 
-    Pairs are grouped by their box size rounded up (``_bin_size``); one group is expanded by
-    broadcasting to (P, bh, bw) and masked to the real boxes.
+    Per clipped triangle (N,) in scan order: grouped by rows per triangle (``groups`` lists
+    (start, stop, rows)) and by box top within a group. ``sid`` is the triangle's index in the
+    order of the original triangles (the low bits of its depth keys, so that ties go to the lower
+    original index), ``slot`` the inverse permutation.
+
+    Coverage: edge i of a triangle is inside iff E_i = ea_i x + eb_i y + ec_i > 0 in fixed-point
+    units (exact in int64; a top-left edge has 1 added to ec_i, so that E_i == 0 counts as inside
+    there); edge 0 bounds its spans on the left (ea > 0), edge 1 on the right (ea < 0), edge 2 on
+    the left where ea >= 0, else on the right.
+
+    Resolve: ``table`` (9, N) holds qa_i, qb_i, qc_i with q_i = qa_i x + qb_i y + qc_i (x, y in
+    pixels) the screen-space barycentric of corner i divided by its clip w (affine in window
+    space: Olano & Greer 1997); the perspective-correct weight of corner i is q_i / sum(q) and
+    the fragment's clip w is 1 / sum(q).
+    """
+
+    n_degenerate: int
+    n_nan: int
+    n_sub: int = 0
+    ibits: int = 1
+    qmax: float = 0.0
+    groups: list | None = None
+    sid: np.ndarray | None = None  # (N,) uint64
+    slot: np.ndarray | None = None  # (N,) intp
+    ea: np.ndarray | None = None  # (3, N) int64
+    eb: np.ndarray | None = None
+    ec: np.ndarray | None = None
+    eb_f: np.ndarray | None = None  # (3, N) float64 eb
+    ea_abs: np.ndarray | None = None  # (3, N) float64 |ea|, _NEVER where ea == 0
+    half: np.ndarray | None = None  # (3, N) float64 0.5 where ea == 0
+    off_lo: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the left, else -inf
+    off_hi: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the right, else -inf
+    ymin: np.ndarray | None = None  # (N,) int64 top of the fixed-point box
+    rows: np.ndarray | None = None  # (N,) int64 rows scanned per triangle (its group's)
+    za: np.ndarray | None = None  # (N,) float64 key depth u = za x + zb y + zc, x and y in
+    zb: np.ndarray | None = None  # pixels, u = (z_ndc + 1) / 2 * qmax (affine in window space)
+    zc: np.ndarray | None = None
+    tame: np.ndarray | None = None  # (N,) bool: every fragment has 0 <= u <= qmax
+    all_tame: bool = False
+    table: np.ndarray | None = None  # (9, N) float64
+    orig: np.ndarray | None = None  # (N,) int32 original triangle
+    clipped: np.ndarray | None = None  # (N,) bool: corners not the original ones
+    any_clipped: bool = False
+    sub_bary: np.ndarray | None = None  # (K, 3, 3) corners' weights in the original triangle
+    sub_index: np.ndarray | None = None  # (N,) intp row of sub_bary where clipped
+
+
+_ALL_FOUR = np.array([1, 1, 1, 1], np.uint8).view(np.uint32)[0]
+_ALL_BUT_W = np.array([1, 1, 1, 0], np.uint8).view(np.uint32)[0]
+
+
+def _take_columns(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
+    """a[:, idx] of (R, M) ``a``, row by row (much faster than a 2-D take)."""
+    out = np.empty((a.shape[0], idx.size), a.dtype)
+    for r in range(a.shape[0]):
+        np.take(a[r], idx, out=out[r], mode="clip")  # (no buffering)
+    return out
+
+
+def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> _Setup:
+    """Steps 1 and 2 of the module doc, and the grouping of step 3 (see ``rasterize``)."""
+    sub_bits = _FIXED_BITS - guard_bits
+    unit = 1 << sub_bits
+    n_tri = clip.shape[0]
+
+    # 1. Reject non-finite and out-of-frustum triangles; clip against near plane and guard band.
+    finite = np.isfinite(clip).view(np.uint32)[:, :, 0]  # one byte per coordinate
+    finite = (finite[:, 0] & finite[:, 1] & finite[:, 2]) == _ALL_FOUR
+    n_nan = int(n_tri - np.count_nonzero(finite))
+    with np.errstate(invalid="ignore"):
+        w = np.repeat(clip[:, :, 3:4], 4, axis=2)
+        # per-corner outcodes, one byte per coordinate (w's byte masked out): x, y, z > w, < -w
+        above = (clip > w).view(np.uint32)[:, :, 0]
+        below = (clip < np.negative(w, out=w)).view(np.uint32)[:, :, 0]
+    above = above[:, 0] & above[:, 1] & above[:, 2]
+    below = below[:, 0] & below[:, 1] & below[:, 2]
+    outside = ((below & _ALL_BUT_W) | above) != 0
+    orig = np.flatnonzero(finite & ~outside)
+    if orig.size == 0:
+        return _Setup(0, n_nan)
+    # (12, M) float64: row 4 c + k is coordinate k (x, y, z, w) of corner c
+    v = np.array(clip.reshape(n_tri, 12).take(orig, axis=0).T, np.float64, order="C")
+    gx = 2.0 * 2.0**guard_bits / width - 1.0  # |x_ndc| <= gx keeps |x_window| <= 2^guard_bits
+    gy = 2.0 * 2.0**guard_bits / height - 1.0
+    planes = [(2, 1.0, 1.0), (0, -1.0, gx), (0, 1.0, gx), (1, -1.0, gy), (1, 1.0, gy)]
+    cut = np.zeros((3, orig.size), bool)
+    for axis, s, k in planes:
+        cut |= ~(s * v[axis::4] + k * v[3::4] >= 0.0)
+    cut = np.flatnonzero(cut[0] | cut[1] | cut[2])
+    sub_bary = sub_index = None
+    if cut.size:  # the same pieces, in the same order, as clipping all triangles
+        verts = np.empty((cut.size, 3, 7))
+        verts[:, :, :4] = v[:, cut].T.reshape(-1, 3, 4)
+        verts[:, :, 4:] = np.eye(3)
+        cv, co = _clip(verts, orig[cut], planes)
+        whole = np.ones(orig.size, bool)
+        whole[cut] = False
+        v = np.concatenate([v[:, whole], cv[:, :, :4].reshape(-1, 12).T], axis=1)
+        orig = np.concatenate([orig[whole], co])
+        sub_index = np.concatenate([np.full(orig.size - co.size, -1), np.arange(co.size)])
+        sub_bary = cv[:, :, 4:]  # (K, 3 corners, 3 weights of the original corners)
+        order = np.argsort(orig, kind="stable")
+        v, orig, sub_index = _take_columns(v, order), orig[order], sub_index[order]
+
+    # 2. Window coordinates (y down), (3, M): float64 for interpolation, fixed point for coverage.
+    cw = v[3::4]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        usable = (cw[0] > 0.0) & (cw[1] > 0.0) & (cw[2] > 0.0)
+        inv_w = 1.0 / np.where(usable, cw, 1.0)
+        px = (v[0::4] * inv_w + 1.0) * (0.5 * width)
+        py = (1.0 - v[1::4] * inv_w) * (0.5 * height)
+        zn = v[2::4] * inv_w
+    del v, cw
+    lim = float(2 ** (guard_bits + sub_bits) + unit)
+    xi = np.rint(np.clip(px * unit, -lim, lim)).astype(np.int64)
+    yi = np.rint(np.clip(py * unit, -lim, lim)).astype(np.int64)
+    area2 = (xi[1] - xi[0]) * (yi[2] - yi[0]) - (xi[2] - xi[0]) * (yi[1] - yi[0])
+    ok = usable & (area2 != 0)
+    n_degenerate = 0
+    if not ok.all():
+        bad = np.unique(orig[~ok])
+        n_degenerate = int(np.setdiff1d(bad, orig[ok], assume_unique=True).size)
+    if cull is not None:
+        ok &= ~(cull[orig] & (area2 > 0))  # window y is down: area2 > 0 is clockwise with y up
+    keep = np.flatnonzero(ok)
+    n_sub = keep.size
+    if n_sub == 0:
+        return _Setup(n_degenerate, n_nan)
+    ibits = max(1, (n_sub - 1).bit_length())
+    qmax = float(2 ** min(52, 63 - ibits) - 1)
+
+    # 3. Scan order: by rows per triangle (its box's sample rows, rounded up to a bin), then by
+    #    box top for locality. ``keep[order]`` are the kept triangles in scan order.
+    ymin = np.minimum(np.minimum(yi[0], yi[1]), yi[2]).take(keep)
+    ymax = np.maximum(np.maximum(yi[0], yi[1]), yi[2]).take(keep)
+    rows = np.minimum(_bin_size(((ymax - ymin) >> sub_bits) + 1), height)
+    order = np.argsort(rows * (1 << 32) + (ymin - ymin.min()))
+    rows, ymin = rows.take(order), ymin.take(order)
+    bounds = np.flatnonzero(np.diff(rows)) + 1
+    starts = np.concatenate([[0], bounds])
+    stops = np.concatenate([bounds, [n_sub]])
+    groups = [(int(a), int(b), int(rows[a])) for a, b in zip(starts, stops, strict=True)]
+    slot = np.empty(n_sub, np.intp)
+    slot[order] = np.arange(n_sub)
+    sel = keep.take(order)
+    orig, area2 = orig.take(sel), area2.take(sel)
+    xi, yi, px, py, zn, inv_w = (_take_columns(a, sel) for a in (xi, yi, px, py, zn, inv_w))
+
+    sign = np.where(area2 > 0, 1, -1)
+    p1, p2 = [1, 2, 0], [2, 0, 1]  # edge i runs from corner i+1 to corner i+2
+    ea = (yi[p1] - yi[p2]) * sign
+    eb = (xi[p2] - xi[p1]) * sign
+    ec = (xi[p1] * yi[p2] - yi[p1] * xi[p2]) * sign
+    ec += (ea > 0) | ((ea == 0) & (eb > 0))  # top-left rule: E == 0 is inside on these edges
+    # edges in slots (left, right, either): ea > 0 and ea < 0 both occur in every triangle
+    slot0 = np.argmax(ea > 0, axis=0)
+    slot1 = np.argmax(ea < 0, axis=0)
+    perm = np.stack([slot0, slot1, 3 - slot0 - slot1]) * n_sub + np.arange(n_sub)
+    ea, eb, ec = (a.reshape(-1).take(perm) for a in (ea, eb, ec))
+    flat = ea == 0
+    # float64 screen-space barycentrics l_i = la_i x + lb_i y + lc_i, from corner 0
+    e1x, e1y = px[1] - px[0], py[1] - py[0]
+    e2x, e2y = px[2] - px[0], py[2] - py[0]
+    fa = e1x * e2y - e2x * e1y
+    inv_a = np.divide(1.0, fa, out=np.zeros_like(fa), where=fa != 0.0)
+    la = np.stack([np.zeros_like(fa), e2y * inv_a, -e1y * inv_a])
+    lb = np.stack([np.zeros_like(fa), -e2x * inv_a, e1x * inv_a])
+    lc = -la * px[0] - lb * py[0]
+    la[0], lb[0], lc[0] = -la[1] - la[2], -lb[1] - lb[2], 1.0 - lc[1] - lc[2]
+    zs = (zn + 1.0) * (0.5 * qmax)
+    za, zb, zc = (la * zs).sum(0), (lb * zs).sum(0), (lc * zs).sum(0)
+    # u is affine: on the snapped triangle (which holds the covered samples) it lies between its
+    # values at the snapped corners. Where those are in [0, qmax] by far more than any rounding
+    # of u (at the corners, inside the guard band, and at the samples), the fragments need no
+    # far-plane test and no clamp.
+    with np.errstate(invalid="ignore", over="ignore"):
+        u = za * (xi / unit) + zb * (yi / unit) + zc
+        err = (np.abs(za) + np.abs(zb)) * 2.0 ** (guard_bits - 38) + np.abs(zc) * 2.0**-46
+        tame = (u.min(0) - err >= 0.0) & (u.max(0) + err <= qmax)
+    if sub_index is None:
+        clipped = np.zeros(n_sub, bool)
+    else:
+        sub_index = sub_index[sel]
+        clipped = sub_index >= 0
+        clipped[clipped] = ~np.all(sub_bary[sub_index[clipped]] == np.eye(3), axis=(1, 2))
+    return _Setup(
+        n_degenerate=n_degenerate,
+        n_nan=n_nan,
+        n_sub=n_sub,
+        ibits=ibits,
+        qmax=qmax,
+        groups=groups,
+        sid=order.astype(np.uint64),
+        slot=slot,
+        ea=ea,
+        eb=eb,
+        ec=ec,
+        eb_f=eb.astype(np.float64),
+        ea_abs=np.where(flat, _NEVER, np.abs(ea).astype(np.float64)),
+        half=np.where(flat, 0.5, 0.0),
+        off_lo=np.where(ea[2] >= 0, 0.0, -np.inf),
+        off_hi=np.where(ea[2] >= 0, -np.inf, 0.0),
+        ymin=ymin,
+        rows=rows,
+        za=za,
+        zb=zb,
+        zc=zc,
+        tame=tame,
+        all_tame=bool(tame.all()),
+        table=np.concatenate([la * inv_w, lb * inv_w, lc * inv_w]),
+        orig=orig.astype(np.int32),
+        clipped=clipped,
+        any_clipped=bool(clipped.any()),
+        sub_bary=sub_bary,
+        sub_index=sub_index,
+    )
+
+
+_last_setup: list = [None]  # (clip, cull, width, height, guard_bits, _Setup) of the last input
+
+
+def _cached_setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> _Setup:
+    """``_setup`` of the input, reused while the same input (bit for bit) comes again."""
+    last = _last_setup[0]
+    if (
+        last is not None
+        and last[2:5] == (width, height, guard_bits)
+        and last[0].dtype == clip.dtype
+        and last[0].shape == clip.shape
+        and (cull is None) == (last[1] is None)
+        and (cull is None or np.array_equal(cull, last[1]))
+        and np.array_equal(_bits(clip), _bits(last[0]))
+    ):
+        return last[5]
+    setup = _setup(clip, width, height, cull, guard_bits)
+    size = clip.nbytes + sum(a.nbytes for a in vars(setup).values() if isinstance(a, np.ndarray))
+    if size <= _KEEP_BYTES:  # about 350 bytes per triangle
+        copy_cull = None if cull is None else cull.copy()
+        _last_setup[0] = (clip.copy(), copy_cull, width, height, guard_bits, setup)
+    else:
+        _last_setup[0] = None
+    return setup
+
+
+def _bits(a: np.ndarray) -> np.ndarray:
+    """The bits of contiguous float32/float64 ``a`` as unsigned integers (NaN == NaN)."""
+    return a.view(np.uint32 if a.itemsize == 4 else np.uint64)
+
+
+class _Scratch:
+    """Scratch arrays reused by the chunks of one call: a large temporary made afresh for every
+    chunk is mapped and faulted in again, which costs more than the arithmetic on it."""
+
+    def __init__(self):
+        self._bufs = {}
+
+    def get(self, name: str, n: int, dtype=np.float64) -> np.ndarray:
+        """(n,) array ``name`` (contents undefined)."""
+        buf = self._bufs.get(name)
+        if buf is None or buf.size < n:
+            buf = self._bufs[name] = np.empty(max(n, 2 * (0 if buf is None else buf.size)), dtype)
+        return buf[:n]
+
+    def arange(self, n: int, dtype=np.int64) -> np.ndarray:
+        """(n,) 0, 1, ..., n - 1."""
+        name = f"arange {np.dtype(dtype)}"
+        buf = self._bufs.get(name)
+        if buf is None or buf.size < n:
+            buf = self._bufs[name] = np.arange(
+                max(n, 2 * (0 if buf is None else buf.size)), dtype=dtype
+            )
+        return buf[:n]
+
+
+def _spans(s: _Setup, a: int, b: int, nrows: int, r_top, m0, width: int, exact_int, work):
+    """Covered columns of the rows r_top[a:b] + k, k < nrows, of scan slots a:b.
+
+    returns: (L, R) (nrows * P,) float64, k major, with the span lo = L + 1 .. hi = -R - 1
+             clamped to the image (L >= -1, R >= -width); the row is empty unless L + R < -1
+    """
+    shape = (nrows, b - a)
+    size = shape[0] * shape[1]
+    rows = work.get("rows", size).reshape(shape)
+    np.add(r_top[a:b], work.arange(nrows, np.float64)[:, None], out=rows)
+    f = [work.get(f"f{j}", size).reshape(shape) for j in range(3)]
+    for j in range(3):
+        if exact_int:  # m and its floor quotient in int64, horizontal edges by their sign
+            m = m0[j, a:b] - s.eb[j, a:b] * rows.astype(np.int64)
+            q = np.floor_divide(m, np.maximum(np.abs(s.ea[j, a:b]), 1))
+            f[j][...] = np.where(s.ea[j, a:b] == 0, np.where(m < 0, -(2.0**39), 2.0**39), q)
+        else:
+            np.multiply(s.eb_f[j, a:b], rows, out=f[j])
+            np.subtract(m0[j, a:b], f[j], out=f[j])
+            np.divide(f[j], s.ea_abs[j, a:b], out=f[j])
+    lo, hi, f2 = f
+    np.add(f2, s.off_lo[a:b], out=rows)  # edge 2 bounds on the left or on the right
+    np.maximum(lo, rows, out=lo)
+    np.add(f2, s.off_hi[a:b], out=f2)
+    np.maximum(hi, f2, out=hi)
+    np.floor(lo, out=lo)
+    np.floor(hi, out=hi)
+    np.maximum(lo, -1.0, out=lo)
+    np.maximum(hi, -float(width), out=hi)
+    return lo.reshape(-1), hi.reshape(-1)
+
+
+def _scan(keybuf, s: _Setup, width, height, offset, sub_bits, max_candidates):
+    """Expand the covered (triangle, pixel) fragments and depth-resolve them into ``keybuf``.
 
     keybuf: (H * W,) uint64 packed (quantized depth, clipped triangle index); the minimum wins
-    pairs:  (sid, col0, row0, box width, box height), each (P,) int64: the pair's pixel box
-    offset: (ox, oy, oxi, oyi) sample offset in pixels and in fixed-point units; unit = 2^S
+    offset: (ox, oy, oxi, oyi) sample offset in pixels and in fixed-point units
     """
-    sid_p, c0_p, r0_p, bw_p, bh_p = pairs
-    if sid_p.size == 0:
-        return
     ox, oy, oxi, oyi = offset
-    shift = np.uint64(ibits)
-    pw, ph = _bin_size(bw_p), _bin_size(bh_p)
-    group = ph * (int(pw.max()) + 1) + pw
-    order = np.argsort(group, kind="stable")
-    for grp in np.split(order, np.flatnonzero(np.diff(group[order])) + 1):
-        bw, bh = int(pw[grp[0]]), int(ph[grp[0]])
-        step = max(1, max_candidates // (bw * bh))
-        dx, dy = np.arange(bw), np.arange(bh)[:, None]
-        for lo in range(0, grp.size, step):
-            g = grp[lo : lo + step]
-            sid = sid_p[g][:, None, None]
-            col = c0_p[g][:, None, None] + dx  # (P, 1, bw)
-            row = r0_p[g][:, None, None] + dy  # (P, bh, 1)
-            mask = None
-            if bw > bw_p[g].min() or bh > bh_p[g].min():
-                mask = (dx < bw_p[g][:, None, None]) & (dy < bh_p[g][:, None, None])
-            if test_edges:
-                xs, ys = col * unit + oxi, row * unit + oyi
-                for i in range(3):
-                    e = s.ea[i][sid] * xs + (s.eb[i][sid] * ys + s.ec[i][sid])
-                    mask = e > 0 if mask is None else mask & (e > 0)
-                del e
-            u = s.za[sid] * (col + ox) + s.zb[sid] * (row + oy)
-            u += s.zc[sid]
-            front = u <= qmax  # far plane z_ndc <= 1 (also drops NaN)
-            mask = front if mask is None else mask & front
+    # first sample row at or below each box's top; the window of rows scanned, on the image
+    r0 = np.minimum((s.ymin - oyi + ((1 << sub_bits) - 1)) >> sub_bits, height)
+    r_top = np.maximum(np.minimum(r0, height - s.rows), 0)
+    # m0 = floor(-E(column 0, row 0) / 2^S) per edge; on row r, m = m0 - eb r
+    m0 = s.eb * oyi
+    m0 += s.ec
+    m0 += s.ea * oxi
+    np.negative(m0, out=m0)
+    m0 >>= sub_bits
+    exact_int = max(width, height) >= _FLOAT_SPANS
+    r_top_f = r_top if exact_int else r_top.astype(np.float64)
+    if not exact_int:
+        m0 = m0.astype(np.float64)
+        m0 += s.half
+    work = _Scratch()
+    chunk = min(max_candidates, _CHUNK)
+    for start, stop, nrows in s.groups:
+        step = max(1, _ROWS // nrows)
+        for a in range(start, stop, step):
+            b = min(a + step, stop)
+            lo, hi = _spans(s, a, b, nrows, r_top_f, m0, width, exact_int, work)
+            np.add(lo, hi, out=hi)
+            sel = np.flatnonzero(hi < -1.0)
+            if sel.size == 0:
+                continue
+            n = (-1.0 - hi[sel]).astype(np.int64)  # span lengths
+            col = lo[sel].astype(np.int64) + 1  # span starts
+            k = sel // (b - a)  # row in the window
+            tri = sel - k * (b - a)  # scan slot - a
+            row = r_top[a:b].take(tri) + k
+            tri += a
+            _fragments(keybuf, s, tri, row, col, n, width, ox, oy, chunk, work)
+
+
+def _fragments(keybuf, s: _Setup, tri, row, col, n, width, ox, oy, chunk, work):
+    """Depth-resolve the spans (row, col .. col + n - 1) of scan slots ``tri`` into ``keybuf``."""
+    end = np.cumsum(n)
+    cuts = [0]  # chunks of at most ``chunk`` fragments (or one row)
+    while cuts[-1] < n.size:
+        done = end[cuts[-1] - 1] if cuts[-1] else 0
+        nxt = int(np.searchsorted(end, done + chunk, side="right"))
+        cuts.append(max(nxt, cuts[-1] + 1))
+    shift = np.uint64(s.ibits)
+    za, zc, sid = s.za.take(tri), s.zc.take(tri), s.sid.take(tri)
+    zb = s.zb.take(tri) * (row + oy)
+    first = end - n
+    for i, j in zip(cuts[:-1], cuts[1:], strict=True):
+        nn = n[i:j]
+        total = int(end[j - 1] - first[i])
+        # the chunk's fragment k lies in column c0 + k of its row (c0: the row's first column
+        # less its first fragment's place in the chunk)
+        c0 = col[i:j] - (first[i:j] - first[i])
+        if total >= _RUN * (j - i):  # long spans: repeat the rows' values
+
+            def spread(v, name, dtype, nn=nn):
+                return np.repeat(v, nn)
+
+        else:  # short spans: gather them by the row of each fragment
+            rid = np.repeat(work.arange(j - i, np.intp), nn)
+
+            def spread(v, name, dtype, rid=rid, total=total):
+                return np.take(v, rid, out=work.get(name, total, dtype), mode="clip")
+
+        k = work.arange(total)
+        pix = spread(row[i:j] * width + c0, "pix", np.intp)
+        pix += k
+        c = spread(c0, "col", np.int64)
+        c += k
+        u = np.add(c, ox, out=work.get("u", total))
+        u *= spread(za[i:j], "tmp", np.float64)
+        u += spread(zb[i:j], "tmp", np.float64)
+        u += spread(zc[i:j], "tmp", np.float64)
+        tame = s.all_tame or s.tame.take(tri[i:j]).all()
+        if not tame:
+            front = np.less_equal(u, s.qmax, out=work.get("front", total, bool))  # far plane
             np.maximum(u, 0.0, out=u)  # z_ndc >= -1 up to rounding
-            with np.errstate(invalid="ignore"):  # values past the far plane are masked out
-                key = u.astype(np.uint64)
-            key <<= shift
-            key |= sid.astype(np.uint64)
-            pix = row * width + col
-            del u, front
-            if mask.all():
-                np.minimum.at(keybuf, pix.reshape(-1), key.reshape(-1))
+        key = work.get("key", total, np.uint64)
+        with np.errstate(invalid="ignore"):  # values past the far plane are masked out
+            np.copyto(key, u, casting="unsafe")
+        key <<= shift
+        key |= spread(sid[i:j], "sid", np.uint64)
+        if tame or front.all():
+            np.minimum.at(keybuf, pix, key)
+        else:
+            np.minimum.at(keybuf, pix[front], key[front])
+
+
+def _resolve(s: _Setup, keybuf, frags: Fragments, ox, oy) -> None:
+    """Original triangle, perspective-correct weights and clip w of every pixel (``frags.tri``
+    and ``frags.depth`` uninitialized, ``frags.bary`` zero).
+
+    Blocks of whole rows: a mostly covered block is computed at every pixel, written whole and
+    its empty pixels written again; another block is filled as empty, then written at its
+    covered pixels.
+    """
+    height, width = frags.tri.shape
+    keys = keybuf.reshape(height, width)
+    tri_out = frags.tri.reshape(-1)
+    depth_out = frags.depth.reshape(-1)
+    bary_out = frags.bary.reshape(-1, 3)
+    idx_mask = np.uint64((1 << s.ibits) - 1)
+    xs = np.arange(width) + ox
+    step = max(1, _RESOLVE // width)
+    work = _Scratch()
+    coef = work.get("coef", 9 * step * width).reshape(9, -1)
+    q = work.get("q", 3 * step * width).reshape(3, -1)
+    for r0 in range(0, height, step):
+        r1 = min(r0 + step, height)
+        blk = keys[r0:r1]
+        hit = np.not_equal(blk, _EMPTY, out=work.get("hit", blk.size, bool).reshape(blk.shape))
+        n_hit = int(np.count_nonzero(hit))
+        dense = 2 * n_hit >= blk.size
+        if not dense:  # (tri and depth are not initialized; bary is zero)
+            tri_out[r0 * width : r1 * width] = -1
+            depth_out[r0 * width : r1 * width] = np.inf
+            if n_hit == 0:
+                continue
+        ys = np.arange(r0, r1) + oy
+        if dense:  # (rows, W): every pixel, then the empty ones again
+            shape = blk.shape
+            low = np.bitwise_and(
+                blk.reshape(-1), idx_mask, out=work.get("low", blk.size, np.uint64)
+            )
+            sid = work.get("sid", blk.size, np.intp)
+            np.copyto(sid, low, casting="unsafe")  # beyond the last triangle where empty
+            slot = np.take(s.slot, sid, out=work.get("slot", blk.size, np.intp), mode="clip")
+            x, y = xs, ys[:, None]
+            at = slice(r0 * width, r1 * width)
+        else:
+            at = np.flatnonzero(hit)
+            shape = at.shape
+            slot = s.slot.take((blk.reshape(-1).take(at) & idx_mask).astype(np.intp))
+            row = at // width
+            x, y = xs.take(at - row * width), ys.take(row)
+            at += r0 * width
+        m = slot.size
+        runs = None
+        if dense and _RUN * np.count_nonzero(slot[1:width] != slot[: width - 1]) < width:
+            # long runs of one triangle (on the first row): cheaper to repeat than to gather
+            runs = np.flatnonzero(slot[1:] != slot[:-1]) + 1
+            runs = None if _RUN * (runs.size + 1) > m else np.concatenate([[0], runs])
+        if runs is None:
+            c = coef[:, :m]
+            for i in range(9):
+                np.take(s.table[i], slot, out=c[i], mode="clip")  # (no buffering)
+            tri = s.orig.take(slot)
+        else:
+            run_len = np.diff(runs, append=m)
+            run_slot = slot.take(runs)
+            c = [np.repeat(s.table[i].take(run_slot), run_len) for i in range(9)]
+            tri = np.repeat(s.orig.take(run_slot), run_len)
+        qm = q[:, :m]
+        with np.errstate(divide="ignore", invalid="ignore"):  # only at empty pixels
+            for i in range(3):
+                qi, cy = qm[i].reshape(shape), c[3 + i].reshape(shape)
+                np.multiply(c[i].reshape(shape), x, out=qi)
+                qi += np.multiply(cy, y, out=cy)
+                qi += c[6 + i].reshape(shape)
+            np.maximum(qm, 0.0, out=qm)  # inside the snapped triangle, just outside in float64
+            inv_q = np.add(qm[0], qm[1], out=work.get("inv", m))
+            inv_q += qm[2]
+            np.divide(1.0, inv_q, out=inv_q)
+            depth_out[at] = inv_q
+            tri_out[at] = tri
+            cl = ()
+            if s.any_clipped:
+                cl = s.clipped.take(slot)
+                cl = np.flatnonzero(cl & hit.reshape(-1) if dense else cl)
+            if len(cl) == 0:  # interleaved here, then written in one pass
+                bary = work.get("bary", 3 * m, np.float32).reshape(m, 3)
+                for i in range(3):
+                    np.multiply(qm[i], inv_q, out=bary[:, i], casting="same_kind")
             else:
-                np.minimum.at(keybuf, pix[mask], key[mask])
-
-
-@dataclass
-class _Interp:
-    """Per clipped triangle (N,) float64 interpolation set-up, x and y in pixels.
-
-    q_i = qa_i x + qb_i y + qc_i is the screen-space barycentric of corner i divided by its clip
-    w (affine in window space: Olano & Greer 1997); the perspective-correct weight of corner i
-    is q_i / sum(q) and the fragment's clip w is 1 / sum(q).
-    """
-
-    qa: np.ndarray  # (3, N)
-    qb: np.ndarray
-    qc: np.ndarray
-    orig: np.ndarray  # (N,) int32 original triangle
-    sub_bary: np.ndarray  # (N, 3, 3) corners' weights in the original triangle
-    clipped: np.ndarray  # (N,) bool: sub_bary is not the identity
-
-
-def _resolve(ip: _Interp, sid, xs, ys, tri_out, bary_out, depth_out, where) -> None:
-    """Write original triangle, perspective-correct weights and clip w of samples (n,).
-
-    sid: (n,) clipped triangle; xs, ys: (n,) float64 sample positions, pixels;
-    tri_out (M,), bary_out (M, 3), depth_out (M,): flat outputs written at ``where``.
-    """
-    q = []
-    for i in range(3):
-        qi = ip.qa[i][sid] * xs
-        qi += ip.qb[i][sid] * ys
-        qi += ip.qc[i][sid]
-        np.maximum(qi, 0.0, out=qi)  # inside the snapped triangle, just outside in float64
-        q.append(qi)
-    inv_q = q[0] + q[1]
-    inv_q += q[2]
-    np.divide(1.0, inv_q, out=inv_q)
-    depth_out[where] = inv_q
-    tri_out[where] = ip.orig[sid]
-    cl = np.flatnonzero(ip.clipped[sid])
-    if cl.size == 0:
-        for i in range(3):
-            q[i] *= inv_q
-            bary_out[where, i] = q[i]
-        return
-    bary = np.stack(q, axis=1)
-    bary *= inv_q[:, None]
-    bary[cl] = np.einsum("nk,nkj->nj", bary[cl], ip.sub_bary[sid[cl]])
-    bary_out[where] = bary
+                qm *= inv_q
+                bary = np.ascontiguousarray(qm.T)
+                sub = s.sub_bary[s.sub_index[slot[cl]]]
+                bary[cl] = np.einsum("nk,nkj->nj", bary[cl], sub)
+        bary_out[at] = bary
+        if dense and n_hit < blk.size:
+            empty = np.flatnonzero(~hit.reshape(-1)) + r0 * width
+            depth_out[empty] = np.inf
+            tri_out[empty] = -1
+            for i in range(3):
+                bary_out[empty, i] = 0.0
 
 
 def rasterize(
@@ -290,15 +697,17 @@ def rasterize(
     cull:          None, or (T,) bool: True where the triangle's back face (clockwise corners in
                    window space with y up) is culled
     sample_offset: (ox, oy) sample position inside the pixel, in pixels from its top-left corner;
-                   call several times with different offsets for supersampling
-    tile:          side of the square screen tiles used for binning, pixels
-    max_candidates: upper bound on the (triangle, pixel) candidates expanded at once
+                   call several times with different offsets for supersampling (the set-up of
+                   the last input, some 350 bytes per triangle up to 256 MB, is kept and reused
+                   while the same clip, size and cull come again)
+    tile:          unused (spans need no screen tiles; results never depended on it)
+    max_candidates: upper bound on the (triangle, pixel) fragments expanded at once (at least
+                   one row of one triangle)
     returns:       Fragments; triangles with NaN/inf corners or zero window-space area are skipped
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
     """
     width, height = int(width), int(height)
-    tile = max(1, int(tile))
     max_candidates = max(1, int(max_candidates))
     clip = np.asarray(clip)
     if clip.ndim != 3 or clip.shape[1:] != (3, 4):
@@ -310,153 +719,28 @@ def rasterize(
             raise ValueError(f"cull must have shape ({n_tri},), got {cull.shape}")
     if width <= 0 or height <= 0 or n_tri == 0:
         return _empty_fragments(max(height, 0), max(width, 0))
+    if clip.dtype != np.float32:
+        clip = clip.astype(np.float64, copy=False)
+    clip = np.ascontiguousarray(clip)
     guard_bits = max(17, max(width, height).bit_length() + 1)
     sub_bits = _FIXED_BITS - guard_bits
     unit = 1 << sub_bits
     ox, oy = (float(o) for o in sample_offset)
     oxi, oyi = round(ox * unit), round(oy * unit)
 
-    # 1. Reject non-finite and out-of-frustum triangles; clip against near plane and guard band.
-    v = clip.astype(np.float64)
-    finite = np.isfinite(v).all(axis=(1, 2))
-    n_nan = int(n_tri - np.count_nonzero(finite))
-    x, y, z, w = v[..., 0], v[..., 1], v[..., 2], v[..., 3]
-    with np.errstate(invalid="ignore"):
-        outside = (
-            (x > w).all(1)
-            | (x < -w).all(1)
-            | (y > w).all(1)
-            | (y < -w).all(1)
-            | (z > w).all(1)
-            | (z < -w).all(1)
-        )
-    orig = np.flatnonzero(finite & ~outside)
-    if orig.size == 0:
-        return _empty_fragments(height, width, 0, n_nan)
-    verts = np.concatenate([v[orig], np.broadcast_to(np.eye(3), (orig.size, 3, 3))], axis=2)
-    del v, x, y, z, w, outside
-    gx = 2.0 * 2.0**guard_bits / width - 1.0  # |x_ndc| <= gx keeps |x_window| <= 2^guard_bits
-    gy = 2.0 * 2.0**guard_bits / height - 1.0
-    planes = [(2, 1.0, 1.0), (0, -1.0, gx), (0, 1.0, gx), (1, -1.0, gy), (1, 1.0, gy)]
-    verts, orig = _clip(verts, orig, planes)
-
-    # 2. Window coordinates (y down): float64 for interpolation, fixed point for coverage.
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        usable = (verts[:, :, 3] > 0.0).all(1)
-        inv_w = 1.0 / np.where(usable[:, None], verts[:, :, 3], 1.0)
-        px = (verts[:, :, 0] * inv_w + 1.0) * (0.5 * width)
-        py = (1.0 - verts[:, :, 1] * inv_w) * (0.5 * height)
-        zn = verts[:, :, 2] * inv_w
-    lim = float(2 ** (guard_bits + sub_bits) + unit)
-    xi = np.rint(np.clip(px * unit, -lim, lim)).astype(np.int64)
-    yi = np.rint(np.clip(py * unit, -lim, lim)).astype(np.int64)
-    area2 = (xi[:, 1] - xi[:, 0]) * (yi[:, 2] - yi[:, 0]) - (xi[:, 2] - xi[:, 0]) * (
-        yi[:, 1] - yi[:, 0]
-    )
-    ok = usable & (area2 != 0)
-    bad = np.unique(orig[~ok])
-    n_degenerate = int(np.setdiff1d(bad, orig[ok], assume_unique=True).size)
-    if cull is not None:
-        ok &= ~(cull[orig] & (area2 > 0))  # window y is down: area2 > 0 is clockwise with y up
-    keep = np.flatnonzero(ok)
-    if keep.size == 0:
-        return _empty_fragments(height, width, n_degenerate, n_nan)
-    verts, orig, inv_w, px, py, zn = (a[keep] for a in (verts, orig, inv_w, px, py, zn))
-    xi, yi, area2 = xi[keep], yi[keep], area2[keep]
-    n_sub = len(orig)
-    ibits = max(1, (n_sub - 1).bit_length())
-    qmax = float(2 ** min(52, 63 - ibits) - 1)
-
-    sign = np.where(area2 > 0, 1, -1)[None, :]
-    p1, p2 = [1, 2, 0], [2, 0, 1]  # edge i runs from corner i+1 to corner i+2
-    ea = (yi[:, p1] - yi[:, p2]).T * sign
-    eb = (xi[:, p2] - xi[:, p1]).T * sign
-    ec = (xi[:, p1] * yi[:, p2] - yi[:, p1] * xi[:, p2]).T * sign
-    ec += (ea > 0) | ((ea == 0) & (eb > 0))  # top-left rule: E == 0 is inside on these edges
-    # float64 screen-space barycentrics l_i = la_i x + lb_i y + lc_i, from corner 0
-    e1x, e1y = px[:, 1] - px[:, 0], py[:, 1] - py[:, 0]
-    e2x, e2y = px[:, 2] - px[:, 0], py[:, 2] - py[:, 0]
-    fa = e1x * e2y - e2x * e1y
-    inv_a = np.divide(1.0, fa, out=np.zeros_like(fa), where=fa != 0.0)
-    la = np.stack([np.zeros_like(fa), e2y * inv_a, -e1y * inv_a])
-    lb = np.stack([np.zeros_like(fa), -e2x * inv_a, e1x * inv_a])
-    lc = -la * px[:, 0] - lb * py[:, 0]
-    la[0], lb[0], lc[0] = -la[1] - la[2], -lb[1] - lb[2], 1.0 - lc[1] - lc[2]
-    zs = (zn.T + 1.0) * (0.5 * qmax)
-    setup = _Setup(
-        ea=np.ascontiguousarray(ea),
-        eb=np.ascontiguousarray(eb),
-        ec=np.ascontiguousarray(ec),
-        za=(la * zs).sum(0),
-        zb=(lb * zs).sum(0),
-        zc=(lc * zs).sum(0),
-    )
-
-    # 3. Pixel boxes, cut into (triangle, tile) pairs; classify pairs against the edges, exactly.
-    c0 = np.clip(-((oxi - xi.min(1)) // unit), 0, width)
-    c1 = np.clip((xi.max(1) - oxi) // unit, -1, width - 1)
-    r0 = np.clip(-((oyi - yi.min(1)) // unit), 0, height)
-    r1 = np.clip((yi.max(1) - oyi) // unit, -1, height - 1)
-    tx0, ty0 = c0 // tile, r0 // tile
-    ntx = np.maximum(c1 // tile - tx0 + 1, 0)
-    npair = ntx * np.maximum(r1 // tile - ty0 + 1, 0)
-    npair[(c0 > c1) | (r0 > r1)] = 0
-    sid = np.repeat(np.arange(n_sub, dtype=np.int64), npair)
-    k = np.arange(sid.size, dtype=np.int64) - np.repeat(np.cumsum(npair) - npair, npair)
-    tyy = ty0[sid] + k // ntx[sid]
-    txx = tx0[sid] + k % ntx[sid]
-    del k
-    pc0 = np.maximum(c0[sid], txx * tile)
-    pc1 = np.minimum(c1[sid], txx * tile + tile - 1)
-    pr0 = np.maximum(r0[sid], tyy * tile)
-    pr1 = np.minimum(r1[sid], tyy * tile + tile - 1)
-    xlo, xhi = pc0 * unit + oxi, pc1 * unit + oxi
-    ylo, yhi = pr0 * unit + oyi, pr1 * unit + oyi
-    reject = np.zeros(sid.size, bool)
-    full = np.ones(sid.size, bool)
-    for i in range(3):
-        a, b, c = setup.ea[i][sid], setup.eb[i][sid], setup.ec[i][sid]
-        reject |= a * np.where(a > 0, xhi, xlo) + b * np.where(b > 0, yhi, ylo) + c <= 0
-        full &= a * np.where(a > 0, xlo, xhi) + b * np.where(b > 0, ylo, yhi) + c > 0
-    del xlo, xhi, ylo, yhi
-    order = np.argsort(tyy * (width // tile + 1) + txx, kind="stable")  # tile order: locality
-    order = order[~reject[order]]
-    bw, bh = pc1 - pc0 + 1, pr1 - pr0 + 1
-
-    # 4. Expand samples, test edges where needed, resolve depth with a packed key.
+    s = _cached_setup(clip, width, height, cull, guard_bits)
+    if s.n_sub == 0:
+        return _empty_fragments(height, width, s.n_degenerate, s.n_nan)
     keybuf = np.full(height * width, _EMPTY, np.uint64)
-    for sel, test in ((order[full[order]], False), (order[~full[order]], True)):
-        pairs = (sid[sel], pc0[sel], pr0[sel], bw[sel], bh[sel])
-        _scan(
-            keybuf, setup, pairs, test, width, (ox, oy, oxi, oyi), unit, ibits, qmax, max_candidates
-        )
-    del sid, txx, tyy, pc0, pc1, pr0, pr1, reject, full, order, bw, bh
-
-    # 5. Perspective-correct barycentrics of the visible fragments, in blocks of pixels.
-    frags = _empty_fragments(height, width, n_degenerate, n_nan)
-    sub_bary = verts[:, :, 4:]  # (N, 3 corners, 3 weights of the original corners)
-    interp = _Interp(
-        qa=la * inv_w.T,
-        qb=lb * inv_w.T,
-        qc=lc * inv_w.T,
-        orig=orig.astype(np.int32),
-        sub_bary=sub_bary,
-        clipped=~np.all(sub_bary == np.eye(3), axis=(1, 2)),
+    _scan(keybuf, s, width, height, (ox, oy, oxi, oyi), sub_bits, max_candidates)
+    frags = Fragments(  # tri and depth are written at every pixel by _resolve
+        tri=np.empty((height, width), np.int32),
+        bary=np.zeros((height, width, 3), np.float32),
+        depth=np.empty((height, width), np.float32),
+        skipped_degenerate=s.n_degenerate,
+        skipped_nan=s.n_nan,
     )
-    tri_f = frags.tri.reshape(-1)
-    bary_f = frags.bary.reshape(-1, 3)
-    depth_f = frags.depth.reshape(-1)
-    idx_mask = np.uint64((1 << ibits) - 1)
-    for lo in range(0, height * width, max_candidates):
-        blk = keybuf[lo : lo + max_candidates]
-        hit = np.flatnonzero(blk != _EMPTY)
-        if hit.size == 0:
-            continue
-        s_id = (blk[hit] & idx_mask).astype(np.intp)
-        hit += lo
-        row, col = np.divmod(hit, width)
-        where = slice(lo, lo + blk.size) if hit.size == blk.size else hit  # full block: slices
-        _resolve(interp, s_id, col + ox, row + oy, tri_f, bary_f, depth_f, where)
+    _resolve(s, keybuf, frags, ox, oy)
     return frags
 
 

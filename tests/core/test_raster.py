@@ -555,3 +555,75 @@ def test_many_tiny_triangles_independent_of_tile_size_and_chunking():
     np.testing.assert_array_equal(a.tri, b.tri)
     np.testing.assert_array_equal(a.bary, b.bary)
     np.testing.assert_array_equal(a.depth, b.depth)
+
+
+def test_small_chunks_give_the_same_fragments():
+    w, h = 64, 48
+    clip = random_tiny_triangles(300, w, h, seed=11)
+    clip[:3] = win_to_clip(np.array([[[-20.0, -9.0], [90.0, 3.0], [30.0, 70.0]]] * 3), w, h)
+    a = raster.rasterize(clip, w, h, sample_offset=(0.2, 0.9))
+    b = raster.rasterize(clip, w, h, sample_offset=(0.2, 0.9), max_candidates=1)  # a row at once
+    np.testing.assert_array_equal(a.tri, b.tri)
+    np.testing.assert_array_equal(a.bary, b.bary)
+    np.testing.assert_array_equal(a.depth, b.depth)
+
+
+@pytest.mark.parametrize("offset", [(0.5, 0.5), (-0.25, 1.25), (1.0, 0.0)])
+def test_float_span_ends_equal_integer_division(monkeypatch, offset):
+    """Span ends are floor quotients computed in float64, exact by the bound in the module doc;
+    images of 2^20 pixels a side or more divide in int64: the same fragments either way."""
+    w, h = 160, 120
+    rng = np.random.default_rng(12)
+    parts = [random_tiny_triangles(3000, w, h, seed=13)]
+    pts = rng.uniform(-2e5, 2e5, (40, 3, 2))  # large, through the guard band
+    parts.append(win_to_clip(pts, w, h, z=rng.uniform(-0.9, 0.9, (40, 3))).astype(np.float32))
+    grid = np.stack(np.meshgrid(np.arange(0.5, w, 7.0), np.arange(0.5, h, 5.0)), -1)
+    p = grid[:-1, :-1].reshape(-1, 2)  # corners on sample centres: edges through samples
+    q, r = p + [7.0, 0.0], p + [0.0, 5.0]
+    parts.append(win_to_clip(np.stack([p, q, r], 1), w, h, z=0.1).astype(np.float32))
+    clip = np.concatenate(parts)
+    a = raster.rasterize(clip, w, h, sample_offset=offset)
+    monkeypatch.setattr(raster, "_FLOAT_SPANS", 1)
+    b = raster.rasterize(clip, w, h, sample_offset=offset)
+    assert raster.coverage(a).mean() > 0.5
+    np.testing.assert_array_equal(a.tri, b.tri)
+    np.testing.assert_array_equal(a.bary, b.bary)
+    np.testing.assert_array_equal(a.depth, b.depth)
+
+
+def test_image_wider_than_float_spans():
+    w, h = (1 << 20) + 16, 3
+    tri = np.array([[3.3, 0.1], [w - 2.6, 1.2], [200.9, 2.95]])
+    cov = raster.coverage(raster.rasterize(win_to_clip(tri[None], w, h), w, h))
+    xs, ys = sample_grid(w, h)
+    side = inside_convex(tri, xs, ys, margin=0.05)
+    assert (side == 1).sum() > 1000
+    assert np.all(cov[side == 1]) and not np.any(cov[side == -1])
+
+
+def test_set_up_kept_for_the_same_input_only():
+    """``rasterize`` keeps the set-up of the last input: the same input (another array, another
+    sample offset), the same array changed in place, another cull mask or another size must
+    all give what a first call gives."""
+    w, h = 64, 48
+    clip = random_tiny_triangles(400, w, h, seed=14)
+    cull = np.random.default_rng(15).random(len(clip)) < 0.5
+    other = random_tiny_triangles(10, 8, 8, seed=16)
+
+    def first_call(*args, **kw):
+        raster.rasterize(other, 8, 8)  # replaces the kept set-up
+        return raster.rasterize(*args, **kw)
+
+    def same(f, g):
+        np.testing.assert_array_equal(f.tri, g.tri)
+        np.testing.assert_array_equal(f.bary, g.bary)
+        np.testing.assert_array_equal(f.depth, g.depth)
+
+    raster.rasterize(clip, w, h, sample_offset=(0.1, 0.2))
+    same(raster.rasterize(clip.copy(), w, h), first_call(clip, w, h))
+    clip[7, 1, :2] += 0.25
+    same(raster.rasterize(clip, w, h), first_call(clip, w, h))
+    same(raster.rasterize(clip, w, h, cull=cull), first_call(clip, w, h, cull=cull))
+    same(raster.rasterize(clip, w, h, cull=~cull), first_call(clip, w, h, cull=~cull))
+    same(raster.rasterize(clip, w + 1, h), first_call(clip, w + 1, h))
+    same(raster.rasterize(clip.astype(np.float64), w, h), first_call(clip, w, h))
