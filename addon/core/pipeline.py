@@ -28,6 +28,11 @@ from .scene import Material, Scene
 PASSES = {"Combined": 4, "Depth": 1, "Normal": 3, "DiffDir": 3, "GlossDir": 3, "Emit": 3,
           "Albedo": 3, "Specular Color": 3, "Gloss": 1}
 EMPTY_DEPTH = 1e10
+# The shaded passes (all but Depth) side by side in one (N, 24) array: name -> column slice.
+_SHADED = [name for name in PASSES if name != "Depth"]
+_COLUMNS = {name: slice(sum(PASSES[n] for n in _SHADED[:i]),
+                        sum(PASSES[n] for n in _SHADED[:i + 1])) for i, name in enumerate(_SHADED)}
+_WIDTH = sum(PASSES[n] for n in _SHADED)
 
 
 class Cancelled(Exception):
@@ -228,7 +233,8 @@ def _raster(frame: Frame, tile, offset):
 def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,).
 
-    returns: {pass name: (N, C)} for every pass but Depth (Combined with alpha 1)
+    returns: (N, 24) float32, the passes but Depth side by side (columns ``_COLUMNS``;
+             Combined with alpha 1)
     """
     scene, cam = frame.scene, frame.scene.camera
     corners = frame.positions[tri]
@@ -272,15 +278,18 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
                                           model=model)
         diffuse += d_term * irradiance
         specular += s_term * irradiance
-    combined = np.concatenate([diffuse + specular + mat.emission,
-                               np.ones((len(tri), 1), np.float32)], -1)
-    return {"Combined": combined, "Normal": n, "DiffDir": diffuse, "GlossDir": specular,
-            "Emit": mat.emission, "Albedo": mat.albedo, "Specular Color": mat.rf0,
-            "Gloss": mat.gloss[:, None]}
+    out = np.empty((len(tri), _WIDTH), np.float32)
+    out[:, _COLUMNS["Combined"]] = np.concatenate(
+        [diffuse + specular + mat.emission, np.ones((len(tri), 1), np.float32)], -1)
+    for name, value in (("Normal", n), ("DiffDir", diffuse), ("GlossDir", specular),
+                        ("Emit", mat.emission), ("Albedo", mat.albedo),
+                        ("Specular Color", mat.rf0), ("Gloss", mat.gloss[:, None])):
+        out[:, _COLUMNS[name]] = value
+    return out
 
 
 def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
-    """All samples of one tile, accumulated: {pass name: (npx, C)}.
+    """All samples of one tile, averaged: {pass name: (npx, C)}.
 
     Shading is done once per pixel and triangle, as in multisample anti-aliasing: every
     sample position is rasterized, but a sample that sees the same triangle as the pixel's
@@ -290,13 +299,14 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
     scene = frame.scene
     x0, y0, x1, y1 = tile
     npx = (x1 - x0) * (y1 - y0)
-    acc = {name: np.zeros((npx, c), np.float32) for name, c in PASSES.items()}
-    depth_acc = acc["Depth"][:, 0]
-    depth_acc[:] = EMPTY_DEPTH
-    first_tri = first = None
+    acc = np.zeros((npx, _WIDTH), np.float32)  # sum of the samples shaded on their own
+    first = np.zeros((npx, _WIDTH), np.float32)  # shading of each pixel's first sample
+    depth_acc = np.full(npx, EMPTY_DEPTH, np.float32)
+    first_tri = None
     reuse_count = np.zeros(npx, np.float32)  # samples that reuse the first sample's shading
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
+    rgba = _COLUMNS["Combined"]
     for offset in offsets:
         tick()
         tri, bary, depth, sx, sy = _raster(frame, tile, offset)
@@ -307,35 +317,28 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
         if not scene.settings.film_transparent:  # transparent film: background alpha 0, RGB 0
             if constant_world:
                 miss_count += ~covered
-            elif (~covered).any():
+            elif not covered.all():
                 miss = ~covered
-                acc["Combined"][miss, :3] += _background(scene, sx[miss], sy[miss])
-                acc["Combined"][miss, 3] += 1.0
-        if first is None:
-            first_tri, fresh = tri, hit
-            first = {name: np.zeros((npx, c), np.float32) for name, c in PASSES.items()
-                     if name != "Depth"}
+                acc[miss, rgba.start:rgba.start + 3] += _background(scene, sx[miss], sy[miss])
+                acc[miss, rgba.start + 3] += 1.0
+        if first_tri is None:
+            first_tri, fresh, target = tri, hit, first
+            reuse_count += hit
         else:
             reuse = hit & (tri == first_tri)
             reuse_count += reuse
-            fresh = hit & ~reuse
+            fresh, target = hit & ~reuse, acc
         if fresh.any():
-            values = _shade_points(frame, tri[fresh], bary[fresh], sx[fresh], sy[fresh])
-            target = first if first_tri is tri else acc
-            for name, value in values.items():
-                target[name][fresh] += value
+            target[fresh] += _shade_points(frame, tri[fresh], bary[fresh], sx[fresh], sy[fresh])
         np.minimum(depth_acc, np.where(hit, depth, np.float32(EMPTY_DEPTH)), out=depth_acc)
-    reuse_count += first_tri >= 0  # the first sample itself
-    for name, value in first.items():
-        acc[name] += value * reuse_count[:, None]
+    acc += first * reuse_count[:, None]
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
-        acc["Combined"] += miss_count[:, None] * color
-    scale = np.float32(1.0 / len(offsets))
-    for name, buf in acc.items():
-        if name != "Depth":
-            buf *= scale
-    return acc
+        acc[:, rgba] += miss_count[:, None] * color
+    acc *= np.float32(1.0 / len(offsets))
+    out = {name: acc[:, _COLUMNS[name]] for name in _SHADED}
+    out["Depth"] = depth_acc[:, None]
+    return out
 
 
 def render_tiles(
