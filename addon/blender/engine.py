@@ -54,6 +54,7 @@ def render_settings(scene) -> RenderSettings:
     width, height = extract.resolution(scene)
     return RenderSettings(
         samples=int(s.samples),
+        shade_every_sample=bool(s.shade_every_sample),
         filter_width=float(scene.render.filter_size),
         specular_model=str(s.specular_model),
         film_transparent=bool(scene.render.film_transparent),

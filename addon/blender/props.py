@@ -21,6 +21,12 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         description="Anti-aliasing samples per pixel",
         default=4, min=1, max=1024, soft_max=64,
     )
+    shade_every_sample: bpy.props.BoolProperty(
+        name="Shade Every Sample",
+        description="Shade each anti-aliasing sample on its own instead of once per pixel and "
+        "triangle: supersamples textures, highlights and shadow edges, at the cost of speed",
+        default=False,
+    )
     shadow_resolution: bpy.props.EnumProperty(
         name="Shadow Resolution",
         description="Size of each shadow map: per cube face, spot map or sun cascade",

@@ -39,6 +39,7 @@ class RENDER_PT_bo2_settings(bpy.types.Panel):
         layout.use_property_decorate = False
         settings = context.scene.bo2
         layout.prop(settings, "samples")
+        layout.prop(settings, "shade_every_sample")
         layout.prop(context.scene.render, "filter_size", text="Filter Width")
         layout.prop(settings, "specular_model")
         layout.prop(settings, "shadow_resolution")

@@ -294,7 +294,7 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
     Shading is done once per pixel and triangle, as in multisample anti-aliasing: every
     sample position is rasterized, but a sample that sees the same triangle as the pixel's
     first sample reuses that sample's shading; only samples that see another triangle (edges)
-    are shaded on their own.
+    are shaded on their own. ``settings.shade_every_sample`` shades every sample instead.
     """
     scene = frame.scene
     x0, y0, x1, y1 = tile
@@ -324,6 +324,8 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
         if first_tri is None:
             first_tri, fresh, target = tri, hit, first
             reuse_count += hit
+        elif scene.settings.shade_every_sample:
+            fresh, target = hit, acc
         else:
             reuse = hit & (tri == first_tri)
             reuse_count += reuse

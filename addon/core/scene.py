@@ -215,6 +215,8 @@ class RenderSettings:
     """Engine settings that change the image.
 
     samples:        anti-aliasing samples per pixel
+    shade_every_sample: shade each sample on its own instead of once per pixel and triangle
+                    (supersamples textures, highlights and shadow edges; slower)
     filter_width:   Blackman-Harris pixel filter width in pixels (Cycles' default 1.5)
     specular_model: one of ``brdf.MODELS``
     film_transparent: background alpha 0 instead of the world colour
@@ -225,6 +227,7 @@ class RenderSettings:
     """
 
     samples: int = 4
+    shade_every_sample: bool = False
     filter_width: float = 1.5
     specular_model: str = "reference"
     film_transparent: bool = False

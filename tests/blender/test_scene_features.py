@@ -80,11 +80,16 @@ def test_base_color_texture_matches_cycles(addon, colorspace):
     tex.image = checker_image("checker", colorspace=colorspace)
     mat.node_tree.links.new(tex.outputs["Color"], node.inputs["Base Color"])
     add_plane(mat)
-    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
     cycles = render_pixels(scene, "CYCLES", samples=64)[..., :3]
-    error = np.abs(ours - cycles).mean()
-    print(f"{colorspace}: mean absolute difference {error:.4f}")
-    assert error < 0.02
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
+    per_pixel = np.abs(ours - cycles).mean()
+    scene.bo2.shade_every_sample = True
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., :3]
+    per_sample = np.abs(ours - cycles).mean()
+    print(f"{colorspace}: mean absolute difference per pixel {per_pixel:.4f}, "
+          f"per sample {per_sample:.4f}")
+    assert per_sample < 0.02
+    assert per_pixel < 0.04  # one mipmapped lookup per pixel: a blurrier checker
     # sRGB decoding: the dark squares' red is 0.1 encoded, 0.0100 linear.
     low = 0.0100 if colorspace == "sRGB" else 0.1
     assert np.percentile(ours[..., 0], 5) == pytest.approx(low, abs=0.01)

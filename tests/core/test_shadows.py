@@ -499,3 +499,68 @@ def test_sun_without_camera_covers_every_caster():
     p = np.array([[-0.4, -0.25, 0.0], [4.0, 4.0, 0.0], [-4.5, -4.5, 0.0]])  # shadow centre
     n = np.tile([0.0, 0.0, 1.0], (3, 1))
     np.testing.assert_array_equal(shadows.shadow_visibility(sm, p, n), [0.0, 1.0, 1.0])
+
+
+def test_a_point_does_not_depend_on_the_rest_of_its_query():
+    # the renderer queries points in batches of any size and order (tiles, edge samples)
+    scene = occluder_scene()
+    rng = np.random.default_rng(11)
+    p = rng.uniform(-3, 3, (30000, 3)).astype(np.float32) * np.float32([1, 1, 0.3])
+    n = rng.normal(size=p.shape).astype(np.float32)
+    lights = [
+        Light("POINT", np.ones(3), position=LIGHT_POS, radius=0.3),
+        Light("SPOT", np.ones(3), position=LIGHT_POS, direction=unit(-LIGHT_POS), radius=0.1,
+              spot_size=np.radians(120.0)),
+        Light("SUN", np.ones(3), direction=unit([-0.4, -0.25, -1.0]), radius=np.radians(3.0)),
+    ]
+    order = rng.permutation(len(p))
+    for light in lights:
+        sm = shadows.build_shadow_map(light, scene, CAMERA, resolution=256)
+        whole = shadows.shadow_visibility(sm, p, n)
+        assert 0.0 < whole.mean() < 1.0
+        shuffled = np.empty_like(whole)
+        shuffled[order] = shadows.shadow_visibility(sm, p[order], n[order])
+        np.testing.assert_array_equal(shuffled, whole)
+        pieces = np.concatenate([shadows.shadow_visibility(sm, p[i : i + 7], n[i : i + 7])
+                                 for i in range(0, 700, 7)])
+        np.testing.assert_array_equal(pieces, whole[:700])
+
+
+def block_reduce(maps, size, reduce, fill):
+    """(F, ceil(res / size), ceil(res / size)) reduction of (F, res, res) maps over blocks."""
+    f, res, _ = maps.shape
+    side = -(-res // size)
+    padded = np.full((f, side * size, side * size), fill, maps.dtype)
+    padded[:, :res, :res] = maps
+    return reduce(padded.reshape(f, side, size, side, size), axis=(2, 4))
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SUN"])
+def test_pyramid_holds_the_extremes_of_every_block(kind):
+    # the blocks prove points fully lit or fully shadowed: they must bound the maps exactly
+    light = Light(kind, np.ones(3), position=LIGHT_POS, direction=unit([-0.4, -0.25, -1.0]))
+    res = 100  # odd sides along the way
+    sm = shadows.build_shadow_map(light, occluder_scene(), CAMERA, resolution=res)
+    depth = sm.depth.astype(np.float64)
+    if kind == "POINT":  # distance from the light of the texel centres' rays, by hand
+        x = (np.arange(res) + 0.5) / res * 2.0 - 1.0
+        dist = depth * np.sqrt(1.0 + x[None, :, None] ** 2 + x[None, None, :] ** 2)
+    else:
+        dist = depth
+    row, level = 0, 0
+    side = res
+    while side > 1:
+        level += 1
+        side = -(-side // 2)
+        if level < shadows.MIP_FIRST_LEVEL:
+            continue
+        count = len(sm.depth) * side * side
+        block = sm.mips[row : row + count].reshape(len(sm.depth), side, side, 3)
+        row += count
+        size = 2**level
+        np.testing.assert_allclose(block[..., 0], block_reduce(dist, size, np.min, np.inf),
+                                   rtol=1e-6)
+        np.testing.assert_array_equal(block[..., 1], block_reduce(depth, size, np.min, np.inf))
+        np.testing.assert_array_equal(block[..., 2],
+                                      block_reduce(depth, size, np.max, -np.inf))
+    assert row == len(sm.mips) and level > shadows.MIP_FIRST_LEVEL
