@@ -37,22 +37,6 @@ def uv_sphere(center, radius, segments=96, rings=48):
     return (tris * radius + center).astype(np.float32), tris.astype(np.float32)
 
 
-def perspective_camera(eye, target, fov_y, width, height, near=0.1, far=100.0):
-    forward = target - eye
-    forward = forward / np.linalg.norm(forward)
-    right = np.cross(forward, [0.0, 0.0, 1.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    view = np.eye(4)
-    view[0, :3], view[1, :3], view[2, :3] = right, up, -forward
-    view[:3, 3] = -view[:3, :3] @ eye
-    f = 1.0 / np.tan(fov_y / 2)
-    proj = np.array([[f * height / width, 0, 0, 0], [0, f, 0, 0],
-                     [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
-                     [0, 0, -1, 0]])
-    return Camera(world_to_camera=view, projection=proj, width=width, height=height)
-
-
 def model_row(model: str, width=600, height=130) -> np.ndarray:
     meshes, materials = [], [Material()]
     for i, g in enumerate(GLOSSES):
@@ -60,10 +44,11 @@ def model_row(model: str, width=600, height=130) -> np.ndarray:
         materials.append(Material(name=f"g{g}", albedo=np.zeros(3, np.float32),
                                   rf0=np.full(3, 0.04, np.float32), gloss=g))
         meshes.append(MeshBatch(pos, nrm, np.full(len(pos), i + 1, np.int32)))
-    grazing = Light("POINT", color=np.full(3, 3000.0), position=np.array([6.0, 3.0, 2.0]))
-    frontal = Light("POINT", color=np.full(3, 300.0), position=np.array([-2.0, -6.0, 2.0]))
-    cam = perspective_camera(np.array([0.0, -9.0, 0.0]), np.zeros(3), np.radians(8.6),
-                             width, height)
+    grazing = Light("POINT", color=np.full(3, 3000.0), position=np.array([6.0, 3.0, 2.0]),
+                    shadow=False)  # the spheres would shadow their neighbours
+    frontal = Light("POINT", color=np.full(3, 300.0), position=np.array([-2.0, -6.0, 2.0]),
+                    shadow=False)
+    cam = Camera.look_at([0.0, -9.0, 0.0], [0.0, 0.0, 0.0], np.radians(8.6), width, height)
     scene = Scene(camera=cam, meshes=meshes, materials=materials, lights=[grazing, frontal],
                   settings=RenderSettings(samples=8, specular_model=model))
     scene.world.color = np.full(3, 0.02, np.float32)

@@ -32,6 +32,26 @@ class Camera:
     height: int
     orthographic: bool = False
 
+    @classmethod
+    def look_at(cls, eye, target, fov_y: float, width: int, height: int,
+                near: float = 0.1, far: float = 100.0) -> Camera:
+        """A perspective camera at ``eye`` (3,) looking at ``target`` (3,), Z up.
+
+        fov_y: vertical field of view, radians; near, far: clip distances, metres
+        """
+        eye, target = np.asarray(eye, np.float64), np.asarray(target, np.float64)
+        forward = (target - eye) / np.linalg.norm(target - eye)
+        right = np.cross(forward, [0.0, 0.0, 1.0])
+        right /= np.linalg.norm(right)
+        view = np.eye(4)
+        view[0, :3], view[1, :3], view[2, :3] = right, np.cross(right, forward), -forward
+        view[:3, 3] = -view[:3, :3] @ eye
+        t = 1.0 / np.tan(fov_y / 2.0)
+        proj = np.array([[t * height / width, 0.0, 0.0, 0.0], [0.0, t, 0.0, 0.0],
+                         [0.0, 0.0, (far + near) / (near - far), 2.0 * far * near / (near - far)],
+                         [0.0, 0.0, -1.0, 0.0]])
+        return cls(world_to_camera=view, projection=proj, width=width, height=height)
+
     @property
     def camera_to_world(self) -> np.ndarray:
         """(4, 4) float64 inverse of ``world_to_camera``."""
