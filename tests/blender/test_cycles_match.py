@@ -13,7 +13,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 import pytest
-from util import render_pixels
+from util import render_pixels, set_world_color
 
 ROOT = Path(__file__).resolve().parents[2]
 IGNIS_BOX = ROOT.parent / "shared" / "reference" / "scenes" / "ignis" / "box.blend"
@@ -47,11 +47,7 @@ def glossy_sphere_scene(gloss: float):
     light.data.shadow_soft_size = 0.0
     light.location = (2.0, -4.0, 1.5)
     scene.collection.objects.link(light)
-    world = bpy.data.worlds.new("Black")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    scene.world = world
+    set_world_color(scene)
     return scene
 
 

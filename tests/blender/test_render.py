@@ -9,7 +9,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from util import engine_available, render_pixels
+from util import add_ortho_camera, engine_available, render_pixels, set_world_color
 
 RES = 16
 
@@ -31,25 +31,14 @@ def lambert_plane_scene(kind, location=(0.0, 0.0, 2.0), view=0.1, **light_settin
     node.inputs["Roughness"].default_value = 1.0
     node.inputs["Specular IOR Level"].default_value = 0.0
     bpy.context.object.data.materials.append(mat)
-    cam_data = bpy.data.cameras.new("Camera")
-    cam_data.type = "ORTHO"
-    cam_data.ortho_scale = view
-    cam = bpy.data.objects.new("Camera", cam_data)
-    cam.location = (0, 0, 1)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    add_ortho_camera(scene, view)
     data = bpy.data.lights.new("Light", kind)
     for key, value in light_settings.items():
         setattr(data, key, value)
     light = bpy.data.objects.new("Light", data)
     light.location = location
     scene.collection.objects.link(light)
-    world = bpy.data.worlds.new("Black")
-    world.color = (0, 0, 0)
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    scene.world = world
+    set_world_color(scene)
     return scene
 
 

@@ -10,7 +10,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from util import render_pixels
+from util import add_ortho_camera, render_pixels, set_world_color
 
 RES = 32
 
@@ -22,22 +22,12 @@ def top_view_scene(view=2.0, res=RES):
     scene.render.resolution_percentage = 100
     scene.view_settings.view_transform = "Standard"
     scene.cycles.max_bounces = 0
-    cam_data = bpy.data.cameras.new("Camera")
-    cam_data.type = "ORTHO"
-    cam_data.ortho_scale = view
-    cam = bpy.data.objects.new("Camera", cam_data)
-    cam.location = (0, 0, 1)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    add_ortho_camera(scene, view)
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy = math.pi  # a white Lambert surface facing it renders 1.0
     sun.data.angle = 0.0
     scene.collection.objects.link(sun)
-    world = bpy.data.worlds.new("Black")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0, 0, 0, 1)
-    scene.world = world
+    set_world_color(scene)
     return scene
 
 

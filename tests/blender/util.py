@@ -19,6 +19,28 @@ def engine_available(identifier: str) -> bool:
     return bpy.types.RenderEngine.bl_rna_get_subclass_py(identifier) is not None
 
 
+def set_world_color(scene, color=(0.0, 0.0, 0.0)) -> None:
+    """Give ``scene`` a new world whose Background node has ``color``."""
+    world = bpy.data.worlds.new("World")
+    world.color = color
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (*color, 1.0)
+    scene.world = world
+
+
+def add_ortho_camera(scene, scale: float, height: float = 1.0):
+    """An orthographic camera ``scale`` m wide at (0, 0, height) looking down; the scene's."""
+    data = bpy.data.cameras.new("Camera")
+    data.type = "ORTHO"
+    data.ortho_scale = scale
+    cam = bpy.data.objects.new("Camera", data)
+    cam.location = (0.0, 0.0, height)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    return cam
+
+
 def render_pixels(scene, engine: str, samples: int = 4, size=None) -> np.ndarray:
     """Render ``scene`` with ``engine`` and return the Combined pass, (H, W, 4) float32 linear,
     row 0 at the bottom as Blender stores it. ``size``: (width, height) of the result when it
