@@ -1,15 +1,19 @@
 """Benchmark of the shadow maps (``addon/core/shadows.py``): build and query time, peak memory.
 
 Usage: python tools/bench_shadows.py [--points N] [--triangles N] [--resolutions 1024 2048]
+                                     [--order random|screen]
 
 Scene: ~1e5 random small triangles (0.05-0.2 m) scattered over a 20 x 20 x 3 m volume above a
 ground quad, seen by a camera from 14 m away. Query points: N points on the casters' surfaces
 (half on the ground, half on the random triangles) with their geometric normals, as a G-buffer
-would give them. Cases: cube map (point light, hard and soft), spot map (soft), sun cascades
-(hard and soft), at each resolution. For each case it prints the wall time of building the
-maps and of one query of all points, the time per query point, the maps' size, and the peak of
-NumPy's allocations during one more build and one more query traced with ``tracemalloc`` (the
-query's peak counts the maps it reads). Prints figures only.
+would give them, in random order (default) or, with ``--order screen``, in the order a tiled
+renderer shades them (by 512-pixel tile, then pixel row and column; points off screen last),
+so that neighbouring queries read neighbouring texels. Cases: cube map (point light, hard and
+soft), spot map (soft), sun cascades (hard and soft), at each resolution. For each case it
+prints the wall time of building the maps and of one query of all points, the time per query
+point, the maps' size, and the peak of NumPy's allocations during one more build and one more
+query traced with ``tracemalloc`` (the query's peak counts the maps it reads). Prints figures
+only.
 """
 
 from __future__ import annotations
@@ -51,6 +55,22 @@ def surface_points(tris: np.ndarray, count: int, seed: int = 1):
         np.concatenate([ground, on_tri]).astype(np.float32),
         np.concatenate([ground_n, normal]).astype(np.float32),
     )
+
+
+def screen_order(points: np.ndarray, cam: Camera, tile: int = 512) -> np.ndarray:
+    """Permutation of (N, 3) points into the order of a tiled renderer: by ``tile``-pixel tile
+    (row-major), then by pixel row and column; points off screen last, in their order."""
+    homog = np.concatenate([points, np.ones((len(points), 1), np.float32)], 1)
+    clip = homog.astype(np.float64) @ (cam.projection @ cam.world_to_camera).T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = np.floor((clip[:, 0] / clip[:, 3] + 1.0) * 0.5 * cam.width)
+        y = np.floor((1.0 - clip[:, 1] / clip[:, 3]) * 0.5 * cam.height)
+    on = (clip[:, 3] > 0) & (x >= 0) & (x < cam.width) & (y >= 0) & (y < cam.height)
+    tiles_x = -(-cam.width // tile)
+    key = np.full(len(points), np.iinfo(np.int64).max, np.int64)
+    xi, yi = x[on].astype(np.int64), y[on].astype(np.int64)
+    key[on] = ((yi // tile) * tiles_x + xi // tile) * tile * tile + (yi % tile) * tile + xi % tile
+    return np.argsort(key, kind="stable")
 
 
 def camera() -> Camera:
@@ -122,11 +142,16 @@ def main() -> None:
     parser.add_argument("--points", type=int, default=2_000_000, help="query points")
     parser.add_argument("--triangles", type=int, default=100_000, help="random casters")
     parser.add_argument("--resolutions", type=int, nargs="+", default=[1024, 2048])
+    parser.add_argument("--order", choices=["random", "screen"], default="random",
+                        help="order of the query points")
     args = parser.parse_args()
     tris = random_scene(args.triangles)
     points, normals = surface_points(tris, args.points)
     cam = camera()
-    print(f"{len(tris)} triangles, {len(points)} query points")
+    if args.order == "screen":
+        order = screen_order(points, cam)
+        points, normals = points[order], normals[order]
+    print(f"{len(tris)} triangles, {len(points)} query points ({args.order} order)")
     print(
         f"{'case':<26} {'res':>5} {'maps':>5} {'build s':>8} {'query s':>8} {'us/point':>8} "
         f"{'lit':>6} {'maps MiB':>8} {'build MiB':>10} {'query MiB':>10}"

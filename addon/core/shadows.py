@@ -919,18 +919,19 @@ def _tap_loop(sm: ShadowMap, fr: _Frame, radius: np.ndarray, disc: np.ndarray, m
                 tmp *= blocked
                 acc += tmp
     if outside:
-        c, s = fr.c, fr.s
-        j = np.concatenate([j for _, j in outside])
-        tap = np.concatenate([np.full(j.size, k, np.int32) for k, j in outside])
-        a, b = disc[tap, 0], disc[tap, 1]
-        cj, sj = c.take(j), s.take(j)
-        stored, recv = _fallback(sm, fr, j, a * cj - b * sj, a * sj + b * cj, radius.take(j),
-                                 span.take(j))
-        hit = stored + bias.take(j) < recv
-        count += np.bincount(j[hit], minlength=npt).astype(np.uint8)
-        if measure:
-            val = stored[hit] / recv[hit] if persp else recv[hit] - stored[hit]
-            acc += np.bincount(j[hit], weights=val, minlength=npt).astype(np.float32)
+        j_all = np.concatenate([j for _, j in outside])
+        tap_all = np.concatenate([np.full(j.size, k, np.int32) for k, j in outside])
+        for lo_j in range(0, j_all.size, CHUNK):  # bounded temporaries
+            j, tap = j_all[lo_j : lo_j + CHUNK], tap_all[lo_j : lo_j + CHUNK]
+            a, b = disc[tap, 0], disc[tap, 1]
+            cj, sj = fr.c.take(j), fr.s.take(j)
+            stored, recv = _fallback(sm, fr, j, a * cj - b * sj, a * sj + b * cj,
+                                     radius.take(j), span.take(j))
+            hit = stored + bias.take(j) < recv
+            count += np.bincount(j[hit], minlength=npt).astype(np.uint8)
+            if measure:
+                val = stored[hit] / recv[hit] if persp else recv[hit] - stored[hit]
+                acc += np.bincount(j[hit], weights=val, minlength=npt).astype(np.float32)
     return count, acc
 
 
@@ -943,6 +944,11 @@ def _level(width: np.ndarray) -> np.ndarray:
     level += (bits & 0x7FFFFF) != 0
     np.maximum(level, np.int32(MIP_FIRST_LEVEL), out=level)
     return level
+
+
+def _mip_levels(sm: ShadowMap) -> int:
+    """Number of pyramid levels in ``sm.mips`` (0 without a pyramid)."""
+    return len(_mip_layout(sm.resolution, sm.depth.shape[0])[0]) if len(sm.mips) else 0
 
 
 def _mip_tables(sm: ShadowMap) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -979,7 +985,7 @@ def _footprint_min(sm: ShadowMap, fr: _Frame, radius: np.ndarray) -> np.ndarray:
     the square; -inf where the square leaves the point's own map (unknown).
     """
     res = sm.resolution
-    levels = len(sm.min_mips)
+    levels = _mip_levels(sm)
     if not levels:
         return np.full(len(radius), -np.inf, np.float32)
     rc = radius * fr.l1c
@@ -992,11 +998,13 @@ def _footprint_min(sm: ShadowMap, fr: _Frame, radius: np.ndarray) -> np.ndarray:
     top = np.int32(MIP_FIRST_LEVEL + levels - 1)
     ok &= level <= top
     np.minimum(level, top, out=level)
-    col = sm.mips[:, 0]
+    flat = sm.mips.reshape(-1)  # (a column view would be copied by every take)
     rows = _mip_rows(sm, fr.mf, level, c0, c1, r0, r1)
-    best = col.take(rows[0], mode="clip")  # rows of points that are not ok are discarded
+    for r in rows:
+        r *= 3
+    best = flat.take(rows[0], mode="clip")  # rows of points that are not ok are discarded
     for r in rows[1:]:
-        np.minimum(best, col.take(r, mode="clip"), out=best)
+        np.minimum(best, flat.take(r, mode="clip"), out=best)
     best[~ok] = -np.inf
     return best
 
@@ -1158,7 +1166,7 @@ def _block_test(sm: ShadowMap, fr: _Frame, c0, c1, r0, r1, lo, hi, dark_cap=None
     lit, dark = np.zeros(n, bool), np.zeros(n, bool)
     width = np.maximum(np.maximum(c1 - c0, r1 - r0), 1.0)
     level = _level(width)
-    top = MIP_FIRST_LEVEL + len(sm.min_mips) - 1
+    top = MIP_FIRST_LEVEL + _mip_levels(sm) - 1
     ok = level <= top
     if not ok.any():
         return lit, dark, free
