@@ -70,6 +70,10 @@ def test_install_render_disable_remove(user_repo):
     small_scene()
     scene = bpy.context.scene
     scene.render.engine = "BO2_LIGHTING"
+    # The node group specs ship in the zip: a BO2 Material can be made on the plane.
+    bpy.context.view_layer.objects.active = bpy.data.objects["Plane"]
+    assert bpy.ops.material.bo2_new() == {"FINISHED"}
+    assert "BO2 Material" in bpy.data.node_groups
     assert scene.bo2.samples >= 1
     with tempfile.TemporaryDirectory() as out:
         scene.render.filepath = os.path.join(out, "frame.png")
