@@ -1,13 +1,14 @@
 """One frame: raster -> materials -> shadows -> direct light -> passes, tile by tile.
 
 - Anti-aliasing as Cycles does it: every sample position is drawn from the pixel filter
-  (Blackman-Harris, 1.5 px wide by default; filter importance sampling, Ernst et al. 2006) and
-  contributes to its own pixel only, so a plain average of the samples is the filtered pixel.
-  Sample positions follow the R2 low-discrepancy sequence (Roberts 2018) mapped through the
-  filter's inverse CDF, independently in x and y as in Cycles' filter table.
+  (Blackman-Harris of width 1.5 px by default, whose window Cycles spreads over twice the width;
+  filter importance sampling, Ernst et al. 2006) and contributes to its own pixel only, so a
+  plain average of the samples is the filtered pixel. Sample positions follow the R2
+  low-discrepancy sequence (Roberts 2018) mapped through the filter's inverse CDF,
+  independently in x and y as in Cycles' filter table.
 - Tiles: the frame is cut into square tiles; each tile is rasterized with a projection that maps
   the tile to the whole viewport, so memory depends on the tile size, not the resolution.
-- Deferred: per sample, only visible points are shaded, once.
+- Deferred: only visible points are shaded, once per pixel and triangle (see ``_render_tile``).
 
 Render passes (Blender's names): Combined (RGBA), Depth (view-axis distance, nearest over the
 samples, 1e10 for the background), Normal (world-space shading normal), DiffDir, GlossDir,
@@ -48,8 +49,10 @@ def _blackman_harris(x: np.ndarray, width: float) -> np.ndarray:
 def sample_offsets(count: int, filter_width: float = 1.5) -> np.ndarray:
     """(count, 2) float64 sample positions relative to the pixel's top-left corner.
 
-    Distributed as the Blackman-Harris filter of ``filter_width`` pixels centred on the pixel
-    (so they reach (1 - width)/2 .. (1 + width)/2); a single sample sits at the centre.
+    Distributed as Cycles' Blackman-Harris pixel filter of ``filter_width`` pixels centred on
+    the pixel. Cycles evaluates that window over twice the width (so the samples reach
+    0.5 - width .. 0.5 + width); rendering a hard edge in both engines confirms it
+    (tests/blender). A single sample sits at the centre.
     """
     if count == 1:
         return np.array([[0.5, 0.5]])
@@ -57,9 +60,10 @@ def sample_offsets(count: int, filter_width: float = 1.5) -> np.ndarray:
     u = (0.5 + np.array([1.0 / g, 1.0 / (g * g)]) * np.arange(count)[:, None]) % 1.0
     if filter_width <= 0.01:
         return np.full((count, 2), 0.5)
-    xs = np.linspace(-filter_width / 2, filter_width / 2, 1025)
-    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (_blackman_harris(xs[1:], filter_width)
-                                                  + _blackman_harris(xs[:-1], filter_width)))])
+    support = 2.0 * filter_width  # Cycles widens the Blackman-Harris window to twice the width
+    xs = np.linspace(-support / 2, support / 2, 1025)
+    cdf = np.concatenate([[0.0], np.cumsum(0.5 * (_blackman_harris(xs[1:], support)
+                                                  + _blackman_harris(xs[:-1], support)))])
     cdf /= cdf[-1]
     return 0.5 + np.interp(u, cdf, xs)
 
@@ -218,14 +222,16 @@ def _raster(frame: Frame, tile, offset):
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
-    # Filter-distributed samples reach up to 0.75 px beyond their pixel: rasterize a one-pixel
+    # Filter-distributed samples reach up to the filter width beyond their pixel: rasterize a
     # margin around the tile so that no triangle next to the tile is rejected.
-    margin = (x0 - 1, y0 - 1, x1 + 1, y1 + 1)
-    frags = raster.rasterize(_tile_clip(frame.clip, cam.width, cam.height, margin), tw + 2,
-                             th + 2, cull=frame.cull, sample_offset=tuple(offset))
-    tri = np.ascontiguousarray(frags.tri[1:-1, 1:-1]).reshape(-1)
-    bary = frags.bary[1:-1, 1:-1].reshape(-1, 3)
-    depth = frags.depth[1:-1, 1:-1].reshape(-1)
+    m = int(np.ceil(frame.scene.settings.filter_width))
+    margin = (x0 - m, y0 - m, x1 + m, y1 + m)
+    frags = raster.rasterize(_tile_clip(frame.clip, cam.width, cam.height, margin),
+                             tw + 2 * m, th + 2 * m, cull=frame.cull, sample_offset=tuple(offset))
+    inner = (slice(m, m + th), slice(m, m + tw))
+    tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
+    bary = frags.bary[inner].reshape(-1, 3)
+    depth = frags.depth[inner].reshape(-1)
     rows, cols = np.divmod(np.arange(tw * th), tw)
     return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1]
 

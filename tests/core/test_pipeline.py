@@ -116,13 +116,14 @@ def test_broken_triangles_are_skipped_and_reported_once():
 
 
 def test_sample_offsets_follow_the_blackman_harris_filter():
-    """Filter importance sampling: the offsets are distributed as Cycles' 1.5 px wide
-    Blackman-Harris window; its mean and variance come from a direct numerical integral."""
+    """Filter importance sampling: the offsets are distributed as Cycles' Blackman-Harris
+    window of width 1.5 px, which Cycles spreads over twice the width (3 px); its mean and
+    variance come from a direct numerical integral of the published window."""
     offsets = pipeline.sample_offsets(4096, filter_width=1.5)
     assert offsets.shape == (4096, 2)
-    assert offsets.min() >= 0.5 - 0.75 and offsets.max() <= 0.5 + 0.75
-    x = np.linspace(-0.75, 0.75, 200001)
-    t = 2 * np.pi * (x / 1.5 + 0.5)
+    assert offsets.min() >= 0.5 - 1.5 and offsets.max() <= 0.5 + 1.5
+    x = np.linspace(-1.5, 1.5, 200001)
+    t = 2 * np.pi * (x / 3.0 + 0.5)
     w = 0.35875 - 0.48829 * np.cos(t) + 0.14128 * np.cos(2 * t) - 0.01168 * np.cos(3 * t)
     variance = np.sum(w * x * x) / np.sum(w)
     np.testing.assert_allclose(offsets.mean(0), 0.5, atol=2e-3)
