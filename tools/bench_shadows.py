@@ -75,24 +75,7 @@ def screen_order(points: np.ndarray, cam: Camera, tile: int = 512) -> np.ndarray
 
 def camera() -> Camera:
     """A 1920x1080 perspective camera 14 m from the scene centre, looking at it."""
-    eye, target = np.array([0.0, -12.0, 7.0]), np.zeros(3)
-    f = (target - eye) / np.linalg.norm(target - eye)
-    r = np.cross(f, [0.0, 0.0, 1.0])
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    view = np.eye(4)
-    view[0, :3], view[1, :3], view[2, :3] = r, u, -f
-    view[:3, 3] = -view[:3, :3] @ eye
-    t, aspect, near, far = 1.0 / np.tan(np.radians(25.0)), 16.0 / 9.0, 0.1, 100.0
-    proj = np.array(
-        [
-            [t / aspect, 0, 0, 0],
-            [0, t, 0, 0],
-            [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
-            [0, 0, -1, 0],
-        ]
-    )
-    return Camera(view, proj, 1920, 1080)
+    return Camera.look_at([0.0, -12.0, 7.0], [0.0, 0.0, 0.0], np.radians(50.0), 1920, 1080)
 
 
 def lights() -> list[tuple[str, Light]]:

@@ -48,25 +48,7 @@ def box(lo, hi):
 
 def look_at(eye, target, fov_deg=50.0, width=320, height=240, near=0.1, far=100.0):
     """Perspective Camera at ``eye`` looking at ``target`` (OpenGL matrices, Z up)."""
-    eye, target = np.asarray(eye, np.float64), np.asarray(target, np.float64)
-    f = target - eye
-    f /= np.linalg.norm(f)
-    r = np.cross(f, [0.0, 0.0, 1.0])
-    r /= np.linalg.norm(r)
-    u = np.cross(r, f)
-    view = np.eye(4)
-    view[0, :3], view[1, :3], view[2, :3] = r, u, -f
-    view[:3, 3] = -view[:3, :3] @ eye
-    t, aspect = 1.0 / np.tan(np.radians(fov_deg) / 2.0), width / height
-    proj = np.array(
-        [
-            [t / aspect, 0.0, 0.0, 0.0],
-            [0.0, t, 0.0, 0.0],
-            [0.0, 0.0, (far + near) / (near - far), 2.0 * far * near / (near - far)],
-            [0.0, 0.0, -1.0, 0.0],
-        ]
-    )
-    return Camera(view, proj, width, height)
+    return Camera.look_at(eye, target, np.radians(fov_deg), width, height, near, far)
 
 
 def in_view(camera, pts):
