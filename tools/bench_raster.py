@@ -22,7 +22,7 @@ import tracemalloc
 
 import numpy as np
 
-from bo2_lighting.addon.core import raster
+from bo2_lighting.addon.core import pipeline, raster
 
 
 def window_to_clip(pts, width, height, z, w):
@@ -62,17 +62,6 @@ def full_screen_quad():
     """Two triangles covering the whole screen at z_ndc = 0.5."""
     c = np.array([[-1, -1, 0.5, 1], [1, -1, 0.5, 1], [1, 1, 0.5, 1], [-1, 1, 0.5, 1]], np.float32)
     return c[[[0, 1, 2], [0, 2, 3]]]
-
-
-def tile_view(clip, width, height, tile):
-    """Clip coordinates re-projected so that the window rectangle ``tile`` fills the viewport."""
-    x0, y0, x1, y1 = tile
-    tw, th = x1 - x0, y1 - y0
-    out = clip.copy()
-    w = clip[..., 3]
-    out[..., 0] = clip[..., 0] * (width / tw) + w * ((width - 2.0 * x0) / tw - 1.0)
-    out[..., 1] = clip[..., 1] * (height / th) + w * (1.0 - height / th + 2.0 * y0 / th)
-    return out
 
 
 def run_case(name, clip, width, height, repeat, **kw):
@@ -126,7 +115,7 @@ def main() -> None:
         cull = np.random.default_rng(1).random(len(clip)) < 0.5
         run_case(
             f"1e5 {name}, 514 px tile, culled",
-            tile_view(clip, 1920, 1080, tile),
+            pipeline.tile_clip(clip, 1920, 1080, tile),
             514,
             514,
             args.repeat,

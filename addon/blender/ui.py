@@ -22,16 +22,21 @@ _STOCK_PANELS = (
 _enabled: list[type] = []
 
 
-class RENDER_PT_bo2_settings(bpy.types.Panel):
-    bl_label = "BO2 Lighting"
+class _BO2Panel:
+    """Properties-editor panel shown when BO2 Lighting is the render engine."""
+
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
-    bl_context = "render"
     COMPAT_ENGINES = {ENGINE_ID}
 
     @classmethod
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
+    bl_label = "BO2 Lighting"
+    bl_context = "render"
 
     def draw(self, context):
         layout = self.layout
@@ -46,16 +51,9 @@ class RENDER_PT_bo2_settings(bpy.types.Panel):
         layout.prop(context.scene.render, "film_transparent")
 
 
-class VIEWLAYER_PT_bo2_passes(bpy.types.Panel):
+class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):
     bl_label = "Passes"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "view_layer"
-    COMPAT_ENGINES = {ENGINE_ID}
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES
 
     def draw(self, context):
         layout = self.layout
@@ -76,12 +74,9 @@ class VIEWLAYER_PT_bo2_passes(bpy.types.Panel):
         col.prop(view_layer.bo2, "use_pass_gloss")
 
 
-class MATERIAL_PT_bo2_surface(bpy.types.Panel):
+class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
     bl_label = "Surface"
-    bl_space_type = "PROPERTIES"
-    bl_region_type = "WINDOW"
     bl_context = "material"
-    COMPAT_ENGINES = {ENGINE_ID}
 
     @classmethod
     def poll(cls, context):

@@ -166,7 +166,7 @@ def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
             for y in range(by0, by1, size) for x in range(bx0, bx1, size)]
 
 
-def _tile_clip(clip: np.ndarray, width: int, height: int, tile) -> np.ndarray:
+def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> np.ndarray:
     """Clip coordinates re-projected so that ``tile`` fills the viewport."""
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
@@ -226,7 +226,7 @@ def _raster(frame: Frame, tile, offset):
     # margin around the tile so that no triangle next to the tile is rejected.
     m = int(np.ceil(frame.scene.settings.filter_width))
     margin = (x0 - m, y0 - m, x1 + m, y1 + m)
-    frags = raster.rasterize(_tile_clip(frame.clip, cam.width, cam.height, margin),
+    frags = raster.rasterize(tile_clip(frame.clip, cam.width, cam.height, margin),
                              tw + 2 * m, th + 2 * m, cull=frame.cull, sample_offset=tuple(offset))
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
