@@ -59,6 +59,7 @@ def render_settings(scene) -> RenderSettings:
         specular_model=str(s.specular_model),
         film_transparent=bool(scene.render.film_transparent),
         shadow_resolution=int(s.shadow_resolution),
+        threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)
         border=render_border(scene, width, height),
     )
 

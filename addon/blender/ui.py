@@ -49,6 +49,11 @@ class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
         layout.prop(settings, "specular_model")
         layout.prop(settings, "shadow_resolution")
         layout.prop(context.scene.render, "film_transparent")
+        col = layout.column(heading="Threads")
+        col.prop(context.scene.render, "threads_mode", text="Threads")
+        sub = col.column()
+        sub.enabled = context.scene.render.threads_mode == "FIXED"
+        sub.prop(context.scene.render, "threads")
 
 
 class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):

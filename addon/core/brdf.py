@@ -334,7 +334,9 @@ def roughness_to_gloss(roughness):
 
 
 def _dot(a, b):
-    return np.sum(a * b, axis=-1)
+    """Dot product over the last axis of size 3 (component-wise: a reduction over an axis of 3
+    costs several times more in NumPy)."""
+    return a[..., 0] * b[..., 0] + a[..., 1] * b[..., 1] + a[..., 2] * b[..., 2]
 
 
 def direct_brdf(n, v, l, albedo, rf0, gloss, model="reference"):

@@ -9,6 +9,8 @@
 - Tiles: the frame is cut into square tiles; each tile is rasterized with a projection that maps
   the tile to the whole viewport, so memory depends on the tile size, not the resolution.
 - Deferred: only visible points are shaded, once per pixel and triangle (see ``_render_tile``).
+- Threads: tiles (and the lights' shadow maps) are rendered on ``settings.threads`` threads at
+  once; NumPy releases the GIL inside its loops, so they run on separate cores.
 
 Render passes (Blender's names): Combined (RGBA), Depth (view-axis distance, nearest over the
 samples, 1e10 for the background), Normal (world-space shading normal), DiffDir, GlossDir,
@@ -18,7 +20,11 @@ the background counting as 0 in all but Combined, as Cycles accumulates them.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator
+import os
+import threading
+from collections import deque
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,6 +44,44 @@ _WIDTH = sum(PASSES[n] for n in _SHADED)
 
 class Cancelled(Exception):
     """The host asked the render to stop."""
+
+
+def thread_count(settings) -> int:
+    """Threads a render uses: ``settings.threads``, or one per CPU core when that is 0."""
+    return max(1, int(settings.threads) or os.cpu_count() or 1)
+
+
+def _ordered(jobs: Iterable[Callable[[], object]], threads: int, poll: Callable[[], None],
+             stop: threading.Event) -> Iterator:
+    """Run ``jobs`` on ``threads`` threads, at most two per thread queued, and yield their
+    results in order. ``poll`` runs on the calling thread at least ten times a second while it
+    waits and may raise (e.g. ``Cancelled``); on any exit ``stop`` is set, the queued jobs are
+    dropped and the running ones are waited for (jobs should return soon once it is set)."""
+    if threads <= 1:
+        try:
+            for job in jobs:
+                poll()
+                yield job()
+        finally:
+            stop.set()
+        return
+    jobs = iter(jobs)
+    pending: deque = deque()
+    with ThreadPoolExecutor(threads, thread_name_prefix="bo2-render") as pool:
+        try:
+            while True:
+                while len(pending) < 2 * threads and (job := next(jobs, None)) is not None:
+                    pending.append(pool.submit(job))
+                if not pending:
+                    return
+                poll()
+                while not wait([pending[0]], timeout=0.1).done:
+                    poll()
+                yield pending.popleft().result()
+        finally:
+            stop.set()
+            for future in pending:
+                future.cancel()
 
 
 def _blackman_harris(x: np.ndarray, width: float) -> np.ndarray:
@@ -146,13 +190,19 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     clip = (homog.astype(np.float64) @ view_proj.T).astype(np.float32)
     cull_t = np.array([m.backface_culling for m in mats], bool)
     cull = cull_t[mat_index] if cull_t.any() else None
-    maps = []
-    for light in scene.lights:
+
+    def poll() -> None:
         if should_stop is not None and should_stop():
             raise Cancelled()
-        maps.append(shadows.build_shadow_map(light, positions, cam,
-                                             resolution=scene.settings.shadow_resolution)
-                    if len(positions) else None)
+
+    def shadow_map(light):
+        return lambda: shadows.build_shadow_map(light, positions, cam,
+                                                resolution=scene.settings.shadow_resolution)
+
+    maps = [None] * len(scene.lights)
+    if len(positions):
+        maps = list(_ordered([shadow_map(light) for light in scene.lights],
+                             thread_count(scene.settings), poll, threading.Event()))
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
                  _constant_tables(mats))
 
@@ -367,21 +417,36 @@ def render_tiles(
     offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
     todo = tiles(scene)
     total = len(todo) * len(offsets)
-    state = {"done": 0}
+    done = [0, 0]  # samples finished over all tiles; that count when progress was last called
+    lock, stop, caller = threading.Lock(), threading.Event(), threading.get_ident()
 
-    def tick() -> None:
+    def poll() -> None:  # on the calling thread only: the host's callbacks are not thread-safe
         if should_stop is not None and should_stop():
             raise Cancelled()
-        if progress is not None and state["done"]:
-            progress(state["done"] / total)
-        state["done"] += 1
+        if progress is not None and done[0] != done[1]:
+            done[1] = done[0]
+            progress(done[1] / total)
 
-    for tile in todo:
-        x0, y0, x1, y1 = tile
-        acc = _render_tile(frame, tile, offsets, tick)
-        if progress is not None:
-            progress(state["done"] / total)
-        yield tile, {name: buf.reshape(y1 - y0, x1 - x0, -1) for name, buf in acc.items()}
+    def tick() -> None:  # before every sample of every tile, on the tile's thread
+        if threading.get_ident() == caller:
+            poll()
+        elif stop.is_set():
+            raise Cancelled()
+        with lock:
+            done[0] += 1
+
+    def job(tile):
+        return lambda: _render_tile(frame, tile, offsets, tick)
+
+    results = _ordered([job(tile) for tile in todo], thread_count(scene.settings), poll, stop)
+    try:
+        for (x0, y0, x1, y1), acc in zip(todo, results, strict=True):
+            yield (x0, y0, x1, y1), {name: buf.reshape(y1 - y0, x1 - x0, -1)
+                                     for name, buf in acc.items()}
+    finally:
+        results.close()  # a caller that stops early stops the threads too
+    if progress is not None:
+        progress(1.0)
 
 
 def render_frame(scene: Scene, progress=None, should_stop=None, warn=None) -> dict:

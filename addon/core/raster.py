@@ -55,6 +55,7 @@ with y up) face the camera, as in OpenGL and Blender.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -399,12 +400,13 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
     )
 
 
-_last_setup: list = [None]  # (clip, cull, width, height, guard_bits, _Setup) of the last input
+_last_setup = threading.local()  # .entry: (clip, cull, width, height, guard_bits, _Setup) of the
+# last input of this thread (tiles rendered at once each keep their own)
 
 
 def _cached_setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> _Setup:
     """``_setup`` of the input, reused while the same input (bit for bit) comes again."""
-    last = _last_setup[0]
+    last = getattr(_last_setup, "entry", None)
     if (
         last is not None
         and last[2:5] == (width, height, guard_bits)
@@ -419,9 +421,9 @@ def _cached_setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: i
     size = clip.nbytes + sum(a.nbytes for a in vars(setup).values() if isinstance(a, np.ndarray))
     if size <= _KEEP_BYTES:  # about 350 bytes per triangle
         copy_cull = None if cull is None else cull.copy()
-        _last_setup[0] = (clip.copy(), copy_cull, width, height, guard_bits, setup)
+        _last_setup.entry = (clip.copy(), copy_cull, width, height, guard_bits, setup)
     else:
-        _last_setup[0] = None
+        _last_setup.entry = None
     return setup
 
 

@@ -242,6 +242,8 @@ class RenderSettings:
     film_transparent: background alpha 0 instead of the world colour
     shadow_resolution: shadow map size in texels (per cube face or cascade)
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
+    threads:        tiles and shadow maps rendered at once (NumPy releases the GIL in its
+                    loops); 0 = one per CPU core
     border:         optional (x0, y0, x1, y1) pixel region to render, top-left origin,
                     x1 and y1 exclusive (Blender's render border)
     """
@@ -253,6 +255,7 @@ class RenderSettings:
     film_transparent: bool = False
     shadow_resolution: int = 1024
     tile_size: int = 512
+    threads: int = 0
     border: tuple[int, int, int, int] | None = None
 
 

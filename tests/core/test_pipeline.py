@@ -5,6 +5,8 @@ orthographic camera's definition, and the radiance from the light's closed-form 
 (E = P / (4 pi d^2) for a point light, E = S for a sun) times the Lambert BRDF albedo / pi.
 """
 
+import threading
+
 import numpy as np
 import pytest
 
@@ -96,10 +98,35 @@ def test_film_transparent_alpha():
 def test_cancel_and_progress():
     scene = lambert_scene(Light("SUN", color=np.ones(3)))
     scene.settings.samples = 8
+    scene.settings.threads = 1
     seen = []
     with pytest.raises(pipeline.Cancelled):
         pipeline.render_frame(scene, progress=seen.append, should_stop=lambda: len(seen) >= 3)
     assert seen == [1 / 8, 2 / 8, 3 / 8]
+
+
+def test_threads_render_the_same_image_and_cancel():
+    scene = lambert_scene(Light("SUN", color=np.ones(3)))
+    scene.settings.samples = 4
+    scene.settings.tile_size = 8  # many tiles, so that several threads share them
+    scene.settings.threads = 1
+    one = pipeline.render_frame(scene)
+    scene.settings.threads = 3
+    calls = []
+    three = pipeline.render_frame(scene, progress=calls.append,
+                                  should_stop=lambda: calls.append(threading.get_ident()))
+    for name in one:
+        np.testing.assert_array_equal(one[name], three[name])
+    # The host's callbacks run on the calling thread only.
+    assert {c for c in calls if isinstance(c, int)} == {threading.get_ident()}
+    progress = [c for c in calls if isinstance(c, float)]
+    assert progress == sorted(progress) and progress[-1] == 1.0
+    # Cancelling stops every thread: the work stops short of the end.
+    scene.settings.samples = 64
+    seen = []
+    with pytest.raises(pipeline.Cancelled):
+        pipeline.render_frame(scene, progress=seen.append, should_stop=lambda: len(seen) >= 1)
+    assert len(seen) == 1 and seen[0] < 0.5
 
 
 def test_broken_triangles_are_skipped_and_reported_once():
