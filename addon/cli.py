@@ -125,7 +125,8 @@ def set_output_format(settings, fmt: str) -> None:
 
 def enable_all_passes(view_layer, engine: str) -> None:
     """Turn on every pass the chosen engine writes (BO2: the engine's; Cycles: the same names)."""
-    for flag in ("use_pass_z", "use_pass_normal", "use_pass_diffuse_direct",
+    for flag in ("use_pass_z", "use_pass_normal", "use_pass_position", "use_pass_uv",
+                 "use_pass_material_index", "use_pass_diffuse_direct",
                  "use_pass_glossy_direct", "use_pass_emit"):
         setattr(view_layer, flag, True)
     if engine == "bo2":

@@ -22,6 +22,9 @@ from . import extract
 PASS_LAYOUT = {
     "Depth": (1, "Z", "VALUE", "use_pass_z"),
     "Normal": (3, "XYZ", "VECTOR", "use_pass_normal"),
+    "Position": (3, "XYZ", "VECTOR", "use_pass_position"),
+    "UV": (3, "UVA", "VECTOR", "use_pass_uv"),
+    "IndexMA": (1, "X", "VALUE", "use_pass_material_index"),
     "DiffDir": (3, "RGB", "COLOR", "use_pass_diffuse_direct"),
     "GlossDir": (3, "RGB", "COLOR", "use_pass_glossy_direct"),
     "Emit": (3, "RGB", "COLOR", "use_pass_emit"),
@@ -29,6 +32,17 @@ PASS_LAYOUT = {
     "Specular Color": (3, "RGB", "COLOR", "bo2.use_pass_specular_color"),
     "Gloss": (1, "X", "VALUE", "bo2.use_pass_gloss"),
 }
+
+
+# Blender 5.0 renamed these built-in passes; the engine registers and writes every pass under the
+# running Blender's name, as Cycles does, so that compositor set-ups work with both engines.
+RENAMED_IN_5 = {"DiffDir": "Diffuse Direct", "GlossDir": "Glossy Direct", "Emit": "Emission",
+                "IndexMA": "Material Index"}
+
+
+def blender_pass_name(name: str) -> str:
+    """The running Blender's name of the pipeline's pass ``name`` (``pipeline.PASSES``)."""
+    return RENAMED_IN_5.get(name, name) if bpy.app.version >= (5, 0, 0) else name
 
 
 def pass_enabled(view_layer, flag: str) -> bool:
@@ -110,7 +124,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                                    layer=layer_name)
         layer = result.layers[0]
         for name, image in passes.items():
-            rp = layer.passes.find_by_name(name, "")
+            rp = layer.passes.find_by_name(blender_pass_name(name), "")
             if rp is not None:
                 rp.rect.foreach_set(np.ascontiguousarray(image[::-1], np.float32).ravel())
         self.end_result(result)
@@ -119,7 +133,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         for name, (channels, ids, kind, flag) in PASS_LAYOUT.items():
             if pass_enabled(renderlayer, flag):
-                self.register_pass(scene, renderlayer, name, channels, ids, kind)
+                self.register_pass(scene, renderlayer, blender_pass_name(name), channels, ids,
+                                   kind)
 
 
 CLASSES = [BO2RenderEngine]

@@ -218,4 +218,5 @@ def convert_material(material, warnings: list[str]) -> Material:
                         "dielectric with the material's viewport colour")
         result = Material(name=name, albedo=np.array(material.diffuse_color[:3], np.float32))
     result.backface_culling = bool(getattr(material, "use_backface_culling", False))
+    result.pass_index = int(material.pass_index)
     return result

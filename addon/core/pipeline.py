@@ -12,10 +12,13 @@
 - Threads: tiles (and the lights' shadow maps) are rendered on ``settings.threads`` threads at
   once; NumPy releases the GIL inside its loops, so they run on separate cores.
 
-Render passes (Blender's names): Combined (RGBA), Depth (view-axis distance, nearest over the
-samples, 1e10 for the background), Normal (world-space shading normal), DiffDir, GlossDir,
-Emit, and the AOVs Albedo, Specular Color, Gloss. All but Depth are averaged over every sample,
-the background counting as 0 in all but Combined, as Cycles accumulates them.
+Render passes (Blender's names), the G-buffer and the lighting: Combined (RGBA), Depth
+(view-axis distance, 1e10 for the background), Normal (world-space shading normal), Position
+(world space, metres), UV (u, v, 1 on meshes with a UV map), IndexMA (the material's pass
+index), DiffDir, GlossDir, Emit, and the AOVs Albedo, Specular Color, Gloss (the material after
+texture lookups). Depth and IndexMA come from one sample, the one nearest the pixel centre, as
+Cycles writes them from one sample; the others are averaged over every sample, the background
+counting as 0 in all but Combined, as Cycles accumulates them.
 """
 
 from __future__ import annotations
@@ -32,11 +35,12 @@ import numpy as np
 from . import brdf, raster, shade, shadows, surface, texture
 from .scene import Material, Scene
 
-PASSES = {"Combined": 4, "Depth": 1, "Normal": 3, "DiffDir": 3, "GlossDir": 3, "Emit": 3,
-          "Albedo": 3, "Specular Color": 3, "Gloss": 1}
+PASSES = {"Combined": 4, "Depth": 1, "Normal": 3, "Position": 3, "UV": 3, "IndexMA": 1,
+          "DiffDir": 3, "GlossDir": 3, "Emit": 3, "Albedo": 3, "Specular Color": 3, "Gloss": 1}
 EMPTY_DEPTH = 1e10
-# The shaded passes (all but Depth) side by side in one (N, 24) array: name -> column slice.
-_SHADED = [name for name in PASSES if name != "Depth"]
+# The averaged passes (all but Depth and IndexMA) side by side in one (N, _WIDTH) array:
+# name -> column slice.
+_SHADED = [name for name in PASSES if name not in ("Depth", "IndexMA")]
 _COLUMNS = {name: slice(sum(PASSES[n] for n in _SHADED[:i]),
                         sum(PASSES[n] for n in _SHADED[:i + 1])) for i, name in enumerate(_SHADED)}
 _WIDTH = sum(PASSES[n] for n in _SHADED)
@@ -141,6 +145,7 @@ def _constant_tables(materials: list[Material]) -> dict:
             for k in table:
                 table[k][i] = getattr(p, k).reshape(-1)[: table[k].shape[1]]
     table["textured"] = np.array([p is None for p in params], bool)
+    table["pass_index"] = np.array([m.pass_index for m in materials], np.float32)
     return table
 
 
@@ -289,7 +294,7 @@ def _raster(frame: Frame, tile, offset):
 def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,).
 
-    returns: (N, 24) float32, the passes but Depth side by side (columns ``_COLUMNS``;
+    returns: (N, _WIDTH) float32, the averaged passes side by side (columns ``_COLUMNS``;
              Combined with alpha 1)
     """
     scene, cam = frame.scene, frame.scene.camera
@@ -337,7 +342,10 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     out = np.empty((len(tri), _WIDTH), np.float32)
     out[:, _COLUMNS["Combined"]] = np.concatenate(
         [diffuse + specular + mat.emission, np.ones((len(tri), 1), np.float32)], -1)
-    for name, value in (("Normal", n), ("DiffDir", diffuse), ("GlossDir", specular),
+    uvw = np.concatenate([uv, np.ones((len(tri), 1), np.float32)], -1)
+    uvw *= frame.has_uv[tri][:, None]
+    for name, value in (("Normal", n), ("Position", p), ("UV", uvw),
+                        ("DiffDir", diffuse), ("GlossDir", specular),
                         ("Emit", mat.emission), ("Albedo", mat.albedo),
                         ("Specular Color", mat.rf0), ("Gloss", mat.gloss[:, None])):
         out[:, _COLUMNS[name]] = value
@@ -357,13 +365,14 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
     npx = (x1 - x0) * (y1 - y0)
     acc = np.zeros((npx, _WIDTH), np.float32)  # sum of the samples shaded on their own
     first = np.zeros((npx, _WIDTH), np.float32)  # shading of each pixel's first sample
-    depth_acc = np.full(npx, EMPTY_DEPTH, np.float32)
+    central = int(np.argmin(np.abs(np.asarray(offsets) - 0.5).sum(-1)))  # Depth and IndexMA
+    depth_acc = index_acc = None
     first_tri = None
     reuse_count = np.zeros(npx, np.float32)  # samples that reuse the first sample's shading
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
     rgba = _COLUMNS["Combined"]
-    for offset in offsets:
+    for k, offset in enumerate(offsets):
         tick()
         tri, bary, depth, sx, sy = _raster(frame, tile, offset)
         covered = tri >= 0
@@ -388,7 +397,9 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
             fresh, target = hit & ~reuse, acc
         if fresh.any():
             target[fresh] += _shade_points(frame, tri[fresh], bary[fresh], sx[fresh], sy[fresh])
-        np.minimum(depth_acc, np.where(hit, depth, np.float32(EMPTY_DEPTH)), out=depth_acc)
+        if k == central:
+            depth_acc = np.where(hit, depth, np.float32(EMPTY_DEPTH))
+            index_acc = np.where(hit, frame.tables["pass_index"][frame.material[tri]], 0.0)
     acc += first * reuse_count[:, None]
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
@@ -396,6 +407,7 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
     acc *= np.float32(1.0 / len(offsets))
     out = {name: acc[:, _COLUMNS[name]] for name in _SHADED}
     out["Depth"] = depth_acc[:, None]
+    out["IndexMA"] = index_acc[:, None].astype(np.float32)
     return out
 
 

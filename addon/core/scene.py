@@ -140,6 +140,7 @@ class Material:
     normal_map: optional tangent-space normal map
     principled: when set, albedo and rf0 and gloss come from these inputs instead
     backface_culling: cull faces seen from behind
+    pass_index: the material's index in the IndexMA pass (Blender's Material > Pass Index)
     """
 
     name: str = "Material"
@@ -151,6 +152,7 @@ class Material:
     normal_map: NormalMap | None = None
     principled: Principled | None = None
     backface_culling: bool = False
+    pass_index: int = 0
 
     @property
     def textured(self) -> bool:

@@ -124,10 +124,10 @@ def test_render_demo_png_and_exr(tmp_path):
     combined = read_exr(exr)
     assert combined.shape == (36, 64, 4) and np.isfinite(combined).all()
     # Every pass is a layer; the light passes add up to Combined where there is geometry.
-    parts = {name: read_exr(exr, name) for name in
-             ("Depth", "Normal", "DiffDir", "GlossDir", "Emit", "Albedo", "Specular Color",
-              "Gloss")}
+    parts = {name: read_exr(exr, name) for name in  # Blender 5.0's pass names
+             ("Depth", "Normal", "Position", "UV", "Material Index", "Diffuse Direct",
+              "Glossy Direct", "Emission", "Albedo", "Specular Color", "Gloss")}
     assert parts["Normal"].shape == (36, 64, 3) and parts["Gloss"].shape == (36, 64, 1)
-    total = parts["DiffDir"] + parts["GlossDir"] + parts["Emit"]
+    total = parts["Diffuse Direct"] + parts["Glossy Direct"] + parts["Emission"]
     ground = parts["Depth"][..., 0] < 1e9
     np.testing.assert_allclose(total[ground], combined[ground, :3], rtol=1e-4, atol=1e-5)
