@@ -230,6 +230,8 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None):
     lights: list[cs.Light] = []
     cache: dict[tuple, tuple | None] = {}  # object-space data shared by instances
     for inst in depsgraph.object_instances:
+        if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
+            continue
         obj = inst.object
         if obj.type == "LIGHT":
             lights.append(_light(obj, _matrix(inst.matrix_world)))

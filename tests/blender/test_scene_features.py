@@ -353,3 +353,72 @@ def test_gbuffer_passes_match_cycles(addon):
         diff = np.abs(ours[name] - cycles[name])[same].mean()
         print(f"{name}: mean |BO2 - Cycles| over interior pixels {diff:.2e}")
         assert diff < tol, name
+
+
+def add_instances(material):
+    """A collection instance, geometry-nodes instances and particle instances (their emitter
+    hidden in renders), all made of small white shapes seen from above."""
+    scene = bpy.context.scene
+    source = bpy.data.collections.new("Source")  # not linked to the scene: only instanced
+    bpy.ops.mesh.primitive_cube_add(size=0.3)
+    cube = bpy.context.object
+    cube.data.materials.append(material)
+    for coll in list(cube.users_collection):
+        coll.objects.unlink(cube)
+    source.objects.link(cube)
+    empty = bpy.data.objects.new("CollectionInstance", None)
+    empty.instance_type = "COLLECTION"
+    empty.instance_collection = source
+    empty.location = (-0.6, 0.6, 0.0)
+    scene.collection.objects.link(empty)
+
+    tree = bpy.data.node_groups.new("Instances", "GeometryNodeTree")
+    tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    grid = tree.nodes.new("GeometryNodeMeshGrid")
+    grid.inputs["Size X"].default_value = grid.inputs["Size Y"].default_value = 0.6
+    grid.inputs["Vertices X"].default_value = grid.inputs["Vertices Y"].default_value = 3
+    box = tree.nodes.new("GeometryNodeMeshCube")
+    box.inputs["Size"].default_value = (0.12, 0.12, 0.12)
+    on_points = tree.nodes.new("GeometryNodeInstanceOnPoints")
+    set_material = tree.nodes.new("GeometryNodeSetMaterial")
+    set_material.inputs["Material"].default_value = material
+    out = tree.nodes.new("NodeGroupOutput")
+    tree.links.new(grid.outputs["Mesh"], on_points.inputs["Points"])
+    tree.links.new(box.outputs["Mesh"], set_material.inputs["Geometry"])
+    tree.links.new(set_material.outputs["Geometry"], on_points.inputs["Instance"])
+    tree.links.new(on_points.outputs["Instances"], out.inputs["Geometry"])
+    bpy.ops.mesh.primitive_plane_add(size=0.1, location=(0.6, 0.6, 0.0))
+    bpy.context.object.modifiers.new("Instances", "NODES").node_group = tree
+
+    bpy.ops.mesh.primitive_ico_sphere_add(radius=0.05, location=(0, 0, -5))
+    ball = bpy.context.object
+    ball.data.materials.append(material)
+    ball.hide_render = True  # only its particle instances render
+    bpy.ops.mesh.primitive_plane_add(size=0.8, location=(0.0, -0.5, 0.0))
+    emitter = bpy.context.object
+    emitter.data.materials.append(material)
+    emitter.modifiers.new("Particles", "PARTICLE_SYSTEM")
+    settings = emitter.particle_systems[0].settings
+    settings.count, settings.frame_start, settings.frame_end = 12, 1, 1
+    settings.physics_type = "NO"
+    settings.render_type = "OBJECT"
+    settings.instance_object = ball
+    settings.particle_size = 1.0
+    emitter.show_instancer_for_render = False
+    scene.frame_set(1)
+
+
+def test_instances_match_cycles(addon):
+    """Collection, geometry-nodes and particle instances appear where Cycles draws them, and an
+    emitter hidden for renders does not."""
+    scene = top_view_scene(view=2.0, res=64)
+    scene.render.film_transparent = True
+    mat, _ = lambert_material("White")
+    add_instances(mat)
+    ours = render_pixels(scene, "BO2_LIGHTING", samples=16)[..., 3]
+    cycles = render_pixels(scene, "CYCLES", samples=16)[..., 3]
+    print(f"instances: coverage BO2 {ours.sum():.1f} px, Cycles {cycles.sum():.1f} px, "
+          f"mean |difference| {np.abs(ours - cycles).mean():.4f}")
+    assert cycles.sum() > 100  # the scene shows its instances
+    assert abs(ours.sum() / cycles.sum() - 1.0) < 0.03
+    assert np.abs(ours - cycles).mean() < 0.01
