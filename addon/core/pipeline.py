@@ -167,8 +167,15 @@ def _drop_broken(positions, normals, uvs, has_uv, holdout, mat_index, warn):
 
 
 def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
-            should_stop: Callable[[], bool] | None = None) -> Frame:
-    """Concatenate the meshes, project them, and build every light's shadow map."""
+            should_stop: Callable[[], bool] | None = None, shadow_maps: list | None = None,
+            fit_shadows: bool = True) -> Frame:
+    """Concatenate the meshes, project them, and build every light's shadow map.
+
+    shadow_maps: reuse these (one per light, from an earlier ``prepare`` of the same geometry
+                 and lights) instead of building them
+    fit_shadows: fit sun cascades to this camera's view; False covers every caster with one
+                 cascade (for views in every direction, e.g. a probe's six faces)
+    """
     meshes = scene.meshes
     if meshes:
         positions = np.concatenate([m.positions for m in meshes]).astype(np.float32, copy=False)
@@ -201,11 +208,11 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
             raise Cancelled()
 
     def shadow_map(light):
-        return lambda: shadows.build_shadow_map(light, positions, cam,
+        return lambda: shadows.build_shadow_map(light, positions, cam if fit_shadows else None,
                                                 resolution=scene.settings.shadow_resolution)
 
-    maps = [None] * len(scene.lights)
-    if len(positions):
+    maps = [None] * len(scene.lights) if shadow_maps is None else shadow_maps
+    if len(positions) and shadow_maps is None:
         maps = list(_ordered([shadow_map(light) for light in scene.lights],
                              thread_count(scene.settings), poll, threading.Event()))
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
@@ -399,7 +406,8 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
             target[fresh] += _shade_points(frame, tri[fresh], bary[fresh], sx[fresh], sy[fresh])
         if k == central:
             depth_acc = np.where(hit, depth, np.float32(EMPTY_DEPTH))
-            index_acc = np.where(hit, frame.tables["pass_index"][frame.material[tri]], 0.0)
+            index_acc = np.zeros(npx, np.float32)
+            index_acc[hit] = frame.tables["pass_index"][frame.material[tri[hit]]]
     acc += first * reuse_count[:, None]
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
@@ -416,16 +424,19 @@ def render_tiles(
     progress: Callable[[float], None] | None = None,
     should_stop: Callable[[], bool] | None = None,
     warn: Callable[[str], None] | None = None,
+    frame: Frame | None = None,
 ) -> Iterator[tuple[tuple[int, int, int, int], dict[str, np.ndarray]]]:
     """Render tile by tile.
 
     progress:    called with the finished fraction in [0, 1]
     should_stop: polled before every sample of every tile; True raises ``Cancelled``
     warn:        called once per distinct problem (skipped triangles)
+    frame:       ``prepare(scene, ...)`` done already (its shadow maps reused), or None
     yields:      ((x0, y0, x1, y1), {pass name: (y1 - y0, x1 - x0, C) float32}), row 0 at the
                  top, for every tile of ``tiles(scene)``
     """
-    frame = prepare(scene, warn, should_stop)
+    if frame is None:
+        frame = prepare(scene, warn, should_stop)
     offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
     todo = tiles(scene)
     total = len(todo) * len(offsets)
@@ -461,7 +472,7 @@ def render_tiles(
         progress(1.0)
 
 
-def render_frame(scene: Scene, progress=None, should_stop=None, warn=None) -> dict:
+def render_frame(scene: Scene, progress=None, should_stop=None, warn=None, frame=None) -> dict:
     """Render the whole frame: {pass name: (H, W, C) float32}, row 0 at the top.
 
     Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``.
@@ -469,7 +480,7 @@ def render_frame(scene: Scene, progress=None, should_stop=None, warn=None) -> di
     cam = scene.camera
     out = {name: np.zeros((cam.height, cam.width, c), np.float32) for name, c in PASSES.items()}
     out["Depth"][:] = EMPTY_DEPTH
-    for (x0, y0, x1, y1), passes in render_tiles(scene, progress, should_stop, warn):
+    for (x0, y0, x1, y1), passes in render_tiles(scene, progress, should_stop, warn, frame):
         for name, image in passes.items():
             out[name][y0:y1, x0:x1] = image
     return out
