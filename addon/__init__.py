@@ -9,9 +9,10 @@ _registered: list = []
 
 
 def _classes() -> list:
-    from .blender import engine, node_groups, props, ui
+    from .blender import bake_ops, engine, node_groups, props, ui
 
-    return [*props.CLASSES, *engine.CLASSES, *node_groups.CLASSES, *ui.CLASSES]
+    return [*props.CLASSES, *engine.CLASSES, *node_groups.CLASSES, *bake_ops.CLASSES,
+            *ui.CLASSES]
 
 
 def register() -> None:

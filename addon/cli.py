@@ -3,6 +3,9 @@
     bo2 render SCENE.blend -o OUT.png [--frame N] [--engine bo2|cycles] [--samples N]
                                       [--resolution WxH] [--specular-model MODEL]
                                       [--all-passes]
+    bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
+    bo2 sh IMAGE [--json]
+    bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles]
     bo2 version
 
 Errors print one line, ``bo2: error: ...``, and exit non-zero (2 for bad usage, 1 for a failed
@@ -20,7 +23,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from .core import brdf
+from .core import brdf, env_brdf
 
 _BLEND_MAGIC = (b"BLENDER", b"\x1f\x8b", b"\x28\xb5\x2f\xfd")  # plain, gzip, zstd
 _IMAGE_FORMATS = {".png": "PNG", ".exr": "OPEN_EXR", ".jpg": "JPEG", ".jpeg": "JPEG",
@@ -127,7 +130,8 @@ def enable_all_passes(view_layer, engine: str) -> None:
     """Turn on every pass the chosen engine writes (BO2: the engine's; Cycles: the same names)."""
     for flag in ("use_pass_z", "use_pass_normal", "use_pass_position", "use_pass_uv",
                  "use_pass_material_index", "use_pass_diffuse_direct",
-                 "use_pass_glossy_direct", "use_pass_emit"):
+                 "use_pass_glossy_direct", "use_pass_diffuse_indirect",
+                 "use_pass_glossy_indirect", "use_pass_emit"):
         setattr(view_layer, flag, True)
     if engine == "bo2":
         for flag in ("use_pass_albedo", "use_pass_specular_color", "use_pass_gloss"):
@@ -174,6 +178,133 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_env_brdf(args) -> int:
+    """Print the environment BRDF of one (gloss, n.v, rf0): one value per rf0 channel."""
+    import json
+
+    import numpy as np
+
+    if len(args.rf0) not in (1, 3):
+        raise CommandError(f"--rf0 takes one value or three (R G B), got {len(args.rf0)}")
+    values = env_brdf.environment_brdf(np.float64(args.gloss), np.float64(args.nov),
+                                       np.array(args.rf0, np.float64), args.model)
+    values = [float(x) for x in np.atleast_1d(values)]
+    if args.json:
+        def num(x):
+            return None if x != x else x  # NaN is not JSON: null
+
+        print(json.dumps({"model": args.model, "gloss": num(args.gloss), "nov": num(args.nov),
+                          "rf0": [num(x) for x in args.rf0], "value": [num(x) for x in values]}))
+    else:
+        print(" ".join(f"{x:.6f}" for x in values))
+    return 0
+
+
+def read_equirect(path: Path):
+    """Read an image as Blender does (``bpy.data.images.load``), for SH projection.
+
+    Float images (HDR, EXR) are scene-linear already; 8-bit images in the sRGB colour space are
+    decoded to linear (``Image.pixels`` holds their encoded values), other 8-bit images are
+    taken as linear data. Blender's row 0 is the bottom row: flipped to row 0 at the top.
+
+    path:    image file
+    returns: (H, W, 3) float32 linear RGB, row 0 at the top (a greyscale image is repeated)
+    """
+    import numpy as np
+
+    from .core import texture
+
+    if path.is_dir():
+        raise CommandError(f"{path}: is a directory, not an image")
+    if not path.is_file():
+        raise CommandError(f"{path}: no such image file")
+    if not os.access(path, os.R_OK):
+        raise CommandError(f"{path}: cannot read the file (permission denied)")
+    with quiet_blender():
+        import bpy
+
+        image = bpy.data.images.load(str(path.resolve()), check_existing=False)
+        width, height = image.size  # reading the size loads the pixels (or fails to)
+        channels = image.channels
+    try:
+        if width == 0 or height == 0 or not image.has_data:
+            raise CommandError(f"{path}: not an image Blender can read")
+        pixels = np.empty(width * height * channels, np.float32)
+        image.pixels.foreach_get(pixels)
+        pixels = pixels.reshape(height, width, channels)[::-1]
+        rgb = pixels[..., :3] if channels >= 3 else np.repeat(pixels[..., :1], 3, -1)
+        if not image.is_float and image.colorspace_settings.name == "sRGB":
+            rgb = texture.srgb_to_linear(rgb)
+        return np.ascontiguousarray(rgb, np.float32)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def cmd_sh(args) -> int:
+    """Print the 9 RGB SH coefficients of the radiance of a lat-long (equirectangular) image."""
+    import json
+
+    from .core import sh
+
+    path = Path(args.image)
+    coefficients = sh.project_equirect(read_equirect(path))
+    if args.json:
+        print(json.dumps({"image": str(args.image), "order": [list(lm) for lm in sh.ORDER],
+                          "coefficients": [[float(x) for x in row] for row in coefficients]}))
+    else:
+        for (l, m), (r, g, b) in zip(sh.ORDER, coefficients, strict=True):
+            print(f"{l} {m:2d}  {r:.7g} {g:.7g} {b:.7g}")
+    return 0
+
+
+def _progress_bar(out, fraction: float, start: float, width: int = 30) -> None:
+    """One self-overwriting line on ``out``: [#####.....]  42.0%  12.3 s."""
+    filled = int(round(fraction * width))
+    out.write(f"\r[{'#' * filled}{'.' * (width - filled)}] {fraction * 100:5.1f}%  "
+              f"{time.perf_counter() - start:6.1f} s")
+    out.flush()
+
+
+def cmd_bake(args) -> int:
+    """Bake the light probes of a .blend file into its bake folder."""
+    bpy = load_blend(Path(args.scene))
+    from .blender import probes
+
+    scene = bpy.context.scene
+    objs = probes.probe_objects(scene)
+    if args.probes:
+        names = {o.name for o in objs}
+        unknown = [n for n in args.probes if n not in names]
+        if unknown:
+            raise CommandError(f"no Sphere or Volume light probe named {', '.join(unknown)} "
+                               f"(have: {', '.join(sorted(names)) or 'none'})")
+        objs = [o for o in objs if o.name in args.probes]
+    if not objs:
+        raise CommandError(f"{args.scene}: the scene has no Sphere or Volume light probes")
+    start = time.perf_counter()
+    warnings: list[str] = []
+    sys.stderr.flush()
+    terminal = os.fdopen(os.dup(2), "w")  # the progress bar passes Blender's silencing
+    try:
+        folder = probes.bake_folder(scene)
+        depsgraph = bpy.context.evaluated_depsgraph_get()
+        with quiet_blender():
+            steps = probes.bake_steps(scene, depsgraph, objs, args.backend.upper(),
+                                      report=warnings.append)
+            for fraction in steps:
+                _progress_bar(terminal, fraction, start)
+    except probes.BakeError as exc:
+        raise CommandError(str(exc)) from None
+    finally:
+        terminal.write("\n")
+        terminal.close()
+    for message in warnings:
+        print(f"bo2: warning: {message}", file=sys.stderr)
+    print(f"baked {len(objs)} probe{'s' * (len(objs) != 1)} into {folder} "
+          f"in {time.perf_counter() - start:.2f} s")
+    return 0
+
+
 def cmd_version(args) -> int:
     import tomllib
 
@@ -202,6 +333,39 @@ def build_parser() -> argparse.ArgumentParser:
     render.add_argument("--specular-model", choices=brdf.MODELS,
                         help="direct specular terms of the BO2 engine (default: the file's)")
     render.set_defaults(func=cmd_render)
+    env = sub.add_parser(
+        "env-brdf", help="print the environment BRDF of a gloss, n.v and rf0",
+        description="The environment BRDF E(gloss, n.v, rf0) of Lazarov 2013 (docs/env_brdf.md): "
+        "the fraction of a uniform environment's radiance reflected towards the eye. Gloss and "
+        "n.v are clamped to [0, 1] and [1e-4, 1], rf0 to [0, 1]; NaN gives NaN.")
+    env.add_argument("--gloss", type=float, required=True, help="gloss g in [0, 1]")
+    env.add_argument("--nov", type=float, required=True, help="cosine of the view to the normal")
+    env.add_argument("--rf0", type=float, nargs="+", default=[0.04], metavar="R",
+                     help="specular colour: one value, or three (R G B); default 0.04")
+    env.add_argument("--model", choices=env_brdf.MODELS, default="bo2",
+                     help="truth (quadrature), table, bo1, bo2 (default) or fit")
+    env.add_argument("--json", action="store_true", help="print a JSON object")
+    env.set_defaults(func=cmd_env_brdf)
+    sh_cmd = sub.add_parser(
+        "sh", help="print the order-3 SH coefficients of an environment image",
+        description="Project a lat-long (equirectangular) radiance image, read as Blender reads "
+        "it and mapped as the Environment Texture node maps it (Blender world axes, Z up), on "
+        "the 9 real SH of docs/sh.md. Prints one line per coefficient: l m  r g b.")
+    sh_cmd.add_argument("image", help="equirectangular image (.hdr, .exr, .png, ...)")
+    sh_cmd.add_argument("--json", action="store_true", help="print a JSON object")
+    sh_cmd.set_defaults(func=cmd_sh)
+    bake = sub.add_parser(
+        "bake", help="bake the light probes of a .blend file",
+        description="Bake the Sphere and Volume light probes of a .blend file (SH irradiance and "
+        "prefiltered cube maps) into its bake folder (the scene's Bake Folder, '//bo2_bake/' "
+        "by default), one OpenEXR file per probe. Nothing is written unless every probe "
+        "finishes.")
+    bake.add_argument("scene", help=".blend file")
+    bake.add_argument("--probes", nargs="+", metavar="NAME",
+                      help="only these light probe objects (default: all)")
+    bake.add_argument("--backend", choices=("bo2", "cycles"), default="bo2",
+                      help="captures rendered by BO2 Lighting (default) or Cycles")
+    bake.set_defaults(func=cmd_bake)
     version = sub.add_parser("version", help="print the add-on version")
     version.set_defaults(func=cmd_version)
     return parser

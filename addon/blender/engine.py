@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core import pipeline
 from ..core.scene import RenderSettings
-from . import extract
+from . import extract, probes
 
 # Blender's pass name -> (channels, channel ids, type, view layer flag or bo2 AOV flag).
 PASS_LAYOUT = {
@@ -27,6 +27,8 @@ PASS_LAYOUT = {
     "IndexMA": (1, "X", "VALUE", "use_pass_material_index"),
     "DiffDir": (3, "RGB", "COLOR", "use_pass_diffuse_direct"),
     "GlossDir": (3, "RGB", "COLOR", "use_pass_glossy_direct"),
+    "DiffInd": (3, "RGB", "COLOR", "use_pass_diffuse_indirect"),
+    "GlossInd": (3, "RGB", "COLOR", "use_pass_glossy_indirect"),
     "Emit": (3, "RGB", "COLOR", "use_pass_emit"),
     "Albedo": (3, "RGB", "COLOR", "bo2.use_pass_albedo"),
     "Specular Color": (3, "RGB", "COLOR", "bo2.use_pass_specular_color"),
@@ -37,7 +39,8 @@ PASS_LAYOUT = {
 # Blender 5.0 renamed these built-in passes; the engine registers and writes every pass under the
 # running Blender's name, as Cycles does, so that compositor set-ups work with both engines.
 RENAMED_IN_5 = {"DiffDir": "Diffuse Direct", "GlossDir": "Glossy Direct", "Emit": "Emission",
-                "IndexMA": "Material Index"}
+                "IndexMA": "Material Index", "DiffInd": "Diffuse Indirect",
+                "GlossInd": "Glossy Indirect"}
 
 
 def blender_pass_name(name: str) -> str:
@@ -71,6 +74,9 @@ def render_settings(scene) -> RenderSettings:
         shade_every_sample=bool(s.shade_every_sample),
         filter_width=float(scene.render.filter_size),
         specular_model=str(s.specular_model),
+        env_brdf=str(s.env_brdf),
+        normalization=str(s.normalization),
+        prefilter=str(s.prefilter),
         film_transparent=bool(scene.render.film_transparent),
         shadow_resolution=int(s.shadow_resolution),
         threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)
@@ -90,6 +96,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         try:
             self.update_stats("BO2 Lighting", "Reading scene")
             frame, warnings = extract.extract_scene(depsgraph, render_settings(scene))
+            if scene.bo2.use_indirect:
+                frame.probes = probes.load_probes(scene, frame.world, warnings)
             for message in warnings:
                 self.report({"WARNING"}, message)
             ntris = sum(len(m.positions) for m in frame.meshes)

@@ -216,14 +216,17 @@ def _object_data(obj, materials, mat_ids, warnings):
         obj.to_mesh_clear()
 
 
-def extract_scene(depsgraph, settings: cs.RenderSettings | None = None):
+def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True):
     """Translate the evaluated depsgraph into plain data.
 
+    camera:  False for work that brings its own cameras (probe captures): the scene camera is
+             neither read nor required, and a 1 x 1 placeholder stands in
     returns: (core.scene.Scene, warnings: list[str] of messages to report once each)
     """
     warnings: list[str] = []
     scene = depsgraph.scene
-    camera = extract_camera(depsgraph)
+    camera = (extract_camera(depsgraph) if camera else
+              cs.Camera(world_to_camera=np.eye(4), projection=np.eye(4), width=1, height=1))
     materials: list[cs.Material] = [cs.Material(name="(no material)")]
     mat_ids: dict[str, int] = {}
     meshes: list[cs.MeshBatch] = []

@@ -36,12 +36,19 @@ SPEC_DIR = Path(__file__).resolve().parents[2] / "node_groups"
 
 GLOSS_GROUP = "BO2 Gloss to Roughness"
 MATERIAL_GROUP = "BO2 Material"
-GROUP_NAMES = (GLOSS_GROUP, MATERIAL_GROUP)
+ENV_BRDF_GROUPS = {"bo2": "BO2 Environment BRDF", "bo1": "BO2 Environment BRDF (BO1)",
+                   "fit": "BO2 Environment BRDF (Fit)"}
+"""Environment BRDF group of each analytic model of ``core.env_brdf`` (specs written by
+``tools/make_env_brdf_groups.py``)."""
+GROUP_NAMES = (GLOSS_GROUP, MATERIAL_GROUP, *ENV_BRDF_GROUPS.values())
 """Names of the groups, dependencies first."""
 
 _SPEC_FILES = {
     GLOSS_GROUP: "bo2_gloss_to_roughness.json",
     MATERIAL_GROUP: "bo2_material.json",
+    ENV_BRDF_GROUPS["bo2"]: "bo2_env_brdf.json",
+    ENV_BRDF_GROUPS["bo1"]: "bo2_env_brdf_bo1.json",
+    ENV_BRDF_GROUPS["fit"]: "bo2_env_brdf_fit.json",
 }
 _TAG = "bo2_node_group"  # ID property that marks a tree built here; its value is the group name
 _SHADER_TREE = "ShaderNodeTree"
@@ -169,12 +176,13 @@ def is_bo2_material_node(node) -> bool:
     return tree.name == MATERIAL_GROUP or tree.name.startswith(MATERIAL_GROUP + ".")
 
 
-def add_material_node(tree, location=(0.0, 0.0)):
-    """Add a BO2 Material group node to shader tree ``tree``; returns the node, selected and active.
+def add_material_node(tree, location=(0.0, 0.0), name: str = MATERIAL_GROUP):
+    """Add a group node of ``name`` (BO2 Material by default) to shader tree ``tree``; returns
+    the node, selected and active.
 
-    Raises ValueError when ``tree`` is BO2 Material itself or used inside it (a recursive group).
+    Raises ValueError when ``tree`` is that group itself or used inside it (a recursive group).
     """
-    group = ensure_group(MATERIAL_GROUP)
+    group = ensure_group(name)
     if tree == group or group.contains_tree(tree):
         raise ValueError(f"cannot add '{group.name}' inside '{tree.name}': it would contain itself")
     for n in tree.nodes:
@@ -202,11 +210,18 @@ def _target_tree(context):
 
 
 class NODE_OT_bo2_add_material(bpy.types.Operator):
-    """Add a BO2 Material node group to the material's node tree"""
+    """Add a BO2 Lighting node group (BO2 Material by default) to the material's node tree"""
 
     bl_idname = "node.bo2_add_material"
-    bl_label = "Add BO2 Material"
+    bl_label = "Add BO2 Node Group"
     bl_options = {"REGISTER", "UNDO"}
+
+    group: bpy.props.EnumProperty(
+        name="Group",
+        description="The node group to add",
+        items=[(name, name, "") for name in GROUP_NAMES[1:] + GROUP_NAMES[:1]],
+        default=MATERIAL_GROUP,
+    )
 
     use_transform: bpy.props.BoolProperty(
         name="Use Transform",
@@ -238,7 +253,7 @@ class NODE_OT_bo2_add_material(bpy.types.Operator):
         in_editor = space is not None and space.type == "NODE_EDITOR"
         location = tuple(space.cursor_location) if in_editor else (0.0, 0.0)
         try:
-            add_material_node(tree, location)
+            add_material_node(tree, location, self.group)
         except ValueError as ex:
             self.report({"ERROR"}, str(ex))
             return {"CANCELLED"}
@@ -295,6 +310,10 @@ def draw_add_menu(self, context):
     props = layout.operator(NODE_OT_bo2_add_material.bl_idname, text="BO2 Material",
                             icon="NODE_MATERIAL")
     props.use_transform = True
+    for name in (*ENV_BRDF_GROUPS.values(), GLOSS_GROUP):
+        props = layout.operator(NODE_OT_bo2_add_material.bl_idname, text=name,
+                                icon="NODETREE")
+        props.group, props.use_transform = name, True
 
 
 _ADD_MENU = "NODE_MT_add"

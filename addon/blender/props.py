@@ -40,6 +40,97 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         default="reference",
     )
 
+    env_brdf: bpy.props.EnumProperty(
+        name="Environment BRDF",
+        description="Environment BRDF that scales indirect specular (reflections)",
+        items=[
+            ("bo1", "BO1", "Black Ops: rf0 + (1 - rf0)(1 - n.v)^5 / (4 - 3 gloss)"),
+            ("bo2", "BO2", "Black Ops II: the analytic EnvironmentBRDF of the talk"),
+            ("fit", "Fit", "Our fit to the ground truth, at the cost of BO2's"),
+            ("table", "Ground Truth (Table)",
+             "The numerically integrated environment BRDF, looked up in a 64 x 64 table"),
+        ],
+        default="bo2",
+    )
+    use_indirect: bpy.props.BoolProperty(
+        name="Indirect Light",
+        description="Light surfaces by the world and the baked light probes (indirect diffuse "
+        "from SH irradiance, indirect specular from prefiltered cube maps)",
+        default=True,
+    )
+    normalization: bpy.props.EnumProperty(
+        name="Normalization",
+        description="Environment map normalization: how a reflection probe's cube map is "
+        "fitted to the lighting at each pixel",
+        items=[
+            ("none", "None", "The cube map as captured"),
+            ("bo1", "BO1 Average Irradiance",
+             "Black Ops: divide by the probe's average irradiance (SH constant term), multiply "
+             "by the pixel's"),
+            ("bo2", "BO2 Directional Irradiance",
+             "Black Ops II: divide by the probe's irradiance at the normal (tinted scalar SH), "
+             "multiply by the pixel's irradiance"),
+        ],
+        default="bo2",
+    )
+    prefilter: bpy.props.EnumProperty(
+        name="Prefilter",
+        description="Filter of the reflection probes' mip chains (both are baked)",
+        items=[
+            ("bo1", "BO1 Angular Gaussian", "Black Ops: CubeMapGen's angular Gaussian filter"),
+            ("bo2", "BO2 Cosine Power",
+             "Black Ops II: each mip filtered with the Phong power of the gloss that reads it"),
+        ],
+        default="bo2",
+    )
+    bake_folder: bpy.props.StringProperty(
+        name="Bake Folder",
+        description="Folder of the baked probes, one OpenEXR file per probe ('//' is the "
+        ".blend's folder)",
+        default="//bo2_bake/",
+        subtype="DIR_PATH",
+    )
+    bake_backend: bpy.props.EnumProperty(
+        name="Bake With",
+        description="Renderer of the probes' captures",
+        items=[
+            ("BO2", "BO2 Lighting", "The engine's own pipeline: direct light, shadows, the "
+             "world and the previous bounce's probes (fast)"),
+            ("CYCLES", "Cycles", "Cycles path tracing: full global illumination (slow)"),
+        ],
+        default="BO2",
+    )
+    bake_face_size: bpy.props.EnumProperty(
+        name="Cube Size",
+        description="Face size of the reflection probes' cube maps (the talk: 128, tied to the "
+        "largest specular power)",
+        items=[(str(n), f"{n} px", "") for n in (32, 64, 128, 256, 512)],
+        default="128",
+    )
+    bake_volume_face_size: bpy.props.EnumProperty(
+        name="Irradiance Cube Size",
+        description="Face size of the captures at each irradiance volume sample (only their "
+        "SH is kept, so small sizes suffice)",
+        items=[(str(n), f"{n} px", "") for n in (8, 16, 32, 64, 128)],
+        default="32",
+    )
+    bake_bounces: bpy.props.IntProperty(
+        name="Bounces",
+        description="Captures lit by the previous bounce's probes (BO2 backend)",
+        default=1, min=1, max=8,
+    )
+    bake_samples: bpy.props.IntProperty(
+        name="Bake Samples",
+        description="Anti-aliasing samples per pixel of the captures (BO2 backend; Cycles uses "
+        "its own sample count)",
+        default=4, min=1, max=64,
+    )
+    bake_cycles_samples: bpy.props.IntProperty(
+        name="Cycles Samples",
+        description="Path-tracing samples per pixel of the captures (Cycles backend)",
+        default=64, min=1, max=65536, soft_max=4096,
+    )
+
 
 class BO2ViewLayerSettings(bpy.types.PropertyGroup):
     """Render passes of the BO2 Lighting engine beyond Blender's own (``view_layer.bo2``)."""

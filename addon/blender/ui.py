@@ -18,6 +18,7 @@ _STOCK_PANELS = (
     "DATA_PT_context_mesh", "DATA_PT_normals", "DATA_PT_uv_texture", "DATA_PT_vertex_groups",
     "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_viewport",
     "WORLD_PT_context_world", "VIEWLAYER_PT_layer",
+    "DATA_PT_context_lightprobe", "DATA_PT_lightprobe", "DATA_PT_lightprobe_display",
 )
 _enabled: list[type] = []
 
@@ -56,6 +57,53 @@ class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
         sub.prop(context.scene.render, "threads")
 
 
+class RENDER_PT_bo2_indirect(_BO2Panel, bpy.types.Panel):
+    bl_label = "Indirect Light"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_bo2_settings"
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.bo2, "use_indirect", text="")
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.bo2
+        col = layout.column()
+        col.active = settings.use_indirect
+        col.prop(settings, "normalization")
+        col.prop(settings, "prefilter")
+        col.prop(settings, "env_brdf")
+
+
+class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
+    bl_label = "Light Probes"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_bo2_settings"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        settings = context.scene.bo2
+        row = layout.row(align=True)
+        row.operator("bo2.bake_probes", text="Bake All", icon="RENDER_STILL").mode = "ALL"
+        row.operator("bo2.bake_probes", text="Bake Selected").mode = "SELECTED"
+        layout.operator("bo2.clear_probes", text="Clear Bakes", icon="TRASH").mode = "ALL"
+        layout.prop(settings, "bake_folder")
+        layout.prop(settings, "bake_backend")
+        layout.prop(settings, "bake_face_size")
+        layout.prop(settings, "bake_volume_face_size")
+        col = layout.column()
+        col.active = settings.bake_backend == "BO2"
+        col.prop(settings, "bake_bounces")
+        col.prop(settings, "bake_samples")
+        col = layout.column()
+        col.active = settings.bake_backend == "CYCLES"
+        col.prop(settings, "bake_cycles_samples")
+
+
 class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):
     bl_label = "Passes"
     bl_context = "view_layer"
@@ -76,6 +124,8 @@ class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):
         col = layout.column(heading="Light", align=True)
         col.prop(view_layer, "use_pass_diffuse_direct", text="Diffuse Direct")
         col.prop(view_layer, "use_pass_glossy_direct", text="Glossy Direct")
+        col.prop(view_layer, "use_pass_diffuse_indirect", text="Diffuse Indirect")
+        col.prop(view_layer, "use_pass_glossy_indirect", text="Glossy Indirect")
         col.prop(view_layer, "use_pass_emit", text="Emission")
         col = layout.column(heading="Material", align=True)
         col.prop(view_layer.bo2, "use_pass_albedo")
@@ -107,7 +157,8 @@ class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
         self.layout.template_node_view(tree, output, output.inputs["Surface"])
 
 
-CLASSES = [RENDER_PT_bo2_settings, VIEWLAYER_PT_bo2_passes, MATERIAL_PT_bo2_surface]
+CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
+           VIEWLAYER_PT_bo2_passes, MATERIAL_PT_bo2_surface]
 
 
 def enable_panels() -> None:

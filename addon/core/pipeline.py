@@ -15,9 +15,10 @@
 Render passes (Blender's names), the G-buffer and the lighting: Combined (RGBA), Depth
 (view-axis distance, 1e10 for the background), Normal (world-space shading normal), Position
 (world space, metres), UV (u, v, 1 on meshes with a UV map), IndexMA (the material's pass
-index), DiffDir, GlossDir, Emit, and the AOVs Albedo, Specular Color, Gloss (the material after
-texture lookups). Depth and IndexMA come from one sample, the one nearest the pixel centre, as
-Cycles writes them from one sample; the others are averaged over every sample, the background
+index), DiffDir, GlossDir, DiffInd, GlossInd (indirect light of ``scene.probes``; 0 without
+probes), Emit, and the AOVs Albedo, Specular Color, Gloss (the material after texture
+lookups). Depth and IndexMA come from one sample, the one nearest the pixel centre, as Cycles
+writes them from one sample; the others are averaged over every sample, the background
 counting as 0 in all but Combined, as Cycles accumulates them.
 """
 
@@ -32,11 +33,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import brdf, raster, shade, shadows, surface, texture
+from . import brdf, probes, raster, shade, shadows, surface, texture
 from .scene import Material, Scene
 
 PASSES = {"Combined": 4, "Depth": 1, "Normal": 3, "Position": 3, "UV": 3, "IndexMA": 1,
-          "DiffDir": 3, "GlossDir": 3, "Emit": 3, "Albedo": 3, "Specular Color": 3, "Gloss": 1}
+          "DiffDir": 3, "GlossDir": 3, "DiffInd": 3, "GlossInd": 3, "Emit": 3, "Albedo": 3,
+          "Specular Color": 3, "Gloss": 1}
 EMPTY_DEPTH = 1e10
 # The averaged passes (all but Depth and IndexMA) side by side in one (N, _WIDTH) array:
 # name -> column slice.
@@ -346,13 +348,21 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
                                           model=model)
         diffuse += d_term * irradiance
         specular += s_term * irradiance
+    if scene.probes is not None:
+        s = scene.settings
+        diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
+                                              mat.gloss, s.normalization, s.prefilter, s.env_brdf)
+    else:
+        diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
     out = np.empty((len(tri), _WIDTH), np.float32)
     out[:, _COLUMNS["Combined"]] = np.concatenate(
-        [diffuse + specular + mat.emission, np.ones((len(tri), 1), np.float32)], -1)
+        [diffuse + specular + diff_ind + gloss_ind + mat.emission,
+         np.ones((len(tri), 1), np.float32)], -1)
     uvw = np.concatenate([uv, np.ones((len(tri), 1), np.float32)], -1)
     uvw *= frame.has_uv[tri][:, None]
     for name, value in (("Normal", n), ("Position", p), ("UV", uvw),
                         ("DiffDir", diffuse), ("GlossDir", specular),
+                        ("DiffInd", diff_ind), ("GlossInd", gloss_ind),
                         ("Emit", mat.emission), ("Albedo", mat.albedo),
                         ("Specular Color", mat.rf0), ("Gloss", mat.gloss[:, None])):
         out[:, _COLUMNS[name]] = value

@@ -241,6 +241,9 @@ class RenderSettings:
                     (supersamples textures, highlights and shadow edges; slower)
     filter_width:   Blackman-Harris pixel filter width in pixels (Cycles' default 1.5)
     specular_model: one of ``brdf.MODELS``
+    env_brdf:       environment BRDF of indirect specular, one of ``env_brdf.MODELS``
+    normalization:  environment map normalization, one of ``probes.NORMALIZATIONS``
+    prefilter:      prefiltered chain of the reflections, one of ``probes.PREFILTERS``
     film_transparent: background alpha 0 instead of the world colour
     shadow_resolution: shadow map size in texels (per cube face or cascade)
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
@@ -254,6 +257,9 @@ class RenderSettings:
     shade_every_sample: bool = False
     filter_width: float = 1.5
     specular_model: str = "reference"
+    env_brdf: str = "bo2"
+    normalization: str = "bo2"
+    prefilter: str = "bo2"
     film_transparent: bool = False
     shadow_resolution: int = 1024
     tile_size: int = 512
@@ -271,3 +277,4 @@ class Scene:
     lights: list[Light] = field(default_factory=list)
     world: World = field(default_factory=World)
     settings: RenderSettings = field(default_factory=RenderSettings)
+    probes: Any = None  # core.probes.Probes: indirect light; None renders direct light only

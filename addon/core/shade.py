@@ -13,13 +13,17 @@ irradiance on a surface facing the light (perpendicular irradiance E, W/m^2) is
 and the reflected radiance is (f_diffuse + f_specular) (n.l) E with the BRDF of ``brdf.py``
 (slide "Black Ops: shading model": Lambert diffuse plus the microfacet specular). These
 factors were measured against Cycles renders of a white Lambert plane (tests/blender).
+
+Indirect specular is the split approximation of slide "Environment lighting: split
+approximation": the prefiltered environment radiance along the reflection vector times the
+environment BRDF of ``env_brdf.py``.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from . import brdf
+from . import brdf, env_brdf
 from .scene import Light
 
 
@@ -92,3 +96,28 @@ def shade_direct(
         diffuse += d * irradiance
         specular += s * irradiance
     return diffuse, specular
+
+
+def indirect_specular(
+    radiance: np.ndarray,
+    normal: np.ndarray,
+    view: np.ndarray,
+    rf0: np.ndarray,
+    gloss: np.ndarray,
+    model: str = "bo2",
+) -> np.ndarray:
+    """Indirect specular radiance: prefiltered radiance times the environment BRDF.
+
+    Slide "Environment lighting: split approximation" (Lazarov 2013): the first factor,
+    ``radiance``, is the environment prefiltered with D_env and sampled along the reflection
+    vector (the probes provide it, normalized); the second is ``env_brdf.environment_brdf``.
+
+    radiance:     (N, 3) prefiltered environment radiance at each point, W/(m^2 sr)
+    normal, view: (N, 3) unit normal and direction to the eye
+    rf0:          (N, 3) specular colour;  gloss: (N,) gloss
+    model:        a name of ``env_brdf.MODELS``
+    returns:      (N, 3) float32 radiance towards the eye
+    """
+    n_dot_v = np.einsum("nc,nc->n", normal, view)
+    e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, model)
+    return (np.asarray(radiance, np.float32) * e).astype(np.float32)

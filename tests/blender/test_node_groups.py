@@ -53,7 +53,7 @@ def sockets(tree, in_out):
 def test_groups_have_the_specified_sockets(fresh):
     material = node_groups.ensure_group("BO2 Material")
     gloss = bpy.data.node_groups["BO2 Gloss to Roughness"]
-    assert node_groups.GROUP_NAMES == ("BO2 Gloss to Roughness", "BO2 Material")
+    assert node_groups.GROUP_NAMES[:2] == ("BO2 Gloss to Roughness", "BO2 Material")
     assert material.bl_idname == "ShaderNodeTree" and material.name == "BO2 Material"
 
     inputs = sockets(material, "INPUT")
@@ -434,6 +434,11 @@ def test_add_material_operator(operators):
     assert node_groups.is_bo2_material_node(node) and node.select
     assert bpy.ops.node.bo2_add_material() == {"FINISHED"}
     assert len(bpy.data.node_groups) == 2
+    # The same operator adds the other groups of the Add menu.
+    for name in node_groups.ENV_BRDF_GROUPS.values():
+        assert bpy.ops.node.bo2_add_material(group=name) == {"FINISHED"}
+        node = mat.node_tree.nodes.active
+        assert node.node_tree.name == name and "Color" in node.outputs
 
 
 def test_add_material_refuses_recursion(fresh):

@@ -126,8 +126,206 @@ def test_render_demo_png_and_exr(tmp_path):
     # Every pass is a layer; the light passes add up to Combined where there is geometry.
     parts = {name: read_exr(exr, name) for name in  # Blender 5.0's pass names
              ("Depth", "Normal", "Position", "UV", "Material Index", "Diffuse Direct",
-              "Glossy Direct", "Emission", "Albedo", "Specular Color", "Gloss")}
+              "Glossy Direct", "Diffuse Indirect", "Glossy Indirect", "Emission", "Albedo",
+              "Specular Color", "Gloss")}
     assert parts["Normal"].shape == (36, 64, 3) and parts["Gloss"].shape == (36, 64, 1)
-    total = parts["Diffuse Direct"] + parts["Glossy Direct"] + parts["Emission"]
+    assert parts["Diffuse Indirect"].max() > 0  # the world lights the demo
+    total = sum(parts[name] for name in ("Diffuse Direct", "Glossy Direct", "Diffuse Indirect",
+                                         "Glossy Indirect", "Emission"))
     ground = parts["Depth"][..., 0] < 1e9
     np.testing.assert_allclose(total[ground], combined[ground, :3], rtol=1e-4, atol=1e-5)
+
+
+def test_env_brdf_prints_the_slide_value():
+    # a004 of slide "Approximate curves: rf0 = 0.04" by hand at g = 0.5, n.v = 0.5:
+    # t = min(0.2375, 2^-4.64) = 0.040107; (t + 0.0275) 0.5 + 0.015 = 0.048804
+    proc = bo2("env-brdf", "--gloss", "0.5", "--nov", "0.5")
+    assert proc.returncode == 0, proc.stderr
+    assert float(proc.stdout) == pytest.approx(0.0488035, abs=2e-6)
+
+
+def test_env_brdf_json_rgb_and_models():
+    import json
+
+    from bo2_lighting.addon.core import env_brdf
+
+    for model in env_brdf.MODELS:
+        proc = bo2("env-brdf", "--gloss", "0.3", "--nov", "0.2", "--rf0", "0", "0.04", "1",
+                   "--model", model, "--json")
+        assert proc.returncode == 0, proc.stderr
+        out = json.loads(proc.stdout)
+        assert out["model"] == model and out["rf0"] == [0.0, 0.04, 1.0]
+        expected = env_brdf.environment_brdf(0.3, 0.2, np.array([0.0, 0.04, 1.0]), model)
+        np.testing.assert_allclose(out["value"], expected, rtol=1e-6)
+
+
+def test_env_brdf_bad_input():
+    proc = bo2("env-brdf", "--gloss", "glossy", "--nov", "0.5")
+    assert proc.returncode == 2 and "invalid float value: 'glossy'" in one_error_line(proc)
+    proc = bo2("env-brdf", "--gloss", "0.5", "--nov", "0.5", "--rf0", "0.1", "0.2")
+    assert proc.returncode == 1 and "one value or three" in one_error_line(proc)
+    proc = bo2("env-brdf", "--gloss", "nan", "--nov", "0.5", "--json")  # NaN propagates
+    assert proc.returncode == 0 and '"value": [null]' in proc.stdout
+    out_of_range = bo2("env-brdf", "--gloss", "7", "--nov", "-2")  # clamped to 1 and 1e-4
+    clamped = bo2("env-brdf", "--gloss", "1", "--nov", "0.0001")
+    assert out_of_range.stdout == clamped.stdout and out_of_range.returncode == 0
+
+
+# --- bo2 sh ------------------------------------------------------------------------------------
+
+ENVMAPS = ROOT.parent / "shared" / "reference" / "envmaps"
+
+
+def read_rgbe(path):
+    """The tests' own Radiance reader (tests/core/rgbe.py), independent of Blender."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("rgbe", ROOT / "tests" / "core" / "rgbe.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.read_rgbe(path)
+
+
+def test_sh_of_a_reference_hdri():
+    import json
+
+    from bo2_lighting.addon.core import sh
+
+    hdri = ENVMAPS / "venice_sunset_1k.hdr"
+    if not hdri.is_file():
+        pytest.skip(f"reference HDRI not found: {hdri}")
+    expected = sh.project_equirect(read_rgbe(hdri))
+    proc = bo2("sh", hdri)
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 9
+    order = [tuple(int(x) for x in line.split()[:2]) for line in lines]
+    assert order == [(0, 0), (1, -1), (1, 0), (1, 1), (2, -2), (2, -1), (2, 0), (2, 1), (2, 2)]
+    plain = np.array([[float(x) for x in line.split()[2:]] for line in lines])
+    np.testing.assert_allclose(plain, expected, rtol=1e-3, atol=1e-3 * np.abs(expected).max())
+    proc = bo2("sh", hdri, "--json")
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["image"] == str(hdri)
+    assert out["order"] == [list(lm) for lm in order]
+    np.testing.assert_allclose(out["coefficients"], expected, rtol=1e-3,
+                               atol=1e-3 * np.abs(expected).max())
+
+
+def test_sh_bad_inputs(tmp_path):
+    proc = bo2("sh", tmp_path / "nope.hdr")
+    assert proc.returncode == 1 and "no such image file" in one_error_line(proc)
+    noise = tmp_path / "noise.hdr"
+    noise.write_bytes(np.random.default_rng(3).integers(0, 256, 4096, np.uint8).tobytes())
+    proc = bo2("sh", noise)
+    assert proc.returncode == 1 and "not an image Blender can read" in one_error_line(proc)
+    proc = bo2("sh", tmp_path)
+    assert proc.returncode == 1 and "is a directory" in one_error_line(proc)
+    for args in (("sh",), ("sh", noise, "--frobnicate")):
+        proc = bo2(*args)
+        assert proc.returncode == 2
+        one_error_line(proc)
+
+
+def write_png(path, rgb):
+    """A minimal 8-bit RGB PNG (ISO/IEC 15948): signature, IHDR, one IDAT, IEND."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return (struct.pack(">I", len(data)) + kind + data
+                + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
+
+    h, w, _ = rgb.shape
+    rows = b"".join(b"\x00" + rgb[r].astype(np.uint8).tobytes() for r in range(h))
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0,
+                                                                      0, 0))
+                     + chunk(b"IDAT", zlib.compress(rows)) + chunk(b"IEND", b""))
+
+
+def test_sh_of_an_srgb_png_sky(tmp_path):
+    import json
+
+    # Top half (the +Z hemisphere) 8-bit 128, sRGB-encoded: linear 0.2158605 (IEC 61966-2-1);
+    # bottom half black. c00 = 0.282095 * 2 pi L, c10 = 0.488603 * pi L (integral of z over the
+    # upper hemisphere is pi), every other coefficient 0. The sign of c10 checks the row order.
+    rgb = np.zeros((64, 128, 3), np.uint8)
+    rgb[:32] = 128
+    png = tmp_path / "sky.png"
+    write_png(png, rgb)
+    proc = bo2("sh", png, "--json")
+    assert proc.returncode == 0, proc.stderr
+    c = np.array(json.loads(proc.stdout)["coefficients"])
+    linear = 0.2158605
+    expected = np.zeros((9, 3))
+    expected[0], expected[2] = 0.282095 * 2 * np.pi * linear, 0.488603 * np.pi * linear
+    np.testing.assert_allclose(c, expected, atol=1e-3)
+
+
+PROBE_SCENE = r'''
+import sys
+import bpy
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+bpy.ops.mesh.primitive_plane_add(size=4)
+sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+scene.collection.objects.link(sun)
+for name, kind, loc in (("Reflection", "SPHERE", (0, 0, 1)), ("Irradiance", "VOLUME", (0, 0, 1))):
+    probe = bpy.data.objects.new(name, bpy.data.lightprobes.new(name, kind))
+    probe.location = loc
+    scene.collection.objects.link(probe)
+scene.objects["Irradiance"].data.resolution_x = 2
+scene.objects["Irradiance"].data.resolution_y = 2
+scene.objects["Irradiance"].data.resolution_z = 2
+if len(sys.argv) > 2:  # no probes at all
+    for name in ("Reflection", "Irradiance"):
+        bpy.data.objects.remove(scene.objects[name])
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
+'''
+
+
+def probe_blend(tmp_path, with_probes=True):
+    blend = tmp_path / "probes.blend"
+    subprocess.run([sys.executable, "-c", PROBE_SCENE, str(blend)]
+                   + ([] if with_probes else ["empty"]), check=True, capture_output=True)
+    return blend
+
+
+def test_bake_writes_the_bake_folder(tmp_path):
+    from bo2_lighting.addon.core import probe_file
+
+    blend = probe_blend(tmp_path)
+    proc = bo2("bake", blend, "--probes", "Reflection")
+    assert proc.returncode == 0, proc.stderr
+    assert "baked 1 probe into" in proc.stdout and "100.0%" in proc.stderr
+    assert sorted(p.name for p in (tmp_path / "bo2_bake").iterdir()) == ["Reflection.exr"]
+    meta, sh, mips = probe_file.read(tmp_path / "bo2_bake" / "Reflection.exr")
+    assert meta["backend"] == "BO2" and meta["face_size"] == 128 and len(mips["bo2"]) == 8
+    proc = bo2("bake", blend)
+    assert proc.returncode == 0 and "baked 2 probes" in proc.stdout
+
+
+def test_bake_with_cycles(tmp_path):
+    from bo2_lighting.addon.core import probe_file
+
+    blend = probe_blend(tmp_path)
+    proc = bo2("bake", blend, "--probes", "Irradiance", "--backend", "cycles", timeout=900)
+    assert proc.returncode == 0, proc.stderr
+    meta, sh, _ = probe_file.read(tmp_path / "bo2_bake" / "Irradiance.exr")
+    assert meta["backend"] == "CYCLES" and sh.shape == (8, 9, 3)
+    assert np.isfinite(sh).all() and sh[:, 0].min() > 0  # every sample sees the sunlit plane
+
+
+def test_bake_bad_input(tmp_path):
+    blend = probe_blend(tmp_path)
+    proc = bo2("bake", blend, "--probes", "Nope")
+    assert proc.returncode == 1
+    assert "no Sphere or Volume light probe named Nope" in one_error_line(proc)
+    assert "Irradiance, Reflection" in one_error_line(proc)
+    empty = probe_blend(tmp_path, with_probes=False)
+    proc = bo2("bake", empty)
+    assert proc.returncode == 1 and "no Sphere or Volume light probes" in one_error_line(proc)
+    proc = bo2("bake", tmp_path / "missing.blend")
+    assert proc.returncode == 1
+    proc = bo2("bake", blend, "--backend", "eevee")
+    assert proc.returncode == 2

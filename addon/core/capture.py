@@ -1,0 +1,92 @@
+"""Capture the scene around a point as a cube map, with the engine's own pipeline.
+
+Six 90-degree square views along the faces of ``cubemap.FACES``: emission, direct light with
+shadows, the world seen as background, and the indirect light of ``scene.probes`` when the
+scene carries the previous bounce's probes. A pixel (row r, column c) of face f is the texel of
+the same index in ``cubemap`` (direction forward + a right + b up, a and b the pixel centre's
+coordinates in [-1, 1]).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+
+import numpy as np
+
+from . import cubemap, pipeline, prefilter, sh, texture
+from .scene import Camera, Scene, World
+
+__all__ = ["Capture", "face_camera", "filtered", "world_cube"]
+
+
+def face_camera(position, face: int, size: int, near: float, far: float) -> Camera:
+    """The 90-degree square camera of cube face ``face`` at ``position`` (3,), metres."""
+    forward, right, up = (np.asarray(v, np.float64) for v in cubemap.FACES[face])
+    view = np.eye(4)
+    view[0, :3], view[1, :3], view[2, :3] = right, up, -forward
+    view[:3, 3] = -view[:3, :3] @ np.asarray(position, np.float64)
+    proj = np.array([[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0],
+                     [0.0, 0.0, (far + near) / (near - far), 2.0 * far * near / (near - far)],
+                     [0.0, 0.0, -1.0, 0.0]])
+    return Camera(world_to_camera=view, projection=proj, width=size, height=size)
+
+
+class Capture:
+    """Renders cube maps of one scene at many points, its shadow maps built once.
+
+    scene:  the scene (its camera is ignored); its settings' samples and filter apply, the
+            film is opaque and the border off
+    near, far: clip distances of the views, metres
+    """
+
+    def __init__(self, scene: Scene, near: float = 0.05, far: float = 1e4,
+                 warn: Callable[[str], None] | None = None,
+                 should_stop: Callable[[], bool] | None = None):
+        settings = dataclasses.replace(scene.settings, film_transparent=False, border=None)
+        self.scene = dataclasses.replace(scene, settings=settings)
+        self.near, self.far = float(near), float(max(far, near * 2.0))
+        self.warn, self.should_stop = warn, should_stop
+        self._shadow_maps = None
+
+    def cube(self, position, size: int) -> np.ndarray:
+        """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres."""
+        out = np.empty((6, size, size, 3), np.float32)
+        for face in range(6):
+            cam = face_camera(position, face, size, self.near, self.far)
+            scene = dataclasses.replace(self.scene, camera=cam)
+            frame = pipeline.prepare(scene, self.warn, self.should_stop,
+                                     shadow_maps=self._shadow_maps, fit_shadows=False)
+            self._shadow_maps = frame.shadow_maps
+            self.warn = None  # skipped triangles are reported once
+            image = pipeline.render_frame(scene, should_stop=self.should_stop, frame=frame)
+            out[face] = image["Combined"][..., :3]
+        return out
+
+
+def world_cube(world: World, size: int) -> np.ndarray:
+    """(6, size, size, 3) float32 radiance of the world: its colour, or its Environment Texture
+    (Blender's equirectangular mapping and Mapping rotation) times strength, read at the mip
+    level whose texels match the cube's (no aliasing from a large image)."""
+    if world.texture is None:
+        return np.broadcast_to(np.asarray(world.color, np.float32)[:3],
+                               (6, size, size, 3)).copy()
+    d = cubemap.texel_directions(size).reshape(-1, 3)
+    d = d @ np.asarray(world.rotation, np.float32).T
+    height = world.texture.mips[0].shape[0]
+    # A cube texel spans (pi/2)/size radians, an image row pi/height: H / (2 size) image texels.
+    lod = max(0.0, float(np.log2(height / (2.0 * size))))
+    px = texture.sample(world.texture, texture.direction_to_equirect_uv(d), lod)[:, :3]
+    return (px * np.float32(world.strength)).reshape(6, size, size, 3).astype(np.float32)
+
+
+def filtered(cube: np.ndarray) -> tuple[np.ndarray, dict[str, list[np.ndarray]]]:
+    """SH (9, 3) and both prefiltered chains {"bo2": cosine power, "bo1": angular Gaussian} of
+    a captured cube (6, S, S, 3)."""
+    size = cube.shape[1]
+    coeffs = sh.project(cubemap.texel_directions(size).reshape(-1, 3), cube.reshape(-1, 3),
+                        np.broadcast_to(cubemap.texel_solid_angles(size),
+                                        (6, size, size)).reshape(-1))
+    chains = {"bo2": prefilter.prefilter_cosine_power(cube),
+              "bo1": prefilter.prefilter_angular_gaussian(cube)}
+    return np.asarray(coeffs, np.float32), chains

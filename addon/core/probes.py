@@ -1,0 +1,259 @@
+"""Light probes and the indirect light they give: SH irradiance and prefiltered reflections.
+
+The talk's indirect lighting (Lazarov 2013):
+
+- Indirect diffuse: albedo / pi times the irradiance at the shading normal, from order-3 SH
+  light probes (Ramamoorthi & Hanrahan 2001). Irradiance volumes (Blender's Volume light probes)
+  hold one SH per grid sample; a point inside a volume gets the trilinear blend of the eight
+  samples around it, blended with the world's SH outside the volume's influence.
+- Indirect specular: the prefiltered cube map of the nearest reflection probes (Blender's Sphere
+  light probes) along the reflection vector at lod = nMips - gloss nMips (slide "Black Ops:
+  environment map pre-filtering"), normalized to the local lighting, times the environment BRDF
+  (``env_brdf.py``). Normalization (slides "Black Ops: normalization algorithm" and "Improved
+  normalization algorithm"):
+
+  - "none": the prefiltered radiance as captured;
+  - "bo1":  divided by the probe's average irradiance (its SH's constant term) and multiplied by
+    the pixel's average irradiance (the constant term of the pixel's SH);
+  - "bo2":  divided by the probe's irradiance at the normal (its tinted scalar SH) and multiplied
+    by the pixel's irradiance at the normal.
+
+  The ratio is bounded by ``MAX_NORMALIZATION`` so that a probe that captured (nearly) no light
+  in some direction cannot blow a pixel up.
+
+The world is the fallback of both: its SH and its prefiltered cube map are used with the weight
+that the probes leave (1 - the sum of their weights, when that is positive).
+
+References
+----------
+- D. Lazarov, "Getting More Physical in Call of Duty: Black Ops II", SIGGRAPH 2013 course
+  "Physically Based Shading in Theory and Practice".
+- R. Ramamoorthi, P. Hanrahan, "An Efficient Representation for Irradiance Environment Maps",
+  SIGGRAPH 2001.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from . import cubemap, env_brdf, sh
+
+__all__ = [
+    "MAX_NORMALIZATION",
+    "NORMALIZATIONS",
+    "PREFILTERS",
+    "IrradianceVolume",
+    "Probes",
+    "ReflectionProbe",
+    "indirect",
+    "volume_sample_positions",
+]
+
+NORMALIZATIONS = ("none", "bo1", "bo2")
+PREFILTERS = ("bo1", "bo2")
+MAX_NORMALIZATION = 16.0
+_EPS = 1e-6
+
+
+@dataclass
+class ReflectionProbe:
+    """A baked reflection probe (Blender's Sphere light probe).
+
+    position:  (3,) world position of the capture, metres
+    radius:    influence radius, metres;  falloff: fraction of the radius over which the
+               influence fades to 0 at the radius (Blender's Falloff)
+    mips:      {"bo2": cosine-power chain, "bo1": angular Gaussian chain}, each a list of
+               float32 (6, S_m, S_m, 3) cube maps of radiance, S_m = S >> m
+    sh:        (9, 3) float32 SH of the captured radiance (``sh.project`` of the cube)
+    """
+
+    name: str
+    position: np.ndarray
+    radius: float
+    falloff: float
+    mips: dict[str, list[np.ndarray]]
+    sh: np.ndarray
+
+    def weight(self, points: np.ndarray) -> np.ndarray:
+        """(N,) influence in [0, 1] at world points (N, 3)."""
+        d = np.linalg.norm(points - np.asarray(self.position, np.float32), axis=-1)
+        fade = max(self.falloff, 1e-4) * self.radius
+        return np.clip((self.radius - d) / max(fade, 1e-6), 0.0, 1.0).astype(np.float32)
+
+
+@dataclass
+class IrradianceVolume:
+    """A baked irradiance volume (Blender's Volume light probe).
+
+    local_to_world: (4, 4) float64: the grid spans the local cube [-1, 1]^3
+    resolution:     (3,) samples along local x, y, z
+    sh:             float32 (X, Y, Z, 9, 3) radiance SH at the samples
+    influence:      distance outside the box, metres, over which the volume's weight fades to 0
+    """
+
+    name: str
+    local_to_world: np.ndarray
+    resolution: tuple[int, int, int]
+    sh: np.ndarray
+    influence: float = 0.0
+
+    def _local(self, points: np.ndarray) -> np.ndarray:
+        inv = np.linalg.inv(np.asarray(self.local_to_world, np.float64))
+        return (points.astype(np.float64) @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32)
+
+    def weight(self, points: np.ndarray) -> np.ndarray:
+        """(N,) influence in [0, 1]: 1 inside the box, fading to 0 ``influence`` metres out."""
+        q = self._local(points)
+        scale = np.linalg.norm(np.asarray(self.local_to_world)[:3, :3], axis=0)  # metres/unit
+        outside = np.maximum(np.abs(q) - 1.0, 0.0) * scale.astype(np.float32)
+        dist = np.linalg.norm(outside, axis=-1)
+        if self.influence <= 0.0:
+            return (dist <= 0.0).astype(np.float32)
+        return np.clip(1.0 - dist / self.influence, 0.0, 1.0).astype(np.float32)
+
+    def sample_sh(self, points: np.ndarray) -> np.ndarray:
+        """(N, 9, 3) SH at world points, trilinear between the samples (clamped at the box)."""
+        res = np.asarray(self.resolution)
+        q = self._local(points)
+        # sample i sits at local (i + 0.5) / res * 2 - 1 (volume_sample_positions)
+        f = (q + 1.0) * 0.5 * res - 0.5
+        f = np.clip(f, 0.0, res - 1.0)
+        i0 = np.minimum(np.floor(f).astype(np.int64), res - 2).clip(0)
+        t = (f - i0).astype(np.float32)
+        i1 = np.minimum(i0 + 1, res - 1)
+        out = np.zeros((len(points), 9, 3), np.float32)
+        for corner in range(8):
+            bits = [(corner >> k) & 1 for k in range(3)]
+            idx = [np.where(b, i1[:, k], i0[:, k]) for k, b in enumerate(bits)]
+            w = np.ones(len(points), np.float32)
+            for k, b in enumerate(bits):
+                w *= t[:, k] if b else 1.0 - t[:, k]
+            out += w[:, None, None] * self.sh[idx[0], idx[1], idx[2]]
+        return out
+
+
+def volume_sample_positions(local_to_world: np.ndarray, resolution) -> np.ndarray:
+    """World positions (X, Y, Z, 3) of a volume's samples: local (i + 0.5)/res * 2 - 1."""
+    axes = [(np.arange(r) + 0.5) / r * 2.0 - 1.0 for r in resolution]
+    q = np.stack(np.meshgrid(*axes, indexing="ij"), -1)
+    m = np.asarray(local_to_world, np.float64)
+    return q @ m[:3, :3].T + m[:3, 3]
+
+
+@dataclass
+class Probes:
+    """Everything indirect light needs: the world fallback and the baked probes.
+
+    world_sh:   (9, 3) radiance SH of the world
+    world_mips: {"bo2": [...], "bo1": [...]} prefiltered world cube chains, as in
+                ``ReflectionProbe.mips``
+    """
+
+    world_sh: np.ndarray
+    world_mips: dict[str, list[np.ndarray]]
+    reflection: list[ReflectionProbe] = field(default_factory=list)
+    volumes: list[IrradianceVolume] = field(default_factory=list)
+
+
+def _sh_irradiance(coeffs: np.ndarray, normals: np.ndarray) -> np.ndarray:
+    """(N, C) irradiance of per-point SH (N, 9, C) at unit normals (N, 3)."""
+    y = sh.basis(normals) * sh.BAND_FACTORS  # (N, 9) with the clamped-cosine convolution
+    return np.einsum("nk,nkc->nc", y, coeffs).astype(np.float32)
+
+
+def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
+    """(N, 9, 3) SH at each point: the volumes' blend, the world where they leave weight."""
+    n = len(points)
+    total = np.zeros(n, np.float32)
+    acc = np.zeros((n, 9, 3), np.float32)
+    for vol in probes.volumes:
+        w = vol.weight(points)
+        k = np.flatnonzero(w > 0)
+        if k.size:
+            acc[k] += w[k, None, None] * vol.sample_sh(points[k])
+            total[k] += w[k]
+    over = total > 1.0
+    acc[over] /= total[over, None, None]
+    world = np.maximum(1.0 - total, 0.0)
+    acc += world[:, None, None] * np.asarray(probes.world_sh, np.float32)[None]
+    return acc
+
+
+def _lod(mips: list[np.ndarray], gloss: np.ndarray) -> np.ndarray:
+    """lod = nMips - gloss nMips with nMips = len(mips) - 1 (slide "Black Ops: environment map
+    pre-filtering"): gloss 1 reads the top mip, gloss 0 the 1 x 1 one."""
+    top = len(mips) - 1
+    return (top - np.clip(gloss, 0.0, 1.0) * top).astype(np.float32)
+
+
+def _normalized(sample, probe_sh, pixel_sh, normals, normalization):
+    """Prefiltered radiance (N, 3) fitted to the pixel's lighting (module docstring)."""
+    if normalization == "none":
+        return sample
+    if normalization == "bo1":
+        ratio = (pixel_sh[:, 0] + _EPS) / (np.asarray(probe_sh)[0][None] + _EPS)
+    elif normalization == "bo2":
+        scalar, tint = sh.to_tinted(np.asarray(probe_sh, np.float64))
+        probe_e = sh.tinted_irradiance(scalar, tint, normals)
+        ratio = (_sh_irradiance(pixel_sh, normals) + _EPS) / (probe_e + _EPS)
+    else:
+        raise ValueError(f"unknown normalization {normalization!r}; expected one of: "
+                         f"{', '.join(NORMALIZATIONS)}")
+    return sample * np.clip(ratio, 0.0, MAX_NORMALIZATION).astype(np.float32)
+
+
+def indirect(
+    probes: Probes,
+    points: np.ndarray,
+    normals: np.ndarray,
+    view: np.ndarray,
+    albedo: np.ndarray,
+    rf0: np.ndarray,
+    gloss: np.ndarray,
+    normalization: str = "bo2",
+    prefilter: str = "bo2",
+    env_model: str = "bo2",
+) -> tuple[np.ndarray, np.ndarray]:
+    """Indirect diffuse and specular radiance at N shaded points.
+
+    points, normals, view: (N, 3) float32 world positions, unit shading normals and unit
+                 directions to the eye
+    albedo, rf0: (N, 3) float32;  gloss: (N,) float32
+    normalization: one of ``NORMALIZATIONS``; prefilter: one of ``PREFILTERS``;
+    env_model:   one of ``env_brdf.MODELS``
+    returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
+    """
+    if prefilter not in PREFILTERS:
+        raise ValueError(f"unknown prefilter {prefilter!r}; expected one of: "
+                         f"{', '.join(PREFILTERS)}")
+    pixel_sh = _pixel_sh(probes, points)
+    diffuse = albedo * _sh_irradiance(pixel_sh, normals) * np.float32(1.0 / np.pi)
+
+    n_dot_v = np.einsum("nc,nc->n", normals, view)
+    reflect = 2.0 * n_dot_v[:, None] * normals - view
+    n = len(points)
+    total = np.zeros(n, np.float32)
+    radiance = np.zeros((n, 3), np.float32)
+    for probe in probes.reflection:
+        w = probe.weight(points)
+        k = np.flatnonzero(w > 0)
+        if not k.size:
+            continue
+        mips = probe.mips[prefilter]
+        s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
+        s = _normalized(s, probe.sh, pixel_sh[k], normals[k], normalization)
+        radiance[k] += w[k, None] * s
+        total[k] += w[k]
+    over = total > 1.0
+    radiance[over] /= total[over, None]
+    world = np.maximum(1.0 - total, 0.0)
+    k = np.flatnonzero(world > 0)
+    if k.size:
+        mips = probes.world_mips[prefilter]
+        s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
+        s = _normalized(s, probes.world_sh, pixel_sh[k], normals[k], normalization)
+        radiance[k] += world[k, None] * s
+    e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
+    return diffuse.astype(np.float32), (radiance * e).astype(np.float32)

@@ -1,0 +1,179 @@
+"""Light probes end to end: bake Blender's Sphere and Volume probes, render with them, and
+keep previous bakes safe from cancelled bakes and corrupt files."""
+
+import math
+from pathlib import Path
+
+import bpy
+import numpy as np
+import pytest
+from util import render_pixels, set_world_color
+
+from bo2_lighting.addon.blender import probes
+from bo2_lighting.addon.core import probe_file
+
+RES = 48
+
+
+def lambert(name, color):
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    node = mat.node_tree.nodes["Principled BSDF"]
+    node.inputs["Base Color"].default_value = (*color, 1.0)
+    node.inputs["Roughness"].default_value = 0.6
+    return mat
+
+
+def room(tmp_path):
+    """A floor, a red wall, a white wall, a sun over the floor, a grey sky; a reflection probe
+    and a 3 x 3 x 2 irradiance volume; saved, so that '//bo2_bake/' is next to the file."""
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = RES
+    scene.render.resolution_percentage = 100
+    scene.view_settings.view_transform = "Standard"
+    set_world_color(scene, (0.05, 0.05, 0.08))
+    for size, loc, rot, color in [
+        (6, (0, 0, 0), (0, 0, 0), (0.7, 0.7, 0.7)),
+        (6, (0, 2, 1.5), (math.pi / 2, 0, 0), (0.8, 0.05, 0.05)),
+        (6, (-2, 0, 1.5), (0, math.pi / 2, 0), (0.8, 0.8, 0.8)),
+    ]:
+        bpy.ops.mesh.primitive_plane_add(size=size, location=loc, rotation=rot)
+        bpy.context.object.data.materials.append(lambert(f"M{color}", color))
+    bpy.ops.mesh.primitive_uv_sphere_add(radius=0.5, location=(0.3, 0.4, 0.5))
+    bpy.ops.object.shade_smooth()
+    chrome = lambert("Chrome", (0.9, 0.9, 0.9))
+    chrome.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = 1.0
+    chrome.node_tree.nodes["Principled BSDF"].inputs["Roughness"].default_value = 0.15
+    bpy.context.object.data.materials.append(chrome)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (math.radians(35), 0, math.radians(20))  # onto both walls
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location, cam.rotation_euler = (1.5, -3.5, 2.2), (math.radians(65), 0, math.radians(20))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    sphere = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
+    sphere.location = (0.3, 0.4, 0.8)
+    sphere.data.influence_distance = 4.0
+    scene.collection.objects.link(sphere)
+    volume = bpy.data.objects.new("Irradiance", bpy.data.lightprobes.new("Irradiance", "VOLUME"))
+    volume.location, volume.scale = (0, 0, 1.0), (2.5, 2.5, 1.0)
+    volume.data.resolution_x = volume.data.resolution_y = 3
+    volume.data.resolution_z = 2
+    scene.collection.objects.link(volume)
+    scene.bo2.bake_face_size = "32"
+    scene.bo2.bake_volume_face_size = "8"
+    scene.bo2.bake_samples = 1
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "room.blend"))
+    return scene
+
+
+def bake(scene, **kw):
+    assert bpy.ops.bo2.bake_probes(**kw) == {"FINISHED"}
+    return probes.bake_folder(scene)
+
+
+def test_bake_writes_one_file_per_probe(addon, tmp_path):
+    scene = room(tmp_path)
+    folder = bake(scene)
+    assert folder == tmp_path / "bo2_bake"
+    assert sorted(p.name for p in folder.iterdir()) == ["Irradiance.exr", "Reflection.exr"]
+    meta, sh, mips = probe_file.read(folder / "Reflection.exr")
+    assert meta["probe"] == "Reflection" and meta["kind"] == "reflection"
+    assert meta["face_size"] == 32 and meta["version"] and meta["bake_time"]
+    assert set(mips) == {"bo2", "bo1"} and [m.shape[1] for m in mips["bo2"]] == [32, 16, 8, 4,
+                                                                               2, 1]
+    assert sh.shape == (1, 9, 3) and sh[0, 0].min() > 0
+    meta, sh, mips = probe_file.read(folder / "Irradiance.exr")
+    assert meta["resolution"] == [3, 3, 2] and sh.shape == (18, 9, 3) and mips == {}
+    # The red wall tints the volume's samples next to it (y = +2 side): red over green.
+    grid = sh.reshape(3, 3, 2, 9, 3)
+    near_red, far = grid[:, 2, 0, 0], grid[:, 0, 0, 0]
+    assert (near_red[:, 0] / near_red[:, 1]).mean() > (far[:, 0] / far[:, 1]).mean()
+
+
+def test_baked_probes_bring_the_render_closer_to_cycles(addon, tmp_path):
+    """World light alone, then the baked probes (the floor's and walls' bounce, the red wall's
+    colour on the floor): each step closer to Cycles' global illumination."""
+    scene = room(tmp_path)
+    scene.cycles.max_bounces = 4
+    cycles = render_pixels(scene, "CYCLES", samples=64)[..., :3]
+    scene.bo2.use_indirect = False
+    direct = render_pixels(scene, "BO2_LIGHTING", samples=4)[..., :3]
+    scene.bo2.use_indirect = True
+    world_only = render_pixels(scene, "BO2_LIGHTING", samples=4)[..., :3]
+    bake(scene)
+    baked = render_pixels(scene, "BO2_LIGHTING", samples=4)[..., :3]
+    errors = [float(np.abs(img - cycles).mean()) for img in (direct, world_only, baked)]
+    print("mean |BO2 - Cycles|: direct {:.4f}, world {:.4f}, baked probes {:.4f}".format(*errors))
+    assert errors[2] < errors[1] < errors[0]
+    assert np.isfinite(baked).all()
+
+
+def test_every_normalization_and_prefilter_renders(addon, tmp_path):
+    scene = room(tmp_path)
+    bake(scene)
+    images = {}
+    for norm in ("none", "bo1", "bo2"):
+        for pre in ("bo1", "bo2"):
+            scene.bo2.normalization, scene.bo2.prefilter = norm, pre
+            images[norm, pre] = render_pixels(scene, "BO2_LIGHTING", samples=1)[..., :3]
+            assert np.isfinite(images[norm, pre]).all()
+    # The old/new pairs differ (on the chrome ball's reflections).
+    assert np.abs(images["bo1", "bo2"] - images["bo2", "bo2"]).max() > 1e-3
+    assert np.abs(images["bo2", "bo1"] - images["bo2", "bo2"]).max() > 1e-3
+    assert np.abs(images["none", "bo2"] - images["bo2", "bo2"]).max() > 1e-3
+
+
+def test_cancelled_bake_keeps_the_previous_files_byte_identical(addon, tmp_path):
+    scene = room(tmp_path)
+    folder = bake(scene)
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    scene.objects["Sun"].data.energy = 10.0  # a different bake would differ
+    steps = probes.bake_steps(scene, bpy.context.evaluated_depsgraph_get(),
+                              probes.probe_objects(scene))
+    assert 0 < next(steps) < 1
+    next(steps)
+    steps.close()  # cancelled halfway
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+def test_corrupt_or_stale_bake_warns_and_falls_back_to_the_world(addon, tmp_path, capfd):
+    scene = room(tmp_path)
+    scene.bo2.use_indirect = True
+    world_only = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    folder = bake(scene)
+    (folder / "Reflection.exr").write_bytes(b"not an exr at all")
+    (folder / "Irradiance.exr").unlink()
+    capfd.readouterr()
+    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    np.testing.assert_allclose(px, world_only, atol=1e-6)
+    captured = capfd.readouterr()
+    err = captured.out + captured.err  # Blender prints operator reports on stdout
+    assert "Reflection.exr: not a readable probe file" in err
+    assert "Irradiance.exr: no baked file" in err
+    # Moving a probe after its bake makes the bake stale.
+    bake(scene)
+    scene.objects["Reflection"].location.x += 1.0
+    capfd.readouterr()
+    render_pixels(scene, "BO2_LIGHTING", samples=1)
+    captured = capfd.readouterr()
+    assert "the bake is stale" in captured.out + captured.err
+
+
+def test_unsaved_file_and_no_probes_are_clear_errors(addon):
+    with pytest.raises(RuntimeError, match="No Sphere or Volume light probes"):
+        bpy.ops.bo2.bake_probes()
+    probe = bpy.data.objects.new("P", bpy.data.lightprobes.new("P", "SPHERE"))
+    bpy.context.scene.collection.objects.link(probe)
+    with pytest.raises(RuntimeError, match="Save the .blend file first"):
+        bpy.ops.bo2.bake_probes()
+
+
+def test_clear_deletes_the_bakes(addon, tmp_path):
+    scene = room(tmp_path)
+    folder = bake(scene)
+    assert bpy.ops.bo2.clear_probes() == {"FINISHED"}
+    assert list(Path(folder).iterdir()) == []

@@ -1,0 +1,69 @@
+"""Probe files (core/probe_file.py): round trip, atomic replacement, clear errors."""
+
+import os
+
+import numpy as np
+import pytest
+
+from bo2_lighting.addon.core import probe_file
+
+
+def chains(size=8):
+    rng = np.random.default_rng(3)
+    out = {}
+    for name in ("bo2", "bo1"):
+        out[name] = [rng.random((6, size >> m, size >> m, 3), dtype=np.float32)
+                     for m in range(size.bit_length())]
+    return out
+
+
+def test_round_trip(tmp_path):
+    path = tmp_path / "Probe.exr"
+    sh = np.random.default_rng(1).normal(size=(1, 9, 3)).astype(np.float32)
+    mips = chains()
+    probe_file.write(path, {"probe": "Probe", "kind": "reflection"}, sh, mips)
+    meta, sh2, mips2 = probe_file.read(path)
+    assert meta["probe"] == "Probe" and meta["format"] == probe_file.FORMAT
+    np.testing.assert_array_equal(sh2, sh)
+    assert set(mips2) == {"bo2", "bo1"} and len(mips2["bo2"]) == 4
+    for name in mips:
+        for a, b in zip(mips[name], mips2[name], strict=True):
+            np.testing.assert_array_equal(a, b)
+    volume = np.ones((2 * 3 * 4, 9, 3), np.float32)
+    probe_file.write(tmp_path / "Volume.exr", {"kind": "irradiance"}, volume)
+    meta, sh3, mips3 = probe_file.read(tmp_path / "Volume.exr")
+    assert sh3.shape == (24, 9, 3) and mips3 == {}
+
+
+def test_failed_write_keeps_the_previous_file_byte_identical(tmp_path, monkeypatch):
+    path = tmp_path / "Probe.exr"
+    probe_file.write(path, {"probe": "old"}, np.zeros((1, 9, 3)), chains())
+    before = path.read_bytes()
+
+    def broken_replace(src, dst):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", broken_replace)
+    with pytest.raises(OSError, match="disk full"):
+        probe_file.write(path, {"probe": "new"}, np.ones((1, 9, 3)), chains())
+    assert path.read_bytes() == before
+    assert [p.name for p in tmp_path.iterdir()] == ["Probe.exr"]  # no temporary left behind
+
+
+@pytest.mark.parametrize("content", [b"", b"garbage" * 100, None])
+def test_unusable_files_give_one_clear_error(tmp_path, content):
+    path = tmp_path / "Probe.exr"
+    if content is not None:
+        path.write_bytes(content)
+    with pytest.raises(probe_file.ProbeFileError) as err:
+        probe_file.read(path)
+    assert "Probe.exr" in str(err.value) and "\n" not in str(err.value)
+
+
+def test_truncated_file_is_an_error(tmp_path):
+    path = tmp_path / "Probe.exr"
+    probe_file.write(path, {"probe": "p"}, np.zeros((1, 9, 3)), chains())
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(probe_file.ProbeFileError):
+        probe_file.read(path)

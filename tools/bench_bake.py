@@ -1,0 +1,128 @@
+"""Benchmark of probe baking: prefiltered mip chains now, one whole probe bake later.
+
+Usage: python tools/bench_bake.py [--sizes 128 256] [--repeat 3] [--workers 2]
+
+Prints, for each face size, the time of the full prefiltered mip chain (S, S/2, ..., 1) of one
+cube map, prefilter only (no capture, no SH):
+
+- BO2: ``prefilter.prefilter_cosine_power`` (Lazarov 2013, slide "Improved environment map
+  pre-filtering"), against this project's targets (128: 1 s, 256: 4 s on a 2-core machine);
+- BO1: ``prefilter.prefilter_angular_gaussian`` (CubeMapGen's angular Gaussian with its default
+  angles, slide "Black Ops: environment map pre-filtering").
+
+"cold" is the first call in the process (it builds and caches the per-size geometry tables),
+"warm" the best of ``--repeat`` further calls. The input is an analytic environment with detail
+(a gradient, bright caps, one across a cube corner) so that no shortcut applies.
+
+Anchors, from the cmft README ("Performance"): a 256 -> 256 Phong radiance filter with mips,
+CPU only on a 4-core desktop, takes 8.6 s with cmft and 87.7 s with AMD CubeMapGen; the ratio
+printed is anchor time / our time (above 1: faster than the anchor, on different hardware).
+
+``time_probe_bake`` is the place for the capture + SH projection + prefilter time of one probe,
+to be filled in once ``core/bake.py`` exists; until then it reports "not measured".
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import time
+
+import numpy as np
+
+from bo2_lighting.addon.core import cubemap, prefilter
+
+TARGETS_BO2 = {128: 1.0, 256: 4.0}  # seconds, full chain, this project's goals (2 cores)
+ANCHOR_SIZE = 256
+ANCHORS = (("cmft (4-core CPU)", 8.6), ("AMD CubeMapGen", 87.7))  # seconds, 256 -> 256 Phong
+
+
+def environment(size: int) -> np.ndarray:
+    """(6, S, S, 3) float32 test environment: gradient plus bright caps, at texel centres."""
+    d = cubemap.texel_directions(size).astype(np.float64)
+    lum = 0.3 + 0.2 * d[..., 0] + 0.1 * d[..., 2]
+    for centre, cos_radius, boost in (([0.3, 0.5, 0.81], 0.95, 5.0), ([1, 1, 1], 0.98, 8.0),
+                                      ([0.1, -1, 0.05], 0.995, 20.0)):
+        c = np.array(centre, float) / np.linalg.norm(centre)
+        lum = lum + boost * (d @ c > cos_radius)
+    return np.stack([lum, 1.5 * lum, 0.5 + 0.1 * d[..., 1]], -1).astype(np.float32)
+
+
+def timed(fn, repeat: int) -> tuple[float, float]:
+    """(cold, warm): the first call's time and the best of ``repeat`` more, in seconds."""
+    t = time.perf_counter()
+    fn()
+    cold = time.perf_counter() - t
+    warm = []
+    for _ in range(repeat):
+        t = time.perf_counter()
+        fn()
+        warm.append(time.perf_counter() - t)
+    return cold, min(warm) if warm else cold
+
+
+# ---------------------------------------------------------------------------------------------
+# PLACEHOLDER: one whole probe bake (capture six faces + SH projection + prefiltered chain).
+# To be implemented with core/bake.py: build a small scene, call the probe baker once (cold)
+# and ``repeat`` times (warm), and return (cold, warm) in seconds for the given face size.
+
+
+def time_probe_bake(size: int, repeat: int, workers: int) -> tuple[float, float] | None:
+    """Capture + SH + prefilter time of one probe of face size ``size``; None until the
+    probe baker exists."""
+    return None
+
+
+# ---------------------------------------------------------------------------------------------
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[128, 256])
+    parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--workers", type=int, default=2)
+    args = parser.parse_args()
+
+    load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
+    print(f"machine: {platform.processor() or platform.machine()}, {os.cpu_count()} cores, "
+          f"load average {load[0]:.2f}; numpy {np.__version__}; workers {args.workers}")
+    print("prefilter only, full mip chain (S .. 1), 3 channels, seconds: cold / warm (best of "
+          f"{args.repeat})")
+    results = {}
+    for size in args.sizes:
+        cube = environment(size)
+        for name, fn in (
+            ("BO2 cosine power", lambda c=cube: prefilter.prefilter_cosine_power(
+                c, workers=args.workers)),
+            ("BO1 angular Gaussian", lambda c=cube: prefilter.prefilter_angular_gaussian(
+                c, workers=args.workers)),
+        ):
+            cold, warm = timed(fn, args.repeat)
+            results[(name, size)] = warm
+            line = f"  {name:22s} {size:4d}: {cold:6.3f} / {warm:6.3f}"
+            if name.startswith("BO2") and size in TARGETS_BO2:
+                goal = TARGETS_BO2[size]
+                line += f"   target {goal:.0f} s: {'met' if warm <= goal else 'MISSED'}"
+            print(line)
+
+    if any(size == ANCHOR_SIZE for size in args.sizes):
+        print(f"anchors ({ANCHOR_SIZE} -> {ANCHOR_SIZE} Phong with mips, cmft README), "
+              "ratio = anchor / ours (warm):")
+        for name in ("BO2 cosine power", "BO1 angular Gaussian"):
+            ours = results[(name, ANCHOR_SIZE)]
+            ratios = ", ".join(f"{label} {anchor:.1f} s -> x{anchor / ours:.1f}"
+                               for label, anchor in ANCHORS)
+            print(f"  {name:22s} {ours:6.3f} s: {ratios}")
+
+    print("one probe (capture + SH + prefilter):")
+    for size in args.sizes:
+        bake = time_probe_bake(size, args.repeat, args.workers)
+        if bake is None:
+            print(f"  {size:4d}: not measured (probe baker not implemented yet)")
+        else:
+            print(f"  {size:4d}: {bake[0]:6.3f} / {bake[1]:6.3f}")
+
+
+if __name__ == "__main__":
+    main()
