@@ -1,5 +1,7 @@
 """Build ``first_light.blend``: spheres of a dielectric, a plastic and two metals on a floor,
-lit by a point, a spot, a sun and an area light; Principled BSDF materials only.
+lit by a point, a spot, a sun and an area light; Principled BSDF materials only. A reflection
+probe over the spheres and an irradiance volume around them give the indirect light once baked
+(``bo2 bake``; the bakes go to ``bo2_bake/`` next to the file).
 
 Run with a Python that has ``bpy``:  python demo_blends/build_first_light.py [OUT.blend]
 """
@@ -76,6 +78,16 @@ def build(out: Path) -> None:
               energy=1.5, angle=math.radians(1.0))
     add_light("AREA", "Area", (0.0, 3.0, 2.0), (math.radians(-60), 0, 0), energy=150.0,
               size=0.5, color=(0.7, 0.8, 1.0))
+
+    probe = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
+    probe.location = (0.0, -1.6, 0.9)  # in front of the spheres, not between them
+    probe.data.influence_distance = 6.0
+    scene.collection.objects.link(probe)
+    volume = bpy.data.objects.new("Irradiance", bpy.data.lightprobes.new("Irradiance", "VOLUME"))
+    volume.location, volume.scale = (0.0, 0.0, 1.0), (3.5, 2.0, 1.0)
+    volume.data.resolution_x, volume.data.resolution_y, volume.data.resolution_z = 6, 4, 2
+    volume.data.influence_distance = 2.0
+    scene.collection.objects.link(volume)
 
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.lens = 40

@@ -1,0 +1,151 @@
+"""Pictures of the light probes for docs/probes.md, rendered here with both engines.
+
+Usage: python tools/make_probe_images.py [--size 240]
+
+Builds a small open room (a floor, a red and a white wall, a chrome ball, a glossy blue ball)
+lit by a low sun and a dim sky, with one reflection probe and a 4 x 4 x 2 irradiance volume;
+bakes the probes with BO2 Lighting and writes, through the Standard view transform:
+
+- docs/images/probes_indirect.png: direct light only | + the world | + the baked probes |
+  Cycles (4 bounces), with the mean absolute difference of each BO2 image from Cycles;
+- docs/images/probes_normalization.png: environment map normalization None | BO1 average
+  irradiance | BO2 directional irradiance, and BO1 angular Gaussian prefiltering.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import bo2_lighting
+
+OUT = Path(__file__).resolve().parents[1] / "docs" / "images"
+
+
+def material(name, color, metallic=0.0, roughness=0.6):
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    node = mat.node_tree.nodes["Principled BSDF"]
+    node.inputs["Base Color"].default_value = (*color, 1.0)
+    node.inputs["Metallic"].default_value = metallic
+    node.inputs["Roughness"].default_value = roughness
+    return mat
+
+
+def build(folder: Path, size: int):
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = size, size * 3 // 4
+    scene.view_settings.view_transform = "Standard"
+    world = bpy.data.worlds.new("Sky")
+    if world.node_tree is None:
+        world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.25, 0.3, 0.4, 1)
+    scene.world = world
+    for size_m, loc, rot, mat in [
+        (8, (0, 0, 0), (0, 0, 0), material("Floor", (0.6, 0.6, 0.6), roughness=0.35)),
+        (8, (0, 2.5, 2), (math.pi / 2, 0, 0), material("Red", (0.8, 0.08, 0.05))),
+        (8, (-2.5, 0, 2), (0, math.pi / 2, 0), material("White", (0.8, 0.8, 0.8))),
+    ]:
+        bpy.ops.mesh.primitive_plane_add(size=size_m, location=loc, rotation=rot)
+        bpy.context.object.data.materials.append(mat)
+    for loc, mat in [((0.2, 0.6, 0.6), material("Chrome", (0.95, 0.95, 0.95), 1.0, 0.1)),
+                     ((-1.2, -0.3, 0.45), material("Blue", (0.1, 0.2, 0.7), 0.0, 0.25))]:
+        bpy.ops.mesh.primitive_uv_sphere_add(radius=loc[2], location=loc, segments=64,
+                                             ring_count=32)
+        bpy.ops.object.shade_smooth()
+        bpy.context.object.data.materials.append(mat)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy, sun.data.angle = 4.0, math.radians(2)
+    sun.rotation_euler = (math.radians(55), 0, math.radians(25))
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location, cam.rotation_euler = (2.6, -4.2, 2.4), (math.radians(68), 0, math.radians(30))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    probe = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
+    probe.location, probe.data.influence_distance = (0, 0, 1.0), 6.0
+    scene.collection.objects.link(probe)
+    volume = bpy.data.objects.new("Irradiance", bpy.data.lightprobes.new("Irradiance", "VOLUME"))
+    volume.location, volume.scale = (0, 0, 1.2), (2.4, 2.4, 1.2)
+    volume.data.resolution_x = volume.data.resolution_y = 4
+    volume.data.resolution_z = 2
+    volume.data.influence_distance = 1.0
+    scene.collection.objects.link(volume)
+    scene.cycles.device, scene.cycles.use_denoising = "CPU", False
+    scene.cycles.max_bounces = 4
+    bpy.ops.wm.save_as_mainfile(filepath=str(folder / "probes.blend"))
+    return scene
+
+
+def render(scene, engine: str, samples: int) -> np.ndarray:
+    """(H, W, 3) scene-linear pixels, row 0 at the top."""
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.samples = samples
+    else:
+        scene.bo2.samples = samples
+    bpy.ops.render.render()
+    with tempfile.TemporaryDirectory() as tmp:
+        path = str(Path(tmp) / "r.exr")
+        settings = scene.render.image_settings
+        if hasattr(settings, "media_type"):
+            settings.media_type = "IMAGE"
+        settings.file_format, settings.color_depth = "OPEN_EXR", "32"
+        bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
+        img = bpy.data.images.load(path)
+        w, h = img.size
+        px = np.empty(w * h * 4, np.float32)
+        img.pixels.foreach_get(px)
+        bpy.data.images.remove(img)
+    return px.reshape(h, w, 4)[::-1, :, :3]
+
+
+def save_row(scene, images: list[np.ndarray], path: Path) -> None:
+    """Side by side, through the scene's view transform, as PNG."""
+    row = np.concatenate(images, 1)[::-1]  # Blender rows run bottom to top
+    h, w = row.shape[:2]
+    img = bpy.data.images.new(path.stem, w, h, float_buffer=True)
+    img.pixels.foreach_set(np.concatenate([row, np.ones((h, w, 1), np.float32)], -1).ravel())
+    settings = scene.render.image_settings
+    if hasattr(settings, "media_type"):
+        settings.media_type = "IMAGE"
+    settings.file_format, settings.color_depth, settings.color_mode = "PNG", "8", "RGB"
+    img.save_render(str(path), scene=scene)
+    bpy.data.images.remove(img)
+    print(f"wrote {path.relative_to(OUT.parents[1])}")
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--size", type=int, default=240, help="image width in pixels")
+    args = parser.parse_args()
+    bo2_lighting.register()
+    with tempfile.TemporaryDirectory() as tmp:
+        scene = build(Path(tmp), args.size)
+        cycles = render(scene, "CYCLES", 256)
+        scene.bo2.use_indirect = False
+        direct = render(scene, "BO2_LIGHTING", 8)
+        scene.bo2.use_indirect = True
+        world = render(scene, "BO2_LIGHTING", 8)
+        assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
+        baked = render(scene, "BO2_LIGHTING", 8)
+        for name, img in (("direct only", direct), ("+ world", world), ("+ probes", baked)):
+            print(f"{name:12s} mean |BO2 - Cycles| = {np.abs(img - cycles).mean():.4f}")
+        save_row(scene, [direct, world, baked, cycles], OUT / "probes_indirect.png")
+        rows = []
+        for norm, pre in (("none", "bo2"), ("bo1", "bo2"), ("bo2", "bo2"), ("bo2", "bo1")):
+            scene.bo2.normalization, scene.bo2.prefilter = norm, pre
+            rows.append(render(scene, "BO2_LIGHTING", 8))
+        save_row(scene, rows, OUT / "probes_normalization.png")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
