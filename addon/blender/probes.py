@@ -95,6 +95,13 @@ def world_probe(world: World, size: int = 64) -> tuple[np.ndarray, dict]:
     return _world_cache["value"]
 
 
+def world_probes(world: World) -> cp.Probes:
+    """Probes of the world alone (the fallback of every probe)."""
+    world_sh, world_mips = world_probe(world)
+    color = None if world.texture is not None else np.asarray(world.color, np.float32)[:3]
+    return cp.Probes(world_sh=world_sh, world_mips=world_mips, world_color=color)
+
+
 # --------------------------------------------------------------------------------------------
 # loading baked probes for a render
 
@@ -132,8 +139,7 @@ def _probe_from_file(obj, path: Path, warnings: list[str]):
 def load_probes(scene, world: World, warnings: list[str]) -> cp.Probes:
     """The world fallback and every baked probe of ``scene`` (missing, stale or corrupt
     bakes: one warning each, and the world instead)."""
-    world_sh, world_mips = world_probe(world)
-    result = cp.Probes(world_sh=world_sh, world_mips=world_mips)
+    result = world_probes(world)
     objs = probe_objects(scene)
     if not objs:
         return result
@@ -234,8 +240,7 @@ def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None
     for w in warnings:
         if report is not None:
             report(w)
-    world_sh, world_mips = world_probe(core_scene.world)
-    core_scene.probes = cp.Probes(world_sh=world_sh, world_mips=world_mips)
+    core_scene.probes = world_probes(core_scene.world)
     size, vol_size = int(settings.bake_face_size), int(settings.bake_volume_face_size)
     points = []  # (object, kind, positions (K, 3), face size)
     for obj in objs:
@@ -251,7 +256,7 @@ def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None
     results: dict[str, tuple] = {}
     for _ in range(bounces):
         grabber = capture.Capture(core_scene) if backend == "BO2" else None
-        new = cp.Probes(world_sh=world_sh, world_mips=world_mips)
+        new = world_probes(core_scene.world)
         for obj, kind, pos, face in points:
             near = max(float(obj.data.clip_start), 1e-3)
             far = float(getattr(obj.data, "clip_end", 1e4))

@@ -149,35 +149,45 @@ class Probes:
     world_sh:   (9, 3) radiance SH of the world
     world_mips: {"bo2": [...], "bo1": [...]} prefiltered world cube chains, as in
                 ``ReflectionProbe.mips``
+    world_color: (3,) radiance of a world of one colour (its prefiltered chains are that
+                colour everywhere, so they are not sampled), else None
     """
 
     world_sh: np.ndarray
     world_mips: dict[str, list[np.ndarray]]
+    world_color: np.ndarray | None = None
     reflection: list[ReflectionProbe] = field(default_factory=list)
     volumes: list[IrradianceVolume] = field(default_factory=list)
 
 
-def _sh_irradiance(coeffs: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """(N, C) irradiance of per-point SH (N, 9, C) at unit normals (N, 3)."""
-    y = sh.basis(normals) * sh.BAND_FACTORS  # (N, 9) with the clamped-cosine convolution
+def _irradiance(y: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
+    """(N, C) irradiance from the convolved basis y (N, 9) (``sh.basis`` times
+    ``sh.BAND_FACTORS``) of SH shared by all points (9, C) or per point (N, 9, C)."""
+    if coeffs.ndim == 2:
+        return (y @ coeffs).astype(np.float32)
     return np.einsum("nk,nkc->nc", y, coeffs).astype(np.float32)
 
 
 def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
-    """(N, 9, 3) SH at each point: the volumes' blend, the world where they leave weight."""
+    """SH at each point, (N, 9, 3): the volumes' blend, the world where they leave weight;
+    (9, 3), the world's, when no volume reaches any point."""
     n = len(points)
     total = np.zeros(n, np.float32)
-    acc = np.zeros((n, 9, 3), np.float32)
+    acc = None
     for vol in probes.volumes:
         w = vol.weight(points)
         k = np.flatnonzero(w > 0)
         if k.size:
+            if acc is None:
+                acc = np.zeros((n, 9, 3), np.float32)
             acc[k] += w[k, None, None] * vol.sample_sh(points[k])
             total[k] += w[k]
+    world_sh = np.asarray(probes.world_sh, np.float32)
+    if acc is None:
+        return world_sh
     over = total > 1.0
     acc[over] /= total[over, None, None]
-    world = np.maximum(1.0 - total, 0.0)
-    acc += world[:, None, None] * np.asarray(probes.world_sh, np.float32)[None]
+    acc += np.maximum(1.0 - total, 0.0)[:, None, None] * world_sh[None]
     return acc
 
 
@@ -188,16 +198,21 @@ def _lod(mips: list[np.ndarray], gloss: np.ndarray) -> np.ndarray:
     return (top - np.clip(gloss, 0.0, 1.0) * top).astype(np.float32)
 
 
-def _normalized(sample, probe_sh, pixel_sh, normals, normalization):
-    """Prefiltered radiance (N, 3) fitted to the pixel's lighting (module docstring)."""
+def _normalized(sample, probe_sh, pixel_dc, pixel_e, y, normalization):
+    """Prefiltered radiance (N, 3) fitted to the pixel's lighting (module docstring).
+
+    pixel_dc: (N, 3) or (3,) the pixel SH's constant term; pixel_e: (N, 3) its irradiance at
+    the normal; y: (N, 9) convolved basis at the normals
+    """
     if normalization == "none":
         return sample
+    probe_sh = np.asarray(probe_sh, np.float64)
     if normalization == "bo1":
-        ratio = (pixel_sh[:, 0] + _EPS) / (np.asarray(probe_sh)[0][None] + _EPS)
+        ratio = (pixel_dc + _EPS) / (probe_sh[0] + _EPS)
     elif normalization == "bo2":
-        scalar, tint = sh.to_tinted(np.asarray(probe_sh, np.float64))
-        probe_e = sh.tinted_irradiance(scalar, tint, normals)
-        ratio = (_sh_irradiance(pixel_sh, normals) + _EPS) / (probe_e + _EPS)
+        scalar, tint = sh.to_tinted(probe_sh)
+        probe_e = (y @ scalar.astype(np.float32))[:, None] * tint.astype(np.float32)
+        ratio = (pixel_e + _EPS) / (probe_e + _EPS)
     else:
         raise ValueError(f"unknown normalization {normalization!r}; expected one of: "
                          f"{', '.join(NORMALIZATIONS)}")
@@ -229,7 +244,10 @@ def indirect(
         raise ValueError(f"unknown prefilter {prefilter!r}; expected one of: "
                          f"{', '.join(PREFILTERS)}")
     pixel_sh = _pixel_sh(probes, points)
-    diffuse = albedo * _sh_irradiance(pixel_sh, normals) * np.float32(1.0 / np.pi)
+    y = sh.basis(normals).astype(np.float32) * sh.BAND_FACTORS.astype(np.float32)
+    pixel_e = _irradiance(y, pixel_sh)
+    pixel_dc = pixel_sh[..., 0, :]
+    diffuse = albedo * pixel_e * np.float32(1.0 / np.pi)
 
     n_dot_v = np.einsum("nc,nc->n", normals, view)
     reflect = 2.0 * n_dot_v[:, None] * normals - view
@@ -243,7 +261,8 @@ def indirect(
             continue
         mips = probe.mips[prefilter]
         s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
-        s = _normalized(s, probe.sh, pixel_sh[k], normals[k], normalization)
+        s = _normalized(s, probe.sh, pixel_dc if pixel_dc.ndim == 1 else pixel_dc[k],
+                        pixel_e[k], y[k], normalization)
         radiance[k] += w[k, None] * s
         total[k] += w[k]
     over = total > 1.0
@@ -251,9 +270,13 @@ def indirect(
     world = np.maximum(1.0 - total, 0.0)
     k = np.flatnonzero(world > 0)
     if k.size:
-        mips = probes.world_mips[prefilter]
-        s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
-        s = _normalized(s, probes.world_sh, pixel_sh[k], normals[k], normalization)
+        if probes.world_color is not None:
+            s = np.broadcast_to(np.asarray(probes.world_color, np.float32), (k.size, 3))
+        else:
+            mips = probes.world_mips[prefilter]
+            s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
+        s = _normalized(s, probes.world_sh, pixel_dc if pixel_dc.ndim == 1 else pixel_dc[k],
+                        pixel_e[k], y[k], normalization)
         radiance[k] += world[k, None] * s
     e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
     return diffuse.astype(np.float32), (radiance * e).astype(np.float32)
