@@ -1,8 +1,9 @@
 """The ``bo2`` command: BO2 Lighting headless, in a Python environment with the ``bpy`` module.
 
-    bo2 render SCENE.blend -o OUT.png [--frame N] [--engine bo2|cycles] [--samples N]
-                                      [--resolution WxH] [--specular-model MODEL]
-                                      [--all-passes]
+    bo2 render SCENE.blend ... -o OUT.png [--frame N | --frames LIST] [--summary PATH.json]
+                                          [--engine bo2|cycles] [--samples N]
+                                          [--resolution WxH] [--specular-model MODEL]
+                                          [--all-passes]
     bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
     bo2 sh IMAGE [--json]
     bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles]
@@ -138,22 +139,95 @@ def enable_all_passes(view_layer, engine: str) -> None:
             setattr(view_layer.bo2, flag, True)
 
 
-def cmd_render(args) -> int:
-    out = Path(args.output)
+_MAX_FRAME = 1048574  # Blender's MAXFRAME
+_FRAME_ITEM = re.compile(r"(-?\d+)(?:-(-?\d+)(?:x(\d+))?)?")
+
+
+def _frame_list(text: str) -> list[int]:
+    """``--frames``: ``N``, ``A-B`` or ``A-BxSTEP``, comma separated; in order, each frame once."""
+    frames: dict[int, None] = {}
+    for item in text.split(","):
+        m = _FRAME_ITEM.fullmatch(item.strip())
+        if not m:
+            raise argparse.ArgumentTypeError(
+                f"invalid frames {text!r}, expected e.g. 7, 1-10, 1,3,5-7 or 1-10x2")
+        first, last = int(m[1]), int(m[2] if m[2] is not None else m[1])
+        step = int(m[3] or 1)
+        if last < first or step < 1 or max(abs(first), abs(last)) > _MAX_FRAME:
+            raise argparse.ArgumentTypeError(
+                f"invalid frame range {item.strip()!r}: A-BxSTEP needs A <= B, STEP >= 1 and "
+                f"frames within +-{_MAX_FRAME}")
+        frames.update(dict.fromkeys(range(first, last + 1, step)))
+    return list(frames)
+
+
+def _usage_error(message: str):
+    _Parser(prog="bo2").error(message)  # one line, exit 2
+
+
+def _output_path(pattern: str, scene: str, frame: int) -> Path:
+    """``-o`` for one image: ``{scene}`` and ``{frame}`` (format spec allowed: ``{frame:04d}``)
+    filled in, and the last run of ``#`` in the file name replaced by the frame padded to its
+    length, as Blender does (``shot_####.png`` -> ``shot_0007.png``)."""
+    import string
+
+    pieces: list[list] = []  # [is literal text, text]
+    for literal, field, spec, conversion in string.Formatter().parse(pattern):
+        pieces.append([True, literal])
+        if field is not None:
+            value = {"scene": scene, "frame": frame}[field]
+            if conversion:
+                value = {"s": str, "r": repr, "a": ascii}[conversion](value)
+            pieces.append([False, format(value, spec)])
+    for piece in reversed(pieces):
+        if not piece[0]:
+            continue
+        text = piece[1]
+        cut = max(text.rfind("/"), text.rfind(os.sep))
+        runs = list(re.finditer(r"#+", text[cut + 1:]))
+        if runs:
+            start, end = runs[-1].start() + cut + 1, runs[-1].end() + cut + 1
+            piece[1] = f"{text[:start]}{frame:0{end - start}d}{text[end:]}"
+            break
+        if cut >= 0:
+            break  # the file name has no '#'; directories keep theirs
+    return Path("".join(text for _, text in pieces))
+
+
+def _check_pattern(pattern: str) -> None:
+    """Usage error for an ``-o`` pattern with other fields than {scene} and {frame}."""
+    import string
+
+    try:
+        fields = [(f, s) for _, f, s, _ in string.Formatter().parse(pattern) if f is not None]
+        for field, spec in fields:
+            if field not in ("scene", "frame") or "{" in spec:
+                raise ValueError(f"unknown field {{{field}}}, use {{scene}} and {{frame}} "
+                                 "(write {{ and }} for a brace)")
+        _output_path(pattern, "scene", 1)
+    except (ValueError, TypeError) as exc:
+        _usage_error(f"-o {pattern!r}: {exc}")
+
+
+def _check_output(out: Path, create: bool = True) -> str:
+    """The image format of ``out``; CommandError if it cannot be written. ``create`` makes its
+    folder, otherwise the nearest existing folder above it must be writable."""
     fmt = _IMAGE_FORMATS.get(out.suffix.lower())
     if fmt is None:
         raise CommandError(f"{out}: unknown image type, use one of {', '.join(_IMAGE_FORMATS)}")
-    if not out.parent.exists():
-        out.parent.mkdir(parents=True, exist_ok=True)
-    if not os.access(out.parent, os.W_OK):
-        raise CommandError(f"{out.parent}: output folder is not writable")
-    bpy = load_blend(Path(args.scene))
-    scene = bpy.context.scene
-    if scene.camera is None:
-        raise CommandError(f"{args.scene}: the scene has no active camera")
+    folder = out.parent
+    if create:
+        folder.mkdir(parents=True, exist_ok=True)
+    while not folder.exists() and folder != folder.parent:
+        folder = folder.parent
+    if not folder.is_dir() or not os.access(folder, os.W_OK):
+        raise CommandError(f"{folder}: output folder is not writable")
+    return fmt
+
+
+def _apply_render_options(bpy, scene, args) -> None:
+    """--engine, --resolution, --specular-model, --samples and --all-passes on a loaded file."""
     scene.render.engine = ENGINES[args.engine]
-    if args.frame is not None:
-        scene.frame_set(args.frame)
     if args.resolution:
         scene.render.resolution_x, scene.render.resolution_y = args.resolution
         scene.render.resolution_percentage = 100
@@ -164,9 +238,13 @@ def cmd_render(args) -> int:
             scene.cycles.samples = args.samples
         else:
             scene.bo2.samples = args.samples
-    set_output_format(scene.render.image_settings, fmt)
     if args.all_passes:
         enable_all_passes(bpy.context.view_layer, args.engine)
+
+
+def _render_frame(bpy, scene, out: Path) -> float:
+    """Render the scene's current frame to ``out``; returns the render time in seconds."""
+    set_output_format(scene.render.image_settings, _check_output(out))
     with quiet_blender():
         start = time.perf_counter()
         bpy.ops.render.render(write_still=False)
@@ -174,8 +252,162 @@ def cmd_render(args) -> int:
         bpy.data.images["Render Result"].save_render(filepath=str(out.resolve()), scene=scene)
     if not out.exists():
         raise CommandError(f"{out}: the render did not produce an image")
-    print(f"{args.engine}: {out} (rendered in {seconds:.2f} s)")
-    return 0
+    return seconds
+
+
+class _BatchProgress:
+    """The progress bar of a batch render: one self-overwriting line on a duplicate of stderr
+    (it passes ``quiet_blender``), with messages printed above it."""
+
+    def __init__(self, total: int):
+        sys.stderr.flush()
+        self.terminal = os.fdopen(os.dup(2), "w")
+        self.total, self.done, self.label, self.width = total, 0, "", 0
+        self.start = time.perf_counter()
+
+    def draw(self, label: str | None = None) -> None:
+        import io
+
+        if label is not None:  # the whole line fits in 80 columns
+            self.label = label if len(label) <= 28 else "..." + label[-25:]
+        bar = io.StringIO()
+        _progress_bar(bar, self.done / self.total, self.start, width=20)
+        line = f"{bar.getvalue()}  {self.done}/{self.total}  {self.label}"
+        self.terminal.write(line.ljust(self.width))  # spaces over a longer previous line
+        self.terminal.flush()
+        self.width = len(line)
+
+    def message(self, text: str, stream) -> None:
+        self.terminal.write("\r" + " " * self.width + "\r")
+        self.terminal.flush()
+        print(text, file=stream, flush=True)
+        self.draw()
+
+    def close(self) -> None:
+        self.draw("")
+        self.terminal.write("\n")
+        self.terminal.close()
+
+
+def _error_text(exc: Exception) -> str:
+    text = str(exc) if isinstance(exc, CommandError) else f"{type(exc).__name__}: {exc}"
+    return " ".join(text.split())
+
+
+def _write_summary(path: Path, args, images: list[dict], seconds: float) -> None:
+    import json
+
+    ok = sum(image["status"] == "ok" for image in images)
+    summary = {"engine": args.engine, "output": args.output, "total": len(images), "ok": ok,
+               "failed": len(images) - ok, "seconds": round(seconds, 3), "images": images}
+    temporary = path.with_name(path.name + ".part")
+    temporary.write_text(json.dumps(summary, indent=2) + "\n")
+    os.replace(temporary, path)  # a farm polling the file never reads half of it
+
+
+def cmd_render(args) -> int:
+    """Render frames of .blend files, one image each; the others go on when one fails."""
+    _check_pattern(args.output)
+    blends = [Path(name) for name in args.scenes]
+    frames = args.frames or ([args.frame] if args.frame is not None else None)
+    per_file = frames or [None]  # None: the file's current frame, known once it is loaded
+    batch = len(blends) * len(per_file) > 1
+    uses_frame = _output_path(args.output, "s", 1) != _output_path(args.output, "s", 2)
+    # Every path is planned before anything renders (for current frames, the same frame in
+    # every file is assumed); folders are checked now when the paths are known, made later.
+    planned: dict[str, tuple[Path, str]] = {}
+    for blend in blends:
+        for frame in per_file:
+            out = _output_path(args.output, blend.stem, 1 if frame is None else frame)
+            key = os.path.normcase(os.path.abspath(out))
+            image = f"{blend}" if frame is None else f"{blend} frame {frame}"
+            if key in planned:
+                same = "the same path" if frame is None and uses_frame else out
+                _usage_error(f"-o {args.output!r} gives {same} for both {planned[key][1]} and "
+                             f"{image}; use {{scene}}, {{frame}} or #### so that every image "
+                             "has its own path")
+            planned[key] = out, image
+    for out, _ in planned.values():
+        if frames or not uses_frame or _IMAGE_FORMATS.get(out.suffix.lower()) is None:
+            _check_output(out, create=False)  # e.g. an unknown image type: before loading
+    summary = Path(args.summary) if args.summary else None
+    if summary is not None:
+        summary.parent.mkdir(parents=True, exist_ok=True)
+        if not os.access(summary.parent, os.W_OK):
+            raise CommandError(f"{summary.parent}: summary folder is not writable")
+
+    start = time.perf_counter()
+    images: list[dict] = []
+    written: set[str] = set()
+    progress = _BatchProgress(len(planned)) if batch else None
+
+    def record(blend, frame, out, seconds, error=None):
+        images.append({"file": str(blend), "scene": blend.stem, "frame": frame,
+                       "output": None if out is None else str(out),
+                       "status": "ok" if error is None else "failed",
+                       "seconds": round(seconds, 3), "error": error})
+
+    def say(line, stream):
+        if progress is None:
+            print(line, file=stream)
+        else:
+            progress.message(line, stream)
+
+    try:
+        for blend in blends:
+            if progress is not None:
+                progress.draw(f"{blend.name} (loading)")
+            try:
+                bpy = load_blend(blend)  # once per file
+                scene = bpy.context.scene
+                _apply_render_options(bpy, scene, args)
+            except Exception as exc:  # noqa: BLE001 - the other files still render
+                for frame in per_file:
+                    record(blend, frame, None, 0.0, _error_text(exc))
+                if progress is not None:
+                    progress.done += len(per_file)
+                say(f"bo2: error: {_error_text(exc)}", sys.stderr)
+                continue
+            for frame in per_file:
+                began, out = time.perf_counter(), None
+                number = scene.frame_current if frame is None else frame
+                where = f"{blend} frame {number}" if batch else f"{blend}"
+                if progress is not None:
+                    progress.draw(f"{blend.name} frame {number}")
+                try:
+                    if frame is not None:
+                        with quiet_blender():
+                            scene.frame_set(frame)
+                    if scene.camera is None:  # checked per frame: markers can bind cameras
+                        raise CommandError("the scene has no active camera")
+                    out = _output_path(args.output, blend.stem, number)
+                    key = os.path.normcase(os.path.abspath(out))
+                    if key in written:
+                        raise CommandError(f"{out}: already written by this command")
+                    seconds = _render_frame(bpy, scene, out)
+                    written.add(key)
+                except Exception as exc:  # noqa: BLE001 - the other frames still render
+                    error = f"{where}: {_error_text(exc)}"
+                    line, stream = f"bo2: error: {error}", sys.stderr
+                else:
+                    error = None
+                    line = f"{args.engine}: {out} (rendered in {seconds:.2f} s)"
+                    stream = sys.stdout
+                record(blend, number, out, time.perf_counter() - began, error)
+                if progress is not None:
+                    progress.done += 1
+                say(line, stream)
+    finally:
+        if progress is not None:
+            progress.close()
+    failed = sum(image["status"] != "ok" for image in images)
+    if summary is not None:
+        _write_summary(summary, args, images, time.perf_counter() - start)
+    if batch:
+        print(f"rendered {len(images) - failed} of {len(images)} images in "
+              f"{time.perf_counter() - start:.2f} s"
+              + (f", summary: {summary}" if summary is not None else ""))
+    return 1 if failed else 0
 
 
 def cmd_env_brdf(args) -> int:
@@ -318,13 +550,25 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="bo2", description="BO2 Lighting: Black Ops II lighting for Blender.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
-    render = sub.add_parser("render", help="render one frame of a .blend file to an image",
-                            description="Render one frame with BO2 Lighting or Cycles.")
-    render.add_argument("scene", help=".blend file")
-    render.add_argument("-o", "--output", required=True,
+    render = sub.add_parser(
+        "render", help="render frames of .blend files to images",
+        description="Render frames of one or more .blend files with BO2 Lighting or Cycles. "
+        "Each file is loaded once and its frames rendered in order; a file or frame that fails "
+        "prints one error line, the others still render, and the exit code is 1.")
+    render.add_argument("scenes", nargs="+", metavar="SCENE", help=".blend file(s)")
+    render.add_argument("-o", "--output", required=True, metavar="OUT",
                         help="image to write: .png through the scene's view transform, "
-                        ".exr scene-linear with every enabled pass as a layer")
-    render.add_argument("--frame", type=int, help="frame number (default: the file's current)")
+                        ".exr scene-linear with every enabled pass as a layer. A pattern: "
+                        "{scene} is the .blend's name without .blend, {frame} the frame "
+                        "({frame:04d} pads it), and the last run of # in the file name the "
+                        "frame padded to its length; with several images every path must differ")
+    which = render.add_mutually_exclusive_group()
+    which.add_argument("--frame", type=int, help="frame number (default: the file's current)")
+    which.add_argument("--frames", type=_frame_list, metavar="LIST",
+                       help="frames to render: 1-10, 1,3,5-7 or 1-10x2 (every second)")
+    render.add_argument("--summary", metavar="PATH.json",
+                        help="write a JSON report: per image the file, scene, frame, output, "
+                        "status (ok or failed), seconds and error; totals")
     render.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
     render.add_argument("--samples", type=_positive, help="samples per pixel")
     render.add_argument("--resolution", type=_resolution, help="output size WxH in pixels")

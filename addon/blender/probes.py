@@ -220,8 +220,9 @@ def _save_linear(scene, path: str) -> None:
 def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1].
 
-    Every probe's capture points are rendered (BO2: the engine's pipeline, ``bounces`` times,
-    each bounce lit by the previous one's probes; CYCLES: one Cycles render per face), then SH
+    Every probe's capture points are rendered (BO2: the engine's pipeline, ``bounces`` times:
+    the first with direct light, emission and the world seen as background, each further one lit
+    by the previous one's probes; CYCLES: one Cycles render per face), then SH
     and both prefiltered chains are computed, and only then are the files written. Closing the
     generator early (cancel) writes nothing. ``report(message)`` receives warnings.
     """
@@ -240,7 +241,9 @@ def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None
     for w in warnings:
         if report is not None:
             report(w)
-    core_scene.probes = world_probes(core_scene.world)
+    # The first bounce sees direct light, emission and the world as background only: lighting
+    # its surfaces by the world too would light closed rooms by a sky they cannot see.
+    core_scene.probes = None
     size, vol_size = int(settings.bake_face_size), int(settings.bake_volume_face_size)
     points = []  # (object, kind, positions (K, 3), face size)
     for obj in objs:

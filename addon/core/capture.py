@@ -47,19 +47,22 @@ class Capture:
         self.scene = dataclasses.replace(scene, settings=settings)
         self.near, self.far = float(near), float(max(far, near * 2.0))
         self.warn, self.should_stop = warn, should_stop
-        self._shadow_maps = None
+        self._frame = None  # geometry and shadow maps, prepared once for every view
 
     def cube(self, position, size: int) -> np.ndarray:
         """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres."""
         out = np.empty((6, size, size, 3), np.float32)
         for face in range(6):
             cam = face_camera(position, face, size, self.near, self.far)
-            scene = dataclasses.replace(self.scene, camera=cam)
-            frame = pipeline.prepare(scene, self.warn, self.should_stop,
-                                     shadow_maps=self._shadow_maps, fit_shadows=False)
-            self._shadow_maps = frame.shadow_maps
-            self.warn = None  # skipped triangles are reported once
-            image = pipeline.render_frame(scene, should_stop=self.should_stop, frame=frame)
+            if self._frame is None:
+                scene = dataclasses.replace(self.scene, camera=cam)
+                self._frame = pipeline.prepare(scene, self.warn, self.should_stop,
+                                               fit_shadows=False)
+            # the scene's probes may change between bounces: take the current ones
+            frame = pipeline.with_camera(self._frame, cam)
+            frame.scene.probes = self.scene.probes
+            image = pipeline.render_frame(frame.scene, should_stop=self.should_stop,
+                                          frame=frame)
             out[face] = image["Combined"][..., :3]
         return out
 

@@ -24,6 +24,7 @@ counting as 0 in all but Combined, as Cycles accumulates them.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import threading
 from collections import deque
@@ -219,6 +220,15 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                              thread_count(scene.settings), poll, threading.Event()))
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
                  _constant_tables(mats))
+
+
+def with_camera(frame: Frame, camera) -> Frame:
+    """``frame`` seen through another camera: only the projection is redone (same geometry,
+    materials and shadow maps)."""
+    m = (camera.projection @ camera.world_to_camera).astype(np.float32)
+    clip = frame.positions @ m[:, :3].T + m[:, 3]
+    return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
+                               clip=clip)
 
 
 def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:

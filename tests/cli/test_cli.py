@@ -329,3 +329,102 @@ def test_bake_bad_input(tmp_path):
     assert proc.returncode == 1
     proc = bo2("bake", blend, "--backend", "eevee")
     assert proc.returncode == 2
+
+
+# --- bo2 render: several files and frames ------------------------------------------------------
+
+TINY = ("--resolution", "32x18", "--samples", "1")
+
+
+def error_lines(proc):
+    return [s for s in proc.stderr.splitlines() if s.startswith("bo2: error: ")]
+
+
+def test_render_batch_pattern_and_summary(tmp_path):
+    import json
+    import shutil
+
+    blends = [tmp_path / "shot_a.blend", tmp_path / "shot_b.blend"]
+    for blend in blends:
+        shutil.copy(DEMO, blend)
+    summary = tmp_path / "report.json"
+    proc = bo2("render", *blends, "--frames", "1-2",
+               "-o", tmp_path / "out" / "{scene}.{frame:03d}.png", "--summary", summary, *TINY)
+    assert proc.returncode == 0, proc.stderr
+    names = ["shot_a.001.png", "shot_a.002.png", "shot_b.001.png", "shot_b.002.png"]
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == names
+    assert "4/4" in proc.stderr and "100.0%" in proc.stderr  # the progress bar
+    assert not error_lines(proc) and "rendered 4 of 4 images" in proc.stdout
+    report = json.loads(summary.read_text())
+    assert (report["total"], report["ok"], report["failed"]) == (4, 4, 0)
+    assert [(i["scene"], i["frame"], i["status"], i["error"]) for i in report["images"]] == [
+        ("shot_a", 1, "ok", None), ("shot_a", 2, "ok", None), ("shot_b", 1, "ok", None),
+        ("shot_b", 2, "ok", None)]
+    assert [Path(i["output"]).name for i in report["images"]] == names
+    assert all(i["seconds"] > 0 for i in report["images"])
+
+
+def test_render_batch_hash_padding_and_frame_lists(tmp_path):
+    proc = bo2("render", DEMO, "--frames", "1-5x2,8", "-o", tmp_path / "shot_####.png", *TINY)
+    assert proc.returncode == 0, proc.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == [
+        "shot_0001.png", "shot_0003.png", "shot_0005.png", "shot_0008.png"]
+
+
+def test_render_batch_goes_on_after_failures(tmp_path):
+    import json
+
+    missing, corrupt = tmp_path / "missing.blend", tmp_path / "corrupt.blend"
+    corrupt.write_bytes(b"BLENDER-v405" + b"\xff" * 500)
+    no_camera = tmp_path / "empty.blend"
+    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
+              f"bpy.ops.wm.save_as_mainfile(filepath={str(no_camera)!r})")
+    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    summary = tmp_path / "summary.json"
+    proc = bo2("render", missing, DEMO, corrupt, no_camera, "--frames", "1,2",
+               "-o", tmp_path / "out" / "{scene}_{frame}.png", "--summary", summary, *TINY)
+    assert proc.returncode == 1
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "first_light_1.png", "first_light_2.png"]
+    errors = error_lines(proc)  # one line per failure: each file that fails to load, each frame
+    assert len(errors) == 4, proc.stderr
+    assert "missing.blend: no such .blend file" in errors[0]
+    assert "corrupt.blend" in errors[1]
+    assert errors[2:] == [f"bo2: error: {no_camera} frame {n}: the scene has no active camera"
+                          for n in (1, 2)]
+    assert "rendered 2 of 8 images" in proc.stdout and "8/8" in proc.stderr
+    report = json.loads(summary.read_text())
+    assert (report["total"], report["ok"], report["failed"]) == (8, 2, 6)
+    failed = [(i["scene"], i["frame"]) for i in report["images"] if i["status"] == "failed"]
+    assert failed == [("missing", 1), ("missing", 2), ("corrupt", 1), ("corrupt", 2),
+                      ("empty", 1), ("empty", 2)]
+    assert all(i["error"] for i in report["images"] if i["status"] == "failed")
+
+
+@pytest.mark.parametrize("args", [
+    (DEMO, DEMO, "-o", "{scene}.png"),  # the same file twice
+    (DEMO, "--frames", "1-3", "-o", "{scene}.png"),  # frames without {frame} or #
+    (DEMO, "--frames", "1-3", "-o", "a/b#/{scene}.png"),  # '#' in a folder is not the frame
+    (DEMO, "other.blend", "-o", "{frame}.png"),  # both files at their current frame
+])
+def test_render_batch_duplicate_paths_are_usage_errors(tmp_path, args):
+    proc = subprocess.run([str(BO2), "render", *map(str, args), *TINY], capture_output=True,
+                          text=True, cwd=tmp_path, timeout=60)
+    assert proc.returncode == 2
+    assert "so that every image has its own path" in one_error_line(proc)
+    assert list(tmp_path.iterdir()) == []  # nothing rendered, no folder made
+
+
+@pytest.mark.parametrize("args", [
+    ("--frame", "1", "--frames", "1-2"),
+    ("--frames", "5-1"),
+    ("--frames", "1-9x0"),
+    ("--frames", "one"),
+    ("-o", "{name}.png"),
+    ("-o", "{scene:03d}.png"),
+])
+def test_render_batch_bad_usage(tmp_path, args):
+    proc = bo2("render", DEMO, "-o", tmp_path / "x_{frame}.png", *args)
+    assert proc.returncode == 2
+    one_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
