@@ -9,10 +9,10 @@ _registered: list = []
 
 
 def _classes() -> list:
-    from .blender import bake_ops, engine, node_groups, props, ui
+    from .blender import bake_ops, compare, engine, node_groups, props, ui
 
     return [*props.CLASSES, *engine.CLASSES, *node_groups.CLASSES, *bake_ops.CLASSES,
-            *ui.CLASSES]
+            *compare.CLASSES, *ui.CLASSES]
 
 
 def register() -> None:
@@ -29,6 +29,7 @@ def register() -> None:
     props.attach()
     ui.enable_panels()
     node_groups.append_menus()
+    ui.append_menus()
 
 
 def unregister() -> None:
@@ -39,6 +40,7 @@ def unregister() -> None:
 
     if not _registered:
         return
+    ui.remove_menus()
     node_groups.remove_menus()
     ui.disable_panels()
     props.detach()

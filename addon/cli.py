@@ -7,6 +7,8 @@
     bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
     bo2 sh IMAGE [--json]
     bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles]
+    bo2 compare SCENE.blend -o DIR [--frame N] [--samples N] [--cycles-samples N]
+                                   [--resolution WxH]
     bo2 version
 
 Errors print one line, ``bo2: error: ...``, and exit non-zero (2 for bad usage, 1 for a failed
@@ -537,6 +539,97 @@ def cmd_bake(args) -> int:
     return 0
 
 
+@contextlib.contextmanager
+def _exit_on_interrupt(describe):
+    """Ctrl-C ends the process at once with one error line, even inside a render.
+
+    A render started from Python in the ``bpy`` module does not return to Python before it
+    finishes, and the KeyboardInterrupt raised in Blender's callbacks is swallowed. So a thread
+    woken by the signal's wakeup file descriptor prints ``bo2: error: <describe()>`` on the
+    terminal and exits with 130 (files already written stay).
+    """
+    import signal
+    import socket
+    import threading
+
+    reader, writer = socket.socketpair()
+    writer.setblocking(False)
+    terminal = os.dup(2)
+    done = threading.Event()
+
+    def watch():
+        while True:
+            data = reader.recv(1)
+            if done.is_set() or not data:
+                return
+            if data[0] == signal.SIGINT:
+                os.write(terminal, f"bo2: error: {describe()}\n".encode())
+                os._exit(130)
+
+    previous = signal.signal(signal.SIGINT, lambda *_: None)
+    previous_fd = signal.set_wakeup_fd(writer.fileno(), warn_on_full_buffer=False)
+    thread = threading.Thread(target=watch, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        done.set()
+        signal.set_wakeup_fd(previous_fd)
+        signal.signal(signal.SIGINT, previous)
+        writer.send(b"\0")
+        thread.join()
+        reader.close()
+        writer.close()
+        os.close(terminal)
+
+
+def cmd_compare(args) -> int:
+    """Render one frame with BO2 Lighting and with Cycles and compare them (docs/compare.md)."""
+    folder = Path(args.output)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CommandError(f"{folder}: cannot create the output folder "
+                           f"({exc.strerror or exc})") from None
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise CommandError(f"{folder}: output folder is not writable")
+    bpy = load_blend(Path(args.scene))
+    from .blender import compare
+
+    scene = bpy.context.scene
+    if scene.camera is None:
+        raise CommandError(f"{args.scene}: the scene has no active camera")
+    if args.frame is not None:
+        scene.frame_set(args.frame)
+    if args.resolution:
+        scene.render.resolution_x, scene.render.resolution_y = args.resolution
+        scene.render.resolution_percentage = 100
+    if args.samples:
+        scene.bo2.samples = args.samples
+    if args.cycles_samples:
+        scene.cycles.samples = args.cycles_samples
+    stage = ["start"]
+
+    def interrupted() -> str:
+        kept = [str(folder / e[2]) for e in compare.ENGINES.values() if (folder / e[2]).exists()]
+        return (f"interrupted during the {stage[0]}; "
+                + (f"kept {', '.join(kept)}" if kept else "nothing written"))
+
+    failure = result = None
+    with _exit_on_interrupt(interrupted), quiet_blender():
+        try:
+            result = compare.run(scene, bpy.context.view_layer, folder,
+                                 on_stage=lambda text: stage.__setitem__(0, text))
+        except compare.CompareError as exc:
+            failure = str(exc)
+    if failure:
+        raise CommandError(failure)
+    print(compare.headline(result))
+    for path in result["files"].values():
+        print(f"  {path}")
+    return 0
+
+
 def cmd_version(args) -> int:
     import tomllib
 
@@ -610,6 +703,23 @@ def build_parser() -> argparse.ArgumentParser:
     bake.add_argument("--backend", choices=("bo2", "cycles"), default="bo2",
                       help="captures rendered by BO2 Lighting (default) or Cycles")
     bake.set_defaults(func=cmd_bake)
+    compare = sub.add_parser(
+        "compare", help="render a frame with BO2 Lighting and Cycles and compare them",
+        description="Render one frame of a .blend file with BO2 Lighting and with Cycles (same "
+        "camera and resolution) and write into DIR: bo2.exr and cycles.exr (every pass), "
+        "side_by_side.png, split.png and difference.png (through the scene's view transform) "
+        "and metrics.json (RMSE, mean relative error, PSNR, SSIM, per pass too). Prints the "
+        "headline metrics and the paths (docs/compare.md).")
+    compare.add_argument("scene", help=".blend file")
+    compare.add_argument("-o", "--output", required=True, metavar="DIR",
+                         help="output folder (created if missing)")
+    compare.add_argument("--frame", type=int, help="frame number (default: the file's current)")
+    compare.add_argument("--samples", type=_positive,
+                         help="BO2 Lighting samples per pixel (default: the file's)")
+    compare.add_argument("--cycles-samples", type=_positive,
+                         help="Cycles samples per pixel (default: the file's)")
+    compare.add_argument("--resolution", type=_resolution, help="size WxH in pixels of both")
+    compare.set_defaults(func=cmd_compare)
     version = sub.add_parser("version", help="print the add-on version")
     version.set_defaults(func=cmd_version)
     return parser

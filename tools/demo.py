@@ -1,12 +1,21 @@
-"""The main job of ``make demo``: bake and render the demo scenes with BO2 Lighting and Cycles.
+"""The main job of ``make demo``: bake, render and compare every demo scene with Cycles.
 
-Builds any missing demo .blend from its script in ``demo_blends/``, bakes its light probes with
-``bo2 bake``, renders it with the ``bo2`` command (both engines, same camera and resolution),
-writes the images to ``out/`` and prints a table of times. Exits non-zero if any step fails.
+Usage: python tools/demo.py [--docs]
+
+For each scene of ``demo_blends/`` (built from its script when the .blend is missing): bake its
+light probes (``bo2 bake``), render it with BO2 Lighting and with Cycles and compare the two
+(``bo2 compare``: both EXRs, side-by-side, split and difference pictures, metrics.json in
+``out/<scene>/``). Then render the talk's old-versus-new pairs (``tools/render_old_vs_new.py``,
+``out/old_vs_new/``). Ends with a table (scene, bake, BO2 and Cycles times, speed-up, RMSE,
+PSNR) and the path of every picture. ``--docs`` also writes the pictures of the user guide
+into ``docs/images/``. Exits non-zero if any step fails.
 """
 
 from __future__ import annotations
 
+import argparse
+import json
+import shutil
 import subprocess
 import sys
 import time
@@ -14,11 +23,19 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 OUT = ROOT / "out"
+DOCS = ROOT / "docs" / "images"
 BO2 = Path(sys.executable).parent / "bo2"
-SCENES = {"first_light": {"cycles_samples": 64, "bo2_samples": 8}}
+# Cycles samples are chosen so that the whole run stays within minutes on 2 cores.
+SCENES = {
+    "first_light": {"bo2_samples": 8, "cycles_samples": 64},
+    "material_spheres": {"bo2_samples": 8, "cycles_samples": 64},
+    "room": {"bo2_samples": 8, "cycles_samples": 48},
+    "old_vs_new": {"bo2_samples": 8, "cycles_samples": 64},
+}
 
 
 def run(cmd: list[str]) -> float:
+    """Run ``cmd``; its wall time in seconds; exits with its output if it fails."""
     start = time.perf_counter()
     proc = subprocess.run(cmd, capture_output=True, text=True)
     if proc.returncode != 0:
@@ -28,29 +45,54 @@ def run(cmd: list[str]) -> float:
 
 
 def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--docs", action="store_true",
+                        help="also write the user guide's pictures into docs/images")
+    args = parser.parse_args()
     OUT.mkdir(exist_ok=True)
-    rows = []
+    rows, pictures = [], []
     for name, cfg in SCENES.items():
         blend = ROOT / "demo_blends" / f"{name}.blend"
         if not blend.exists():
-            print(f"building {blend.relative_to(ROOT)}")
+            print(f"building {blend.relative_to(ROOT)}", flush=True)
             run([sys.executable, str(ROOT / "demo_blends" / f"build_{name}.py"), str(blend)])
         print(f"baking the light probes of {name}", flush=True)
-        times = {"bake": run([str(BO2), "bake", str(blend)])}
-        for engine in ("bo2", "cycles"):
-            out = OUT / f"{name}_{engine}.png"
-            print(f"rendering {name} with {engine} -> {out.relative_to(ROOT)}", flush=True)
-            times[engine] = run([str(BO2), "render", str(blend), "-o", str(out),
-                                 "--engine", engine, "--samples", str(cfg[f"{engine}_samples"])])
-        rows.append((name, times["bake"], times["bo2"], times["cycles"]))
+        bake = run([str(BO2), "bake", str(blend)])
+        folder = OUT / name
+        print(f"rendering {name} with BO2 Lighting and Cycles -> {folder.relative_to(ROOT)}",
+              flush=True)
+        run([str(BO2), "compare", str(blend), "-o", str(folder),
+             "--samples", str(cfg["bo2_samples"]),
+             "--cycles-samples", str(cfg["cycles_samples"])])
+        metrics = json.loads((folder / "metrics.json").read_text())
+        image = metrics["image"]
+        engines = metrics["engines"]
+        rows.append((name, bake, engines["bo2"]["render_seconds"],
+                     engines["cycles"]["render_seconds"], image["rmse"], image["psnr_db"]))
+        pictures += [folder / p for p in ("side_by_side.png", "split.png", "difference.png")]
+    print("rendering the old-versus-new pairs", flush=True)
+    run([sys.executable, str(ROOT / "tools" / "render_old_vs_new.py"), str(OUT / "old_vs_new")])
+    pairs = sorted((OUT / "old_vs_new").glob("*.png"))
+    pictures += pairs
+    if args.docs:
+        DOCS.mkdir(parents=True, exist_ok=True)
+        run([sys.executable, str(ROOT / "tools" / "make_demo_overview.py"),
+             *[str(OUT / n / "side_by_side.png") for n in SCENES],
+             "-o", str(DOCS / "demo_overview.png")])
+        for src in pairs:
+            shutil.copyfile(src, DOCS / f"old_vs_new_{src.name}")
+        for name in ("split.png", "difference.png"):
+            shutil.copyfile(OUT / "room" / name, DOCS / f"room_{name}")
+        print(f"wrote the user guide's pictures into {DOCS.relative_to(ROOT)}")
     print()
-    print(f"{'scene':<14} {'bake s':>7} {'BO2 s':>8} {'Cycles s':>9} {'speed-up':>9}")
-    for name, t_bake, t_bo2, t_cyc in rows:
-        print(f"{name:<14} {t_bake:7.2f} {t_bo2:8.2f} {t_cyc:9.2f} {t_cyc / t_bo2:8.1f}x")
-    print("(times include starting Blender and loading the scene)")
-    for name, *_ in rows:
-        for engine in ("bo2", "cycles"):
-            print(f"  {OUT.relative_to(ROOT) / f'{name}_{engine}.png'}")
+    print(f"{'scene':<18} {'bake s':>7} {'BO2 s':>7} {'Cycles s':>9} {'speed-up':>9} "
+          f"{'RMSE':>7} {'PSNR dB':>8}")
+    for name, bake, t_bo2, t_cyc, rmse, psnr in rows:
+        print(f"{name:<18} {bake:7.1f} {t_bo2:7.2f} {t_cyc:9.2f} {t_cyc / t_bo2:8.1f}x "
+              f"{rmse:7.4f} {psnr:8.2f}")
+    print("(bake: wall time of bo2 bake, Blender start included; BO2 and Cycles: render times)")
+    for path in pictures:
+        print(f"  {path.relative_to(ROOT)}")
     return 0
 
 

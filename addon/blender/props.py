@@ -125,6 +125,14 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "its own sample count)",
         default=4, min=1, max=64,
     )
+    compare_folder: bpy.props.StringProperty(
+        name="Compare Folder",
+        description="Folder of Compare with Cycles: both renders as EXR, the side-by-side, "
+        "split and difference pictures and metrics.json ('//' is the .blend's folder)",
+        default="//bo2_compare/",
+        subtype="DIR_PATH",
+        options={"PATH_SUPPORTS_BLEND_RELATIVE"},
+    )
     bake_cycles_samples: bpy.props.IntProperty(
         name="Cycles Samples",
         description="Path-tracing samples per pixel of the captures (Cycles backend)",

@@ -34,15 +34,20 @@ class _BO2Panel:
     def poll(cls, context):
         return context.engine in cls.COMPAT_ENGINES
 
+    def split_layout(self):
+        """The panel's layout with labels beside the values, as Blender's own panels."""
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        return layout
+
 
 class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
     bl_label = "BO2 Lighting"
     bl_context = "render"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.scene.bo2
         layout.prop(settings, "samples")
         layout.prop(settings, "shade_every_sample")
@@ -66,9 +71,7 @@ class RENDER_PT_bo2_indirect(_BO2Panel, bpy.types.Panel):
         self.layout.prop(context.scene.bo2, "use_indirect", text="")
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.scene.bo2
         col = layout.column()
         col.active = settings.use_indirect
@@ -83,9 +86,7 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
     bl_parent_id = "RENDER_PT_bo2_settings"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         settings = context.scene.bo2
         row = layout.row(align=True)
         row.operator("bo2.bake_probes", text="Bake All", icon="RENDER_STILL").mode = "ALL"
@@ -104,14 +105,23 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         col.prop(settings, "bake_cycles_samples")
 
 
+class RENDER_PT_bo2_lookdev(_BO2Panel, bpy.types.Panel):
+    bl_label = "Look-Dev"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_bo2_settings"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        layout.operator("bo2.compare_cycles", icon="IMAGE_REFERENCE")
+        layout.prop(context.scene.bo2, "compare_folder")
+
+
 class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):
     bl_label = "Passes"
     bl_context = "view_layer"
 
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        layout.use_property_decorate = False
+        layout = self.split_layout()
         view_layer = context.view_layer
         col = layout.column(heading="Data", align=True)
         col.prop(view_layer, "use_pass_combined")
@@ -158,7 +168,28 @@ class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
-           VIEWLAYER_PT_bo2_passes, MATERIAL_PT_bo2_surface]
+           RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes, MATERIAL_PT_bo2_surface]
+
+
+def draw_render_menu(self, context):
+    """Render menu entry: Compare with Cycles, when BO2 Lighting is the render engine."""
+    if context.engine == ENGINE_ID:
+        self.layout.separator()
+        self.layout.operator("bo2.compare_cycles", icon="IMAGE_REFERENCE")
+
+
+def append_menus() -> None:
+    """Append ``draw_render_menu`` to the Render menu of the top bar."""
+    menu = getattr(bpy.types, "TOPBAR_MT_render", None)
+    if menu is not None:
+        menu.append(draw_render_menu)
+
+
+def remove_menus() -> None:
+    """Undo ``append_menus()``."""
+    menu = getattr(bpy.types, "TOPBAR_MT_render", None)
+    if menu is not None:
+        menu.remove(draw_render_menu)
 
 
 def enable_panels() -> None:

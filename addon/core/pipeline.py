@@ -306,6 +306,12 @@ def _raster(frame: Frame, tile, offset):
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     bary = frags.bary[inner].reshape(-1, 3)
     depth = frags.depth[inner].reshape(-1)
+    if cam.orthographic:  # clip w is 1: the view-axis distance comes from the corners' view z
+        hit = np.flatnonzero(tri >= 0)
+        row = np.asarray(cam.world_to_camera, np.float64)[2]
+        z = frame.positions[tri[hit]] @ row[:3].astype(np.float32) + np.float32(row[3])
+        depth = depth.copy()
+        depth[hit] = -np.einsum("nk,nk->n", bary[hit], z)
     rows, cols = np.divmod(np.arange(tw * th), tw)
     return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1]
 

@@ -428,3 +428,88 @@ def test_render_batch_bad_usage(tmp_path, args):
     assert proc.returncode == 2
     one_error_line(proc)
     assert list(tmp_path.iterdir()) == []
+
+
+# --- bo2 compare -------------------------------------------------------------------------------
+
+def png_size(path):
+    """(width, height) from a PNG's IHDR chunk."""
+    import struct
+
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    return struct.unpack(">II", data[16:24])
+
+
+def test_compare_demo(tmp_path):
+    import json
+
+    out = tmp_path / "cmp"
+    proc = bo2("compare", DEMO, "-o", out, "--resolution", "64x36", "--samples", "1",
+               "--cycles-samples", "4")
+    assert proc.returncode == 0, proc.stderr
+    lines = proc.stdout.splitlines()
+    assert lines[0].startswith("BO2 ") and "Cycles" in lines[0] and "RMSE" in lines[0]
+    assert "PSNR" in lines[0] and "SSIM" in lines[0]
+    names = ["bo2.exr", "cycles.exr", "side_by_side.png", "split.png", "difference.png",
+             "metrics.json"]
+    assert [s.strip() for s in lines[1:]] == [str(out / n) for n in names]
+    assert sorted(p.name for p in out.iterdir()) == sorted(names)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["resolution"] == [64, 36] and metrics["cycles_times_color"] is True
+    assert metrics["engines"]["bo2"]["samples"] == 1
+    assert metrics["engines"]["cycles"]["samples"] == 4
+    assert metrics["scene"] and metrics["frame"] == 1 and metrics["blender_version"]
+    assert 0 < metrics["image"]["ssim"] <= 1
+    assert "Diffuse Direct" in metrics["passes"] and "Glossy Indirect" in metrics["passes"]
+    assert png_size(out / "split.png") == (64, 36)
+    assert png_size(out / "side_by_side.png") == (2 * 64 + 2, 36 + 12)
+    width, height = png_size(out / "difference.png")
+    assert width >= 64 and height > 36
+    assert read_exr(out / "bo2.exr").shape == (36, 64, 4)
+    assert read_exr(out / "cycles.exr", "Diffuse Color").shape == (36, 64, 3)
+
+
+def test_compare_bad_input(tmp_path):
+    proc = bo2("compare", DEMO, "-o", tmp_path / "x", "--cycles-samples", "0")
+    assert proc.returncode == 2
+    one_error_line(proc)
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    proc = bo2("compare", DEMO, "-o", blocker / "sub")
+    assert proc.returncode == 1
+    assert "cannot create the output folder" in one_error_line(proc)
+    blend = tmp_path / "empty.blend"
+    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
+              f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})")
+    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    proc = bo2("compare", blend, "-o", tmp_path / "cmp")
+    assert proc.returncode == 1
+    assert "no active camera" in one_error_line(proc)
+    assert list((tmp_path / "cmp").iterdir()) == []
+
+
+def test_compare_interrupted_during_cycles_keeps_bo2(tmp_path):
+    import signal
+    import time
+
+    out = tmp_path / "cmp"
+    proc = subprocess.Popen([str(BO2), "compare", str(DEMO), "-o", str(out), "--resolution",
+                             "96x54", "--samples", "1", "--cycles-samples", "100000"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while not (out / "bo2.exr").exists() and time.monotonic() < deadline:
+            assert proc.poll() is None, proc.communicate()
+            time.sleep(0.1)
+        time.sleep(1.0)  # Cycles is rendering now
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=30)
+    finally:
+        proc.kill()
+    assert proc.returncode == 130
+    lines = [s for s in stderr.splitlines() if s.strip()]
+    assert len(lines) == 1, stderr
+    assert lines[0] == f"bo2: error: interrupted during the Cycles render; kept {out / 'bo2.exr'}"
+    assert sorted(p.name for p in out.iterdir()) == ["bo2.exr"]
+    assert stdout == ""

@@ -156,3 +156,11 @@ def test_sample_offsets_follow_the_blackman_harris_filter():
     np.testing.assert_allclose(offsets.mean(0), 0.5, atol=2e-3)
     np.testing.assert_allclose(offsets.var(0), variance, rtol=0.02)
     assert (pipeline.sample_offsets(1) == 0.5).all()
+
+
+def test_orthographic_depth_is_the_view_axis_distance():
+    """Depth of an orthographic camera 5 m above the floor: 5 m everywhere (clip w is 1 for
+    orthographic cameras, so it cannot stand in for the distance)."""
+    scene = lambert_scene(Light("SUN", color=np.ones(3)))
+    depth = pipeline.render_frame(scene)["Depth"][..., 0]
+    np.testing.assert_allclose(depth, 5.0, rtol=1e-5)
