@@ -6,7 +6,7 @@ For each scene of ``demo_blends/`` (built from its script when the .blend is mis
 light probes (``bo2 bake``), render it with BO2 Lighting and with Cycles and compare the two
 (``bo2 compare``: both EXRs, side-by-side, split and difference pictures, metrics.json in
 ``out/<scene>/``). Then render the talk's old-versus-new pairs (``tools/render_old_vs_new.py``,
-``out/old_vs_new/``). Ends with a table (scene, bake, BO2 and Cycles times, speed-up, RMSE,
+``out/old_vs_new_pairs/``). Ends with a table (scene, bake, BO2 and Cycles times, speed-up, RMSE,
 PSNR) and the path of every picture. ``--docs`` also writes the pictures of the user guide
 into ``docs/images/``. Exits non-zero if any step fails.
 """
@@ -71,8 +71,9 @@ def main() -> int:
                      engines["cycles"]["render_seconds"], image["rmse"], image["psnr_db"]))
         pictures += [folder / p for p in ("side_by_side.png", "split.png", "difference.png")]
     print("rendering the old-versus-new pairs", flush=True)
-    run([sys.executable, str(ROOT / "tools" / "render_old_vs_new.py"), str(OUT / "old_vs_new")])
-    pairs = sorted((OUT / "old_vs_new").glob("*.png"))
+    run([sys.executable, str(ROOT / "tools" / "render_old_vs_new.py"),
+         str(OUT / "old_vs_new_pairs")])
+    pairs = sorted((OUT / "old_vs_new_pairs").glob("*.png"))
     pictures += pairs
     if args.docs:
         DOCS.mkdir(parents=True, exist_ok=True)

@@ -217,12 +217,32 @@ def _save_linear(scene, path: str) -> None:
         settings.file_format, settings.color_depth = saved
 
 
+def _first_bounce(world: World, objs) -> cp.Probes:
+    """Indirect light of the first bounce's captures: the world lights surfaces outside the
+    probes' regions (an open scene's ground), nothing lights those inside them (a closed room
+    must not be lit by a sky it cannot see); later bounces fill them in."""
+    probes = world_probes(world)
+    black = [np.zeros((6, 1, 1, 3), np.float32)]
+    for obj in objs:
+        m, data = _matrix(obj), obj.data
+        if data.type == "SPHERE":
+            probes.reflection.append(cp.ReflectionProbe(
+                obj.name, m[:3, 3], float(data.influence_distance), float(data.falloff),
+                {"bo2": black, "bo1": black}, np.zeros((9, 3), np.float32)))
+        else:
+            probes.volumes.append(cp.IrradianceVolume(
+                obj.name, m, (1, 1, 1), np.zeros((1, 1, 1, 9, 3), np.float32),
+                float(data.influence_distance)))
+    return probes
+
+
 def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1].
 
     Every probe's capture points are rendered (BO2: the engine's pipeline, ``bounces`` times:
-    the first with direct light, emission and the world seen as background, each further one lit
-    by the previous one's probes; CYCLES: one Cycles render per face), then SH
+    the first lit by direct light, emission and the world outside the probes' regions
+    (``_first_bounce``), each further one by the previous one's probes; CYCLES: one Cycles
+    render per face), then SH
     and both prefiltered chains are computed, and only then are the files written. Closing the
     generator early (cancel) writes nothing. ``report(message)`` receives warnings.
     """
@@ -241,9 +261,7 @@ def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None
     for w in warnings:
         if report is not None:
             report(w)
-    # The first bounce sees direct light, emission and the world as background only: lighting
-    # its surfaces by the world too would light closed rooms by a sky they cannot see.
-    core_scene.probes = None
+    core_scene.probes = _first_bounce(core_scene.world, objs)
     size, vol_size = int(settings.bake_face_size), int(settings.bake_volume_face_size)
     points = []  # (object, kind, positions (K, 3), face size)
     for obj in objs:
