@@ -80,6 +80,7 @@ def build(folder: Path, size: int):
     scene.collection.objects.link(volume)
     scene.cycles.device, scene.cycles.use_denoising = "CPU", False
     scene.cycles.max_bounces = 4
+    scene.bo2.bake_bounces = 2  # the second bounce brings the sky onto the walls
     bpy.ops.wm.save_as_mainfile(filepath=str(folder / "probes.blend"))
     return scene
 
