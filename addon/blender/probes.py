@@ -242,9 +242,9 @@ def bake_steps(context_scene, depsgraph, objs, backend: str = "BO2", report=None
     Every probe's capture points are rendered (BO2: the engine's pipeline, ``bounces`` times:
     the first lit by direct light, emission and the world outside the probes' regions
     (``_first_bounce``), each further one by the previous one's probes; CYCLES: one Cycles
-    render per face), then SH
-    and both prefiltered chains are computed, and only then are the files written. Closing the
-    generator early (cancel) writes nothing. ``report(message)`` receives warnings.
+    render per face), then SH and both prefiltered chains are computed, and only then are the
+    files written. Closing the generator early (cancel) writes nothing. ``report(message)``
+    receives warnings.
     """
     from .engine import render_settings
     from .extract import extract_scene
