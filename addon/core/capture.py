@@ -14,7 +14,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from . import cubemap, pipeline, prefilter, sh, texture
+from . import cubemap, pipeline, prefilter, sh
 from .scene import Camera, Scene, World
 
 __all__ = ["Capture", "face_camera", "filtered", "world_cube"]
@@ -69,18 +69,14 @@ class Capture:
 
 def world_cube(world: World, size: int) -> np.ndarray:
     """(6, size, size, 3) float32 radiance of the world: its colour, or its Environment Texture
-    (Blender's equirectangular mapping and Mapping rotation) times strength, read at the mip
-    level whose texels match the cube's (no aliasing from a large image)."""
+    (Blender's equirectangular mapping and Mapping rotation) times strength, resampled without
+    aliasing by ``cubemap.equirect_to_cube``."""
     if world.texture is None:
         return np.broadcast_to(np.asarray(world.color, np.float32)[:3],
                                (6, size, size, 3)).copy()
-    d = cubemap.texel_directions(size).reshape(-1, 3)
-    d = d @ np.asarray(world.rotation, np.float32).T
-    height = world.texture.mips[0].shape[0]
-    # A cube texel spans (pi/2)/size radians, an image row pi/height: H / (2 size) image texels.
-    lod = max(0.0, float(np.log2(height / (2.0 * size))))
-    px = texture.sample(world.texture, texture.direction_to_equirect_uv(d), lod)[:, :3]
-    return (px * np.float32(world.strength)).reshape(6, size, size, 3).astype(np.float32)
+    cube = cubemap.equirect_to_cube(world.texture.mips[0][..., :3], size,
+                                    rotation=world.rotation)
+    return (cube * np.float32(world.strength)).astype(np.float32)
 
 
 def filtered(cube: np.ndarray) -> tuple[np.ndarray, dict[str, list[np.ndarray]]]:

@@ -392,7 +392,8 @@ def _equirect_anisotropic(mips, u, v, ext_u, ext_v) -> np.ndarray:
     return out
 
 
-def equirect_to_cube(image, size: int, *, supersample: int | None = None) -> np.ndarray:
+def equirect_to_cube(image, size: int, *, supersample: int | None = None,
+                     rotation=None) -> np.ndarray:
     """Resample a lat-long (equirectangular) image into a cube map without aliasing.
 
     The image is read with the mapping of Blender's Environment Texture node
@@ -409,6 +410,8 @@ def equirect_to_cube(image, size: int, *, supersample: int | None = None) -> np.
     size:        S, texels per face side of the result
     supersample: samples per texel side; default ceil(2 H / (pi S)) (the image rows that one
                  texel spans at a face centre) clamped to [1, 4], the mip levels filtering the rest
+    rotation:    optional (3, 3) world-to-image rotation R (a Mapping node's): texel direction d
+                 reads the image at R d
     returns:     (6, S, S, C) float32 cube map (face order and texel convention of ``FACES``)
     """
     img = np.asarray(image, np.float32)
@@ -428,8 +431,9 @@ def equirect_to_cube(image, size: int, *, supersample: int | None = None) -> np.
     step = 2.0 / n
     out = np.empty((6, size, size, c), np.float32)
     rows_per_chunk = max(1, 65536 // (n * ss))  # texel rows per chunk: ~64k samples
+    turn = np.eye(3) if rotation is None else np.asarray(rotation, np.float64)
     for f in range(6):
-        fwd, right, up = FACES[f]
+        fwd, right, up = (turn @ axis for axis in FACES[f])
         for r0 in range(0, size, rows_per_chunk):
             r1 = min(size, r0 + rows_per_chunk)
             b = -t[r0 * ss : r1 * ss]

@@ -144,3 +144,7 @@ def test_world_cube_follows_the_equirect_mapping():
     plus_y = 2  # face order +X, -X, +Y, -Y, +Z, -Z
     assert cube[plus_y, 8, 8].min() > 1.9 and cube[plus_y - 1].max() == 0.0
     assert cubemap.FACES[plus_y][0].tolist() == [0, 1, 0]
+    # A Mapping rotation of 90 degrees about Z (x -> y): the +X face now reads the +Y band.
+    world.rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    turned = capture.world_cube(world, 16)
+    assert turned[0, 8, 8].min() > 1.9 and turned[plus_y, 8, 8].max() == 0.0
