@@ -11,20 +11,9 @@ import sys
 from pathlib import Path
 
 import bpy
+from scene_kit import light, principled, probe, sky
 
 HERE = Path(__file__).resolve().parent
-
-
-def principled(name, base, metallic=0.0, roughness=0.5, ior=1.5):
-    mat = bpy.data.materials.new(name)
-    if bpy.app.version < (5, 0, 0):
-        mat.use_nodes = True
-    node = mat.node_tree.nodes["Principled BSDF"]
-    node.inputs["Base Color"].default_value = (*base, 1.0)
-    node.inputs["Metallic"].default_value = metallic
-    node.inputs["Roughness"].default_value = roughness
-    node.inputs["IOR"].default_value = ior
-    return mat
 
 
 def add_object(mesh_op, name, material, **kwargs):
@@ -32,17 +21,6 @@ def add_object(mesh_op, name, material, **kwargs):
     obj = bpy.context.active_object
     obj.name = name
     obj.data.materials.append(material)
-    return obj
-
-
-def add_light(kind, name, location, rotation, **settings):
-    data = bpy.data.lights.new(name, kind)
-    for key, value in settings.items():
-        setattr(data, key, value)
-    obj = bpy.data.objects.new(name, data)
-    obj.location = location
-    obj.rotation_euler = rotation
-    bpy.context.scene.collection.objects.link(obj)
     return obj
 
 
@@ -70,24 +48,19 @@ def build(out: Path) -> None:
         bpy.ops.object.shade_smooth()
         sphere.select_set(False)
 
-    add_light("POINT", "Point", (-2.5, -2.0, 2.5), (0, 0, 0), energy=300.0,
+    light("POINT", "Point", (-2.5, -2.0, 2.5), (0, 0, 0), energy=300.0,
               shadow_soft_size=0.1, color=(1.0, 0.9, 0.8))
-    add_light("SPOT", "Spot", (2.5, -2.5, 3.0), (math.radians(45), 0, math.radians(45)),
+    light("SPOT", "Spot", (2.5, -2.5, 3.0), (math.radians(45), 0, math.radians(45)),
               energy=500.0, spot_size=math.radians(50), spot_blend=0.3, shadow_soft_size=0.1)
-    add_light("SUN", "Sun", (0, 0, 5), (math.radians(50), 0, math.radians(-30)),
+    light("SUN", "Sun", (0, 0, 5), (math.radians(50), 0, math.radians(-30)),
               energy=1.5, angle=math.radians(1.0))
-    add_light("AREA", "Area", (0.0, 3.0, 2.0), (math.radians(-60), 0, 0), energy=150.0,
+    light("AREA", "Area", (0.0, 3.0, 2.0), (math.radians(-60), 0, 0), energy=150.0,
               size=0.5, color=(0.7, 0.8, 1.0))
 
-    probe = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
-    probe.location = (0.0, -1.6, 0.9)  # in front of the spheres, not between them
-    probe.data.influence_distance = 6.0
-    scene.collection.objects.link(probe)
-    volume = bpy.data.objects.new("Irradiance", bpy.data.lightprobes.new("Irradiance", "VOLUME"))
-    volume.location, volume.scale = (0.0, 0.0, 1.0), (3.5, 2.0, 1.0)
-    volume.data.resolution_x, volume.data.resolution_y, volume.data.resolution_z = 6, 4, 2
-    volume.data.influence_distance = 2.0
-    scene.collection.objects.link(volume)
+    # in front of the spheres, not between them
+    probe("SPHERE", "Reflection", (0.0, -1.6, 0.9), influence_distance=6.0)
+    probe("VOLUME", "Irradiance", (0.0, 0.0, 1.0), scale=(3.5, 2.0, 1.0), resolution_x=6,
+          resolution_y=4, resolution_z=2, influence_distance=2.0)
 
     cam_data = bpy.data.cameras.new("Camera")
     cam_data.lens = 40
@@ -97,11 +70,7 @@ def build(out: Path) -> None:
     scene.collection.objects.link(cam)
     scene.camera = cam
 
-    world = bpy.data.worlds.new("World")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.05, 0.06, 0.08, 1)
-    scene.world = world
+    sky((0.05, 0.06, 0.08), "World")
     bpy.ops.wm.save_as_mainfile(filepath=str(out), compress=True)
 
 

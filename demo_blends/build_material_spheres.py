@@ -17,6 +17,7 @@ from pathlib import Path
 
 import bpy
 import numpy as np
+from scene_kit import principled, probe
 
 import bo2_lighting
 
@@ -82,13 +83,8 @@ def build(out: Path) -> None:
             bpy.ops.object.shade_smooth()
             bpy.context.object.name = f"{name} gloss {gloss:.1f}"
             bpy.context.object.data.materials.append(mat)
-    floor = bpy.data.materials.new("Floor")
-    if floor.node_tree is None:
-        floor.use_nodes = True
-    floor.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (
-        0.3, 0.3, 0.3, 1)
     bpy.ops.mesh.primitive_plane_add(size=20, location=(0, 0, 0))
-    bpy.context.object.data.materials.append(floor)
+    bpy.context.object.data.materials.append(principled("Floor", (0.3, 0.3, 0.3)))
 
     world = bpy.data.worlds.new("Environment")
     if world.node_tree is None:
@@ -99,10 +95,7 @@ def build(out: Path) -> None:
     tree.links.new(env.outputs["Color"], tree.nodes["Background"].inputs["Color"])
     scene.world = world
 
-    probe = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
-    probe.location = (0.0, -2.0, 2.1)
-    probe.data.influence_distance = 12.0
-    scene.collection.objects.link(probe)
+    probe("SPHERE", "Reflection", (0.0, -2.0, 2.1), influence_distance=12.0)
     scene.bo2.bake_face_size = "128"
 
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))

@@ -16,6 +16,7 @@ import sys
 from pathlib import Path
 
 import bpy
+from scene_kit import light, probe, sky
 
 import bo2_lighting
 
@@ -61,24 +62,12 @@ def build(out: Path) -> None:
     wall.scale = (4.0, 0.2, 4.0)
     wall.data.materials.append(bo2_material("Wall", (0.7, 0.7, 0.7), (0.04, 0.04, 0.04), 0.2))
 
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy, sun.data.angle = 3.0, math.radians(1.5)
-    sun.rotation_euler = (math.radians(50), 0, math.radians(200))  # from behind the wall
-    scene.collection.objects.link(sun)
-    world = bpy.data.worlds.new("Sky")
-    if world.node_tree is None:
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.3, 0.4, 0.6, 1)
-    scene.world = world
-
-    probe = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
-    probe.location, probe.data.influence_distance = (-1.4, 0.6, 1.0), 10.0
-    scene.collection.objects.link(probe)
-    volume = bpy.data.objects.new("Irradiance", bpy.data.lightprobes.new("Irradiance", "VOLUME"))
-    volume.location, volume.scale = (0.0, 0.7, 1.0), (3.5, 2.0, 1.0)
-    volume.data.resolution_x, volume.data.resolution_y, volume.data.resolution_z = 8, 4, 2
-    volume.data.influence_distance = 1.0
-    scene.collection.objects.link(volume)
+    light("SUN", "Sun", (0, 0, 5), (math.radians(50), 0, math.radians(200)),  # behind the wall
+          energy=3.0, angle=math.radians(1.5))
+    sky((0.3, 0.4, 0.6))
+    probe("SPHERE", "Reflection", (-1.4, 0.6, 1.0), influence_distance=10.0)
+    probe("VOLUME", "Irradiance", (0.0, 0.7, 1.0), scale=(3.5, 2.0, 1.0), resolution_x=8,
+          resolution_y=4, resolution_z=2, influence_distance=1.0)
     scene.bo2.bake_volume_face_size = "16"
 
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))

@@ -15,21 +15,11 @@ import sys
 from pathlib import Path
 
 import bpy
+from scene_kit import light, principled, probe, sky
 
 import bo2_lighting
 
 HERE = Path(__file__).resolve().parent
-
-
-def principled(name, base, metallic=0.0, roughness=0.5):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    node = mat.node_tree.nodes["Principled BSDF"]
-    node.inputs["Base Color"].default_value = (*base, 1.0)
-    node.inputs["Metallic"].default_value = metallic
-    node.inputs["Roughness"].default_value = roughness
-    return mat
 
 
 def box(name, size, location, material, rotation=(0, 0, 0)):
@@ -59,28 +49,6 @@ def sphere(name, radius, location, material, segments=64, rings=32, scale=(1, 1,
     obj.scale = scale
     bpy.ops.object.shade_smooth()
     obj.data.materials.append(material)
-    return obj
-
-
-def light(kind, name, location, rotation, **settings):
-    data = bpy.data.lights.new(name, kind)
-    for key, value in settings.items():
-        setattr(data, key, value)
-    obj = bpy.data.objects.new(name, data)
-    obj.location, obj.rotation_euler = location, rotation
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
-def probe(kind, name, location, **settings):
-    obj = bpy.data.objects.new(name, bpy.data.lightprobes.new(name, kind))
-    obj.location = location
-    for key, value in settings.items():
-        if key == "scale":
-            obj.scale = value
-        else:
-            setattr(obj.data, key, value)
-    bpy.context.scene.collection.objects.link(obj)
     return obj
 
 
@@ -156,11 +124,7 @@ def build(out: Path) -> None:
     light("SPOT", "Shelf spot", (1.6, 0.6, 2.8), (math.radians(35), 0, math.radians(180)),
           energy=150.0, spot_size=math.radians(45), spot_blend=0.4, shadow_soft_size=0.05)
 
-    world = bpy.data.worlds.new("Sky")
-    if world.node_tree is None:
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.45, 0.6, 0.9, 1)
-    scene.world = world
+    sky((0.45, 0.6, 0.9))
 
     probe("VOLUME", "Room irradiance", (0, 0, 1.5), scale=(3.1, 2.6, 1.55),  # walls inside
           resolution_x=5, resolution_y=4, resolution_z=3, influence_distance=0.5)

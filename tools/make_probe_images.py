@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import sys
 import tempfile
 from pathlib import Path
 
@@ -24,18 +25,10 @@ import numpy as np
 
 import bo2_lighting
 
-OUT = Path(__file__).resolve().parents[1] / "docs" / "images"
-
-
-def material(name, color, metallic=0.0, roughness=0.6):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    node = mat.node_tree.nodes["Principled BSDF"]
-    node.inputs["Base Color"].default_value = (*color, 1.0)
-    node.inputs["Metallic"].default_value = metallic
-    node.inputs["Roughness"].default_value = roughness
-    return mat
+ROOT = Path(__file__).resolve().parents[1]
+OUT = ROOT / "docs" / "images"
+sys.path.insert(0, str(ROOT / "demo_blends"))
+from scene_kit import light, principled, probe, sky  # noqa: E402  (the demo scenes' helpers)
 
 
 def build(folder: Path, size: int):
@@ -43,41 +36,29 @@ def build(folder: Path, size: int):
     scene = bpy.context.scene
     scene.render.resolution_x, scene.render.resolution_y = size, size * 3 // 4
     scene.view_settings.view_transform = "Standard"
-    world = bpy.data.worlds.new("Sky")
-    if world.node_tree is None:
-        world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.25, 0.3, 0.4, 1)
-    scene.world = world
+    sky((0.25, 0.3, 0.4))
     for size_m, loc, rot, mat in [
-        (8, (0, 0, 0), (0, 0, 0), material("Floor", (0.6, 0.6, 0.6), roughness=0.35)),
-        (8, (0, 2.5, 2), (math.pi / 2, 0, 0), material("Red", (0.8, 0.08, 0.05))),
-        (8, (-2.5, 0, 2), (0, math.pi / 2, 0), material("White", (0.8, 0.8, 0.8))),
+        (8, (0, 0, 0), (0, 0, 0), principled("Floor", (0.6, 0.6, 0.6), roughness=0.35)),
+        (8, (0, 2.5, 2), (math.pi / 2, 0, 0), principled("Red", (0.8, 0.08, 0.05), roughness=0.6)),
+        (8, (-2.5, 0, 2), (0, math.pi / 2, 0), principled("White", (0.8, 0.8, 0.8), roughness=0.6)),
     ]:
         bpy.ops.mesh.primitive_plane_add(size=size_m, location=loc, rotation=rot)
         bpy.context.object.data.materials.append(mat)
-    for loc, mat in [((0.2, 0.6, 0.6), material("Chrome", (0.95, 0.95, 0.95), 1.0, 0.1)),
-                     ((-1.2, -0.3, 0.45), material("Blue", (0.1, 0.2, 0.7), 0.0, 0.25))]:
+    for loc, mat in [((0.2, 0.6, 0.6), principled("Chrome", (0.95, 0.95, 0.95), 1.0, 0.1)),
+                     ((-1.2, -0.3, 0.45), principled("Blue", (0.1, 0.2, 0.7), 0.0, 0.25))]:
         bpy.ops.mesh.primitive_uv_sphere_add(radius=loc[2], location=loc, segments=64,
                                              ring_count=32)
         bpy.ops.object.shade_smooth()
         bpy.context.object.data.materials.append(mat)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy, sun.data.angle = 4.0, math.radians(2)
-    sun.rotation_euler = (math.radians(55), 0, math.radians(25))
-    scene.collection.objects.link(sun)
+    light("SUN", "Sun", (0, 0, 5), (math.radians(55), 0, math.radians(25)), energy=4.0,
+          angle=math.radians(2))
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location, cam.rotation_euler = (2.6, -4.2, 2.4), (math.radians(68), 0, math.radians(30))
     scene.collection.objects.link(cam)
     scene.camera = cam
-    probe = bpy.data.objects.new("Reflection", bpy.data.lightprobes.new("Reflection", "SPHERE"))
-    probe.location, probe.data.influence_distance = (0, 0, 1.0), 6.0
-    scene.collection.objects.link(probe)
-    volume = bpy.data.objects.new("Irradiance", bpy.data.lightprobes.new("Irradiance", "VOLUME"))
-    volume.location, volume.scale = (0, 0, 1.2), (2.4, 2.4, 1.2)
-    volume.data.resolution_x = volume.data.resolution_y = 4
-    volume.data.resolution_z = 2
-    volume.data.influence_distance = 1.0
-    scene.collection.objects.link(volume)
+    probe("SPHERE", "Reflection", (0, 0, 1.0), influence_distance=6.0)
+    probe("VOLUME", "Irradiance", (0, 0, 1.2), scale=(2.4, 2.4, 1.2), resolution_x=4,
+          resolution_y=4, resolution_z=2, influence_distance=1.0)
     scene.cycles.device, scene.cycles.use_denoising = "CPU", False
     scene.cycles.max_bounces = 4
     scene.bo2.bake_bounces = 2  # the second bounce brings the sky onto the walls
