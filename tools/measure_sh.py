@@ -27,11 +27,11 @@ from __future__ import annotations
 
 import argparse
 import math
-import re
 import sys
 from pathlib import Path
 
 import numpy as np
+from doc_section import replace_section
 
 from bo2_lighting.addon import cli
 from bo2_lighting.addon.core import sh
@@ -115,14 +115,8 @@ def main(argv=None) -> int:
         return 1
     text = measure(paths)
     print(text)
-    if not args.no_write:
-        doc = Path(args.doc)
-        old = doc.read_text()
-        pattern = re.compile(re.escape(BEGIN) + ".*?" + re.escape(END), re.S)
-        if not pattern.search(old):
-            print(f"{doc}: markers not found, not written", file=sys.stderr)
-            return 1
-        doc.write_text(pattern.sub(lambda _: f"{BEGIN}\n{text}\n{END}", old))
+    if not args.no_write and not replace_section(Path(args.doc), BEGIN, END, text):
+        return 1
     return 0
 
 
