@@ -17,6 +17,14 @@ def bo2(*args, timeout=300):
                           timeout=timeout)
 
 
+def empty_blend(path):
+    """Save an empty scene (no camera, no objects) at ``path``; returns the path."""
+    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
+              f"bpy.ops.wm.save_as_mainfile(filepath={str(path)!r})")
+    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    return path
+
+
 def one_error_line(proc):
     lines = [s for s in proc.stderr.splitlines() if s.strip()]
     assert len(lines) == 1, proc.stderr
@@ -68,10 +76,7 @@ def test_corrupt_blend(tmp_path, content):
 
 
 def test_scene_without_camera(tmp_path):
-    blend = tmp_path / "empty.blend"
-    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
-              f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})")
-    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    blend = empty_blend(tmp_path / "empty.blend")
     proc = bo2("render", blend, "-o", tmp_path / "x.png")
     assert proc.returncode == 1
     assert "no active camera" in one_error_line(proc)
@@ -376,10 +381,7 @@ def test_render_batch_goes_on_after_failures(tmp_path):
 
     missing, corrupt = tmp_path / "missing.blend", tmp_path / "corrupt.blend"
     corrupt.write_bytes(b"BLENDER-v405" + b"\xff" * 500)
-    no_camera = tmp_path / "empty.blend"
-    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
-              f"bpy.ops.wm.save_as_mainfile(filepath={str(no_camera)!r})")
-    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    no_camera = empty_blend(tmp_path / "empty.blend")
     summary = tmp_path / "summary.json"
     proc = bo2("render", missing, DEMO, corrupt, no_camera, "--frames", "1,2",
                "-o", tmp_path / "out" / "{scene}_{frame}.png", "--summary", summary, *TINY)
@@ -479,10 +481,7 @@ def test_compare_bad_input(tmp_path):
     proc = bo2("compare", DEMO, "-o", blocker / "sub")
     assert proc.returncode == 1
     assert "cannot create the output folder" in one_error_line(proc)
-    blend = tmp_path / "empty.blend"
-    script = ("import bpy; bpy.ops.wm.read_factory_settings(use_empty=True); "
-              f"bpy.ops.wm.save_as_mainfile(filepath={str(blend)!r})")
-    subprocess.run([sys.executable, "-c", script], check=True, capture_output=True)
+    blend = empty_blend(tmp_path / "empty.blend")
     proc = bo2("compare", blend, "-o", tmp_path / "cmp")
     assert proc.returncode == 1
     assert "no active camera" in one_error_line(proc)
