@@ -11,7 +11,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from util import add_ortho_camera, render_pixels, set_world_color
+from util import add_ortho_camera, bare_material, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import node_groups
 from bo2_lighting.addon.core import env_brdf
@@ -21,13 +21,7 @@ RF0 = (0.0, 0.04, 1.0)
 
 
 def emission_material(name: str):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for node in list(tree.nodes):
-        if node.bl_idname != "ShaderNodeOutputMaterial":
-            tree.nodes.remove(node)
+    mat, tree = bare_material(name)
     emission = tree.nodes.new("ShaderNodeEmission")
     tree.links.new(emission.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     group = tree.nodes.new("ShaderNodeGroup")

@@ -14,6 +14,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 import pytest
+from util import bare_material
 
 from bo2_lighting.addon.blender import node_groups
 from bo2_lighting.addon.core import brdf
@@ -214,13 +215,7 @@ def test_gloss_to_roughness_in_cycles_matches_the_closed_form(fresh):
     scene = fresh
     res_x, res_y = 64, 4
     setup_render(scene, res_x, res_y)
-    mat = bpy.data.materials.new("Gloss ramp")
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    tree = mat.node_tree
-    for node in list(tree.nodes):
-        if node.bl_idname != "ShaderNodeOutputMaterial":
-            tree.nodes.remove(node)
+    mat, tree = bare_material("Gloss ramp")
     output = tree.nodes["Material Output"]
     coords = tree.nodes.new("ShaderNodeTexCoord")
     split = tree.nodes.new("ShaderNodeSeparateXYZ")

@@ -69,3 +69,15 @@ def render_pixels(scene, engine: str, samples: int = 4, size=None) -> np.ndarray
         px = np.array(img.pixels[:], np.float32).reshape(height, width, 4)
         bpy.data.images.remove(img)
     return px
+
+
+def bare_material(name: str):
+    """A new material whose node tree holds only its Material Output; returns (material, tree)."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    tree = mat.node_tree
+    for node in list(tree.nodes):
+        if node.bl_idname != "ShaderNodeOutputMaterial":
+            tree.nodes.remove(node)
+    return mat, tree
