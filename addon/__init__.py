@@ -5,14 +5,24 @@ The Blender modules are imported inside ``register()`` so that the ``bo2`` comma
 tests can import this package without loading ``bpy``.
 """
 
+import functools
+import tomllib
+from pathlib import Path
+
 _registered: list = []
 
 
-def _classes() -> list:
-    from .blender import bake_ops, compare, engine, node_groups, props, ui
+@functools.cache
+def version() -> str:
+    """The extension's version, as its manifest (``blender_manifest.toml``) gives it."""
+    with open(Path(__file__).resolve().parent.parent / "blender_manifest.toml", "rb") as fh:
+        return str(tomllib.load(fh)["version"])
 
-    return [*props.CLASSES, *engine.CLASSES, *node_groups.CLASSES, *bake_ops.CLASSES,
-            *compare.CLASSES, *ui.CLASSES]
+
+def _classes() -> list:
+    from .blender import engine, operators, props, ui
+
+    return [*props.CLASSES, *engine.CLASSES, *operators.CLASSES, *ui.CLASSES]
 
 
 def register() -> None:

@@ -115,7 +115,7 @@ def time_probe_bake(size: int, repeat: int, workers: int) -> tuple[float, float]
     scene.settings.threads = workers
 
     def bake():
-        cube = capture.Capture(scene).cube(np.array([0.0, 0.0, 1.5]), size)
+        cube = capture.Capture(scene).cube(np.array([0.0, 0.0, 1.5]), size, 0.05, 1e4)
         capture.filtered(cube)
 
     return timed(bake, repeat)

@@ -12,22 +12,10 @@ import argparse
 import sys
 from pathlib import Path
 
-import bpy
 import numpy as np
 
-from bo2_lighting.addon.core import compare
-
-
-def read_png(path: Path) -> np.ndarray:
-    """(H, W, 3) float32 display-referred values in [0, 1], row 0 at the top."""
-    img = bpy.data.images.load(str(path))
-    try:
-        w, h = img.size
-        px = np.empty(w * h * img.channels, np.float32)
-        img.pixels.foreach_get(px)
-    finally:
-        bpy.data.images.remove(img)
-    return px.reshape(h, w, -1)[::-1, :, :3]
+from bo2_lighting.addon.blender import images
+from bo2_lighting.addon.core import imaging
 
 
 def resize(image: np.ndarray, width: int) -> np.ndarray:
@@ -47,8 +35,8 @@ def main() -> int:
     gap = np.full((6, args.width, 3), 0.11, np.float32)
     parts = []
     for path in args.images:
-        parts += [resize(read_png(path), args.width), gap]
-    compare.write_png(args.output, np.concatenate(parts[:-1], 0))
+        parts += [resize(images.read_file(path)[..., :3], args.width), gap]
+    imaging.write_png(args.output, np.concatenate(parts[:-1], 0))
     print(f"wrote {args.output}")
     return 0
 

@@ -10,14 +10,12 @@ where the visibility terms differ most, and by a weaker light near the camera.
 
 from __future__ import annotations
 
-import struct
 import sys
-import zlib
 from pathlib import Path
 
 import numpy as np
 
-from bo2_lighting.addon.core import brdf, pipeline
+from bo2_lighting.addon.core import brdf, imaging, pipeline, texture
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -55,26 +53,6 @@ def model_row(model: str, width=600, height=130) -> np.ndarray:
     return pipeline.render_frame(scene)["Combined"][..., :3]
 
 
-def srgb8(linear: np.ndarray) -> np.ndarray:
-    x = np.clip(linear, 0.0, 1.0)
-    s = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
-    return (s * 255 + 0.5).astype(np.uint8)
-
-
-def write_png(path: Path, rgb8: np.ndarray) -> None:
-    """Minimal RGB8 PNG writer (PNG spec, filter type 0 on every row)."""
-    h, w, _ = rgb8.shape
-    raw = np.concatenate([np.zeros((h, 1), np.uint8), rgb8.reshape(h, -1)], 1).tobytes()
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(
-            ">I", zlib.crc32(kind + data) & 0xFFFFFFFF)
-
-    header = struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0)
-    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
-                     + chunk(b"IDAT", zlib.compress(raw, 9)) + chunk(b"IEND", b""))
-
-
 def main() -> int:
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else ROOT / "docs" / "images"
     out.mkdir(parents=True, exist_ok=True)
@@ -82,7 +60,7 @@ def main() -> int:
     gap = np.full((4, rows[0].shape[1], 3), 0.2, np.float32)
     image = np.concatenate([x for r in rows for x in (r, gap)][:-1])
     path = out / "specular_models.png"
-    write_png(path, srgb8(image))
+    imaging.write_png(path, texture.linear_to_srgb(np.clip(image, 0.0, 1.0)))
     print(f"wrote {path} (rows: {', '.join(brdf.MODELS)})")
     return 0
 

@@ -27,8 +27,9 @@ import numpy as np
 
 import bo2_lighting
 from bo2_lighting.addon.blender import compare as blender_compare
+from bo2_lighting.addon.blender import images as blender_images
 from bo2_lighting.addon.blender import probes
-from bo2_lighting.addon.core import compare
+from bo2_lighting.addon.core import imaging
 
 ROOT = Path(__file__).resolve().parents[1]
 BLEND = ROOT / "demo_blends" / "old_vs_new.blend"
@@ -69,10 +70,10 @@ def main() -> int:
             path.unlink()
         setattr(scene.bo2, prop, scene.bo2.bl_rna.properties[prop].default)
         diff = float(np.abs(images[0] - images[1]).mean())
-        left, right = blender_compare.to_display(scene, images)
-        picture = compare.side_by_side(left, right, ((f"old: {old_label}", "old"),
+        left, right = blender_images.to_display(scene, images)
+        picture = imaging.side_by_side(left, right, ((f"old: {old_label}", "old"),
                                                      (f"new: {new_label}", "new")))
-        compare.write_png(args.out / f"{name}.png", picture)
+        imaging.write_png(args.out / f"{name}.png", picture)
         print(f"{name:14s} mean |old - new| = {diff:.4f}  -> {args.out / (name + '.png')}")
     return 0
 

@@ -13,6 +13,7 @@ import numpy as np
 
 from ..core import scene as cs
 from .materials import convert_material, load_image
+from .probes import load_probes
 
 _GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
@@ -216,12 +217,47 @@ def _object_data(obj, materials, mat_ids, warnings):
         obj.to_mesh_clear()
 
 
-def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True):
+def render_border(scene, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """Blender's render border as a pixel rectangle (x0, y0, x1, y1), top-left origin."""
+    r = scene.render
+    if not r.use_border:
+        return None
+    x0, x1 = int(r.border_min_x * width), int(np.ceil(r.border_max_x * width))
+    y0, y1 = int((1.0 - r.border_max_y) * height), int(np.ceil((1.0 - r.border_min_y) * height))
+    x0, y0 = max(0, min(x0, width - 1)), max(0, min(y0, height - 1))
+    x1, y1 = max(x0 + 1, min(x1, width)), max(y0 + 1, min(y1, height))
+    return x0, y0, x1, y1
+
+
+def render_settings(scene) -> cs.RenderSettings:
+    """The engine's settings of a Blender scene as ``core.scene.RenderSettings``."""
+    s = scene.bo2
+    width, height = resolution(scene)
+    return cs.RenderSettings(
+        samples=int(s.samples),
+        shade_every_sample=bool(s.shade_every_sample),
+        filter_width=float(scene.render.filter_size),
+        specular_model=str(s.specular_model),
+        env_brdf=str(s.env_brdf),
+        normalization=str(s.normalization),
+        prefilter=str(s.prefilter),
+        film_transparent=bool(scene.render.film_transparent),
+        shadow_resolution=int(s.shadow_resolution),
+        threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)
+        border=render_border(scene, width, height),
+    )
+
+
+def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
+                  indirect: bool = False):
     """Translate the evaluated depsgraph into plain data.
 
-    camera:  False for work that brings its own cameras (probe captures): the scene camera is
-             neither read nor required, and a 1 x 1 placeholder stands in
-    returns: (core.scene.Scene, warnings: list[str] of messages to report once each)
+    settings: the engine's settings (``render_settings(scene)`` when None)
+    camera:   False for work that brings its own cameras (probe captures): the scene camera is
+              neither read nor required, and a 1 x 1 placeholder stands in
+    indirect: light the scene with its baked probes and the world (``probes.load_probes``);
+              False renders direct light only
+    returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
     """
     warnings: list[str] = []
     scene = depsgraph.scene
@@ -254,11 +290,13 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
                                    holdout=bool(holdout)))
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
+    world = extract_world(scene, warnings)
     return cs.Scene(
         camera=camera,
         meshes=meshes,
         materials=materials,
         lights=lights,
-        world=extract_world(scene, warnings),
-        settings=settings or cs.RenderSettings(),
+        world=world,
+        settings=settings or render_settings(scene),
+        probes=load_probes(scene, world, warnings) if indirect else None,
     ), warnings

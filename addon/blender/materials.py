@@ -10,10 +10,10 @@ Texture. Surfaces it understands:
   ``core.surface.principled_to_talk`` (formulas in its module docstring).
 - The BO2 Material node group: Albedo, Specular Color, Gloss, Normal, Emission, Emission
   Strength, read as they are.
+- Emission: an emitter with no reflection. Diffuse BSDF: albedo = its colour, rf0 = 0.
 
 Alpha (transparency, cut-outs) is not rendered yet: a material that uses it renders opaque, with
 one warning.
-- Emission: an emitter with no reflection. Diffuse BSDF: albedo = its colour, rf0 = 0.
 
 Anything else (other shader nodes, node chains between a texture and a socket, a UV map other
 than the active render one) falls back to the socket's own value, or for an unknown surface to a
@@ -27,6 +27,7 @@ import numpy as np
 
 from ..core import texture
 from ..core.scene import Material, NormalMap, Principled, TextureInput
+from . import images
 from .node_groups import is_bo2_material_node
 
 _cache: dict[tuple, texture.Texture] = {}
@@ -56,13 +57,10 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
         warnings.append(f"{where}: image '{image.name}' could not be loaded "
                         f"({image.filepath or 'no file'}); its socket value is used")
         return None
-    channels = image.channels
-    flat = np.empty(width * height * channels, np.float32)
-    image.pixels.foreach_get(flat)
-    pixels = flat.reshape(height, width, channels)[::-1]  # Blender rows run bottom to top
+    pixels = images.image_pixels(image)
     # Byte images hold encoded values; float images are already scene-linear in memory.
     srgb = not image.is_float and image.colorspace_settings.name == "sRGB"
-    tex = texture.make_texture(np.ascontiguousarray(pixels), srgb=srgb, extension=extension,
+    tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
                                interpolation=interpolation, name=image.name)
     _cache[key] = tex
     return tex

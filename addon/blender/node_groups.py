@@ -51,8 +51,8 @@ _SPEC_FILES = {
     ENV_BRDF_GROUPS["fit"]: "bo2_env_brdf_fit.json",
 }
 _TAG = "bo2_node_group"  # ID property that marks a tree built here; its value is the group name
-_SHADER_TREE = "ShaderNodeTree"
-_MATERIAL_OBJECT_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
+SHADER_TREE = "ShaderNodeTree"
+MATERIAL_OBJECT_TYPES = {"MESH", "CURVE", "SURFACE", "META", "FONT"}
 
 
 def load_spec(name: str) -> dict:
@@ -65,11 +65,11 @@ def load_spec(name: str) -> dict:
 
 def _find_existing(name: str):
     tree = bpy.data.node_groups.get(name)
-    if tree is not None and tree.bl_idname == _SHADER_TREE:
+    if tree is not None and tree.bl_idname == SHADER_TREE:
         return tree
     # One built here under a suffixed name ("BO2 Material.001") while another tree held the name.
     for tree in bpy.data.node_groups:
-        if (tree.bl_idname == _SHADER_TREE and tree.get(_TAG) == name
+        if (tree.bl_idname == SHADER_TREE and tree.get(_TAG) == name
                 and tree.name.startswith(name + ".")):
             return tree
     return None
@@ -144,7 +144,7 @@ def _build(spec: dict) -> bpy.types.ShaderNodeTree:
     for node in spec["nodes"]:
         if "node_tree" in node:
             ensure_group(node["node_tree"])
-    tree = bpy.data.node_groups.new(spec["name"], _SHADER_TREE)
+    tree = bpy.data.node_groups.new(spec["name"], SHADER_TREE)
     try:
         tree[_TAG] = spec["name"]
         tree.description = spec.get("description", "")
@@ -196,94 +196,6 @@ def add_material_node(tree, location=(0.0, 0.0), name: str = MATERIAL_GROUP):
     return node
 
 
-def _target_tree(context):
-    """The shader tree to add to: the Shader Editor's, else the active object's material's."""
-    space = context.space_data
-    if space is not None and space.type == "NODE_EDITOR":
-        tree = space.edit_tree
-        ok = (space.tree_type == _SHADER_TREE and space.shader_type == "OBJECT"
-              and tree is not None and tree.is_editable)
-        return tree if ok else None
-    obj = context.object
-    mat = obj.active_material if obj is not None else None
-    return mat.node_tree if mat is not None else None
-
-
-class NODE_OT_bo2_add_material(bpy.types.Operator):
-    """Add a BO2 Lighting node group (BO2 Material by default) to the material's node tree"""
-
-    bl_idname = "node.bo2_add_material"
-    bl_label = "Add BO2 Node Group"
-    bl_options = {"REGISTER", "UNDO"}
-
-    group: bpy.props.EnumProperty(
-        name="Group",
-        description="The node group to add",
-        items=[(name, name, "") for name in GROUP_NAMES[1:] + GROUP_NAMES[:1]],
-        default=MATERIAL_GROUP,
-    )
-
-    use_transform: bpy.props.BoolProperty(
-        name="Use Transform",
-        description="Move the new node with the mouse after adding it",
-        default=False,
-        options={"SKIP_SAVE"},
-    )
-
-    @classmethod
-    def poll(cls, context):
-        return _target_tree(context) is not None
-
-    def invoke(self, context, event):
-        space = context.space_data
-        in_editor = space is not None and space.type == "NODE_EDITOR"
-        if in_editor and context.region is not None and context.region.type == "WINDOW":
-            space.cursor_location_from_region(event.mouse_region_x, event.mouse_region_y)
-        result = self.execute(context)
-        if in_editor and self.use_transform and "FINISHED" in result:
-            bpy.ops.node.translate_attach_remove_on_cancel("INVOKE_DEFAULT")
-        return result
-
-    def execute(self, context):
-        tree = _target_tree(context)
-        if tree is None:
-            self.report({"ERROR"}, "No shader node tree to add to: select a material")
-            return {"CANCELLED"}
-        space = context.space_data
-        in_editor = space is not None and space.type == "NODE_EDITOR"
-        location = tuple(space.cursor_location) if in_editor else (0.0, 0.0)
-        try:
-            add_material_node(tree, location, self.group)
-        except ValueError as ex:
-            self.report({"ERROR"}, str(ex))
-            return {"CANCELLED"}
-        return {"FINISHED"}
-
-
-class MATERIAL_OT_bo2_new(bpy.types.Operator):
-    """Create a BO2 Material on the active object (in its active slot)"""
-
-    bl_idname = "material.bo2_new"
-    bl_label = "New BO2 Material"
-    bl_options = {"REGISTER", "UNDO"}
-
-    def execute(self, context):
-        obj = context.object
-        if obj is None:
-            self.report({"ERROR"}, "New BO2 Material: no active object")
-            return {"CANCELLED"}
-        if obj.type not in _MATERIAL_OBJECT_TYPES:
-            self.report({"ERROR"}, f"New BO2 Material: the active object '{obj.name}' "
-                        f"({obj.type}) cannot have materials")
-            return {"CANCELLED"}
-        mat = new_material(MATERIAL_GROUP)
-        if len(obj.material_slots) == 0:
-            obj.data.materials.append(mat)
-        else:
-            obj.active_material = mat
-        return {"FINISHED"}
-
-
 def new_material(name: str = MATERIAL_GROUP) -> bpy.types.Material:
     """A new material whose surface is a BO2 Material group node linked to the Material Output."""
     mat = bpy.data.materials.new(name)
@@ -300,19 +212,21 @@ def new_material(name: str = MATERIAL_GROUP) -> bpy.types.Material:
     return mat
 
 
+ADD_OPERATOR = "node.bo2_add_material"  # operators.NODE_OT_bo2_add_material
+
+
 def draw_add_menu(self, context):
     """Entry of the Shader Editor's Add menu (appended to ``NODE_MT_add``)."""
     space = context.space_data
-    if space is None or space.tree_type != _SHADER_TREE:
+    if space is None or space.tree_type != SHADER_TREE:
         return
     layout = self.layout
     layout.separator()
-    props = layout.operator(NODE_OT_bo2_add_material.bl_idname, text="BO2 Material",
+    props = layout.operator(ADD_OPERATOR, text="BO2 Material",
                             icon="NODE_MATERIAL")
     props.use_transform = True
     for name in (*ENV_BRDF_GROUPS.values(), GLOSS_GROUP):
-        props = layout.operator(NODE_OT_bo2_add_material.bl_idname, text=name,
-                                icon="NODETREE")
+        props = layout.operator(ADD_OPERATOR, text=name, icon="NODETREE")
         props.group, props.use_transform = name, True
 
 
@@ -332,5 +246,3 @@ def remove_menus() -> None:
     if menu is not None:
         menu.remove(draw_add_menu)
 
-
-CLASSES = [NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new]

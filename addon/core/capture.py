@@ -1,8 +1,8 @@
 """Capture the scene around a point as a cube map, with the engine's own pipeline.
 
 Six 90-degree square views along the faces of ``cubemap.FACES``: emission, direct light with
-shadows, the world seen as background, and the indirect light of ``scene.probes`` when the
-scene carries the previous bounce's probes. A pixel (row r, column c) of face f is the texel of
+shadows, the world seen as background, and the indirect light of the probes given (in a bake,
+the previous bounce's). A pixel (row r, column c) of face f is the texel of
 the same index in ``cubemap`` (direction forward + a right + b up, a and b the pixel centre's
 coordinates in [-1, 1]).
 """
@@ -15,6 +15,7 @@ from collections.abc import Callable
 import numpy as np
 
 from . import cubemap, pipeline, prefilter, sh
+from .probes import Probes
 from .scene import Camera, Scene, World
 
 __all__ = ["Capture", "face_camera", "filtered", "world_cube"]
@@ -33,34 +34,35 @@ def face_camera(position, face: int, size: int, near: float, far: float) -> Came
 
 
 class Capture:
-    """Renders cube maps of one scene at many points, its shadow maps built once.
+    """Renders cube maps of one scene at many points, its geometry and shadow maps prepared
+    once for every view.
 
-    scene:  the scene (its camera is ignored); its settings' samples and filter apply, the
-            film is opaque and the border off
-    near, far: clip distances of the views, metres
+    scene: the scene (its camera and probes are ignored); its settings' samples and filter
+           apply, the film is opaque and the border off
     """
 
-    def __init__(self, scene: Scene, near: float = 0.05, far: float = 1e4,
-                 warn: Callable[[str], None] | None = None,
+    def __init__(self, scene: Scene, warn: Callable[[str], None] | None = None,
                  should_stop: Callable[[], bool] | None = None):
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None)
-        self.scene = dataclasses.replace(scene, settings=settings)
-        self.near, self.far = float(near), float(max(far, near * 2.0))
+        self.scene = dataclasses.replace(scene, settings=settings, probes=None)
         self.warn, self.should_stop = warn, should_stop
         self._frame = None  # geometry and shadow maps, prepared once for every view
 
-    def cube(self, position, size: int) -> np.ndarray:
-        """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres."""
+    def cube(self, position, size: int, near: float, far: float,
+             probes: Probes | None = None) -> np.ndarray:
+        """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres, between
+        the clip distances ``near`` and ``far`` (metres), lit indirectly by ``probes``."""
         out = np.empty((6, size, size, 3), np.float32)
+        far = max(far, 2.0 * near)
         for face in range(6):
-            cam = face_camera(position, face, size, self.near, self.far)
+            cam = face_camera(position, face, size, near, far)
             if self._frame is None:
                 scene = dataclasses.replace(self.scene, camera=cam)
                 self._frame = pipeline.prepare(scene, self.warn, self.should_stop,
                                                fit_shadows=False)
-            # the scene's probes may change between bounces: take the current ones
             frame = pipeline.with_camera(self._frame, cam)
-            frame.scene.probes = self.scene.probes
+            frame = dataclasses.replace(frame, scene=dataclasses.replace(frame.scene,
+                                                                         probes=probes))
             image = pipeline.render_frame(frame.scene, should_stop=self.should_stop,
                                           frame=frame)
             out[face] = image["Combined"][..., :3]

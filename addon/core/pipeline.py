@@ -12,14 +12,9 @@
 - Threads: tiles (and the lights' shadow maps) are rendered on ``settings.threads`` threads at
   once; NumPy releases the GIL inside its loops, so they run on separate cores.
 
-Render passes (Blender's names), the G-buffer and the lighting: Combined (RGBA), Depth
-(view-axis distance, 1e10 for the background), Normal (world-space shading normal), Position
-(world space, metres), UV (u, v, 1 on meshes with a UV map), IndexMA (the material's pass
-index), DiffDir, GlossDir, DiffInd, GlossInd (indirect light of ``scene.probes``; 0 without
-probes), Emit, and the AOVs Albedo, Specular Color, Gloss (the material after texture
-lookups). Depth and IndexMA come from one sample, the one nearest the pixel centre, as Cycles
-writes them from one sample; the others are averaged over every sample, the background
-counting as 0 in all but Combined, as Cycles accumulates them.
+Passes: the table of ``passes.py``. Depth and IndexMA come from one sample, the one nearest the
+pixel centre, as Cycles writes them from one sample; the others are averaged over every sample,
+the background counting as 0 in all but Combined, as Cycles accumulates them.
 """
 
 from __future__ import annotations
@@ -35,18 +30,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import brdf, probes, raster, shade, shadows, surface, texture
+from .passes import EMPTY_DEPTH, PASSES, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
-
-PASSES = {"Combined": 4, "Depth": 1, "Normal": 3, "Position": 3, "UV": 3, "IndexMA": 1,
-          "DiffDir": 3, "GlossDir": 3, "DiffInd": 3, "GlossInd": 3, "Emit": 3, "Albedo": 3,
-          "Specular Color": 3, "Gloss": 1}
-EMPTY_DEPTH = 1e10
-# The averaged passes (all but Depth and IndexMA) side by side in one (N, _WIDTH) array:
-# name -> column slice.
-_SHADED = [name for name in PASSES if name not in ("Depth", "IndexMA")]
-_COLUMNS = {name: slice(sum(PASSES[n] for n in _SHADED[:i]),
-                        sum(PASSES[n] for n in _SHADED[:i + 1])) for i, name in enumerate(_SHADED)}
-_WIDTH = sum(PASSES[n] for n in _SHADED)
 
 
 class Cancelled(Exception):
@@ -319,7 +304,7 @@ def _raster(frame: Frame, tile, offset):
 def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,).
 
-    returns: (N, _WIDTH) float32, the averaged passes side by side (columns ``_COLUMNS``;
+    returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
     """
     scene, cam = frame.scene, frame.scene.camera
@@ -370,8 +355,8 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf)
     else:
         diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
-    out = np.empty((len(tri), _WIDTH), np.float32)
-    out[:, _COLUMNS["Combined"]] = np.concatenate(
+    out = np.empty((len(tri), SAMPLED_WIDTH), np.float32)
+    out[:, SAMPLED["Combined"]] = np.concatenate(
         [diffuse + specular + diff_ind + gloss_ind + mat.emission,
          np.ones((len(tri), 1), np.float32)], -1)
     uvw = np.concatenate([uv, np.ones((len(tri), 1), np.float32)], -1)
@@ -381,7 +366,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
                         ("DiffInd", diff_ind), ("GlossInd", gloss_ind),
                         ("Emit", mat.emission), ("Albedo", mat.albedo),
                         ("Specular Color", mat.rf0), ("Gloss", mat.gloss[:, None])):
-        out[:, _COLUMNS[name]] = value
+        out[:, SAMPLED[name]] = value
     return out
 
 
@@ -396,15 +381,15 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
     scene = frame.scene
     x0, y0, x1, y1 = tile
     npx = (x1 - x0) * (y1 - y0)
-    acc = np.zeros((npx, _WIDTH), np.float32)  # sum of the samples shaded on their own
-    first = np.zeros((npx, _WIDTH), np.float32)  # shading of each pixel's first sample
+    acc = np.zeros((npx, SAMPLED_WIDTH), np.float32)  # sum of the samples shaded on their own
+    first = np.zeros((npx, SAMPLED_WIDTH), np.float32)  # shading of each pixel's first sample
     central = int(np.argmin(np.abs(np.asarray(offsets) - 0.5).sum(-1)))  # Depth and IndexMA
     depth_acc = index_acc = None
     first_tri = None
     reuse_count = np.zeros(npx, np.float32)  # samples that reuse the first sample's shading
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
-    rgba = _COLUMNS["Combined"]
+    rgba = SAMPLED["Combined"]
     for k, offset in enumerate(offsets):
         tick()
         tri, bary, depth, sx, sy = _raster(frame, tile, offset)
@@ -439,7 +424,7 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color
     acc *= np.float32(1.0 / len(offsets))
-    out = {name: acc[:, _COLUMNS[name]] for name in _SHADED}
+    out = {name: acc[:, SAMPLED[name]] for name in SAMPLED}
     out["Depth"] = depth_acc[:, None]
     out["IndexMA"] = index_acc[:, None].astype(np.float32)
     return out
@@ -504,7 +489,8 @@ def render_frame(scene: Scene, progress=None, should_stop=None, warn=None, frame
     Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``.
     """
     cam = scene.camera
-    out = {name: np.zeros((cam.height, cam.width, c), np.float32) for name, c in PASSES.items()}
+    out = {name: np.zeros((cam.height, cam.width, p.channels), np.float32)
+           for name, p in PASSES.items()}
     out["Depth"][:] = EMPTY_DEPTH
     for (x0, y0, x1, y1), passes in render_tiles(scene, progress, should_stop, warn, frame):
         for name, image in passes.items():

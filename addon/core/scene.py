@@ -1,7 +1,7 @@
 """Plain data that the core renders: camera, meshes, materials, lights, world.
 
 The Blender host (``addon/blender/extract.py``) translates a depsgraph into these objects; the
-core knows nothing of Blender. Conventions (see the project's DESIGN.md): world space is
+core knows nothing of Blender. Conventions (``docs/engine.md``): world space is
 Blender's (Z up, right-handed, metres), colours are scene-linear float32 RGB, light values are
 Blender's units (W for point, spot and area lights; W/m^2 irradiance for sun).
 """
@@ -9,9 +9,11 @@ Blender's units (W for point, spot and area lights; W/m^2 irradiance for sun).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
+
+from .probes import Probes
+from .texture import Texture
 
 LIGHT_KINDS = ("POINT", "SPOT", "SUN", "AREA")
 
@@ -99,7 +101,7 @@ class TextureInput:
     channel: "color" (RGB; its luminance for a scalar input) or "alpha"
     """
 
-    texture: Any
+    texture: Texture
     channel: str = "color"
 
 
@@ -227,7 +229,7 @@ class World:
     """
 
     color: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
-    texture: Any = None
+    texture: Texture | None = None
     strength: float = 1.0
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
 
@@ -277,4 +279,4 @@ class Scene:
     lights: list[Light] = field(default_factory=list)
     world: World = field(default_factory=World)
     settings: RenderSettings = field(default_factory=RenderSettings)
-    probes: Any = None  # core.probes.Probes: indirect light; None renders direct light only
+    probes: Probes | None = None  # indirect light; None renders direct light only

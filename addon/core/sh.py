@@ -1,7 +1,7 @@
 """Order-3 (9-coefficient) real spherical harmonics: projection of radiance, irradiance, the
 talk's tinted scalar SH, and windowing against ringing.
 
-Conventions (DESIGN.md, "SH"): real SH without the Condon-Shortley sign, in the order
+Conventions (docs/sh.md, "Conventions"): real SH without the Condon-Shortley sign, in the order
 (l, m) = (0,0) (1,-1) (1,0) (1,1) (2,-2) (2,-1) (2,0) (2,1) (2,2), evaluated on unit
 directions (x, y, z) in Blender world axes (Z up):
 
@@ -89,7 +89,7 @@ _CHUNK = 1 << 16
 
 
 def basis(d) -> np.ndarray:
-    """The 9 real SH basis functions at unit directions (DESIGN.md order and signs).
+    """The 9 real SH basis functions at unit directions (the order and signs above).
 
     Ramamoorthi & Hanrahan 2001, eq. 3 (no Condon-Shortley sign).
 

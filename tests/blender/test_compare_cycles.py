@@ -14,6 +14,8 @@ import numpy as np
 import pytest
 from util import add_ortho_camera, set_world_color
 
+from bo2_lighting.addon.blender import images
+
 W, H = 48, 32
 
 
@@ -43,14 +45,7 @@ def build(scene):
 
 def load_png(path):
     """(H, W, 3) encoded values in [0, 1], row 0 at the top, as Blender reads the PNG."""
-    img = bpy.data.images.load(str(path), check_existing=False)
-    try:
-        w, h = img.size
-        px = np.empty(w * h * img.channels, np.float32)
-        img.pixels.foreach_get(px)
-        return px.reshape(h, w, img.channels)[::-1, :, :3]
-    finally:
-        bpy.data.images.remove(img)
+    return images.read_file(path)[..., :3]
 
 
 @pytest.fixture
@@ -105,7 +100,6 @@ def test_operator_writes_everything(scene, tmp_path):
 
 
 def test_view_transform_is_applied(scene, tmp_path):
-    from bo2_lighting.addon.blender import compare
     from bo2_lighting.addon.core import texture
 
     pictures = {}
@@ -120,7 +114,7 @@ def test_view_transform_is_applied(scene, tmp_path):
     # Standard is the sRGB encoding of the linear values (16-bit round trip)
     scene.view_settings.view_transform = "Standard"
     linear = np.random.default_rng(3).random((8, 16, 3)).astype(np.float32) * 1.2
-    (display,) = compare.to_display(scene, [linear])
+    (display,) = images.to_display(scene, [linear])
     np.testing.assert_allclose(display, texture.linear_to_srgb(np.minimum(linear, 1)), atol=1e-4)
 
 

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 from mathutils import Vector
 
+from bo2_lighting.addon.blender import images
 from bo2_lighting.addon.core import texture
 
 W, H = 64, 32
@@ -93,21 +94,15 @@ def setup_scene():
     return scene, cam
 
 
-def render_centre(scene, path):
+def render_centre(scene):
     """(3,) RGB of the centre pixel of a Cycles render, read back from a 32-bit EXR."""
     bpy.ops.render.render()
-    bpy.data.images["Render Result"].save_render(str(path))
-    img = bpy.data.images.load(str(path))
-    px = np.empty(len(img.pixels), np.float32)
-    img.pixels.foreach_get(px)
-    px = px.reshape(img.size[1], img.size[0], -1)  # rows bottom to top
-    rgb = px[RES // 2, RES // 2, :3].copy()
-    bpy.data.images.remove(img)
-    return rgb
+    px = images.render_result_pixels(scene)[::-1]  # rows bottom to top
+    return px[RES // 2, RES // 2, :3].copy()
 
 
 @pytest.mark.parametrize("name", list(DIRECTIONS))
-def test_environment_texture_equirect_uv(name, tmp_path):
+def test_environment_texture_equirect_uv(name):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene, cam = setup_scene()
     d = Vector(DIRECTIONS[name]).normalized()
@@ -115,7 +110,7 @@ def test_environment_texture_equirect_uv(name, tmp_path):
     bpy.context.view_layer.update()
     assert (cam.matrix_world.to_3x3() @ Vector((0, 0, -1)) - d).length < 1e-5
 
-    r, g, b = render_centre(scene, tmp_path / "render.exr")
+    r, g, b = render_centre(scene)
     expected = texture.direction_to_equirect_uv(np.array([d], np.float32))[0]
     # Within one texel, plus the Closest rounding (the texel centre is up to half a texel away).
     assert abs(b - expected[1]) <= 1.0 / H, (name, b, expected)

@@ -8,15 +8,13 @@ one sample per pixel with a 0.01-pixel filter, so a pixel is the shading at its 
 """
 
 import math
-import tempfile
-from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
 from util import bare_material
 
-from bo2_lighting.addon.blender import node_groups
+from bo2_lighting.addon.blender import images, node_groups, operators
 from bo2_lighting.addon.core import brdf
 
 MATERIAL_INPUTS = [
@@ -37,12 +35,13 @@ def fresh(empty_scene):
 
 
 @pytest.fixture
-def operators(empty_scene):
-    """The two operators of node_groups registered, without the rest of the add-on."""
-    for cls in node_groups.CLASSES:
+def node_operators(empty_scene):
+    """The two node group operators registered, without the rest of the add-on."""
+    classes = [operators.NODE_OT_bo2_add_material, operators.MATERIAL_OT_bo2_new]
+    for cls in classes:
         bpy.utils.register_class(cls)
     yield empty_scene
-    for cls in reversed(node_groups.CLASSES):
+    for cls in reversed(classes):
         bpy.utils.unregister_class(cls)
 
 
@@ -198,17 +197,7 @@ def bo2_material(**values):
 def render(scene):
     """Render, save the Render Result as 32-bit float EXR and load it: (H, W, 4), row 0 bottom."""
     assert bpy.ops.render.render() == {"FINISHED"}
-    settings = scene.render.image_settings
-    settings.file_format = "OPEN_EXR"
-    settings.color_depth = "32"
-    with tempfile.TemporaryDirectory() as tmp:
-        path = str(Path(tmp) / "render.exr")
-        bpy.data.images["Render Result"].save_render(path, scene=scene)
-        img = bpy.data.images.load(path)
-        w, h = img.size
-        px = np.array(img.pixels[:], np.float64).reshape(h, w, 4)
-        bpy.data.images.remove(img)
-    return px
+    return images.render_result_pixels(scene)[::-1].astype(np.float64)
 
 
 def test_gloss_to_roughness_in_cycles_matches_the_closed_form(fresh):
@@ -367,7 +356,7 @@ def test_glossy_specular_against_the_reference_model(fresh, tilt):
 # --- Operators ----------------------------------------------------------------------------------
 
 
-def test_new_material_operator(operators):
+def test_new_material_operator(node_operators):
     bpy.ops.mesh.primitive_plane_add()
     obj = bpy.context.object
     assert bpy.ops.material.bo2_new() == {"FINISHED"}
@@ -393,10 +382,10 @@ class ReportStub:
         self.reports.append((kind, message))
 
 
-def test_new_material_operator_errors(operators):
+def test_new_material_operator_errors(node_operators):
     assert bpy.context.object is None
     stub = ReportStub()
-    assert node_groups.MATERIAL_OT_bo2_new.execute(stub, bpy.context) == {"CANCELLED"}
+    assert operators.MATERIAL_OT_bo2_new.execute(stub, bpy.context) == {"CANCELLED"}
     assert stub.reports == [({"ERROR"}, "New BO2 Material: no active object")]
     # Through bpy.ops, Blender turns the error report into a RuntimeError.
     with pytest.raises(RuntimeError, match="no active object"):
@@ -406,14 +395,14 @@ def test_new_material_operator_errors(operators):
     bpy.context.scene.collection.objects.link(empty)
     bpy.context.view_layer.objects.active = empty
     stub = ReportStub()
-    assert node_groups.MATERIAL_OT_bo2_new.execute(stub, bpy.context) == {"CANCELLED"}
+    assert operators.MATERIAL_OT_bo2_new.execute(stub, bpy.context) == {"CANCELLED"}
     assert len(stub.reports) == 1 and "'Empty' (EMPTY)" in stub.reports[0][1]
     with pytest.raises(RuntimeError, match="cannot have materials"):
         bpy.ops.material.bo2_new()
     assert len(bpy.data.materials) == 0
 
 
-def test_add_material_operator(operators):
+def test_add_material_operator(node_operators):
     bpy.ops.mesh.primitive_plane_add()
     obj = bpy.context.object
     # No material: nothing to add to.

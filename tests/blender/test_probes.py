@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from util import render_pixels, set_world_color
 
+from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import probes
 from bo2_lighting.addon.core import probe_file
 
@@ -132,8 +133,8 @@ def test_cancelled_bake_keeps_the_previous_files_byte_identical(addon, tmp_path)
     folder = bake(scene)
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     scene.objects["Sun"].data.energy = 10.0  # a different bake would differ
-    steps = probes.bake_steps(scene, bpy.context.evaluated_depsgraph_get(),
-                              probes.probe_objects(scene))
+    steps = blender_bake.bake_steps(scene, bpy.context.evaluated_depsgraph_get(),
+                                    probes.probe_objects(scene))
     assert 0 < next(steps) < 1
     next(steps)
     steps.close()  # cancelled halfway

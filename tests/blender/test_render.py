@@ -133,3 +133,28 @@ def test_nan_vertices_still_render(addon, capfd):
     out = capfd.readouterr()
     assert (out.out + out.err).count(
         "Skipped 1 triangles with NaN or infinite vertices and 1 with zero area") == 1
+
+
+def test_pass_table_maps_to_blender(addon, tmp_path):
+    """Every pass of the core's table has a view layer flag, and the engine writes exactly the
+    enabled passes, under the running Blender's names."""
+    import OpenEXR
+
+    from bo2_lighting.addon.blender import images, passes
+    from bo2_lighting.addon.core.passes import PASSES
+
+    scene, layer = bpy.context.scene, bpy.context.view_layer
+    assert set(PASSES) | set(passes.CYCLES_COLOR) == set(passes.FLAGS)
+    for name in passes.FLAGS:
+        passes.set_enabled(layer, name, name in ("Combined", "GlossDir", "Gloss"))
+    assert passes.enabled(layer, "Gloss") and not passes.enabled(layer, "Albedo")
+    add_ortho_camera(scene, 2.0)
+    scene.render.resolution_x, scene.render.resolution_y = 8, 6
+    render_pixels(scene, "BO2_LIGHTING", samples=1)
+    path = tmp_path / "passes.exr"
+    images.save_render_result(scene, path, "OPEN_EXR_MULTILAYER", "32")
+    written = {key.split(".")[1] for part in OpenEXR.File(str(path)).parts
+               for key in part.channels}
+    glossy = "Glossy Direct" if bpy.app.version >= (5, 0, 0) else "GlossDir"
+    assert written == {"Combined", glossy, "Gloss"}
+    assert passes.readable_name("GlossDir") == "Glossy Direct"

@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 from util import add_ortho_camera, render_pixels, set_world_color
 
+from bo2_lighting.addon.blender import images
+
 RES = 32
 
 
@@ -291,16 +293,11 @@ def render_passes(scene, engine: str, samples: int) -> dict[str, np.ndarray]:
     import OpenEXR
 
     render_pixels(scene, engine, samples=samples)
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):
-        settings.media_type = "MULTI_LAYER_IMAGE"
-    settings.file_format = "OPEN_EXR_MULTILAYER"
-    settings.color_depth = "32"
     order = "XYZUVRGBA"
     channels: dict[str, dict[str, np.ndarray]] = {}
     with tempfile.TemporaryDirectory() as tmp:
         path = str(Path(tmp) / "passes.exr")
-        bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
+        images.save_render_result(scene, path, "OPEN_EXR_MULTILAYER", "32")
         for part in OpenEXR.File(path, separate_channels=True).parts:
             for full, channel in part.channels.items():
                 _, name, letter = full.split(".")  # ViewLayer.<pass>.<channel>

@@ -1,10 +1,9 @@
 """Helpers shared by the Blender tests."""
 
-import tempfile
-from pathlib import Path
-
 import bpy
 import numpy as np
+
+from bo2_lighting.addon.blender import images
 
 
 def engine_available(identifier: str) -> bool:
@@ -53,22 +52,10 @@ def render_pixels(scene, engine: str, samples: int = 4, size=None) -> np.ndarray
     else:
         scene.bo2.samples = samples
     assert bpy.ops.render.render() == {"FINISHED"}
-    width = scene.render.resolution_x * scene.render.resolution_percentage // 100
-    height = scene.render.resolution_y * scene.render.resolution_percentage // 100
+    px = images.render_result_pixels(scene)[::-1]
     if size is not None:
-        width, height = size
-    settings = scene.render.image_settings
-    with tempfile.TemporaryDirectory() as tmp:
-        path = str(Path(tmp) / "render.exr")
-        if hasattr(settings, "media_type"):
-            settings.media_type = "IMAGE"
-        settings.file_format = "OPEN_EXR"
-        settings.color_depth = "32"
-        bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
-        img = bpy.data.images.load(path)
-        px = np.array(img.pixels[:], np.float32).reshape(height, width, 4)
-        bpy.data.images.remove(img)
-    return px
+        assert px.shape[:2] == (size[1], size[0])
+    return np.ascontiguousarray(px)
 
 
 def bare_material(name: str):

@@ -1,0 +1,111 @@
+"""Baking Blender's light probes: the scene extracted once, ``core.bake`` run with a capture by
+the engine's pipeline or by Cycles, the files written when every probe is done.
+
+``bake_steps`` is the whole bake as a generator of progress fractions, so that the modal
+operator runs it a step per timer tick (Esc stops it between steps) and ``bo2 bake`` runs it in
+a loop. Nothing is written until every probe is done: a cancelled or failed bake leaves the
+previous files untouched, and each file is replaced atomically.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tempfile
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from .. import version
+from ..core import bake, capture, cubemap, probe_file
+from . import extract, images, probes
+from .probes import BakeError
+
+
+def cycles_cube(scene, position, size: int, near: float, far: float) -> np.ndarray:
+    """(6, size, size, 3) radiance at ``position`` rendered by Cycles (full global
+    illumination): one square 90-degree render per face of ``cubemap.FACES``."""
+    from mathutils import Matrix
+
+    cam_data = bpy.data.cameras.new("BO2 Probe Capture")
+    cam_data.angle = np.pi / 2
+    cam_data.sensor_fit = "AUTO"
+    cam_data.clip_start, cam_data.clip_end = near, far
+    cam = bpy.data.objects.new("BO2 Probe Capture", cam_data)
+    scene.collection.objects.link(cam)
+    r = scene.render
+    saved = (scene.camera, r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage,
+             r.use_border, r.film_transparent, scene.cycles.samples)
+    out = np.empty((6, size, size, 3), np.float32)
+    try:
+        scene.camera, r.engine = cam, "CYCLES"
+        scene.cycles.samples = int(scene.bo2.bake_cycles_samples)
+        r.resolution_x = r.resolution_y = size
+        r.resolution_percentage, r.use_border, r.film_transparent = 100, False, False
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "face.exr"
+            for face in range(6):
+                forward, right, up = cubemap.FACES[face]
+                m = np.eye(4)
+                m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, -np.asarray(forward), position
+                cam.matrix_world = Matrix(m.tolist())
+                bpy.ops.render.render()
+                images.save_render_result(scene, path, "OPEN_EXR", "32")
+                out[face] = images.read_file(path)[..., :3]
+    finally:
+        (scene.camera, r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage,
+         r.use_border, r.film_transparent, scene.cycles.samples) = saved
+        bpy.data.objects.remove(cam)
+        bpy.data.cameras.remove(cam_data)
+    return out
+
+
+def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
+    """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1].
+
+    backend: "BO2" (the engine's pipeline, ``scene.bo2.bake_bounces`` bounces) or "CYCLES"
+             (one Cycles render per face, full global illumination: one bounce)
+    report:  ``report(message)`` receives warnings
+    Closing the generator early (cancel) writes nothing.
+    """
+    settings = scene.bo2
+    folder = probes.bake_folder(scene)
+    if not objs:
+        raise BakeError("No Sphere or Volume light probes to bake")
+    start = time.perf_counter()
+    rs = dataclasses.replace(extract.render_settings(scene), border=None,
+                             film_transparent=False, samples=int(settings.bake_samples))
+    core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False)
+    for w in warnings:
+        if report is not None:
+            report(w)
+    if backend == "BO2":
+        grab = capture.Capture(core_scene).cube
+    else:
+        def grab(position, size, near, far, _probes):
+            return cycles_cube(scene, position, size, near, far)
+    job = bake.Bake([probes.spec(o) for o in objs], core_scene.world, grab,
+                    bounces=1 if backend == "CYCLES" else max(1, int(settings.bake_bounces)),
+                    face_size=int(settings.bake_face_size),
+                    volume_face_size=int(settings.bake_volume_face_size))
+    yield from job.steps()
+    stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+    for baked in job.results:
+        meta = bake.metadata(baked, backend, job.bounces, stamp, time.perf_counter() - start,
+                             version())
+        probe_file.write(probes.probe_path(folder, baked.spec.name), meta, baked.coeffs,
+                         baked.chains)
+    yield 1.0
+
+
+def clear(scene, objs) -> int:
+    """Delete the bake files of ``objs``; returns how many existed."""
+    folder = probes.bake_folder(scene)
+    count = 0
+    for obj in objs:
+        path = probes.probe_path(folder, obj.name)
+        if path.exists():
+            path.unlink()
+            count += 1
+    return count

@@ -1,0 +1,188 @@
+"""The one bridge between Blender's images and NumPy: Image and Render Result pixels, image files
+written and read through Blender, multilayer EXR passes.
+
+Arrays are float32 (H, W, C) with row 0 at the top; Blender's rows run bottom to top. Blender 5.0
+chooses single-layer or multilayer EXR by the output's ``media_type``, 4.5 by the file format:
+``set_format`` takes the format names of 4.5 and handles both.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from .passes import blender_name, channel_ids
+
+SETTINGS = ("media_type", "file_format", "color_mode", "color_depth", "exr_codec",
+             "color_management")
+
+
+class ImageError(Exception):
+    """An image that cannot be written or read: one line for the user."""
+
+
+def image_pixels(image) -> np.ndarray:
+    """(H, W, C) float32 pixels of a Blender image as ``Image.pixels`` holds them (float images
+    scene-linear, byte images encoded), row 0 at the top."""
+    width, height = image.size
+    flat = np.empty(width * height * image.channels, np.float32)
+    image.pixels.foreach_get(flat)
+    return np.ascontiguousarray(flat.reshape(height, width, image.channels)[::-1])
+
+
+def new_image(name: str, pixels: np.ndarray):
+    """A float Blender image holding ``pixels`` (H, W, 3 or 4), row 0 at the top."""
+    h, w = pixels.shape[:2]
+    rgba = np.ones((h, w, 4), np.float32)
+    rgba[..., :pixels.shape[2]] = pixels
+    image = bpy.data.images.new(name, w, h, alpha=pixels.shape[2] == 4, float_buffer=True)
+    image.pixels.foreach_set(np.ascontiguousarray(rgba[::-1]).ravel())
+    return image
+
+
+def read_file(path: str | os.PathLike, colorspace: str | None = None) -> np.ndarray:
+    """(H, W, C) float32 pixels of an image file, loaded by Blender and removed again.
+
+    colorspace: the image's colour space ("Non-Color" keeps encoded values as they are);
+                None leaves Blender's choice
+    """
+    image = bpy.data.images.load(str(path), check_existing=False)
+    try:
+        if colorspace is not None:
+            image.colorspace_settings.name = colorspace
+        width, height = image.size  # reading the size loads the pixels (or fails to)
+        if width == 0 or height == 0 or not image.has_data:
+            raise ImageError(f"{path}: not an image Blender can read")
+        return image_pixels(image)
+    finally:
+        bpy.data.images.remove(image)
+
+
+def set_format(settings, fmt: str, depth: str | None = None, mode: str | None = None,
+               follow_scene: bool = False) -> None:
+    """Set image output ``settings`` to ``fmt`` (4.5's names: "PNG", "OPEN_EXR",
+    "OPEN_EXR_MULTILAYER", ...), colour ``depth`` and ``mode`` where given;
+    ``follow_scene``: drop an override of the scene's colour management."""
+    if follow_scene and hasattr(settings, "color_management"):
+        settings.color_management = "FOLLOW_SCENE"
+    if hasattr(settings, "media_type"):
+        settings.media_type = "MULTI_LAYER_IMAGE" if fmt == "OPEN_EXR_MULTILAYER" else "IMAGE"
+    settings.file_format = fmt
+    if mode is not None:
+        settings.color_mode = mode
+    if depth is not None:
+        settings.color_depth = depth
+
+
+@contextlib.contextmanager
+def kept_settings(scene):
+    """Restore the scene's image output settings on exit."""
+    settings = scene.render.image_settings
+    saved = {k: getattr(settings, k) for k in SETTINGS if hasattr(settings, k)}
+    try:
+        yield settings
+    finally:
+        for key, value in saved.items():
+            with contextlib.suppress(TypeError, ValueError):
+                setattr(settings, key, value)
+
+
+def _save(image, scene, path: Path) -> None:
+    """``image.save_render`` to ``path`` through a temporary file beside it, swapped in whole."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
+    try:
+        image.save_render(filepath=str(tmp), scene=scene)
+    except RuntimeError as exc:
+        raise ImageError(f"cannot write {path}: {str(exc).strip().splitlines()[-1]}") from None
+    if not tmp.is_file():
+        raise ImageError(f"cannot write {path}")
+    os.replace(tmp, path)
+
+
+def save_render_result(scene, path: str | os.PathLike, fmt: str, depth: str | None = None,
+                       mode: str | None = None, follow_scene: bool = False) -> None:
+    """Write the Render Result to ``path`` (replaced atomically) as ``fmt`` and the other
+    settings of ``set_format``; the scene's output settings are left as they were."""
+    result = bpy.data.images.get("Render Result")
+    if result is None:
+        raise ImageError("the render produced no image")
+    with kept_settings(scene) as settings:
+        set_format(settings, fmt, depth, mode, follow_scene)
+        _save(result, scene, Path(path))
+
+
+def save_pixels(scene, pixels: np.ndarray, path: str | os.PathLike, fmt: str = "PNG",
+                depth: str = "8", mode: str = "RGB") -> None:
+    """Write scene-linear ``pixels`` (H, W, 3 or 4) to ``path`` as Blender saves a render:
+    through the scene's colour management for display formats."""
+    image = new_image("BO2 Output", pixels)
+    try:
+        with kept_settings(scene) as settings:
+            set_format(settings, fmt, depth, mode, follow_scene=True)
+            _save(image, scene, Path(path))
+    finally:
+        bpy.data.images.remove(image)
+
+
+def render_result_pixels(scene) -> np.ndarray:
+    """(H, W, 4) float32 scene-linear RGBA of the Render Result's Combined pass."""
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "result.exr"
+        save_render_result(scene, path, "OPEN_EXR", "32", "RGBA")
+        return read_file(path)
+
+
+def to_display(scene, images: list[np.ndarray]) -> list[np.ndarray]:
+    """Scene-linear images through the scene's colour management, as Blender saves a render.
+
+    scene:   its view transform, look, exposure, gamma, curves and display device are applied
+    images:  (H, W, >=3) scene-linear RGB, each of the same width, row 0 at the top
+    returns: the same shapes with 3 channels, display-encoded float32 in [0, 1] (16-bit)
+    """
+    if not images:
+        return []
+    stack = np.concatenate([np.asarray(i[..., :3], np.float32) for i in images], 0)
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "display.png"
+        save_pixels(scene, stack, path, "PNG", "16", "RGB")
+        px = read_file(path, colorspace="Non-Color")[..., :3]  # the encoded values as they are
+    out, row = [], 0
+    for i in images:
+        out.append(np.ascontiguousarray(px[row:row + i.shape[0]]))
+        row += i.shape[0]
+    return out
+
+
+def read_exr_passes(path: str | os.PathLike, layer: str, names) -> dict[str, np.ndarray]:
+    """The passes ``names`` (pipeline names, ``blender.passes``) of one view layer of a
+    multilayer EXR written by Blender 4.5 or 5.0.
+
+    returns: {pipeline pass name: (H, W, C) float32, row 0 at the top}, for the passes present
+    """
+    import OpenEXR
+
+    by_blender = {blender_name(n): n for n in names}
+    components: dict[str, dict[str, np.ndarray]] = {}
+    grouped: dict[str, np.ndarray] = {}
+    for part in OpenEXR.File(str(path)).parts:  # 5.0: one part per pass; 4.5: one part
+        for key, channel in part.channels.items():
+            if not key.startswith(f"{layer}."):
+                continue
+            rest = key[len(layer) + 1:]
+            if rest in by_blender:  # RGB(A) channels come grouped in one array
+                grouped[by_blender[rest]] = np.asarray(channel.pixels, np.float32)
+            else:
+                name, _, comp = rest.rpartition(".")
+                if name in by_blender:
+                    components.setdefault(by_blender[name], {})[comp] = channel.pixels
+    out = {n: (a if a.ndim == 3 else a[..., None]) for n, a in grouped.items()}
+    for name, comps in components.items():
+        order = [c for c in channel_ids(name) if c in comps]
+        out[name] = np.stack([np.asarray(comps[c], np.float32) for c in order], -1)
+    return out

@@ -1,0 +1,352 @@
+"""The add-on's operators: light probe bakes, Compare with Cycles, BO2 Material nodes.
+
+Light probes: Bake All, Bake Selected and Clear. Invoked from the UI, a bake is modal: it runs
+one capture per timer tick, shows its progress in the status bar (the window manager's progress
+cursor and the header text), and Esc or right click cancels it cleanly (nothing written,
+previous bakes untouched). Run from a script (``EXEC_DEFAULT``) it bakes to the end at once.
+Both report the time taken.
+"""
+
+from __future__ import annotations
+
+import time
+
+import bpy
+
+from ..core import compare as core_compare
+from . import bake, compare, node_groups, probes
+
+_MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
+          ("SELECTED", "Selected", "The selected light probes")]
+
+
+def _objects(context, mode: str) -> list:
+    return probes.probe_objects(context.scene, selected_only=mode == "SELECTED")
+
+
+class BO2_OT_bake_probes(bpy.types.Operator):
+    """Bake the light probes for BO2 Lighting: SH irradiance and prefiltered cube maps"""
+
+    bl_idname = "bo2.bake_probes"
+    bl_label = "Bake Light Probes"
+    bl_options = {"REGISTER"}
+
+    mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
+
+    _timer = None
+    _steps = None
+    _start = 0.0
+    _count = 0
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None
+
+    def _begin(self, context) -> bool:
+        objs = _objects(context, self.mode)
+        scene = context.scene
+        try:
+            if not objs:
+                raise probes.BakeError("No Sphere or Volume light probes to bake"
+                                       + (" among the selected objects"
+                                          if self.mode == "SELECTED" else ""))
+            probes.bake_folder(scene)  # fail early on an unsaved file
+        except probes.BakeError as exc:
+            self.report({"ERROR"}, str(exc))
+            return False
+        depsgraph = context.evaluated_depsgraph_get()
+        self._steps = bake.bake_steps(scene, depsgraph, objs, scene.bo2.bake_backend,
+                                      report=lambda m: self.report({"WARNING"}, m))
+        self._start, self._count = time.perf_counter(), len(objs)
+        return True
+
+    def _step(self) -> float | None:
+        """Advance one capture; the progress fraction, or None when done."""
+        try:
+            return next(self._steps)
+        except StopIteration:
+            return None
+
+    def _finished(self) -> None:
+        seconds = time.perf_counter() - self._start
+        self.report({"INFO"}, f"Baked {self._count} light probe{'s' * (self._count != 1)} "
+                    f"in {seconds:.1f} s")
+
+    def execute(self, context):
+        if not self._begin(context):
+            return {"CANCELLED"}
+        try:
+            while self._step() is not None:
+                pass
+        except Exception as exc:  # noqa: BLE001 - one line in the UI
+            self.report({"ERROR"}, f"Bake failed: {exc}; previous bakes kept")
+            return {"CANCELLED"}
+        self._finished()
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if not self._begin(context):
+            return {"CANCELLED"}
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.01, window=context.window)
+        wm.progress_begin(0, 1000)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _end(self, context) -> None:
+        wm = context.window_manager
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            self._timer = None
+        wm.progress_end()
+        if context.area is not None:
+            context.area.header_text_set(None)
+        if context.workspace is not None:
+            context.workspace.status_text_set(None)
+
+    def modal(self, context, event):
+        if event.type in {"ESC", "RIGHTMOUSE"}:
+            self._steps.close()  # nothing is written
+            self._end(context)
+            self.report({"WARNING"}, "Bake cancelled; previous bakes kept")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction = self._step()
+        except Exception as exc:  # noqa: BLE001 - one line in the UI
+            self._end(context)
+            self.report({"ERROR"}, f"Bake failed: {exc}; previous bakes kept")
+            return {"CANCELLED"}
+        if fraction is None:
+            self._end(context)
+            self._finished()
+            return {"FINISHED"}
+        context.window_manager.progress_update(int(fraction * 1000))
+        if context.workspace is not None:
+            context.workspace.status_text_set(
+                f"Baking light probes: {fraction * 100:.0f}%  (Esc to cancel)")
+        return {"RUNNING_MODAL"}
+
+
+class BO2_OT_clear_probes(bpy.types.Operator):
+    """Delete the baked files of the light probes (the world fallback lights them instead)"""
+
+    bl_idname = "bo2.clear_probes"
+    bl_label = "Clear Light Probe Bakes"
+    bl_options = {"REGISTER"}
+
+    mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
+
+    def invoke(self, context, event):
+        return context.window_manager.invoke_confirm(self, event)
+
+    def execute(self, context):
+        try:
+            count = bake.clear(context.scene, _objects(context, self.mode))
+        except probes.BakeError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Deleted {count} bake file{'s' * (count != 1)}")
+        return {"FINISHED"}
+
+
+class BO2_OT_compare_cycles(bpy.types.Operator):
+    """Compare with Cycles (the tooltip is ``bl_description``)."""
+
+    bl_idname = "bo2.compare_cycles"
+    bl_label = "Compare with Cycles"
+    bl_description = ("Render the frame with BO2 Lighting and with Cycles and compare them: both "
+                      "renders as EXR, side-by-side, split and difference pictures and metrics "
+                      "in the Compare Folder")
+    bl_options = {"REGISTER"}
+
+    _job = None
+    _watch = None
+    _timer = None
+    _queue: list = []
+    _key = ""
+    _start = 0.0
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and context.view_layer is not None and not (
+            bpy.app.is_job_running("RENDER"))
+
+    def _report_done(self, context, result: dict) -> None:
+        self.report({"INFO"}, core_compare.headline(result))
+        compare.show_images(context, result)
+
+    def execute(self, context):
+        scene = context.scene
+        try:
+            result = compare.run(scene, context.view_layer, compare.output_folder(scene))
+        except compare.CompareError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self._report_done(context, result)
+        return {"FINISHED"}
+
+    def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        try:
+            self._job = compare.Comparison(context.scene, context.view_layer,
+                                           compare.output_folder(context.scene))
+        except compare.CompareError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self._queue = list(compare.ENGINES)
+        if not self._start_next(context):
+            return {"CANCELLED"}
+        wm = context.window_manager
+        self._timer = wm.event_timer_add(0.25, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def _status(self, context, text: str | None) -> None:
+        if context.workspace is not None:
+            context.workspace.status_text_set(text)
+
+    def _start_next(self, context) -> bool:
+        """Start the next engine's render as Blender's render job."""
+        self._key = self._queue.pop(0)
+        self._job.begin(self._key)
+        self._watch = compare.RenderWatch()
+        label = compare.ENGINES[self._key][1]
+        self._status(context, f"Compare with Cycles: rendering with {label} "
+                     "(Esc in the render window cancels)")
+        self._start = time.perf_counter()
+        result = bpy.ops.render.render("INVOKE_DEFAULT", layer=self._job.layer)
+        if not result & {"RUNNING_MODAL", "FINISHED"}:
+            self._end(context)
+            self.report({"ERROR"}, f"Compare with Cycles: the {label} render did not start")
+            return False
+        return True
+
+    def _end(self, context) -> None:
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+        if self._watch is not None:
+            self._watch.remove()
+        self._status(context, None)
+        self._job.restore()
+
+    def modal(self, context, event):
+        if event.type != "TIMER" or bpy.app.is_job_running("RENDER"):
+            return {"PASS_THROUGH"}
+        watch, label = self._watch, compare.ENGINES[self._key][1]
+        watch.remove()
+        if watch.cancelled:
+            self._end(context)
+            self.report({"WARNING"}, f"Compare with Cycles: the {label} render was cancelled; "
+                        f"{self._job.kept_text()}")
+            return {"CANCELLED"}
+        seconds = (watch.end if watch.completed else time.perf_counter()) - self._start
+        try:
+            self._job.finish(self._key, seconds)
+            if self._queue:
+                return {"RUNNING_MODAL"} if self._start_next(context) else {"CANCELLED"}
+            self._status(context, "Compare with Cycles: comparing")
+            result = self._job.analyse()
+        except compare.CompareError as exc:
+            self._end(context)
+            self.report({"ERROR"}, f"Compare with Cycles: {exc}")
+            return {"CANCELLED"}
+        self._end(context)
+        self._report_done(context, result)
+        return {"FINISHED"}
+
+
+def _target_tree(context):
+    """The shader tree to add to: the Shader Editor's, else the active object's material's."""
+    space = context.space_data
+    if space is not None and space.type == "NODE_EDITOR":
+        tree = space.edit_tree
+        ok = (space.tree_type == node_groups.SHADER_TREE and space.shader_type == "OBJECT"
+              and tree is not None and tree.is_editable)
+        return tree if ok else None
+    obj = context.object
+    mat = obj.active_material if obj is not None else None
+    return mat.node_tree if mat is not None else None
+
+
+class NODE_OT_bo2_add_material(bpy.types.Operator):
+    """Add a BO2 Lighting node group (BO2 Material by default) to the material's node tree"""
+
+    bl_idname = node_groups.ADD_OPERATOR
+    bl_label = "Add BO2 Node Group"
+    bl_options = {"REGISTER", "UNDO"}
+
+    group: bpy.props.EnumProperty(
+        name="Group",
+        description="The node group to add",
+        items=[(name, name, "") for name in (*node_groups.GROUP_NAMES[1:],
+                                             node_groups.GROUP_NAMES[0])],
+        default=node_groups.MATERIAL_GROUP,
+    )
+
+    use_transform: bpy.props.BoolProperty(
+        name="Use Transform",
+        description="Move the new node with the mouse after adding it",
+        default=False,
+        options={"SKIP_SAVE"},
+    )
+
+    @classmethod
+    def poll(cls, context):
+        return _target_tree(context) is not None
+
+    def invoke(self, context, event):
+        space = context.space_data
+        in_editor = space is not None and space.type == "NODE_EDITOR"
+        if in_editor and context.region is not None and context.region.type == "WINDOW":
+            space.cursor_location_from_region(event.mouse_region_x, event.mouse_region_y)
+        result = self.execute(context)
+        if in_editor and self.use_transform and "FINISHED" in result:
+            bpy.ops.node.translate_attach_remove_on_cancel("INVOKE_DEFAULT")
+        return result
+
+    def execute(self, context):
+        tree = _target_tree(context)
+        if tree is None:
+            self.report({"ERROR"}, "No shader node tree to add to: select a material")
+            return {"CANCELLED"}
+        space = context.space_data
+        in_editor = space is not None and space.type == "NODE_EDITOR"
+        location = tuple(space.cursor_location) if in_editor else (0.0, 0.0)
+        try:
+            node_groups.add_material_node(tree, location, self.group)
+        except ValueError as ex:
+            self.report({"ERROR"}, str(ex))
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
+class MATERIAL_OT_bo2_new(bpy.types.Operator):
+    """Create a BO2 Material on the active object (in its active slot)"""
+
+    bl_idname = "material.bo2_new"
+    bl_label = "New BO2 Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        obj = context.object
+        if obj is None:
+            self.report({"ERROR"}, "New BO2 Material: no active object")
+            return {"CANCELLED"}
+        if obj.type not in node_groups.MATERIAL_OBJECT_TYPES:
+            self.report({"ERROR"}, f"New BO2 Material: the active object '{obj.name}' "
+                        f"({obj.type}) cannot have materials")
+            return {"CANCELLED"}
+        mat = node_groups.new_material(node_groups.MATERIAL_GROUP)
+        if len(obj.material_slots) == 0:
+            obj.data.materials.append(mat)
+        else:
+            obj.active_material = mat
+        return {"FINISHED"}
+
+
+CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_compare_cycles,
+           NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new]

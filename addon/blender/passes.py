@@ -1,0 +1,75 @@
+"""The core's passes (``core.passes``) as Blender knows them: view layer flags and 5.0's names.
+
+Blender 5.0 renamed some built-in passes; the engine registers and writes every pass under the
+running Blender's name, as Cycles does, so that compositor set-ups work with both engines.
+``DiffCol`` and ``GlossCol`` are Cycles' colour passes, which the comparison with Cycles reads.
+"""
+
+from __future__ import annotations
+
+import bpy
+
+from ..core.passes import PASSES
+
+# Pass (pipeline name) -> its flag on the view layer, or on the view layer's ``bo2`` settings.
+FLAGS = {
+    "Combined": "use_pass_combined",
+    "Depth": "use_pass_z",
+    "Normal": "use_pass_normal",
+    "Position": "use_pass_position",
+    "UV": "use_pass_uv",
+    "IndexMA": "use_pass_material_index",
+    "DiffDir": "use_pass_diffuse_direct",
+    "GlossDir": "use_pass_glossy_direct",
+    "DiffInd": "use_pass_diffuse_indirect",
+    "GlossInd": "use_pass_glossy_indirect",
+    "Emit": "use_pass_emit",
+    "Albedo": "bo2.use_pass_albedo",
+    "Specular Color": "bo2.use_pass_specular_color",
+    "Gloss": "bo2.use_pass_gloss",
+    "DiffCol": "use_pass_diffuse_color",
+    "GlossCol": "use_pass_glossy_color",
+}
+CYCLES_COLOR = {"DiffCol": "RGB", "GlossCol": "RGB"}  # Cycles' colour passes: channel ids
+RENAMED_IN_5 = {"DiffDir": "Diffuse Direct", "GlossDir": "Glossy Direct", "Emit": "Emission",
+                "IndexMA": "Material Index", "DiffInd": "Diffuse Indirect",
+                "GlossInd": "Glossy Indirect", "DiffCol": "Diffuse Color",
+                "GlossCol": "Glossy Color"}
+
+
+def readable_name(name: str) -> str:
+    """Blender 5.0's name of a pass (``Diffuse Direct``), whatever Blender runs."""
+    return RENAMED_IN_5.get(name, name)
+
+
+def blender_name(name: str) -> str:
+    """The running Blender's name of the pass ``name`` (pipeline name)."""
+    return readable_name(name) if bpy.app.version >= (5, 0, 0) else name
+
+
+def channel_ids(name: str) -> str:
+    """Channel ids of a pass of either engine ("RGBA", "XYZ", ...)."""
+    return CYCLES_COLOR[name] if name in CYCLES_COLOR else PASSES[name].ids
+
+
+def _owner(view_layer, name: str):
+    flag = FLAGS[name]
+    return (view_layer.bo2 if flag.startswith("bo2.") else view_layer), flag.removeprefix("bo2.")
+
+
+def enabled(view_layer, name: str) -> bool:
+    """Whether pass ``name`` is turned on in ``view_layer``."""
+    owner, flag = _owner(view_layer, name)
+    return bool(getattr(owner, flag, False))
+
+
+def set_enabled(view_layer, name: str, on: bool = True) -> None:
+    """Turn pass ``name`` on or off in ``view_layer``."""
+    owner, flag = _owner(view_layer, name)
+    setattr(owner, flag, bool(on))
+
+
+def draw_flag(layout, view_layer, name: str) -> None:
+    """The checkbox of pass ``name``, labelled with its 5.0 name."""
+    owner, flag = _owner(view_layer, name)
+    layout.prop(owner, flag, text=readable_name(name))
