@@ -24,6 +24,7 @@ import bpy
 import numpy as np
 
 import bo2_lighting
+from bo2_lighting.addon.blender import images as blender_images
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "docs" / "images"
@@ -74,33 +75,12 @@ def render(scene, engine: str, samples: int) -> np.ndarray:
     else:
         scene.bo2.samples = samples
     bpy.ops.render.render()
-    with tempfile.TemporaryDirectory() as tmp:
-        path = str(Path(tmp) / "r.exr")
-        settings = scene.render.image_settings
-        if hasattr(settings, "media_type"):
-            settings.media_type = "IMAGE"
-        settings.file_format, settings.color_depth = "OPEN_EXR", "32"
-        bpy.data.images["Render Result"].save_render(filepath=path, scene=scene)
-        img = bpy.data.images.load(path)
-        w, h = img.size
-        px = np.empty(w * h * 4, np.float32)
-        img.pixels.foreach_get(px)
-        bpy.data.images.remove(img)
-    return px.reshape(h, w, 4)[::-1, :, :3]
+    return blender_images.render_result_pixels(scene)[..., :3]
 
 
 def save_row(scene, images: list[np.ndarray], path: Path) -> None:
     """Side by side, through the scene's view transform, as PNG."""
-    row = np.concatenate(images, 1)[::-1]  # Blender rows run bottom to top
-    h, w = row.shape[:2]
-    img = bpy.data.images.new(path.stem, w, h, float_buffer=True)
-    img.pixels.foreach_set(np.concatenate([row, np.ones((h, w, 1), np.float32)], -1).ravel())
-    settings = scene.render.image_settings
-    if hasattr(settings, "media_type"):
-        settings.media_type = "IMAGE"
-    settings.file_format, settings.color_depth, settings.color_mode = "PNG", "8", "RGB"
-    img.save_render(str(path), scene=scene)
-    bpy.data.images.remove(img)
+    blender_images.save_pixels(scene, np.concatenate(images, 1), path, "PNG", "8", "RGB")
     print(f"wrote {path.relative_to(OUT.parents[1])}")
 
 

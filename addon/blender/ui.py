@@ -6,7 +6,11 @@ Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external
 
 import bpy
 
+from ..core.passes import PASSES
+from . import passes
+
 ENGINE_ID = "BO2_LIGHTING"
+_PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
 
 # Blender's panels that show settings this engine honours.
 _STOCK_PANELS = (
@@ -123,24 +127,11 @@ class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):
     def draw(self, context):
         layout = self.split_layout()
         view_layer = context.view_layer
-        col = layout.column(heading="Data", align=True)
-        col.prop(view_layer, "use_pass_combined")
-        col.prop(view_layer, "use_pass_z")
-        col.prop(view_layer, "use_pass_normal")
-        col.prop(view_layer, "use_pass_position")
-        col.prop(view_layer, "use_pass_uv")
-        col = layout.column(heading="Indexes", align=True)
-        col.prop(view_layer, "use_pass_material_index")
-        col = layout.column(heading="Light", align=True)
-        col.prop(view_layer, "use_pass_diffuse_direct", text="Diffuse Direct")
-        col.prop(view_layer, "use_pass_glossy_direct", text="Glossy Direct")
-        col.prop(view_layer, "use_pass_diffuse_indirect", text="Diffuse Indirect")
-        col.prop(view_layer, "use_pass_glossy_indirect", text="Glossy Indirect")
-        col.prop(view_layer, "use_pass_emit", text="Emission")
-        col = layout.column(heading="Material", align=True)
-        col.prop(view_layer.bo2, "use_pass_albedo")
-        col.prop(view_layer.bo2, "use_pass_specular_color")
-        col.prop(view_layer.bo2, "use_pass_gloss")
+        for group, heading in _PASS_HEADINGS.items():
+            col = layout.column(heading=heading, align=True)
+            for p in PASSES.values():
+                if p.group == group:
+                    passes.draw_flag(col, view_layer, p.name)
 
 
 class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):

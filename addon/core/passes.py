@@ -17,7 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["EMPTY_DEPTH", "GROUPS", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass"]
+__all__ = ["EMPTY_DEPTH", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass"]
 
 EMPTY_DEPTH = 1e10
 
@@ -61,8 +61,6 @@ PASSES: dict[str, Pass] = {p.name: p for p in (
     Pass("Specular Color", "RGB", "COLOR", "material"),
     Pass("Gloss", "X", "VALUE", "material"),
 )}
-
-GROUPS = ("data", "index", "light", "material")
 
 def _sampled_columns() -> tuple[dict[str, slice], int]:
     columns, start = {}, 0

@@ -1,0 +1,74 @@
+"""The add-on's modules import one another in one direction: every module under addon/ is
+parsed (not imported), every import of another add-on module, at module level or inside a
+function, is an edge, and the graph must have no cycle. A module's import of a package that
+contains it is not an edge (Python imports the parents first anyway)."""
+
+import ast
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+ADDON = ROOT / "addon"
+
+
+def module_name(path: Path, root: Path = ROOT) -> str:
+    parts = path.relative_to(root).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph(files: dict[str, Path]) -> dict[str, set[str]]:
+    """{module: add-on modules it imports}, names relative to the repository root."""
+    graph = {}
+    for name, path in files.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        edges = set()
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            targets = []
+            if isinstance(node, ast.ImportFrom) and node.level:
+                base = package.split(".")
+                base = base[:len(base) - node.level + 1]
+                stem = ".".join(base + ([node.module] if node.module else []))
+                targets = [stem] + [f"{stem}.{a.name}" for a in node.names]
+            for target in targets:
+                if target in files and target != name and not name.startswith(target + "."):
+                    edges.add(target)
+        graph[name] = edges
+    return graph
+
+
+def find_cycle(graph: dict[str, set[str]]) -> list[str] | None:
+    state: dict[str, int] = {}  # 1 on the stack, 2 done
+    stack: list[str] = []
+
+    def visit(node):
+        state[node] = 1
+        stack.append(node)
+        for nxt in sorted(graph[node]):
+            if state.get(nxt) == 1:
+                return stack[stack.index(nxt):] + [nxt]
+            if nxt not in state and (found := visit(nxt)):
+                return found
+        stack.pop()
+        state[node] = 2
+        return None
+
+    for node in sorted(graph):
+        if node not in state and (found := visit(node)):
+            return found
+    return None
+
+
+def test_no_import_cycle_in_the_addon():
+    files = {module_name(p): p for p in sorted(ADDON.rglob("*.py"))}
+    graph = import_graph(files)
+    assert len(graph) > 20 and graph["addon.blender.engine"]  # the parser sees the imports
+    assert find_cycle(graph) is None, " -> ".join(find_cycle(graph))
+
+
+def test_the_checker_finds_a_cycle_inside_a_function(tmp_path):
+    pkg = tmp_path / "addon"
+    pkg.mkdir()
+    (pkg / "__init__.py").write_text("")
+    (pkg / "a.py").write_text("from . import b\n")
+    (pkg / "b.py").write_text("def f():\n    from .a import g\n")
+    files = {module_name(p, tmp_path): p for p in sorted(pkg.rglob("*.py"))}
+    assert find_cycle(import_graph(files)) == ["addon.a", "addon.b", "addon.a"]
