@@ -33,7 +33,7 @@ from pathlib import Path
 import numpy as np
 from doc_section import replace_section
 
-from bo2_lighting.addon import cli
+from bo2_lighting.addon.blender import headless
 from bo2_lighting.addon.core import sh
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -85,7 +85,7 @@ def measure(paths: list[Path]) -> str:
                 "| HDRI | none | " + " | ".join(f"{k} {w}" for k, w in WINDOWS) + " |",
                 "|---" * (2 + len(WINDOWS)) + "|"]
     for path in paths:
-        image = cli.read_equirect(path)
+        image = headless.read_equirect(path)
         truth = brute_force(image, normals)
         c = sh.project_equirect(image)
         e = sh.irradiance(c, normals).astype(np.float64)

@@ -1,0 +1,195 @@
+"""The ``bo2`` command: BO2 Lighting headless, in a Python environment with the ``bpy`` module.
+
+    bo2 render SCENE.blend ... -o OUT.png [--frame N | --frames LIST] [--summary PATH.json]
+                                          [--engine bo2|cycles] [--samples N]
+                                          [--resolution WxH] [--specular-model MODEL]
+                                          [--all-passes]
+    bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
+    bo2 sh IMAGE [--json]
+    bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles]
+    bo2 compare SCENE.blend -o DIR [--frame N] [--samples N] [--cycles-samples N]
+                                   [--resolution WxH]
+    bo2 version
+
+This module holds the argument parser, ``main`` and the error handling: errors print one line,
+``bo2: error: ...``, and exit non-zero (2 for bad usage, 1 for a failed command, 130 when
+interrupted). Each command is a module (``render``, ``env_brdf``, ``sh``, ``bake``, ``compare``)
+with ``run(args) -> exit code``; ``terminal`` holds the terminal handling, ``patterns`` the
+``-o`` pattern language. Everything Blender is ``blender/headless.py`` and the other Blender
+modules; ``bpy`` is imported only by the commands that need it, so ``bo2 --help`` is instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import sys
+from pathlib import Path
+
+
+class CommandError(Exception):
+    """A failure to report as one line and exit code 1."""
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message):  # one clear line instead of usage + error
+        self.exit(2, f"bo2: error: {message} (see 'bo2 --help')\n")
+
+
+def usage_error(message: str):
+    """Print ``bo2: error: <message>`` and exit with 2, as for bad arguments."""
+    _Parser(prog="bo2").error(message)
+
+
+def load_blend(path: Path):
+    """Open the .blend file ``path`` with the add-on registered, Blender silenced; returns its
+    scene. CommandError for a missing, unreadable or corrupt file."""
+    from ..blender import headless
+    from .terminal import quiet_blender
+
+    with quiet_blender():
+        return headless.load_blend(path)
+
+
+def _resolution(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"(\d+)[xX](\d+)", text)
+    if not m or int(m[1]) < 1 or int(m[2]) < 1:
+        raise argparse.ArgumentTypeError(f"invalid resolution {text!r}, expected WxH like 640x360")
+    return int(m[1]), int(m[2])
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        value = 0
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}")
+    return value
+
+
+def _frames(text: str) -> list[int]:
+    from .patterns import frame_list
+
+    try:
+        return frame_list(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def cmd_version(args) -> int:
+    """Print the add-on version."""
+    from .. import version
+
+    print(f"BO2 Lighting {version()}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from ..blender.headless import ENGINES
+    from ..core import brdf, env_brdf
+    from . import bake, compare, render, sh
+    from . import env_brdf as env_brdf_cmd
+
+    parser = _Parser(prog="bo2", description="BO2 Lighting: Black Ops II lighting for Blender.")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub.required = True
+    render_cmd = sub.add_parser(
+        "render", help="render frames of .blend files to images",
+        description="Render frames of one or more .blend files with BO2 Lighting or Cycles. "
+        "Each file is loaded once and its frames rendered in order; a file or frame that fails "
+        "prints one error line, the others still render, and the exit code is 1.")
+    render_cmd.add_argument("scenes", nargs="+", metavar="SCENE", help=".blend file(s)")
+    render_cmd.add_argument("-o", "--output", required=True, metavar="OUT",
+                            help="image to write: .png through the scene's view transform, "
+                            ".exr scene-linear with every enabled pass as a layer. A pattern: "
+                            "{scene} is the .blend's name without .blend, {frame} the frame "
+                            "({frame:04d} pads it), and the last run of # in the file name the "
+                            "frame padded to its length; with several images every path must "
+                            "differ")
+    which = render_cmd.add_mutually_exclusive_group()
+    which.add_argument("--frame", type=int, help="frame number (default: the file's current)")
+    which.add_argument("--frames", type=_frames, metavar="LIST",
+                       help="frames to render: 1-10, 1,3,5-7 or 1-10x2 (every second)")
+    render_cmd.add_argument("--summary", metavar="PATH.json",
+                            help="write a JSON report: per image the file, scene, frame, output, "
+                            "status (ok or failed), seconds and error; totals")
+    render_cmd.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
+    render_cmd.add_argument("--samples", type=_positive, help="samples per pixel")
+    render_cmd.add_argument("--resolution", type=_resolution, help="output size WxH in pixels")
+    render_cmd.add_argument("--all-passes", action="store_true",
+                            help="write every render pass to the EXR (default: the view "
+                            "layer's)")
+    render_cmd.add_argument("--specular-model", choices=brdf.MODELS,
+                            help="direct specular terms of the BO2 engine (default: the file's)")
+    render_cmd.set_defaults(func=render.run)
+    env = sub.add_parser(
+        "env-brdf", help="print the environment BRDF of a gloss, n.v and rf0",
+        description="The environment BRDF E(gloss, n.v, rf0) of Lazarov 2013 (docs/env_brdf.md): "
+        "the fraction of a uniform environment's radiance reflected towards the eye. Gloss and "
+        "n.v are clamped to [0, 1] and [1e-4, 1], rf0 to [0, 1]; NaN gives NaN.")
+    env.add_argument("--gloss", type=float, required=True, help="gloss g in [0, 1]")
+    env.add_argument("--nov", type=float, required=True, help="cosine of the view to the normal")
+    env.add_argument("--rf0", type=float, nargs="+", default=[0.04], metavar="R",
+                     help="specular colour: one value, or three (R G B); default 0.04")
+    env.add_argument("--model", choices=env_brdf.MODELS, default="bo2",
+                     help="truth (quadrature), table, bo1, bo2 (default) or fit")
+    env.add_argument("--json", action="store_true", help="print a JSON object")
+    env.set_defaults(func=env_brdf_cmd.run)
+    sh_cmd = sub.add_parser(
+        "sh", help="print the order-3 SH coefficients of an environment image",
+        description="Project a lat-long (equirectangular) radiance image, read as Blender reads "
+        "it and mapped as the Environment Texture node maps it (Blender world axes, Z up), on "
+        "the 9 real SH of docs/sh.md. Prints one line per coefficient: l m  r g b.")
+    sh_cmd.add_argument("image", help="equirectangular image (.hdr, .exr, .png, ...)")
+    sh_cmd.add_argument("--json", action="store_true", help="print a JSON object")
+    sh_cmd.set_defaults(func=sh.run)
+    bake_cmd = sub.add_parser(
+        "bake", help="bake the light probes of a .blend file",
+        description="Bake the Sphere and Volume light probes of a .blend file (SH irradiance and "
+        "prefiltered cube maps) into its bake folder (the scene's Bake Folder, '//bo2_bake/' "
+        "by default), one OpenEXR file per probe. Nothing is written unless every probe "
+        "finishes.")
+    bake_cmd.add_argument("scene", help=".blend file")
+    bake_cmd.add_argument("--probes", nargs="+", metavar="NAME",
+                          help="only these light probe objects (default: all)")
+    bake_cmd.add_argument("--backend", choices=("bo2", "cycles"), default="bo2",
+                          help="captures rendered by BO2 Lighting (default) or Cycles")
+    bake_cmd.set_defaults(func=bake.run)
+    compare_cmd = sub.add_parser(
+        "compare", help="render a frame with BO2 Lighting and Cycles and compare them",
+        description="Render one frame of a .blend file with BO2 Lighting and with Cycles (same "
+        "camera and resolution) and write into DIR: bo2.exr and cycles.exr (every pass), "
+        "side_by_side.png, split.png and difference.png (through the scene's view transform) "
+        "and metrics.json (RMSE, mean relative error, PSNR, SSIM, per pass too). Prints the "
+        "headline metrics and the paths (docs/compare.md).")
+    compare_cmd.add_argument("scene", help=".blend file")
+    compare_cmd.add_argument("-o", "--output", required=True, metavar="DIR",
+                             help="output folder (created if missing)")
+    compare_cmd.add_argument("--frame", type=int,
+                             help="frame number (default: the file's current)")
+    compare_cmd.add_argument("--samples", type=_positive,
+                             help="BO2 Lighting samples per pixel (default: the file's)")
+    compare_cmd.add_argument("--cycles-samples", type=_positive,
+                             help="Cycles samples per pixel (default: the file's)")
+    compare_cmd.add_argument("--resolution", type=_resolution,
+                             help="size WxH in pixels of both")
+    compare_cmd.set_defaults(func=compare.run)
+    version = sub.add_parser("version", help="print the add-on version")
+    version.set_defaults(func=cmd_version)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except CommandError as exc:
+        print(f"bo2: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("bo2: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:  # noqa: BLE001 - one line for the user, never a traceback
+        print(f"bo2: error: {type(exc).__name__}: {exc}", file=sys.stderr)
+        return 1
