@@ -18,7 +18,6 @@ here touches the disk, so a bake that is stopped early leaves the previous files
 
 from __future__ import annotations
 
-import hashlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
@@ -39,7 +38,7 @@ FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
 CaptureFn = Callable[[np.ndarray, int, float, float, Probes], np.ndarray]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class ProbeSpec:
     """A probe to bake, as the host describes it.
 
@@ -110,11 +109,7 @@ class BakedProbe:
 
 def world_key(world: World, size: int) -> tuple:
     """A key that changes whenever the world's probe would (its texture by content)."""
-    tex = world.texture
-    digest = None
-    if tex is not None:
-        digest = hashlib.blake2b(np.ascontiguousarray(tex.mips[0]).tobytes(),
-                                 digest_size=16).hexdigest()
+    digest = world.texture.digest if world.texture is not None else None
     return (digest, np.asarray(world.color, np.float32).tobytes(), float(world.strength),
             np.asarray(world.rotation, np.float64).tobytes(), int(size))
 

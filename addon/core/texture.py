@@ -42,6 +42,8 @@ convention), while UV v grows upwards, so v = 1 is row 0.
 
 from __future__ import annotations
 
+import functools
+import hashlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -139,6 +141,12 @@ class Texture:
     def levels(self) -> int:
         """Number of mip levels."""
         return len(self.mips)
+
+    @functools.cached_property
+    def digest(self) -> str:
+        """A digest of level 0's pixels, computed once: equal images have equal digests."""
+        return hashlib.blake2b(np.ascontiguousarray(self.mips[0]).tobytes(),
+                               digest_size=16).hexdigest()
 
 
 def _halve_axis(a: np.ndarray, axis: int) -> np.ndarray:
