@@ -25,6 +25,21 @@ def _classes() -> list:
     return [*props.CLASSES, *engine.CLASSES, *operators.CLASSES, *ui.CLASSES]
 
 
+def _kernel_cache() -> None:
+    """Compiled kernels are cached in the extension's user folder (kept across updates); a
+    development checkout, not installed as an extension, keeps the per-user default."""
+    import bpy
+
+    from .core import kernels
+
+    try:
+        folder = bpy.utils.extension_path_user(__package__.rpartition(".")[0], path="kernels",
+                                               create=True)
+    except ValueError:  # "does not name an extension"
+        return
+    kernels.configure(folder)
+
+
 def register() -> None:
     """Register every class of the add-on, in order; safe to call after ``unregister()``."""
     import bpy
@@ -33,6 +48,7 @@ def register() -> None:
 
     if _registered:
         return
+    _kernel_cache()
     for cls in _classes():
         bpy.utils.register_class(cls)
         _registered.append(cls)

@@ -1,13 +1,17 @@
-"""Build the extension zip with Blender's own builder, then check it with Blender's validator.
+"""Build the extension zips, one per platform, with Blender's own builder, then check each with
+Blender's validator.
 
 Usage: python tools/build_extension.py [--offline]
 
-1. Downloads the Python wheels listed in ``blender_manifest.toml`` (``wheels = [...]``) into
-   ``wheels/`` with ``pip download --only-binary=:all: --platform TAG --python-version 3.11``;
-   the manifest is the one list of bundled wheels, this script only fetches what it names.
-2. Builds ``dist/<id>-<version>.zip`` with ``blender --command extension build`` when a
-   ``blender`` binary is on PATH, else with ``blender_ext.py build`` from the ``bpy`` wheel.
-3. Validates the zip the same way (``extension validate`` / ``blender_ext.py validate``).
+1. Downloads the Python wheels listed in ``blender_manifest.toml`` (``wheels = [...]``: numba,
+   llvmlite and OpenEXR for Python 3.11 and 3.13 on every platform) into ``wheels/`` with
+   ``pip download --only-binary=:all: --platform TAG --python-version X.Y``; the manifest is the
+   one list of bundled wheels, this script only fetches what it names.
+2. Builds ``dist/<id>-<version>-<platform>.zip`` for each of the manifest's ``platforms``
+   (``extension build --split-platforms``: each zip holds its platform's wheels) with
+   ``blender --command extension build`` when a ``blender`` binary is on PATH, else with
+   ``blender_ext.py build`` from the ``bpy`` wheel.
+3. Validates every zip the same way (``extension validate`` / ``blender_ext.py validate``).
 Exits non-zero with one line on stderr when any step fails.
 """
 
@@ -50,9 +54,10 @@ def fetch_wheels(manifest: dict, offline: bool) -> None:
         if not m:
             fail(f"cannot parse the wheel file name {path.name}")
         py = m["py"][2:]
+        platforms = [arg for tag in m["plat"].split(".") for arg in ("--platform", tag)]
         cmd = [
             sys.executable, "-m", "pip", "download", "--quiet", "--no-deps",
-            "--only-binary=:all:", "--platform", m["plat"],
+            "--only-binary=:all:", *platforms,
             "--python-version", f"{py[0]}.{py[1:]}", "--implementation", "cp",
             "--dest", str(path.parent), f"{m['name']}=={m['version']}",
         ]
@@ -84,14 +89,20 @@ def main(argv: list[str] | None = None) -> int:
     fetch_wheels(manifest, args.offline)
     dist = ROOT / "dist"
     dist.mkdir(exist_ok=True)
-    zip_path = dist / f"{manifest['id']}-{manifest['version']}.zip"
+    stem = f"{manifest['id']}-{manifest['version']}"
+    zips = [dist / f"{stem}-{p.replace('-', '_')}.zip" for p in manifest["platforms"]]
+    for old in dist.glob(f"{stem}*.zip"):
+        old.unlink()
     ext = blender_ext_command()
-    build = ext + ["build", "--source-dir", str(ROOT), "--output-filepath", str(zip_path)]
-    if subprocess.run(build, cwd=ROOT).returncode != 0 or not zip_path.exists():
+    build = ext + ["build", "--source-dir", str(ROOT), "--output-filepath",
+                   str(dist / f"{stem}.zip"), "--split-platforms"]
+    if subprocess.run(build, cwd=ROOT).returncode != 0 or not all(z.exists() for z in zips):
         fail("Blender's extension builder failed (see above)")
-    if subprocess.run(ext + ["validate", str(zip_path)], cwd=ROOT).returncode != 0:
-        fail(f"Blender's validator rejected {zip_path.name} (see above)")
-    print(f"built and validated {zip_path.relative_to(ROOT)}")
+    for zip_path in zips:
+        if subprocess.run(ext + ["validate", str(zip_path)], cwd=ROOT).returncode != 0:
+            fail(f"Blender's validator rejected {zip_path.name} (see above)")
+        size = zip_path.stat().st_size / 2**20
+        print(f"built and validated {zip_path.relative_to(ROOT)} ({size:.0f} MiB)")
     return 0
 
 

@@ -14,7 +14,7 @@ import traceback
 import bpy
 import numpy as np
 
-from ..core import pipeline
+from ..core import kernels, pipeline
 from ..core.passes import PASSES
 from . import extract, passes
 
@@ -29,6 +29,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene
         start = time.perf_counter()
         try:
+            kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
             frame, warnings = extract.extract_scene(depsgraph, indirect=scene.bo2.use_indirect)
             for message in warnings:
@@ -42,7 +43,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
         except pipeline.Cancelled:
             return
-        except extract.SceneError as exc:
+        except (extract.SceneError, kernels.KernelsUnavailable) as exc:
             self._fail(str(exc))
             return
         except Exception as exc:  # noqa: BLE001 - the UI gets one line, the console the trace

@@ -6,6 +6,7 @@ Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external
 
 import bpy
 
+from ..core import kernels
 from ..core.passes import PASSES
 from . import passes
 
@@ -52,6 +53,12 @@ class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.split_layout()
+        try:
+            kernels.check()
+        except kernels.KernelsUnavailable as exc:
+            box = layout.box()
+            box.alert = True
+            box.label(text=str(exc), icon="ERROR")
         settings = context.scene.bo2
         layout.prop(settings, "samples")
         layout.prop(settings, "shade_every_sample")

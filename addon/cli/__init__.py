@@ -42,13 +42,20 @@ def usage_error(message: str):
 
 
 def load_blend(path: Path):
-    """Open the .blend file ``path`` with the add-on registered, Blender silenced; returns its
-    scene. CommandError for a missing, unreadable or corrupt file."""
+    """Open the .blend file ``path`` with the add-on registered, Blender silenced, and load the
+    compiled kernels (saying so on stderr when they compile); returns its scene. CommandError
+    for a missing, unreadable or corrupt file, or numba missing."""
     from ..blender import headless
+    from ..core import kernels
     from .terminal import quiet_blender
 
     with quiet_blender():
-        return headless.load_blend(path)
+        scene = headless.load_blend(path)
+    try:
+        kernels.load(lambda message: print(f"bo2: {message}", file=sys.stderr, flush=True))
+    except kernels.KernelsUnavailable as exc:
+        raise CommandError(str(exc)) from None
+    return scene
 
 
 def _resolution(text: str) -> tuple[int, int]:

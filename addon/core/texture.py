@@ -92,6 +92,9 @@ def srgb_to_linear(x):
     return np.where(x <= np.float32(0.04045), x / np.float32(12.92), power).astype(np.float32)
 
 
+_SRGB_LUT = srgb_to_linear(np.arange(256, dtype=np.float32) / np.float32(255.0))
+
+
 def linear_to_srgb(x):
     """Encode linear values to sRGB: 12.92 x below 0.0031308, 1.055 x^(1/2.4) - 0.055 above
     (IEC 61966-2-1).
@@ -149,34 +152,20 @@ class Texture:
                                digest_size=16).hexdigest()
 
 
-def _halve_axis(a: np.ndarray, axis: int) -> np.ndarray:
-    """Box-filter one axis down to max(1, n // 2) samples, keeping the mean exactly.
-
-    Even n: mean of pairs. Odd n = 2m + 1: output i averages input texels 2i, 2i+1, 2i+2 with the
-    area weights (m - i) / n, m / n, (i + 1) / n. n = 1 is returned unchanged.
-    """
-    n = a.shape[axis]
-    if n == 1:
-        return a
-    a = np.moveaxis(a, axis, 0)
-    if n % 2 == 0:
-        out = 0.5 * (a[0::2] + a[1::2])
-    else:
-        m = (n - 1) // 2
-        i = np.arange(m, dtype=np.float32).reshape((m,) + (1,) * (a.ndim - 1))
-        out = ((m - i) / n) * a[0:-1:2] + np.float32(m / n) * a[1::2] + ((i + 1) / n) * a[2::2]
-    return np.moveaxis(out.astype(np.float32, copy=False), 0, axis)
-
-
 def build_mips(image: np.ndarray) -> list[np.ndarray]:
-    """The mip chain of an image, from the image itself down to 1 x 1 (Williams 1983).
+    """The mip chain of an image, from the image itself down to 1 x 1 (Williams 1983): each
+    level the area-weighted box filter of the one above (``kernels.textures.halve``).
 
     image:   (H, W, C) float32
     returns: list of (h_k, w_k, C) float32 with h_{k+1} = max(1, h_k // 2), same for w
     """
-    mips = [image]
+    from .kernels import textures as kernels
+
+    mips = [np.ascontiguousarray(image, np.float32)]
     while mips[-1].shape[0] > 1 or mips[-1].shape[1] > 1:
-        mips.append(np.ascontiguousarray(_halve_axis(_halve_axis(mips[-1], 0), 1)))
+        h, w, c = mips[-1].shape
+        mips.append(np.empty((max(1, h // 2), max(1, w // 2), c), np.float32))
+        kernels.halve(mips[-2], mips[-1])
     return mips
 
 
@@ -205,18 +194,16 @@ def make_texture(
         raise ValueError(
             f"unknown texture interpolation {interpolation!r}, expected one of {INTERPOLATIONS}"
         )
+    from .kernels import textures as kernels
+
     image = np.asarray(pixels, np.float32)
     if image.ndim == 2:
         image = image[:, :, None]
     if image.ndim != 3 or image.shape[2] not in (1, 3, 4) or 0 in image.shape[:2]:
         raise ValueError(f"expected an (H, W, C) image with C in 1, 3, 4, got {image.shape}")
-    image = np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0)
-    if srgb:
-        image = image.copy()
-        colour = slice(0, 3) if image.shape[2] == 4 else slice(None)
-        image[..., colour] = srgb_to_linear(image[..., colour])
-    image = np.ascontiguousarray(image, np.float32)
-    return Texture(build_mips(image), extension, interpolation, name)
+    level0 = np.empty(image.shape, np.float32)
+    kernels.prepare(image, min(image.shape[2], 3) if srgb else 0, _SRGB_LUT, level0)
+    return Texture(build_mips(level0), extension, interpolation, name)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
 """Install the built extension zip the way a user does, render with it, and remove it."""
 
 import os
+import sys
 import tempfile
 import tomllib
 from pathlib import Path
@@ -12,7 +13,7 @@ from util import engine_available
 ROOT = Path(__file__).resolve().parents[2]
 with open(ROOT / "blender_manifest.toml", "rb") as _fh:
     MANIFEST = tomllib.load(_fh)
-ZIP = ROOT / "dist" / f"{MANIFEST['id']}-{MANIFEST['version']}.zip"
+ZIP = ROOT / "dist" / f"{MANIFEST['id']}-{MANIFEST['version']}-linux_x64.zip"
 REPO = "bo2_install_test"
 MODULE = f"bl_ext.{REPO}.bo2_lighting"
 
@@ -64,7 +65,12 @@ def test_install_render_disable_remove(user_repo):
     assert (directory / "bo2_lighting" / "blender_manifest.toml").exists()
     assert MODULE in bpy.context.preferences.addons
     assert engine_available("BO2_LIGHTING")
-    # The bundled OpenEXR wheel is installed for this platform and importable.
+    # The zip's wheels (numba, llvmlite, OpenEXR) are installed for this platform and Python.
+    site = (Path(bpy.utils.user_resource("EXTENSIONS", path=".local")) / "lib"
+            / f"python{sys.version_info.major}.{sys.version_info.minor}" / "site-packages")
+    found = {p.name for p in site.glob("*.dist-info")}
+    assert {"numba-0.62.1.dist-info", "llvmlite-0.45.1.dist-info",
+            "openexr-3.5.3.dist-info"} <= found, found
     import OpenEXR  # noqa: F401
 
     small_scene()

@@ -158,3 +158,19 @@ def test_pass_table_maps_to_blender(addon, tmp_path):
     glossy = "Glossy Direct" if bpy.app.version >= (5, 0, 0) else "GlossDir"
     assert written == {"Combined", glossy, "Gloss"}
     assert passes.readable_name("GlossDir") == "Glossy Direct"
+
+
+def test_a_foreign_numba_is_one_clear_error(addon, monkeypatch):
+    """Another extension's numba in Blender's shared site-packages: the render stops with one
+    message that says what is needed and what was found, and Blender goes on."""
+    import sys
+    import types
+
+    scene = lambert_plane_scene("SUN")
+    fake = types.ModuleType("numba")
+    fake.__version__, fake.__file__ = "0.60.0", "/other/extension/numba/__init__.py"
+    monkeypatch.setitem(sys.modules, "numba", fake)
+    with pytest.raises(RuntimeError, match=r"needs numba 0\.62\.1.*found numba 0\.60\.0"):
+        render_pixels(scene, "BO2_LIGHTING", samples=1)
+    monkeypatch.undo()
+    assert render_pixels(scene, "BO2_LIGHTING", samples=1).shape[2] == 4

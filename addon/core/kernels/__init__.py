@@ -1,0 +1,106 @@
+"""Compiled kernels: the renderer's hot loops as numba-compiled Python, one job per module.
+
+Every kernel is ``@njit(SIGNATURE, cache=True, nogil=True)``: compiled for its explicit
+signature when its module is first imported (so nothing compiles in the middle of a render),
+cached on disk (``configure``), and free of Python's lock, so the render's own tile threads run
+kernels side by side. numba's ``parallel=True`` threading layers are not used (Blender runs its
+own TBB, and numba's workqueue layer aborts the process on concurrent calls). Each kernel has a
+NumPy reference, the talk's formula in ``brdf.py``, ``env_brdf.py``, ``sh.py`` or the readable
+NumPy of the module that calls it, which a test holds it to.
+
+numba 0.62.1 with llvmlite 0.45.1 is bundled in the extension's zip as wheels (Python 3.11 and
+3.13, every platform); another extension can bring another numba into Blender's shared
+site-packages, so ``check()`` says exactly what was found.
+
+Modules: ``textures`` (sRGB decode by table, mip chains).
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+
+NUMBA_VERSION = "0.62.1"
+LLVMLITE_VERSION = "0.45.1"
+FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
+MODULES = ("textures",)
+
+__all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
+           "is_cached", "load"]
+
+
+class KernelsUnavailable(RuntimeError):
+    """numba is missing, of another version, or fails to load: one line for the user."""
+
+
+def _found() -> str:
+    try:
+        import numba
+    except Exception as exc:  # noqa: BLE001 - any failure to load is reported as found
+        return f"none ({type(exc).__name__}: {exc})".replace("\n", " ")
+    return f"numba {numba.__version__} at {Path(numba.__file__).parent}"
+
+
+def check() -> None:
+    """Raise ``KernelsUnavailable`` unless numba ``NUMBA_VERSION`` loads."""
+    try:
+        import numba
+        version = numba.__version__
+    except Exception:  # noqa: BLE001 - ImportError, or a broken llvmlite
+        version = None
+    if version != NUMBA_VERSION:
+        raise KernelsUnavailable(
+            f"BO2 Lighting needs numba {NUMBA_VERSION}, bundled in the zip for your platform "
+            f"(reinstall the extension from the zip of your platform); found {_found()}")
+
+
+def default_cache_dir() -> Path:
+    """The per-user cache folder of compiled kernels outside Blender (the ``bo2`` command):
+    ``%LOCALAPPDATA%`` on Windows, ``~/Library/Caches`` on macOS, else ``$XDG_CACHE_HOME``
+    or ``~/.cache``; then ``bo2_lighting/kernels``."""
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+    elif sys.platform == "darwin":
+        base = Path.home() / "Library" / "Caches"
+    else:
+        base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+    return base / "bo2_lighting" / "kernels"
+
+
+def configure(cache_dir: str | os.PathLike) -> None:
+    """Cache compiled kernels in ``cache_dir``; call before the first kernel module is
+    imported (a module already imported keeps the folder it compiled into)."""
+    path = Path(cache_dir)
+    path.mkdir(parents=True, exist_ok=True)
+    os.environ["NUMBA_CACHE_DIR"] = str(path)
+    if "numba" in sys.modules:
+        import numba
+
+        numba.config.CACHE_DIR = str(path)
+
+
+def load(notify=None) -> None:
+    """Check numba (``check``) and import every kernel module, compiling what the cache does not
+    hold; ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while."""
+    check()
+    if notify is not None and not is_cached():
+        notify(FIRST_RUN_MESSAGE)
+    import importlib
+
+    for module in MODULES:
+        importlib.import_module(f"{__name__}.{module}")
+
+
+if "NUMBA_CACHE_DIR" not in os.environ:  # until the host configures its own folder
+    os.environ["NUMBA_CACHE_DIR"] = str(default_cache_dir())
+
+
+def is_cached() -> bool:
+    """Whether every kernel module has compiled code in the cache folder (else the first
+    import compiles, for some seconds: show ``FIRST_RUN_MESSAGE``)."""
+    folder = os.environ.get("NUMBA_CACHE_DIR")
+    if not folder or not Path(folder).is_dir():
+        return False
+    index = [p.name for p in Path(folder).rglob("*.nbi")]
+    return all(any(name.startswith(f"{module}.") for name in index) for module in MODULES)

@@ -1,0 +1,47 @@
+"""The kernels' set-up: numba's version checked with one clear message, compiled once into the
+cache folder (a fresh folder compiles and says so; the next process loads without a word)."""
+
+import subprocess
+import sys
+import types
+
+import pytest
+
+from bo2_lighting.addon.core import kernels
+
+
+def test_wrong_or_missing_numba_is_one_clear_message(monkeypatch):
+    kernels.check()  # the pinned numba of this environment
+    fake = types.ModuleType("numba")
+    fake.__version__, fake.__file__ = "0.58.1", "/elsewhere/numba/__init__.py"
+    monkeypatch.setitem(sys.modules, "numba", fake)
+    with pytest.raises(kernels.KernelsUnavailable) as info:
+        kernels.check()
+    assert str(info.value) == (
+        "BO2 Lighting needs numba 0.62.1, bundled in the zip for your platform (reinstall the "
+        "extension from the zip of your platform); found numba 0.58.1 at /elsewhere/numba")
+    monkeypatch.setitem(sys.modules, "numba", None)  # import fails
+    with pytest.raises(kernels.KernelsUnavailable, match=r"found none \(ModuleNotFoundError"):
+        kernels.check()
+
+
+def test_default_cache_folder_is_per_user(monkeypatch, tmp_path):
+    monkeypatch.setattr(sys, "platform", "linux")
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    assert kernels.default_cache_dir() == tmp_path / "bo2_lighting" / "kernels"
+
+
+LOAD = ("import sys; from bo2_lighting.addon.core import kernels; "
+        "kernels.load(lambda m: print(m)); print('cached', kernels.is_cached())")
+
+
+def test_kernels_compile_once_into_the_cache_folder(tmp_path):
+    env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    first = subprocess.run([sys.executable, "-c", LOAD], env=env, capture_output=True,
+                           text=True, timeout=600)
+    assert first.returncode == 0, first.stderr
+    assert first.stdout.splitlines() == [kernels.FIRST_RUN_MESSAGE, "cached True"]
+    assert list(tmp_path.rglob("*.nbi")) and list(tmp_path.rglob("*.nbc"))
+    second = subprocess.run([sys.executable, "-c", LOAD], env=env, capture_output=True,
+                            text=True, timeout=600)
+    assert second.stdout.splitlines() == ["cached True"]
