@@ -13,6 +13,13 @@ import numpy as np
 _OPTIONS = {"cache": True, "nogil": True}
 
 
+@nb.njit(nb.float32(nb.float32), **_OPTIONS)
+def _srgb_formula(v):
+    if v <= np.float32(0.04045):
+        return v / np.float32(12.92)
+    return ((v + np.float32(0.055)) / np.float32(1.055)) ** np.float32(2.4)
+
+
 @nb.njit(nb.void(nb.float32[:, :, :], nb.int64, nb.float32[::1], nb.float32[:, :, ::1]),
          **_OPTIONS)
 def prepare(image, decode, lut, out):
@@ -27,13 +34,14 @@ def prepare(image, decode, lut, out):
                 if not np.isfinite(v):
                     v = np.float32(0.0)
                 elif c < decode:
-                    i = np.int64(np.floor(v * np.float32(255.0) + np.float32(0.5)))
-                    if 0 <= i <= 255 and abs(np.float32(i) / np.float32(255.0) - v) <= 1e-6:
-                        v = lut[i]
-                    elif v <= np.float32(0.04045):
-                        v = v / np.float32(12.92)
+                    if np.float32(0.0) <= v <= np.float32(1.0):
+                        i = np.int64(v * np.float32(255.0) + np.float32(0.5))
+                        if abs(np.float32(i) * np.float32(1.0 / 255.0) - v) <= 1e-6:
+                            v = lut[i]
+                        else:
+                            v = _srgb_formula(v)
                     else:
-                        v = ((v + np.float32(0.055)) / np.float32(1.055)) ** np.float32(2.4)
+                        v = _srgb_formula(v)
                 out[y, x, c] = v
 
 
