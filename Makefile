@@ -3,8 +3,8 @@ PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 VENV45 := .venv45
 VENV52 := .venv52
-# Blender 5.2 LTS's bpy needs Python 3.13: a python3.13 on PATH, or the one the workspace's helper
-# script builds and caches (see the README); without either the 5.2 leg of `make test` is skipped.
+# Blender 5.2 LTS's bpy needs Python 3.13: PY313, else a python3.13 on PATH, else the interpreter
+# that PY313_SCRIPT prints (it builds and caches one); without any, the 5.2 leg is skipped.
 PY313_SCRIPT ?= ../shared/tools/python313.sh
 
 .PHONY: demo test test52 venv venv45 venv52 build lint clean
@@ -44,13 +44,13 @@ test: venv venv45 build lint
 	$(VENV45)/bin/pytest tests/blender
 	@$(MAKE) --no-print-directory test52
 
-# The Blender tests on 5.2 LTS (Python 3.13, numpy 2.3).
+# The core and Blender tests on 5.2 LTS (Python 3.13, numpy 2.3).
 test52:
-	@py=$$(command -v python3.13 || { [ -x "$(PY313_SCRIPT)" ] && $(PY313_SCRIPT); }); \
+	@py="$(PY313)"; [ -n "$$py" ] || py=$$(command -v python3.13 || { [ -x "$(PY313_SCRIPT)" ] && $(PY313_SCRIPT); }); \
 	if [ -z "$$py" ]; then \
-	  echo "make test: skipped the Blender 5.2 LTS tests: no Python 3.13 (none on PATH, and $(PY313_SCRIPT) could not provide one)"; \
+	  echo "make test: skipped the Blender 5.2 LTS tests: no Python 3.13 (no PY313, none on PATH, and $(PY313_SCRIPT) could not provide one)"; \
 	else \
-	  $(MAKE) --no-print-directory venv52 PY313="$$py" && $(VENV52)/bin/pytest tests/blender; \
+	  $(MAKE) --no-print-directory venv52 PY313="$$py" && $(VENV52)/bin/pytest tests/core tests/blender; \
 	fi
 
 clean:
