@@ -4,8 +4,7 @@ The output is the visibility part of a G-buffer: for every pixel, the index of t
 triangle, the perspective-correct barycentric weights of its three corners and the view depth.
 Materials and shading read attributes through ``interpolate`` (deferred shading).
 
-Method, vectorized over triangles and pixels (Python loops run over clip planes, box-height
-bins and chunks only):
+Method (steps 1 and 2 vectorized in NumPy, steps 3 to 5 compiled: ``kernels/raster.py``):
 
 1. Trivial rejection of triangles outside one plane of the clip-space frustum (per-corner
    outcodes), then clipping in homogeneous coordinates (Sutherland & Hodgman 1974; Blinn &
@@ -29,19 +28,17 @@ bins and chunks only):
    the exact floor while it is under 2^23 (a non-integer quotient lies at least 1 / |A| below
    the next integer, more than half its ulp); beyond, rounding (monotonic) keeps it beyond the
    image. So the spans equal the per-sample edge tests exactly (larger images divide in int64).
-   Triangles are grouped by box height, rounded up to a few bins, and a group's rows form
-   broadcast (rows, P) arrays; rows outside a triangle get empty spans by themselves. The
-   covered (triangle, pixel) fragments are expanded from the spans in chunks of bounded size.
+   ``kernels.raster.scan`` walks every triangle's rows (its box's, rounded up to a few bins;
+   triangles sorted by them and by box top for locality) and the columns of every span.
 4. Depth test with one packed 64-bit key per fragment: quantized z_ndc in the high bits (NDC z is
-   affine in window space), the clipped triangle's index in the low bits, resolved per pixel with
-   ``np.minimum.at``; ties go to the lower triangle index whatever the grouping or chunking. A
+   affine in window space), the clipped triangle's index in the low bits, the smallest kept per
+   pixel; ties go to the lower triangle index whatever the scan order. A
    triangle whose key depth provably stays inside [0, qmax] at its corners skips the far-plane
    test and the clamp.
 5. Perspective-correct barycentrics of the visible fragments only: screen-space weights divided
    by w and renormalized (Heckbert & Moreton 1991, "Interpolation for polygon texture mapping and
-   shading"; Olano & Greer 1997, "Triangle scan conversion using 2D homogeneous coordinates"),
-   in blocks of rows; a triangle's coefficients are repeated over long runs of its pixels
-   rather than gathered pixel by pixel.
+   shading"; Olano & Greer 1997, "Triangle scan conversion using 2D homogeneous coordinates"):
+   ``kernels.raster.resolve``.
 
 Steps 1 and 2 and the grouping do not depend on the sample offset: their result for the last
 input (compared bit for bit) is kept, so that the samples of one image or tile set it up once.
@@ -62,15 +59,9 @@ import numpy as np
 
 __all__ = ["Fragments", "coverage", "interpolate", "rasterize"]
 
-_EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
-_MAX_CANDIDATES = 1 << 21  # default bound on the (triangle, pixel) fragments expanded at once
 # Fixed point: window coordinates in units of 2^-S pixel, |x| <= 2^G pixels (guard band), with
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
 _FIXED_BITS = 29
-_ROWS = 1 << 15  # (triangle, row) pairs whose spans are computed at once
-_RESOLVE = 1 << 15  # pixels resolved at once
-_CHUNK = 1 << 16  # fragments expanded at once (fewer if max_candidates says so): in cache
-_RUN = 8  # mean length of the runs of one triangle above which a block repeats its values
 _FLOAT_SPANS = 1 << 20  # images under this side get their spans in float64 (exact: see step 3)
 _NEVER = 2.0**-40  # |A| standing in for a horizontal edge: its bound is +-2^39 columns
 _KEEP_BYTES = 1 << 28  # largest set-up kept for the next call
@@ -282,7 +273,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         v = np.concatenate([v[:, whole], cv[:, :, :4].reshape(-1, 12).T], axis=1)
         orig = np.concatenate([orig[whole], co])
         sub_index = np.concatenate([np.full(orig.size - co.size, -1), np.arange(co.size)])
-        sub_bary = cv[:, :, 4:]  # (K, 3 corners, 3 weights of the original corners)
+        sub_bary = np.ascontiguousarray(cv[:, :, 4:])  # (K, 3 corners, 3 original weights)
         order = np.argsort(orig, kind="stable")
         v, orig, sub_index = _take_columns(v, order), orig[order], sub_index[order]
 
@@ -363,6 +354,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         tame = (u.min(0) - err >= 0.0) & (u.max(0) + err <= qmax)
     if sub_index is None:
         clipped = np.zeros(n_sub, bool)
+        sub_bary, sub_index = np.zeros((1, 3, 3)), np.zeros(n_sub, np.intp)
     else:
         sub_index = sub_index[sel]
         clipped = sub_index >= 0
@@ -432,256 +424,6 @@ def _bits(a: np.ndarray) -> np.ndarray:
     return a.view(np.uint32 if a.itemsize == 4 else np.uint64)
 
 
-class _Scratch:
-    """Scratch arrays reused by the chunks of one call: a large temporary made afresh for every
-    chunk is mapped and faulted in again, which costs more than the arithmetic on it."""
-
-    def __init__(self):
-        self._bufs = {}
-
-    def get(self, name: str, n: int, dtype=np.float64) -> np.ndarray:
-        """(n,) array ``name`` (contents undefined)."""
-        buf = self._bufs.get(name)
-        if buf is None or buf.size < n:
-            buf = self._bufs[name] = np.empty(max(n, 2 * (0 if buf is None else buf.size)), dtype)
-        return buf[:n]
-
-    def arange(self, n: int, dtype=np.int64) -> np.ndarray:
-        """(n,) 0, 1, ..., n - 1."""
-        name = f"arange {np.dtype(dtype)}"
-        buf = self._bufs.get(name)
-        if buf is None or buf.size < n:
-            buf = self._bufs[name] = np.arange(
-                max(n, 2 * (0 if buf is None else buf.size)), dtype=dtype
-            )
-        return buf[:n]
-
-
-def _spans(s: _Setup, a: int, b: int, nrows: int, r_top, m0, width: int, exact_int, work):
-    """Covered columns of the rows r_top[a:b] + k, k < nrows, of scan slots a:b.
-
-    returns: (L, R) (nrows * P,) float64, k major, with the span lo = L + 1 .. hi = -R - 1
-             clamped to the image (L >= -1, R >= -width); the row is empty unless L + R < -1
-    """
-    shape = (nrows, b - a)
-    size = shape[0] * shape[1]
-    rows = work.get("rows", size).reshape(shape)
-    np.add(r_top[a:b], work.arange(nrows, np.float64)[:, None], out=rows)
-    f = [work.get(f"f{j}", size).reshape(shape) for j in range(3)]
-    for j in range(3):
-        if exact_int:  # m and its floor quotient in int64, horizontal edges by their sign
-            m = m0[j, a:b] - s.eb[j, a:b] * rows.astype(np.int64)
-            q = np.floor_divide(m, np.maximum(np.abs(s.ea[j, a:b]), 1))
-            f[j][...] = np.where(s.ea[j, a:b] == 0, np.where(m < 0, -(2.0**39), 2.0**39), q)
-        else:
-            np.multiply(s.eb_f[j, a:b], rows, out=f[j])
-            np.subtract(m0[j, a:b], f[j], out=f[j])
-            np.divide(f[j], s.ea_abs[j, a:b], out=f[j])
-    lo, hi, f2 = f
-    np.add(f2, s.off_lo[a:b], out=rows)  # edge 2 bounds on the left or on the right
-    np.maximum(lo, rows, out=lo)
-    np.add(f2, s.off_hi[a:b], out=f2)
-    np.maximum(hi, f2, out=hi)
-    np.floor(lo, out=lo)
-    np.floor(hi, out=hi)
-    np.maximum(lo, -1.0, out=lo)
-    np.maximum(hi, -float(width), out=hi)
-    return lo.reshape(-1), hi.reshape(-1)
-
-
-def _scan(keybuf, s: _Setup, width, height, offset, sub_bits, max_candidates):
-    """Expand the covered (triangle, pixel) fragments and depth-resolve them into ``keybuf``.
-
-    keybuf: (H * W,) uint64 packed (quantized depth, clipped triangle index); the minimum wins
-    offset: (ox, oy, oxi, oyi) sample offset in pixels and in fixed-point units
-    """
-    ox, oy, oxi, oyi = offset
-    # first sample row at or below each box's top; the window of rows scanned, on the image
-    r0 = np.minimum((s.ymin - oyi + ((1 << sub_bits) - 1)) >> sub_bits, height)
-    r_top = np.maximum(np.minimum(r0, height - s.rows), 0)
-    # m0 = floor(-E(column 0, row 0) / 2^S) per edge; on row r, m = m0 - eb r
-    m0 = s.eb * oyi
-    m0 += s.ec
-    m0 += s.ea * oxi
-    np.negative(m0, out=m0)
-    m0 >>= sub_bits
-    exact_int = max(width, height) >= _FLOAT_SPANS
-    r_top_f = r_top if exact_int else r_top.astype(np.float64)
-    if not exact_int:
-        m0 = m0.astype(np.float64)
-        m0 += s.half
-    work = _Scratch()
-    chunk = min(max_candidates, _CHUNK)
-    for start, stop, nrows in s.groups:
-        step = max(1, _ROWS // nrows)
-        for a in range(start, stop, step):
-            b = min(a + step, stop)
-            lo, hi = _spans(s, a, b, nrows, r_top_f, m0, width, exact_int, work)
-            np.add(lo, hi, out=hi)
-            sel = np.flatnonzero(hi < -1.0)
-            if sel.size == 0:
-                continue
-            n = (-1.0 - hi[sel]).astype(np.int64)  # span lengths
-            col = lo[sel].astype(np.int64) + 1  # span starts
-            k = sel // (b - a)  # row in the window
-            tri = sel - k * (b - a)  # scan slot - a
-            row = r_top[a:b].take(tri) + k
-            tri += a
-            _fragments(keybuf, s, tri, row, col, n, width, ox, oy, chunk, work)
-
-
-def _fragments(keybuf, s: _Setup, tri, row, col, n, width, ox, oy, chunk, work):
-    """Depth-resolve the spans (row, col .. col + n - 1) of scan slots ``tri`` into ``keybuf``."""
-    end = np.cumsum(n)
-    cuts = [0]  # chunks of at most ``chunk`` fragments (or one row)
-    while cuts[-1] < n.size:
-        done = end[cuts[-1] - 1] if cuts[-1] else 0
-        nxt = int(np.searchsorted(end, done + chunk, side="right"))
-        cuts.append(max(nxt, cuts[-1] + 1))
-    shift = np.uint64(s.ibits)
-    za, zc, sid = s.za.take(tri), s.zc.take(tri), s.sid.take(tri)
-    zb = s.zb.take(tri) * (row + oy)
-    first = end - n
-    for i, j in zip(cuts[:-1], cuts[1:], strict=True):
-        nn = n[i:j]
-        total = int(end[j - 1] - first[i])
-        # the chunk's fragment k lies in column c0 + k of its row (c0: the row's first column
-        # less its first fragment's place in the chunk)
-        c0 = col[i:j] - (first[i:j] - first[i])
-        if total >= _RUN * (j - i):  # long spans: repeat the rows' values
-
-            def spread(v, name, dtype, nn=nn):
-                return np.repeat(v, nn)
-
-        else:  # short spans: gather them by the row of each fragment
-            rid = np.repeat(work.arange(j - i, np.intp), nn)
-
-            def spread(v, name, dtype, rid=rid, total=total):
-                return np.take(v, rid, out=work.get(name, total, dtype), mode="clip")
-
-        k = work.arange(total)
-        pix = spread(row[i:j] * width + c0, "pix", np.intp)
-        pix += k
-        c = spread(c0, "col", np.int64)
-        c += k
-        u = np.add(c, ox, out=work.get("u", total))
-        u *= spread(za[i:j], "tmp", np.float64)
-        u += spread(zb[i:j], "tmp", np.float64)
-        u += spread(zc[i:j], "tmp", np.float64)
-        tame = s.all_tame or s.tame.take(tri[i:j]).all()
-        if not tame:
-            front = np.less_equal(u, s.qmax, out=work.get("front", total, bool))  # far plane
-            np.maximum(u, 0.0, out=u)  # z_ndc >= -1 up to rounding
-        key = work.get("key", total, np.uint64)
-        with np.errstate(invalid="ignore"):  # values past the far plane are masked out
-            np.copyto(key, u, casting="unsafe")
-        key <<= shift
-        key |= spread(sid[i:j], "sid", np.uint64)
-        if tame or front.all():
-            np.minimum.at(keybuf, pix, key)
-        else:
-            np.minimum.at(keybuf, pix[front], key[front])
-
-
-def _resolve(s: _Setup, keybuf, frags: Fragments, ox, oy) -> None:
-    """Original triangle, perspective-correct weights and clip w of every pixel (``frags.tri``
-    and ``frags.depth`` uninitialized, ``frags.bary`` zero).
-
-    Blocks of whole rows: a mostly covered block is computed at every pixel, written whole and
-    its empty pixels written again; another block is filled as empty, then written at its
-    covered pixels.
-    """
-    height, width = frags.tri.shape
-    keys = keybuf.reshape(height, width)
-    tri_out = frags.tri.reshape(-1)
-    depth_out = frags.depth.reshape(-1)
-    bary_out = frags.bary.reshape(-1, 3)
-    idx_mask = np.uint64((1 << s.ibits) - 1)
-    xs = np.arange(width) + ox
-    step = max(1, _RESOLVE // width)
-    work = _Scratch()
-    coef = work.get("coef", 9 * step * width).reshape(9, -1)
-    q = work.get("q", 3 * step * width).reshape(3, -1)
-    for r0 in range(0, height, step):
-        r1 = min(r0 + step, height)
-        blk = keys[r0:r1]
-        hit = np.not_equal(blk, _EMPTY, out=work.get("hit", blk.size, bool).reshape(blk.shape))
-        n_hit = int(np.count_nonzero(hit))
-        dense = 2 * n_hit >= blk.size
-        if not dense:  # (tri and depth are not initialized; bary is zero)
-            tri_out[r0 * width : r1 * width] = -1
-            depth_out[r0 * width : r1 * width] = np.inf
-            if n_hit == 0:
-                continue
-        ys = np.arange(r0, r1) + oy
-        if dense:  # (rows, W): every pixel, then the empty ones again
-            shape = blk.shape
-            low = np.bitwise_and(
-                blk.reshape(-1), idx_mask, out=work.get("low", blk.size, np.uint64)
-            )
-            sid = work.get("sid", blk.size, np.intp)
-            np.copyto(sid, low, casting="unsafe")  # beyond the last triangle where empty
-            slot = np.take(s.slot, sid, out=work.get("slot", blk.size, np.intp), mode="clip")
-            x, y = xs, ys[:, None]
-            at = slice(r0 * width, r1 * width)
-        else:
-            at = np.flatnonzero(hit)
-            shape = at.shape
-            slot = s.slot.take((blk.reshape(-1).take(at) & idx_mask).astype(np.intp))
-            row = at // width
-            x, y = xs.take(at - row * width), ys.take(row)
-            at += r0 * width
-        m = slot.size
-        runs = None
-        if dense and _RUN * np.count_nonzero(slot[1:width] != slot[: width - 1]) < width:
-            # long runs of one triangle (on the first row): cheaper to repeat than to gather
-            runs = np.flatnonzero(slot[1:] != slot[:-1]) + 1
-            runs = None if _RUN * (runs.size + 1) > m else np.concatenate([[0], runs])
-        if runs is None:
-            c = coef[:, :m]
-            for i in range(9):
-                np.take(s.table[i], slot, out=c[i], mode="clip")  # (no buffering)
-            tri = s.orig.take(slot)
-        else:
-            run_len = np.diff(runs, append=m)
-            run_slot = slot.take(runs)
-            c = [np.repeat(s.table[i].take(run_slot), run_len) for i in range(9)]
-            tri = np.repeat(s.orig.take(run_slot), run_len)
-        qm = q[:, :m]
-        with np.errstate(divide="ignore", invalid="ignore"):  # only at empty pixels
-            for i in range(3):
-                qi, cy = qm[i].reshape(shape), c[3 + i].reshape(shape)
-                np.multiply(c[i].reshape(shape), x, out=qi)
-                qi += np.multiply(cy, y, out=cy)
-                qi += c[6 + i].reshape(shape)
-            np.maximum(qm, 0.0, out=qm)  # inside the snapped triangle, just outside in float64
-            inv_q = np.add(qm[0], qm[1], out=work.get("inv", m))
-            inv_q += qm[2]
-            np.divide(1.0, inv_q, out=inv_q)
-            depth_out[at] = inv_q
-            tri_out[at] = tri
-            cl = ()
-            if s.any_clipped:
-                cl = s.clipped.take(slot)
-                cl = np.flatnonzero(cl & hit.reshape(-1) if dense else cl)
-            if len(cl) == 0:  # interleaved here, then written in one pass
-                bary = work.get("bary", 3 * m, np.float32).reshape(m, 3)
-                for i in range(3):
-                    np.multiply(qm[i], inv_q, out=bary[:, i], casting="same_kind")
-            else:
-                qm *= inv_q
-                bary = np.ascontiguousarray(qm.T)
-                sub = s.sub_bary[s.sub_index[slot[cl]]]
-                bary[cl] = np.einsum("nk,nkj->nj", bary[cl], sub)
-        bary_out[at] = bary
-        if dense and n_hit < blk.size:
-            empty = np.flatnonzero(~hit.reshape(-1)) + r0 * width
-            depth_out[empty] = np.inf
-            tri_out[empty] = -1
-            for i in range(3):
-                bary_out[empty, i] = 0.0
-
-
 def rasterize(
     clip,
     width: int,
@@ -689,8 +431,6 @@ def rasterize(
     *,
     cull=None,
     sample_offset=(0.5, 0.5),
-    tile: int = 64,
-    max_candidates: int = _MAX_CANDIDATES,
 ) -> Fragments:
     """Rasterize triangles into the nearest fragment per pixel (one sample per pixel).
 
@@ -702,15 +442,13 @@ def rasterize(
                    call several times with different offsets for supersampling (the set-up of
                    the last input, some 350 bytes per triangle up to 256 MB, is kept and reused
                    while the same clip, size and cull come again)
-    tile:          unused (spans need no screen tiles; results never depended on it)
-    max_candidates: upper bound on the (triangle, pixel) fragments expanded at once (at least
-                   one row of one triangle)
     returns:       Fragments; triangles with NaN/inf corners or zero window-space area are skipped
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
     """
+    from .kernels import raster as kernels
+
     width, height = int(width), int(height)
-    max_candidates = max(1, int(max_candidates))
     clip = np.asarray(clip)
     if clip.ndim != 3 or clip.shape[1:] != (3, 4):
         raise ValueError(f"clip must have shape (T, 3, 4), got {clip.shape}")
@@ -733,16 +471,20 @@ def rasterize(
     s = _cached_setup(clip, width, height, cull, guard_bits)
     if s.n_sub == 0:
         return _empty_fragments(height, width, s.n_degenerate, s.n_nan)
-    keybuf = np.full(height * width, _EMPTY, np.uint64)
-    _scan(keybuf, s, width, height, (ox, oy, oxi, oyi), sub_bits, max_candidates)
-    frags = Fragments(  # tri and depth are written at every pixel by _resolve
+    keybuf = np.full(height * width, kernels.EMPTY, np.uint64)
+    kernels.scan(s.ea, s.eb, s.ec, s.eb_f, s.ea_abs, s.half, s.off_lo, s.off_hi, s.ymin, s.rows,
+                 s.za, s.zb, s.zc, s.tame, s.sid, width, height, sub_bits, oxi, oyi, ox, oy,
+                 s.qmax, s.ibits, max(width, height) >= _FLOAT_SPANS, keybuf)
+    frags = Fragments(
         tri=np.empty((height, width), np.int32),
-        bary=np.zeros((height, width, 3), np.float32),
+        bary=np.empty((height, width, 3), np.float32),
         depth=np.empty((height, width), np.float32),
         skipped_degenerate=s.n_degenerate,
         skipped_nan=s.n_nan,
     )
-    _resolve(s, keybuf, frags, ox, oy)
+    kernels.resolve(keybuf, s.ibits, s.slot, s.table, s.orig, s.clipped, s.sub_bary,
+                    s.sub_index, width, ox, oy, frags.tri.reshape(-1),
+                    frags.bary.reshape(-1, 3), frags.depth.reshape(-1))
     return frags
 
 

@@ -1,0 +1,127 @@
+"""Rasterization kernels: scan conversion with the depth test, and the resolve of each pixel's
+nearest fragment (steps 3 to 5 of ``raster``'s module docstring, which gives the method, the
+exactness argument and the references; ``raster._setup`` prepares their input).
+
+``scan`` walks each triangle's rows of samples, finds the covered span of each row from the
+three edge functions (exact: integer floor divisions, or float64 where the quotient is provably
+exact), and keeps the smallest packed key (quantized depth, triangle index) of every pixel.
+``resolve`` turns every pixel's key into the original triangle, perspective-correct weights and
+clip w.
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+_OPTIONS = {"cache": True, "nogil": True}
+EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
+_FAR_COLUMN = 2.0**39  # the bound of a horizontal edge: beyond any image
+
+_SCAN = nb.void(
+    nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[:, ::1],  # ea, eb, ec (3, N)
+    nb.float64[:, ::1], nb.float64[:, ::1], nb.float64[:, ::1],  # eb_f, ea_abs, half (3, N)
+    nb.float64[::1], nb.float64[::1],  # off_lo, off_hi (N,)
+    nb.int64[::1], nb.int64[::1],  # ymin, rows (N,)
+    nb.float64[::1], nb.float64[::1], nb.float64[::1],  # za, zb, zc (N,)
+    nb.boolean[::1], nb.uint64[::1],  # tame, sid (N,)
+    nb.int64, nb.int64, nb.int64, nb.int64, nb.int64,  # width, height, sub_bits, oxi, oyi
+    nb.float64, nb.float64, nb.float64, nb.int64, nb.boolean,  # ox, oy, qmax, ibits, exact_int
+    nb.uint64[::1],  # keybuf (H * W,)
+)
+
+
+@nb.njit(_SCAN, **_OPTIONS)
+def scan(ea, eb, ec, eb_f, ea_abs, half, off_lo, off_hi, ymin, rows, za, zb, zc, tame, sid,
+         width, height, sub_bits, oxi, oyi, ox, oy, qmax, ibits, exact_int, keybuf):
+    """Depth-resolve every covered (triangle, sample) into ``keybuf`` (the minimum key wins).
+
+    Per triangle in scan order: edges (left, right, either) as fixed-point edge functions
+    E_j = ea_j x + eb_j y + ec_j (top-left rule folded into ec), its first sample row, rows
+    scanned, the key depth u = za x + zb y + zc (x, y in pixels) and its index ``sid``.
+    """
+    unit_m1 = (np.int64(1) << sub_bits) - 1
+    m0 = np.empty(3, np.int64)
+    f = np.empty(3, np.float64)
+    for t in range(ea.shape[1]):
+        r0 = min((ymin[t] - oyi + unit_m1) >> sub_bits, height)
+        r_top = max(min(r0, height - rows[t]), 0)
+        for j in range(3):  # floor(-E(column 0, row 0) / 2^S); on row r: m0 - eb r
+            m0[j] = (-(eb[j, t] * oyi + ec[j, t] + ea[j, t] * oxi)) >> sub_bits
+        for k in range(rows[t]):
+            r = r_top + k
+            for j in range(3):
+                if exact_int:
+                    m = m0[j] - eb[j, t] * r
+                    if ea[j, t] == 0:
+                        f[j] = -_FAR_COLUMN if m < 0 else _FAR_COLUMN
+                    else:
+                        f[j] = np.float64(m // abs(ea[j, t]))
+                else:
+                    f[j] = ((np.float64(m0[j]) + half[j, t]) - eb_f[j, t] * np.float64(r)) \
+                        / ea_abs[j, t]
+            lo = max(f[0], f[2] + off_lo[t])
+            hi = max(f[1], f[2] + off_hi[t])
+            lo = max(np.floor(lo), -1.0)
+            hi = max(np.floor(hi), -np.float64(width))
+            if not lo + hi < -1.0:
+                continue
+            first = np.int64(lo) + 1
+            n = np.int64(-1.0 - (lo + hi))
+            zrow = zb[t] * (np.float64(r) + oy)
+            base = r * width
+            for c in range(first, first + n):
+                u = (np.float64(c) + ox) * za[t]
+                u += zrow
+                u += zc[t]
+                if not tame[t]:
+                    if not u <= qmax:  # beyond the far plane
+                        continue
+                    u = max(u, 0.0)
+                key = (np.uint64(u) << np.uint64(ibits)) | sid[t]
+                if key < keybuf[base + c]:
+                    keybuf[base + c] = key
+
+
+_RESOLVE = nb.void(
+    nb.uint64[::1], nb.int64, nb.intp[::1], nb.float64[:, ::1], nb.int32[::1],  # keys, ibits,
+    nb.boolean[::1], nb.float64[:, :, ::1], nb.intp[::1],  # slot, table, orig, clipped, sub
+    nb.int64, nb.float64, nb.float64,  # width, ox, oy
+    nb.int32[::1], nb.float32[:, ::1], nb.float32[::1],  # out: tri, bary, depth
+)
+
+
+@nb.njit(_RESOLVE, **_OPTIONS)
+def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width, ox, oy,
+            tri_out, bary_out, depth_out):
+    """Every pixel's original triangle, perspective-correct weights and clip w (-1, 0, +inf
+    where its key is ``EMPTY``): q_i = table[i] x + table[3 + i] y + table[6 + i] (at least 0),
+    weights q_i / sum(q), w = 1 / sum(q); a clipped piece's weights carried to the original
+    corners through its ``sub_bary``."""
+    mask = (np.uint64(1) << np.uint64(ibits)) - np.uint64(1)
+    q = np.empty(3, np.float64)
+    b = np.empty(3, np.float64)
+    for p in range(keys.size):
+        key = keys[p]
+        if key == EMPTY:
+            tri_out[p] = -1
+            depth_out[p] = np.inf
+            bary_out[p, 0] = bary_out[p, 1] = bary_out[p, 2] = 0.0
+            continue
+        s = slot[np.intp(key & mask)]
+        x = np.float64(p % width) + ox
+        y = np.float64(p // width) + oy
+        for i in range(3):
+            q[i] = max(table[i, s] * x + table[3 + i, s] * y + table[6 + i, s], 0.0)
+        inv = 1.0 / ((q[0] + q[1]) + q[2])
+        depth_out[p] = inv
+        tri_out[p] = orig[s]
+        if clipped[s]:
+            sub = sub_bary[sub_index[s]]
+            for i in range(3):
+                b[i] = q[i] * inv
+            for j in range(3):
+                bary_out[p, j] = (b[0] * sub[0, j] + b[1] * sub[1, j]) + b[2] * sub[2, j]
+        else:
+            for i in range(3):
+                bary_out[p, i] = q[i] * inv
