@@ -1,12 +1,14 @@
 """Benchmark a whole frame: BO2 Lighting against Cycles on the same scene, in the same run.
 
 Usage: python tools/bench_render.py [--samples N] [--cycles-samples N] [--skip-cycles]
+                                    [--profile N]
 
 Builds a scene of about 120k triangles (a room: floor and walls, 30 smooth spheres, boxes) lit
 by a point light (cube shadow map), a spot and a sun, renders it at 1920x1080 with BO2
 Lighting and with Cycles (CPU, 128 samples by default), and BO2 Lighting at 3840x2160 for
 memory. Each render runs in its own ``bo2 render`` process; the table gives the render time
 that process reports (scene loading excluded) and the process's peak resident memory.
+``--profile N`` adds the N functions where one thread's 1920x1080 frame spends its time.
 Prints figures only.
 """
 
@@ -81,6 +83,29 @@ bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
 '''
 
 
+# One thread's profile of the 1920x1080 frame through the core pipeline (the scene extracted as
+# the engine extracts it): the functions where the time goes.
+PROFILE = r"""
+import cProfile, dataclasses, pstats, sys
+import bpy
+import bo2_lighting
+from bo2_lighting.addon.blender import extract
+from bo2_lighting.addon.core import kernels, pipeline
+bo2_lighting.register()
+bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
+kernels.load()
+scene = bpy.context.scene
+frame, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(),
+                                 indirect=scene.bo2.use_indirect)
+frame = dataclasses.replace(frame, settings=dataclasses.replace(frame.settings, threads=1))
+profile = cProfile.Profile()
+profile.enable()
+pipeline.render_frame(frame)
+profile.disable()
+pstats.Stats(profile).sort_stats("tottime").print_stats(int(sys.argv[2]))
+"""
+
+
 def run(cmd: list[str]) -> tuple[float, float, str]:
     """Run a command; returns (seconds it reports, peak RSS in MiB, stdout)."""
     with tempfile.TemporaryFile("w+") as out:
@@ -100,6 +125,8 @@ def main() -> int:
                         help="BO2 Lighting samples per pixel (the engine's default)")
     parser.add_argument("--cycles-samples", type=int, default=128)
     parser.add_argument("--skip-cycles", action="store_true")
+    parser.add_argument("--profile", type=int, metavar="N", default=0,
+                        help="also print the N functions that take most of one thread's time")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         blend = Path(tmp) / "bench.blend"
@@ -118,6 +145,9 @@ def main() -> int:
             seconds, peak, _ = run([str(BO2), "render", str(blend), "-o",
                                     str(Path(tmp) / "frame.png"), *extra])
             rows.append((name, seconds, peak))
+        if args.profile:
+            subprocess.run([sys.executable, "-c", PROFILE, str(blend), str(args.profile)],
+                           check=True)
     print(f"\nscene: {tris} triangles; point (cube shadows), spot and sun lights; "
           f"BO2 {args.samples} samples, Cycles {args.cycles_samples} samples (CPU)")
     print(f"{'case':<20} {'render s':>9} {'peak MiB':>9}")

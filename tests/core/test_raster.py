@@ -635,3 +635,19 @@ def test_set_up_kept_for_the_same_input_only():
     same(raster.rasterize(clip, w, h, cull=~cull), first_call(clip, w, h, cull=~cull))
     same(raster.rasterize(clip, w + 1, h), first_call(clip, w + 1, h))
     same(raster.rasterize(clip.astype(np.float64), w, h), first_call(clip, w, h))
+
+
+def test_rasterizing_on_threads_at_once_gives_the_serial_fragments():
+    """The kernels release Python's lock and keep no shared state: tiles (and a viewport beside
+    a final render) rasterize on several threads at once with the serial results."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    w, h = 200, 150
+    inputs = [random_tiny_triangles(20_000, w, h, seed=s) for s in range(6)]
+    serial = [raster.rasterize(c, w, h, sample_offset=(0.3, 0.6)) for c in inputs]
+    with ThreadPoolExecutor(4) as pool:
+        threaded = list(pool.map(lambda c: raster.rasterize(c, w, h, sample_offset=(0.3, 0.6)),
+                                 inputs * 3))
+    for i, frags in enumerate(threaded):
+        np.testing.assert_array_equal(frags.tri, serial[i % len(inputs)].tri)
+        np.testing.assert_array_equal(frags.bary, serial[i % len(inputs)].bary)
