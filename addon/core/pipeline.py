@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import brdf, probes, raster, shade, shadows, surface, texture
+from . import probes, raster, shade, shadows, surface, texture
 from .passes import EMPTY_DEPTH, PASSES, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
 
@@ -337,18 +337,14 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     specular = np.zeros((len(tri), 3), np.float32)
     model = scene.settings.specular_model
     for light, smap in zip(scene.lights, frame.shadow_maps, strict=True):
-        l_dir, irradiance = shade.light_incidence(light, p)
         # The geometric normal decides what faces the light (a shading normal may not).
-        lit = (np.einsum("nc,nc->n", geo, l_dir) > 0) & (irradiance.max(-1) > 0)
+        l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
         if not lit.any():
             continue
-        irradiance *= lit[:, None]
         if smap is not None:
             irradiance[lit] *= shadows.shadow_visibility(smap, p[lit], geo[lit])[:, None]
-        d_term, s_term = brdf.direct_brdf(n, v, l_dir, mat.albedo, mat.rf0, mat.gloss,
-                                          model=model)
-        diffuse += d_term * irradiance
-        specular += s_term * irradiance
+        shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
+                         diffuse, specular)
     if scene.probes is not None:
         s = scene.settings
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,

@@ -23,79 +23,55 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import brdf, env_brdf
+from . import env_brdf
 from .scene import Light
 
 
-def _normalize(v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit vectors and lengths of (N, 3) vectors; zero-length vectors stay zero."""
-    length = np.linalg.norm(v, axis=-1)
-    unit = v / np.maximum(length, 1e-20)[..., None]
-    return unit.astype(np.float32), length.astype(np.float32)
-
-
-def _smoothstep(x: np.ndarray) -> np.ndarray:
-    x = np.clip(x, 0.0, 1.0)
-    return x * x * (3.0 - 2.0 * x)
-
-
-def light_incidence(light: Light, position: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Direction to the light and perpendicular irradiance, unshadowed.
+def light_incidence(light: Light, position: np.ndarray, geo: np.ndarray):
+    """Direction to the light and its irradiance, unshadowed (``kernels.shading.incidence``).
 
     light:    one scene light
     position: (N, 3) float32 world-space surface points, metres
-    returns:  l (N, 3) unit vectors from the surface towards the light,
-              irradiance (N, 3) W/m^2 on a surface facing the light
+    geo:      (N, 3) float32 unit geometric normals: what faces the light
+    returns:  l (N, 3) float32 unit vectors from the surface towards the light,
+              irradiance (N, 3) float32 W/m^2 on a surface facing the light (0 where not lit),
+              lit (N,) bool: the geometric normal faces the light and the light gives light
     """
-    color = np.asarray(light.color, np.float32)
-    axis = np.asarray(light.direction, np.float32)
-    if light.kind == "SUN":
-        l_dir = np.broadcast_to(-axis, position.shape).astype(np.float32)
-        return l_dir, np.broadcast_to(color, position.shape).astype(np.float32)
+    from .kernels import shading
 
-    l_dir, dist = _normalize(np.asarray(light.position, np.float32) - position)
-    inv_d2 = 1.0 / np.maximum(dist * dist, 1e-8)
-    if light.kind == "AREA":
-        cos_light = np.maximum(0.0, -(l_dir @ axis))
-        scale = cos_light * inv_d2 / np.pi
-    else:
-        scale = inv_d2 / (4.0 * np.pi)
-        if light.kind == "SPOT":
-            cos_half = np.cos(0.5 * light.spot_size)
-            cos_theta = -(l_dir @ axis)
-            if light.spot_blend > 0.0:
-                cone = _smoothstep((cos_theta - cos_half) / ((1.0 - cos_half) * light.spot_blend))
-            else:
-                cone = (cos_theta > cos_half).astype(np.float32)
-            scale = scale * cone
-    return l_dir, (scale[:, None] * color).astype(np.float32)
+    n = len(position)
+    l_dir = np.empty((n, 3), np.float32)
+    irradiance = np.empty((n, 3), np.float32)
+    lit = np.empty(n, bool)
+    shading.incidence(np.ascontiguousarray(position, np.float32),
+                      np.ascontiguousarray(geo, np.float32), shading.KINDS[light.kind],
+                      np.asarray(light.color, np.float32).ravel()[:3].copy(),
+                      np.asarray(light.position, np.float32).ravel()[:3].copy(),
+                      np.asarray(light.direction, np.float32).ravel()[:3].copy(),
+                      float(np.cos(0.5 * light.spot_size)), float(light.spot_blend),
+                      l_dir, irradiance, lit)
+    return l_dir, irradiance, lit
 
 
-def shade_direct(
-    position: np.ndarray,
-    normal: np.ndarray,
-    view: np.ndarray,
-    albedo: np.ndarray,
-    rf0: np.ndarray,
-    gloss: np.ndarray,
-    lights: list[Light],
-    model: str = "reference",
-) -> tuple[np.ndarray, np.ndarray]:
-    """Direct diffuse and specular radiance of every point from every light (no shadows yet).
+def add_direct(normal, view, l_dir, irradiance, albedo, rf0, gloss, model, diffuse, specular):
+    """Add one light's reflected radiance, (f_diffuse + f_specular) (n.l) E with the terms of
+    ``brdf.direct_brdf`` for ``model`` (``kernels.shading.accumulate``), to ``diffuse`` and
+    ``specular`` (N, 3) float32, W/(m^2 sr).
 
-    position, normal, view: (N, 3) float32; view points from the surface to the eye
-    albedo, rf0: (N, 3) float32 linear;  gloss: (N,) float32 in [0, 1]
-    model:   a name of ``brdf.MODELS``
-    returns: diffuse (N, 3), specular (N, 3) radiance, W/(m^2 sr)
+    normal, view, l_dir: (N, 3) unit vectors; irradiance: (N, 3) W/m^2, shadowed
+    albedo, rf0: (N, 3) linear;  gloss: (N,);  model: a name of ``brdf.MODELS``
     """
-    diffuse = np.zeros_like(albedo, dtype=np.float32)
-    specular = np.zeros_like(albedo, dtype=np.float32)
-    for light in lights:
-        l_dir, irradiance = light_incidence(light, position)
-        d, s = brdf.direct_brdf(normal, view, l_dir, albedo, rf0, gloss, model=model)
-        diffuse += d * irradiance
-        specular += s * irradiance
-    return diffuse, specular
+    from .kernels import shading
+
+    def f32(a, shape):
+        a = np.asarray(a, np.float32)
+        return np.require(a if a.shape == shape else np.broadcast_to(a, shape), np.float32,
+                          ["C", "W"])
+
+    n = (len(normal), 3)
+    shading.accumulate(f32(normal, n), f32(view, n), f32(l_dir, n), f32(irradiance, n),
+                       f32(albedo, n), f32(rf0, n), f32(gloss, n[:1]), shading.MODELS[model],
+                       diffuse, specular)
 
 
 def indirect_specular(
