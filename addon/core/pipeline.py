@@ -307,29 +307,28 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
     """
-    scene, cam = frame.scene, frame.scene.camera
-    corners = frame.positions[tri]
-    p = np.einsum("nk,nkc->nc", bary, corners)
-    n = np.einsum("nk,nkc->nc", bary, frame.normals[tri])
-    n /= np.maximum(np.linalg.norm(n, axis=-1, keepdims=True), 1e-20)
-    geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
-    geo /= np.maximum(np.linalg.norm(geo, axis=-1, keepdims=True), 1e-30)
-    _, d = cam.rays(sx, sy)
-    v = -d
-    backside = np.sum(geo * v, -1) < 0  # seen from behind: shade the side facing the camera
-    geo[backside] *= -1.0
-    n[backside] *= -1.0
+    from .kernels import shading
 
-    uv = np.einsum("nk,nkc->nc", bary, frame.uvs[tri])
+    scene, cam = frame.scene, frame.scene.camera
+    m = len(tri)
+    p, n, geo, v = (np.empty((m, 3), np.float32) for _ in range(4))
+    uv = np.empty((m, 2), np.float32)
+    # position, normals (turned towards the camera), view vector, UV
+    shading.surface(np.ascontiguousarray(tri, np.int32), np.ascontiguousarray(bary, np.float32),
+                    frame.positions, frame.normals, frame.uvs, np.asarray(sx, np.float64),
+                    np.asarray(sy, np.float64),
+                    np.linalg.inv(cam.projection @ cam.world_to_camera),
+                    float(cam.width), float(cam.height), p, n, geo, v, uv)
     duv_dx = duv_dy = np.zeros_like(uv)
     if frame.tables["textured"][frame.material[tri]].any():
-        duv_dx, duv_dy = texture.uv_derivatives(corners, frame.uvs[tri], p,
+        duv_dx, duv_dy = texture.uv_derivatives(frame.positions[tri], frame.uvs[tri], p,
                                                 *cam.rays(sx + 1.0, sy), *cam.rays(sx, sy + 1.0))
     mat = _materials(frame, tri, uv, duv_dx, duv_dy, frame.has_uv[tri])
     if mat.normal_map is not None:
         mapped = np.isfinite(mat.normal_map[:, 0])
         if mapped.any():
-            t, sign = texture.tangent_frame(corners[mapped], frame.uvs[tri][mapped], n[mapped])
+            t, sign = texture.tangent_frame(frame.positions[tri[mapped]],
+                                            frame.uvs[tri[mapped]], n[mapped])
             n[mapped] = texture.apply_normal_map(n[mapped], t, sign, mat.normal_map[mapped],
                                                  mat.normal_strength[mapped])
 

@@ -88,3 +88,38 @@ def test_incidence_matches_the_light_units(kind):
     # the spot's smoothstep near its cone's edge amplifies the last bits of cos(theta) - cos
     np.testing.assert_allclose(e[both], e_ref[both], rtol=1e-5 if kind == "SPOT" else 1e-6)
     assert (e[~lit] == 0).all()
+
+
+def test_surface_matches_its_numpy_construction():
+    """Position, normals turned towards the camera, view vector and UV of camera samples: the
+    NumPy construction they replaced (interpolation by the weights, the geometric normal by the
+    cross product, the view ray through ``Camera.rays``), to float32 rounding."""
+    from bo2_lighting.addon.core.kernels import shading
+    from bo2_lighting.addon.core.scene import Camera
+
+    t_count, m = 50, 3000
+    positions = RNG.uniform(-1.0, 1.0, (t_count, 3, 3)).astype(np.float32)
+    normals = unit(RNG.normal(size=(t_count, 3, 3))).astype(np.float32)
+    uvs = RNG.random((t_count, 3, 2)).astype(np.float32)
+    tri = RNG.integers(0, t_count, m).astype(np.int32)
+    bary = RNG.dirichlet([1.0, 1.0, 1.0], m).astype(np.float32)
+    cam = Camera.look_at([0.5, -6.0, 2.0], [0.0, 0.0, 0.0], math.radians(40), 320, 200)
+    sx, sy = RNG.uniform(0, 320, m), RNG.uniform(0, 200, m)
+    out = [np.empty((m, 3), np.float32) for _ in range(4)] + [np.empty((m, 2), np.float32)]
+    shading.surface(tri, bary, positions, normals, uvs, sx, sy,
+                    np.linalg.inv(cam.projection @ cam.world_to_camera), 320.0, 200.0, *out)
+    p, n, geo, v, uv = out
+    b = bary.astype(np.float64)[:, :, None]
+    corners = positions[tri].astype(np.float64)
+    ref_n = unit((b * normals[tri]).sum(1))
+    ref_geo = unit(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
+    ref_v = -cam.rays(sx, sy)[1].astype(np.float64)
+    back = (ref_geo * ref_v).sum(-1) < 0
+    assert 0 < back.sum() < m
+    ref_n[back] *= -1
+    ref_geo[back] *= -1
+    np.testing.assert_allclose(p, (b * corners).sum(1), atol=2e-7)
+    np.testing.assert_allclose(n, ref_n, atol=2e-7)
+    np.testing.assert_allclose(geo, ref_geo, atol=1e-6)
+    np.testing.assert_allclose(v, ref_v, atol=1e-6)
+    np.testing.assert_allclose(uv, (b * uvs[tri]).sum(1), atol=2e-7)

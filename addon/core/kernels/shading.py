@@ -138,3 +138,64 @@ def accumulate(n, v, l, irradiance, albedo, rf0, gloss, model, diffuse, specular
             e = np.float64(irradiance[i, c])
             diffuse[i, c] += np.float32(albedo[i, c] * dl * e)
             specular[i, c] += np.float32(s * (f0 + (1.0 - f0) * f_weight) * e)
+
+
+_SURFACE = nb.void(
+    nb.int32[::1], _F3, nb.float32[:, :, ::1], nb.float32[:, :, ::1], nb.float32[:, :, ::1],
+    nb.float64[::1], nb.float64[::1], nb.float64[:, ::1], nb.float64, nb.float64,
+    _F3, _F3, _F3, _F3, _F3,
+)
+
+
+@nb.njit(_SURFACE, **_OPTIONS)
+def surface(tri, bary, positions, normals, uvs, sx, sy, inv_view_proj, width, height,
+            p_out, n_out, geo_out, v_out, uv_out):
+    """The surface under N camera samples: position ``p_out``, unit shading normal ``n_out``
+    and geometric normal ``geo_out`` (both turned towards the camera when the triangle is seen
+    from behind), unit direction to the eye ``v_out`` (N, 3) and UV ``uv_out`` (N, 2).
+
+    tri, bary: (N,) triangle and (N, 3) perspective-correct weights of its corners
+    positions, normals: (T, 3, 3) corners; uvs: (T, 3, 2)
+    sx, sy:    (N,) window coordinates of the samples, pixels from the top-left corner
+    inv_view_proj: (4, 4) inverse of projection times view (``Camera.rays``'s construction)
+    """
+    sxs, sys_ = 2.0 / width, -2.0 / height
+    near = np.empty(3)
+    far = np.empty(3)
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        b0, b1, b2 = np.float64(bary[i, 0]), np.float64(bary[i, 1]), np.float64(bary[i, 2])
+        for c in range(3):
+            p_out[i, c] = b0 * positions[t, 0, c] + b1 * positions[t, 1, c] \
+                + b2 * positions[t, 2, c]
+        nx = b0 * normals[t, 0, 0] + b1 * normals[t, 1, 0] + b2 * normals[t, 2, 0]
+        ny = b0 * normals[t, 0, 1] + b1 * normals[t, 1, 1] + b2 * normals[t, 2, 1]
+        nz = b0 * normals[t, 0, 2] + b1 * normals[t, 1, 2] + b2 * normals[t, 2, 2]
+        inv = 1.0 / max(math.sqrt(nx * nx + ny * ny + nz * nz), 1e-20)
+        nx, ny, nz = nx * inv, ny * inv, nz * inv
+        ax = np.float64(positions[t, 1, 0]) - positions[t, 0, 0]
+        ay = np.float64(positions[t, 1, 1]) - positions[t, 0, 1]
+        az = np.float64(positions[t, 1, 2]) - positions[t, 0, 2]
+        bx = np.float64(positions[t, 2, 0]) - positions[t, 0, 0]
+        by = np.float64(positions[t, 2, 1]) - positions[t, 0, 1]
+        bz = np.float64(positions[t, 2, 2]) - positions[t, 0, 2]
+        gx, gy, gz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        inv = 1.0 / max(math.sqrt(gx * gx + gy * gy + gz * gz), 1e-30)
+        gx, gy, gz = gx * inv, gy * inv, gz * inv
+        for end, z in ((near, -1.0), (far, 1.0)):  # the clip-space points of the sample's ray
+            w = (sx[i] * sxs - 1.0) * inv_view_proj[3, 0] + (sy[i] * sys_ + 1.0) \
+                * inv_view_proj[3, 1] + z * inv_view_proj[3, 2] + inv_view_proj[3, 3]
+            for c in range(3):
+                end[c] = ((sx[i] * sxs - 1.0) * inv_view_proj[c, 0]
+                          + (sy[i] * sys_ + 1.0) * inv_view_proj[c, 1]
+                          + z * inv_view_proj[c, 2] + inv_view_proj[c, 3]) / w
+        dx, dy, dz = far[0] - near[0], far[1] - near[1], far[2] - near[2]
+        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
+        vx, vy, vz = -dx * inv, -dy * inv, -dz * inv
+        if gx * vx + gy * vy + gz * vz < 0.0:  # seen from behind: the side facing the camera
+            gx, gy, gz, nx, ny, nz = -gx, -gy, -gz, -nx, -ny, -nz
+        n_out[i, 0], n_out[i, 1], n_out[i, 2] = nx, ny, nz
+        geo_out[i, 0], geo_out[i, 1], geo_out[i, 2] = gx, gy, gz
+        v_out[i, 0], v_out[i, 1], v_out[i, 2] = vx, vy, vz
+        for c in range(2):
+            uv_out[i, c] = b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c] + b2 * uvs[t, 2, c]
