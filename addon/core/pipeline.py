@@ -311,14 +311,13 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
 
     scene, cam = frame.scene, frame.scene.camera
     m = len(tri)
-    p, n, geo, v = (np.empty((m, 3), np.float32) for _ in range(4))
+    p, n, geo = (np.empty((m, 3), np.float32) for _ in range(3))
     uv = np.empty((m, 2), np.float32)
-    # position, normals (turned towards the camera), view vector, UV
+    _, d = cam.rays(sx, sy)
+    v = -d
+    # position, normals (turned towards the camera), UV
     shading.surface(np.ascontiguousarray(tri, np.int32), np.ascontiguousarray(bary, np.float32),
-                    frame.positions, frame.normals, frame.uvs, np.asarray(sx, np.float64),
-                    np.asarray(sy, np.float64),
-                    np.linalg.inv(cam.projection @ cam.world_to_camera),
-                    float(cam.width), float(cam.height), p, n, geo, v, uv)
+                    frame.positions, frame.normals, frame.uvs, v, p, n, geo, uv)
     duv_dx = duv_dy = np.zeros_like(uv)
     if frame.tables["textured"][frame.material[tri]].any():
         duv_dx, duv_dy = texture.uv_derivatives(frame.positions[tri], frame.uvs[tri], p,

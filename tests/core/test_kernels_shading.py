@@ -90,10 +90,10 @@ def test_incidence_matches_the_light_units(kind):
     assert (e[~lit] == 0).all()
 
 
-def test_surface_matches_its_numpy_construction():
-    """Position, normals turned towards the camera, view vector and UV of camera samples: the
-    NumPy construction they replaced (interpolation by the weights, the geometric normal by the
-    cross product, the view ray through ``Camera.rays``), to float32 rounding."""
+def test_surface_is_its_numpy_construction_bit_for_bit():
+    """Position, normals turned towards the camera and UV of camera samples: the NumPy
+    construction they replaced (interpolation by the weights, the geometric normal by the cross
+    product, normalized), bit for bit: the shadow filter hashes the position's bits."""
     from bo2_lighting.addon.core.kernels import shading
     from bo2_lighting.addon.core.scene import Camera
 
@@ -104,22 +104,21 @@ def test_surface_matches_its_numpy_construction():
     tri = RNG.integers(0, t_count, m).astype(np.int32)
     bary = RNG.dirichlet([1.0, 1.0, 1.0], m).astype(np.float32)
     cam = Camera.look_at([0.5, -6.0, 2.0], [0.0, 0.0, 0.0], math.radians(40), 320, 200)
-    sx, sy = RNG.uniform(0, 320, m), RNG.uniform(0, 200, m)
-    out = [np.empty((m, 3), np.float32) for _ in range(4)] + [np.empty((m, 2), np.float32)]
-    shading.surface(tri, bary, positions, normals, uvs, sx, sy,
-                    np.linalg.inv(cam.projection @ cam.world_to_camera), 320.0, 200.0, *out)
-    p, n, geo, v, uv = out
-    b = bary.astype(np.float64)[:, :, None]
-    corners = positions[tri].astype(np.float64)
-    ref_n = unit((b * normals[tri]).sum(1))
-    ref_geo = unit(np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]))
-    ref_v = -cam.rays(sx, sy)[1].astype(np.float64)
-    back = (ref_geo * ref_v).sum(-1) < 0
+    v = -cam.rays(RNG.uniform(0, 320, m), RNG.uniform(0, 200, m))[1]
+    out = [np.empty((m, 3), np.float32) for _ in range(3)] + [np.empty((m, 2), np.float32)]
+    shading.surface(tri, bary, positions, normals, uvs, v, *out)
+    p, n, geo, uv = out
+    corners = positions[tri]
+    ref_p = np.einsum("nk,nkc->nc", bary, corners)
+    ref_n = np.einsum("nk,nkc->nc", bary, normals[tri])
+    ref_n /= np.maximum(np.linalg.norm(ref_n, axis=-1, keepdims=True), 1e-20)
+    ref_geo = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    ref_geo /= np.maximum(np.linalg.norm(ref_geo, axis=-1, keepdims=True), 1e-30)
+    back = np.sum(ref_geo * v, -1) < 0
     assert 0 < back.sum() < m
-    ref_n[back] *= -1
-    ref_geo[back] *= -1
-    np.testing.assert_allclose(p, (b * corners).sum(1), atol=2e-7)
-    np.testing.assert_allclose(n, ref_n, atol=2e-7)
-    np.testing.assert_allclose(geo, ref_geo, atol=1e-6)
-    np.testing.assert_allclose(v, ref_v, atol=1e-6)
-    np.testing.assert_allclose(uv, (b * uvs[tri]).sum(1), atol=2e-7)
+    ref_n[back] *= -1.0
+    ref_geo[back] *= -1.0
+    np.testing.assert_array_equal(p, ref_p)
+    np.testing.assert_array_equal(n, ref_n)
+    np.testing.assert_array_equal(geo, ref_geo)
+    np.testing.assert_array_equal(uv, np.einsum("nk,nkc->nc", bary, uvs[tri]))

@@ -142,60 +142,50 @@ def accumulate(n, v, l, irradiance, albedo, rf0, gloss, model, diffuse, specular
 
 _SURFACE = nb.void(
     nb.int32[::1], _F3, nb.float32[:, :, ::1], nb.float32[:, :, ::1], nb.float32[:, :, ::1],
-    nb.float64[::1], nb.float64[::1], nb.float64[:, ::1], nb.float64, nb.float64,
     _F3, _F3, _F3, _F3, _F3,
 )
 
 
 @nb.njit(_SURFACE, **_OPTIONS)
-def surface(tri, bary, positions, normals, uvs, sx, sy, inv_view_proj, width, height,
-            p_out, n_out, geo_out, v_out, uv_out):
+def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out):
     """The surface under N camera samples: position ``p_out``, unit shading normal ``n_out``
     and geometric normal ``geo_out`` (both turned towards the camera when the triangle is seen
-    from behind), unit direction to the eye ``v_out`` (N, 3) and UV ``uv_out`` (N, 2).
+    from behind), UV ``uv_out`` (N, 2). Float32 arithmetic in the order of the NumPy it
+    replaced (the weighted sums, the cross product, the norms): bit for bit the same values,
+    so that the shadow filter's per-point rotation, hashed from the position's bits, stays.
 
     tri, bary: (N,) triangle and (N, 3) perspective-correct weights of its corners
     positions, normals: (T, 3, 3) corners; uvs: (T, 3, 2)
-    sx, sy:    (N,) window coordinates of the samples, pixels from the top-left corner
-    inv_view_proj: (4, 4) inverse of projection times view (``Camera.rays``'s construction)
+    v:         (N, 3) unit directions to the eye (``Camera.rays``, reversed)
     """
-    sxs, sys_ = 2.0 / width, -2.0 / height
-    near = np.empty(3)
-    far = np.empty(3)
+    tiny_n, tiny_g = np.float32(1e-20), np.float32(1e-30)
     for i in range(tri.shape[0]):
         t = tri[i]
-        b0, b1, b2 = np.float64(bary[i, 0]), np.float64(bary[i, 1]), np.float64(bary[i, 2])
+        b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
         for c in range(3):
-            p_out[i, c] = b0 * positions[t, 0, c] + b1 * positions[t, 1, c] \
+            p_out[i, c] = (b0 * positions[t, 0, c] + b1 * positions[t, 1, c]) \
                 + b2 * positions[t, 2, c]
-        nx = b0 * normals[t, 0, 0] + b1 * normals[t, 1, 0] + b2 * normals[t, 2, 0]
-        ny = b0 * normals[t, 0, 1] + b1 * normals[t, 1, 1] + b2 * normals[t, 2, 1]
-        nz = b0 * normals[t, 0, 2] + b1 * normals[t, 1, 2] + b2 * normals[t, 2, 2]
-        inv = 1.0 / max(math.sqrt(nx * nx + ny * ny + nz * nz), 1e-20)
-        nx, ny, nz = nx * inv, ny * inv, nz * inv
-        ax = np.float64(positions[t, 1, 0]) - positions[t, 0, 0]
-        ay = np.float64(positions[t, 1, 1]) - positions[t, 0, 1]
-        az = np.float64(positions[t, 1, 2]) - positions[t, 0, 2]
-        bx = np.float64(positions[t, 2, 0]) - positions[t, 0, 0]
-        by = np.float64(positions[t, 2, 1]) - positions[t, 0, 1]
-        bz = np.float64(positions[t, 2, 2]) - positions[t, 0, 2]
+            n_out[i, c] = (b0 * normals[t, 0, c] + b1 * normals[t, 1, c]) \
+                + b2 * normals[t, 2, c]
+        length = np.sqrt((n_out[i, 0] * n_out[i, 0] + n_out[i, 1] * n_out[i, 1])
+                         + n_out[i, 2] * n_out[i, 2])
+        length = max(length, tiny_n)
+        ax = positions[t, 1, 0] - positions[t, 0, 0]
+        ay = positions[t, 1, 1] - positions[t, 0, 1]
+        az = positions[t, 1, 2] - positions[t, 0, 2]
+        bx = positions[t, 2, 0] - positions[t, 0, 0]
+        by = positions[t, 2, 1] - positions[t, 0, 1]
+        bz = positions[t, 2, 2] - positions[t, 0, 2]
         gx, gy, gz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-        inv = 1.0 / max(math.sqrt(gx * gx + gy * gy + gz * gz), 1e-30)
-        gx, gy, gz = gx * inv, gy * inv, gz * inv
-        for end, z in ((near, -1.0), (far, 1.0)):  # the clip-space points of the sample's ray
-            w = (sx[i] * sxs - 1.0) * inv_view_proj[3, 0] + (sy[i] * sys_ + 1.0) \
-                * inv_view_proj[3, 1] + z * inv_view_proj[3, 2] + inv_view_proj[3, 3]
-            for c in range(3):
-                end[c] = ((sx[i] * sxs - 1.0) * inv_view_proj[c, 0]
-                          + (sy[i] * sys_ + 1.0) * inv_view_proj[c, 1]
-                          + z * inv_view_proj[c, 2] + inv_view_proj[c, 3]) / w
-        dx, dy, dz = far[0] - near[0], far[1] - near[1], far[2] - near[2]
-        inv = 1.0 / math.sqrt(dx * dx + dy * dy + dz * dz)
-        vx, vy, vz = -dx * inv, -dy * inv, -dz * inv
-        if gx * vx + gy * vy + gz * vz < 0.0:  # seen from behind: the side facing the camera
-            gx, gy, gz, nx, ny, nz = -gx, -gy, -gz, -nx, -ny, -nz
-        n_out[i, 0], n_out[i, 1], n_out[i, 2] = nx, ny, nz
+        g_len = max(np.sqrt((gx * gx + gy * gy) + gz * gz), tiny_g)
+        gx, gy, gz = gx / g_len, gy / g_len, gz / g_len
+        flip = (gx * v[i, 0] + gy * v[i, 1]) + gz * v[i, 2] < np.float32(0.0)
+        for c in range(3):
+            n_out[i, c] = n_out[i, c] / length
+            if flip:  # seen from behind: shade the side facing the camera
+                n_out[i, c] = -n_out[i, c]
+        if flip:
+            gx, gy, gz = -gx, -gy, -gz
         geo_out[i, 0], geo_out[i, 1], geo_out[i, 2] = gx, gy, gz
-        v_out[i, 0], v_out[i, 1], v_out[i, 2] = vx, vy, vz
         for c in range(2):
-            uv_out[i, c] = b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c] + b2 * uvs[t, 2, c]
+            uv_out[i, c] = (b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c]) + b2 * uvs[t, 2, c]
