@@ -9,26 +9,22 @@ PY313_SCRIPT ?= ../shared/tools/python313.sh
 
 .PHONY: demo test test52 venv venv45 venv52 build lint clean
 
+# $(call venv,FOLDER,PYTHON,EXTRA): a virtual environment with the project installed (editable),
+# its development tools and the bpy of EXTRA.
+define venv
+$(1)/.installed: pyproject.toml
+	$(2) -m venv $(1)
+	$(1)/bin/pip install --quiet --upgrade pip
+	$(1)/bin/pip install --quiet -e '.[dev,$(3)]'
+	touch $$@
+endef
+
 venv: $(VENV)/.installed
-$(VENV)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(VENV)
-	$(VENV)/bin/pip install --quiet --upgrade pip
-	$(VENV)/bin/pip install --quiet -e '.[dev,blender50]'
-	touch $@
-
 venv45: $(VENV45)/.installed
-$(VENV45)/.installed: pyproject.toml
-	$(PYTHON) -m venv $(VENV45)
-	$(VENV45)/bin/pip install --quiet --upgrade pip
-	$(VENV45)/bin/pip install --quiet -e '.[dev,blender45]'
-	touch $@
-
 venv52: $(VENV52)/.installed
-$(VENV52)/.installed: pyproject.toml
-	$(PY313) -m venv $(VENV52)
-	$(VENV52)/bin/pip install --quiet --upgrade pip
-	$(VENV52)/bin/pip install --quiet -e '.[dev,blender52]'
-	touch $@
+$(eval $(call venv,$(VENV),$(PYTHON),blender50))
+$(eval $(call venv,$(VENV45),$(PYTHON),blender45))
+$(eval $(call venv,$(VENV52),$(PY313),blender52))
 
 build: venv
 	$(VENV)/bin/python tools/build_extension.py
