@@ -83,8 +83,11 @@ def configure(cache_dir: str | os.PathLike) -> None:
 
 def load(notify=None) -> None:
     """Check numba (``check``) and import every kernel module, compiling what the cache does not
-    hold; ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while."""
+    hold; ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while. Cheap once the
+    kernels are loaded."""
     check()
+    if all(f"{__name__}.{module}" in sys.modules for module in MODULES):
+        return
     if notify is not None and not is_cached():
         notify(FIRST_RUN_MESSAGE)
     import importlib
