@@ -42,11 +42,14 @@ test: venv venv45 build lint
 
 # The core and Blender tests on 5.2 LTS (Python 3.13, numpy 2.3).
 test52:
-	@py="$(PY313)"; [ -n "$$py" ] || py=$$(command -v python3.13 || { [ -x "$(PY313_SCRIPT)" ] && $(PY313_SCRIPT); }); \
-	if [ -z "$$py" ]; then \
-	  echo "make test: skipped the Blender 5.2 LTS tests: no Python 3.13 (no PY313, none on PATH, and $(PY313_SCRIPT) could not provide one)"; \
-	else \
+	@ok() { [ -n "$$1" ] && "$$1" -c 'import ssl, sys; assert sys.version_info[:2] == (3, 13)' >/dev/null 2>&1; }; \
+	py="$(PY313)"; \
+	ok "$$py" || py=$$(command -v python3.13); \
+	ok "$$py" || py=$$([ -x "$(PY313_SCRIPT)" ] && $(PY313_SCRIPT)); \
+	if ok "$$py"; then \
 	  $(MAKE) --no-print-directory venv52 PY313="$$py" && $(VENV52)/bin/pytest tests/core tests/blender; \
+	else \
+	  echo "make test: skipped the Blender 5.2 LTS tests: no working Python 3.13 (PY313, python3.13 on PATH, $(PY313_SCRIPT))"; \
 	fi
 
 clean:
