@@ -840,84 +840,30 @@ def _tap_pairs(sm: ShadowMap, fr: _Frame, radius: np.ndarray, disc: np.ndarray, 
 
 def _tap_loop(sm: ShadowMap, fr: _Frame, radius: np.ndarray, disc: np.ndarray, measure: bool,
               check: bool, fast: bool):
-    """``_taps`` of one kind of points (fast: every point is ``free``)."""
+    """``_taps`` of one kind of points (fast: every point is ``free``): the compiled loop over
+    taps (``kernels.shadows.taps``), then the exact path of the taps that left their map."""
+    from .kernels import shadows as kernels
+
     res = sm.resolution
-    flat = sm.depth.reshape(-1)
     persp = sm.kind != "ORTHO"
     npt = len(radius)
-    ac, bc, ar, br = _tap_axes(fr, radius)
-    along_a = np.stack([ac, ar])  # (col, row) texel offsets per unit of a, of b
-    along_b = np.stack([bc, br])
-    centre = np.stack([fr.cx, fr.ry])
-    slopes = np.stack([fr.B, fr.C])
     span = MAX_SLOPE * (radius + fr.texel)
-    lo, hi = fr.w0 - span, fr.w0 + span
-    fa, fk, bias, base = fr.A, fr.K, fr.bias, fr.base
     count = np.zeros(npt, np.uint8)  # at most 255 taps
-    acc = np.zeros(npt, np.float32) if measure else None
-    pos, pair = np.empty((2, npt), np.float32), np.empty((2, npt), np.float32)
-    colf, rowf = pos
-    tmp, t, stored = (np.empty(npt, np.float32) for _ in range(3))
-    index = np.empty(npt, np.intp)  # take() converts any other index type first
-    blocked = np.empty(npt, bool)
-    blocked_u8 = blocked.view(np.uint8)
-    fres = np.float32(res)
-    float_index = res * res <= 1 << 24  # row * res + col exact in float32
-    outside = []
-    with np.errstate(invalid="ignore", over="ignore"):
-        for k, (a, b) in enumerate(disc):
-            np.multiply(along_a, a, out=pos)
-            pos += centre
-            np.multiply(along_b, b, out=pair)
-            pos += pair
-            np.floor(pos, out=pos)
-            if float_index:
-                np.multiply(rowf, fres, out=tmp)
-                tmp += colf
-                np.copyto(index, tmp, casting="unsafe")
-            else:
-                np.copyto(index, rowf, casting="unsafe")
-                index *= res
-                index += colf.astype(np.intp)
-            index += base
-            flat.take(index, out=stored, mode="wrap")  # taps outside the map are redone below
-            np.multiply(pos, slopes, out=pair)  # plane term A + B col + C row
-            np.add(pair[0], fa, out=t)
-            t += pair[1]
-            np.add(stored, bias, out=tmp)
-            if fast and not measure:  # no clamp, no guard: stored + bias < K / t
-                if persp:
-                    tmp *= t
-                    np.greater(tmp, fk, out=blocked)  # t < 0
-                else:
-                    np.less(tmp, t, out=blocked)
-            else:
-                if persp:
-                    if not fast:
-                        np.minimum(t, _NEG, out=t)
-                    np.divide(fk, t, out=t)
-                if not fast:
-                    np.maximum(t, lo, out=t)
-                    np.minimum(t, hi, out=t)
-                np.less(tmp, t, out=blocked)
-            if check:
-                out = np.minimum(colf, rowf) < 0.0
-                out |= np.maximum(colf, rowf) >= fres
-                if out.any():
-                    j = np.flatnonzero(out)
-                    blocked[j] = False
-                    outside.append((k, j))
-            count += blocked_u8
-            if measure:
-                if persp:  # ratio kept finite: blocked taps have t > bias > 0
-                    np.maximum(t, bias, out=t)
-                    np.minimum(stored, t, out=tmp)
-                    tmp /= t
-                else:
-                    np.minimum(stored, t, out=tmp)
-                    np.subtract(t, tmp, out=tmp)
-                tmp *= blocked
-                acc += tmp
+    acc = np.zeros(npt, np.float32)
+    flags = np.zeros((len(disc) if check else 1, npt), bool)
+
+    def f32(x):
+        return np.ascontiguousarray(x, np.float32)
+
+    kernels.taps(sm.depth.reshape(-1), res, persp, np.ascontiguousarray(fr.base, np.intp),
+                 *(f32(x) for x in _tap_axes(fr, radius)), f32(fr.cx), f32(fr.ry), f32(fr.B),
+                 f32(fr.C), f32(fr.A), f32(fr.K), f32(fr.bias), f32(fr.w0 - span),
+                 f32(fr.w0 + span), np.ascontiguousarray(disc, np.float32), measure, check,
+                 fast, _NEG, count, acc, flags)
+    bias = fr.bias
+    outside = [(k, np.flatnonzero(flags[k])) for k in range(len(disc))] if check else []
+    outside = [(k, j) for k, j in outside if j.size]
+    acc = acc if measure else None
     if outside:
         j_all = np.concatenate([j for _, j in outside])
         tap_all = np.concatenate([np.full(j.size, k, np.int32) for k, j in outside])

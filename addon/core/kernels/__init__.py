@@ -13,7 +13,8 @@ numba 0.62.1 with llvmlite 0.45.1 is bundled in the extension's zip as wheels (P
 site-packages, so ``check()`` says exactly what was found.
 
 Modules: ``raster`` (scan conversion with the depth test, resolve), ``shading`` (direct light:
-incidence and the talk's BRDF), ``textures`` (sRGB decode by table, mip chains).
+incidence and the talk's BRDF, the shaded points' surface), ``shadows`` (the shadow filter's taps),
+``textures`` (sRGB decode by table, mip chains).
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from pathlib import Path
 NUMBA_VERSION = "0.62.1"
 LLVMLITE_VERSION = "0.45.1"
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
-MODULES = ("raster", "shading", "textures")
+MODULES = ("raster", "shading", "shadows", "textures")
 
 __all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
            "is_cached", "load"]
