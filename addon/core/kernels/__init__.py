@@ -3,7 +3,7 @@
 Every kernel is ``@njit(SIGNATURE, cache=True, nogil=True)``: compiled for its explicit
 signature when its module is first imported (so nothing compiles in the middle of a render),
 cached on disk (``configure``), and free of Python's lock, so the render's own tile threads run
-kernels side by side. numba's ``parallel=True`` threading layers are not used (Blender runs its
+kernels side by side. numba's own parallel threading layers are not used (Blender runs its
 own TBB, and numba's workqueue layer aborts the process on concurrent calls). Each kernel has a
 NumPy reference, the talk's formula in ``brdf.py``, ``env_brdf.py``, ``sh.py`` or the readable
 NumPy of the module that calls it, which a test holds it to.
