@@ -77,20 +77,19 @@ class Camera:
                  spans x in [c, c + 1), y in [r, r + 1))
         returns: origins (N, 3) on the near plane and unit directions (N, 3), float32
         """
+        from .kernels import shading
+
         inv = np.linalg.inv(self.projection @ self.world_to_camera)
         # Clip-space points on the near (z = -1) and far (z = 1) planes, as affine functions of
         # the pixel position: p(x, y) = a x + b y + c.
-        sx, sy = 2.0 / self.width, -2.0 / self.height
-        x = np.asarray(x, np.float64)[:, None]
-        y = np.asarray(y, np.float64)[:, None]
-        ends = []
-        for z in (-1.0, 1.0):
-            c = inv @ np.array([-1.0, 1.0, z, 1.0])
-            h = x * (sx * inv[:, 0]) + y * (sy * inv[:, 1]) + c
-            ends.append(h[:, :3] / h[:, 3:])
-        d = ends[1] - ends[0]
-        d /= np.linalg.norm(d, axis=-1, keepdims=True)
-        return ends[0].astype(np.float32), d.astype(np.float32)
+        planes = np.stack([(2.0 / self.width) * inv[:, 0], (-2.0 / self.height) * inv[:, 1],
+                           inv @ np.array([-1.0, 1.0, -1.0, 1.0]),
+                           inv @ np.array([-1.0, 1.0, 1.0, 1.0])])
+        x = np.ascontiguousarray(np.asarray(x, np.float64).reshape(-1))
+        y = np.ascontiguousarray(np.asarray(y, np.float64).reshape(-1))
+        origins, directions = (np.empty((len(x), 3), np.float32) for _ in range(2))
+        shading.rays(x, y, planes, origins, directions)
+        return origins, directions
 
 
 @dataclass

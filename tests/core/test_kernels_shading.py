@@ -122,3 +122,32 @@ def test_surface_is_its_numpy_construction_bit_for_bit():
     np.testing.assert_array_equal(n, ref_n)
     np.testing.assert_array_equal(geo, ref_geo)
     np.testing.assert_array_equal(uv, np.einsum("nk,nkc->nc", bary, uvs[tri]))
+
+
+def reference_rays(cam, x, y):
+    """Camera rays as the NumPy the kernel replaced computed them."""
+    inv = np.linalg.inv(cam.projection @ cam.world_to_camera)
+    sx, sy = 2.0 / cam.width, -2.0 / cam.height
+    x = np.asarray(x, np.float64)[:, None]
+    y = np.asarray(y, np.float64)[:, None]
+    ends = []
+    for z in (-1.0, 1.0):
+        c = inv @ np.array([-1.0, 1.0, z, 1.0])
+        h = x * (sx * inv[:, 0]) + y * (sy * inv[:, 1]) + c
+        ends.append(h[:, :3] / h[:, 3:])
+    d = ends[1] - ends[0]
+    d /= np.linalg.norm(d, axis=-1, keepdims=True)
+    return ends[0].astype(np.float32), d.astype(np.float32)
+
+
+def test_camera_rays_bit_for_bit():
+    from bo2_lighting.addon.core.scene import Camera
+
+    persp = Camera.look_at([0.5, -6.0, 2.0], [0.0, 0.0, 0.0], math.radians(40), 320, 200)
+    ortho = Camera(persp.world_to_camera, np.diag([0.2, 0.3, -0.01, 1.0]), 320, 200, True)
+    x, y = RNG.uniform(-5, 325, 5000), RNG.uniform(-5, 205, 5000)
+    for cam in (persp, ortho):
+        origins, directions = cam.rays(x, y)
+        ref_o, ref_d = reference_rays(cam, x, y)
+        np.testing.assert_array_equal(origins, ref_o)
+        np.testing.assert_array_equal(directions, ref_d)

@@ -189,3 +189,25 @@ def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out
         geo_out[i, 0], geo_out[i, 1], geo_out[i, 2] = gx, gy, gz
         for c in range(2):
             uv_out[i, c] = (b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c]) + b2 * uvs[t, 2, c]
+
+
+@nb.njit(nb.void(nb.float64[::1], nb.float64[::1], nb.float64[:, ::1], _F3, _F3), **_OPTIONS)
+def rays(x, y, planes, origins, directions):
+    """Camera rays through window positions ``x``, ``y`` (N,): ``origins`` on the near plane
+    and unit ``directions`` (N, 3). ``planes`` (4, 4): rows a, b of the clip-to-world matrix's
+    x and y columns times 2 / width and -2 / height, and its images of the near (z = -1) and
+    far (z = 1) clip points at the corner; a plane point is h = a x + b y + c, divided by h_w
+    (``scene.Camera.rays``, in the order of its NumPy arithmetic)."""
+    for i in range(x.shape[0]):
+        ends = np.empty((2, 3))
+        for e in range(2):
+            c = planes[2 + e]
+            hw = (x[i] * planes[0, 3] + y[i] * planes[1, 3]) + c[3]
+            for k in range(3):
+                ends[e, k] = ((x[i] * planes[0, k] + y[i] * planes[1, k]) + c[k]) / hw
+        d0, d1, d2 = ends[1, 0] - ends[0, 0], ends[1, 1] - ends[0, 1], ends[1, 2] - ends[0, 2]
+        length = math.sqrt((d0 * d0 + d1 * d1) + d2 * d2)
+        for k in range(3):
+            origins[i, k] = ends[0, k]
+        directions[i, 0], directions[i, 1], directions[i, 2] = d0 / length, d1 / length, \
+            d2 / length
