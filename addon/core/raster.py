@@ -173,8 +173,8 @@ def _bin_size(n: np.ndarray) -> np.ndarray:
 class _Setup:
     """Offset-independent set-up of one input (clip, width, height, cull).
 
-    Per clipped triangle (N,) in scan order: grouped by rows per triangle (``groups`` lists
-    (start, stop, rows)) and by box top within a group. ``sid`` is the triangle's index in the
+    Per clipped triangle (N,) in scan order: sorted by rows per triangle and by box top.
+    ``sid`` is the triangle's index in the
     order of the original triangles (the low bits of its depth keys, so that ties go to the lower
     original index), ``slot`` the inverse permutation.
 
@@ -194,7 +194,6 @@ class _Setup:
     n_sub: int = 0
     ibits: int = 1
     qmax: float = 0.0
-    groups: list | None = None
     sid: np.ndarray | None = None  # (N,) uint64
     slot: np.ndarray | None = None  # (N,) intp
     ea: np.ndarray | None = None  # (3, N) int64
@@ -206,7 +205,7 @@ class _Setup:
     off_lo: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the left, else -inf
     off_hi: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the right, else -inf
     ymin: np.ndarray | None = None  # (N,) int64 top of the fixed-point box
-    rows: np.ndarray | None = None  # (N,) int64 rows scanned per triangle (its group's)
+    rows: np.ndarray | None = None  # (N,) int64 rows scanned per triangle (its box's, rounded up to a bin)
     za: np.ndarray | None = None  # (N,) float64 key depth u = za x + zb y + zc, x and y in
     zb: np.ndarray | None = None  # pixels, u = (z_ndc + 1) / 2 * qmax (affine in window space)
     zc: np.ndarray | None = None
@@ -311,10 +310,6 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
     rows = np.minimum(_bin_size(((ymax - ymin) >> sub_bits) + 1), height)
     order = np.argsort(rows * (1 << 32) + (ymin - ymin.min()))
     rows, ymin = rows.take(order), ymin.take(order)
-    bounds = np.flatnonzero(np.diff(rows)) + 1
-    starts = np.concatenate([[0], bounds])
-    stops = np.concatenate([bounds, [n_sub]])
-    groups = [(int(a), int(b), int(rows[a])) for a, b in zip(starts, stops, strict=True)]
     slot = np.empty(n_sub, np.intp)
     slot[order] = np.arange(n_sub)
     sel = keep.take(order)
@@ -365,7 +360,6 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         n_sub=n_sub,
         ibits=ibits,
         qmax=qmax,
-        groups=groups,
         sid=order.astype(np.uint64),
         slot=slot,
         ea=ea,
