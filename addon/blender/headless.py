@@ -157,20 +157,11 @@ def read_equirect(path: Path):
         raise HeadlessError(f"{path}: no such image file")
     if not os.access(path, os.R_OK):
         raise HeadlessError(f"{path}: cannot read the file (permission denied)")
-    import bpy
-
-    from ..core import texture
     from . import images
 
-    image = bpy.data.images.load(str(path.resolve()), check_existing=False)
     try:
-        width, height = image.size  # reading the size loads the pixels (or fails to)
-        if width == 0 or height == 0 or not image.has_data:
-            raise HeadlessError(f"{path}: not an image Blender can read")
-        pixels = images.image_pixels(image)
-        rgb = pixels[..., :3] if pixels.shape[2] >= 3 else np.repeat(pixels[..., :1], 3, -1)
-        if not image.is_float and image.colorspace_settings.name == "sRGB":
-            rgb = texture.srgb_to_linear(rgb)
-        return np.ascontiguousarray(rgb, np.float32)
-    finally:
-        bpy.data.images.remove(image)
+        pixels = images.read_file(path.resolve(), linear=True)
+    except images.ImageError:
+        raise HeadlessError(f"{path}: not an image Blender can read") from None
+    rgb = pixels[..., :3] if pixels.shape[2] >= 3 else np.repeat(pixels[..., :1], 3, -1)
+    return np.ascontiguousarray(rgb, np.float32)

@@ -16,6 +16,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ..core import texture
 from .passes import blender_name, channel_ids
 
 SETTINGS = ("media_type", "file_format", "color_mode", "color_depth", "exr_codec",
@@ -45,11 +46,14 @@ def new_image(name: str, pixels: np.ndarray):
     return image
 
 
-def read_file(path: str | os.PathLike, colorspace: str | None = None) -> np.ndarray:
+def read_file(path: str | os.PathLike, colorspace: str | None = None,
+              linear: bool = False) -> np.ndarray:
     """(H, W, C) float32 pixels of an image file, loaded by Blender and removed again.
 
     colorspace: the image's colour space ("Non-Color" keeps encoded values as they are);
                 None leaves Blender's choice
+    linear:     decode an 8-bit sRGB image's colour to linear (``Image.pixels`` holds its
+                encoded values; float images are scene-linear already)
     """
     image = bpy.data.images.load(str(path), check_existing=False)
     try:
@@ -58,7 +62,11 @@ def read_file(path: str | os.PathLike, colorspace: str | None = None) -> np.ndar
         width, height = image.size  # reading the size loads the pixels (or fails to)
         if width == 0 or height == 0 or not image.has_data:
             raise ImageError(f"{path}: not an image Blender can read")
-        return image_pixels(image)
+        pixels = image_pixels(image)
+        if linear and not image.is_float and image.colorspace_settings.name == "sRGB":
+            colour = slice(0, min(3, pixels.shape[2]))
+            pixels[..., colour] = texture.srgb_to_linear(pixels[..., colour])
+        return pixels
     finally:
         bpy.data.images.remove(image)
 

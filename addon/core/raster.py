@@ -205,7 +205,7 @@ class _Setup:
     off_lo: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the left, else -inf
     off_hi: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the right, else -inf
     ymin: np.ndarray | None = None  # (N,) int64 top of the fixed-point box
-    rows: np.ndarray | None = None  # (N,) int64 rows scanned per triangle (its box's, rounded up to a bin)
+    rows: np.ndarray | None = None  # (N,) int64 rows scanned: its box's, binned
     za: np.ndarray | None = None  # (N,) float64 key depth u = za x + zb y + zc, x and y in
     zb: np.ndarray | None = None  # pixels, u = (z_ndc + 1) / 2 * qmax (affine in window space)
     zc: np.ndarray | None = None
