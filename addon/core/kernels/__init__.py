@@ -13,8 +13,8 @@ numba 0.62.1 with llvmlite 0.45.1 is bundled in the extension's zip as wheels (P
 site-packages, so ``check()`` says exactly what was found.
 
 Modules: ``raster`` (scan conversion with the depth test, resolve), ``shading`` (direct light:
-incidence and the talk's BRDF, the shaded points' surface), ``shadows`` (the shadow filter's taps),
-``textures`` (sRGB decode by table, mip chains).
+incidence and the talk's BRDF, the shaded points' surface), ``shadows`` (the shadow filter,
+point by point), ``textures`` (sRGB decode by table, mip chains).
 """
 
 from __future__ import annotations
