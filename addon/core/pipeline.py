@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import probes, raster, shade, shadows, surface, texture
-from .passes import EMPTY_DEPTH, PASSES, SAMPLED, SAMPLED_WIDTH
+from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
 
 
@@ -339,10 +339,9 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
         if not lit.any():
             continue
-        if smap is not None:
-            irradiance[lit] *= shadows.shadow_visibility(smap, p[lit], geo[lit])[:, None]
+        vis = None if smap is None else shadows.shadow_visibility(smap, p, geo, where=lit)
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
-                         diffuse, specular)
+                         diffuse, specular, visibility=vis)
     if scene.probes is not None:
         s = scene.settings
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
@@ -350,33 +349,35 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
     else:
         diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
     out = np.empty((len(tri), SAMPLED_WIDTH), np.float32)
-    out[:, SAMPLED["Combined"]] = np.concatenate(
-        [diffuse + specular + diff_ind + gloss_ind + mat.emission,
-         np.ones((len(tri), 1), np.float32)], -1)
-    uvw = np.concatenate([uv, np.ones((len(tri), 1), np.float32)], -1)
-    uvw *= frame.has_uv[tri][:, None]
-    for name, value in (("Normal", n), ("Position", p), ("UV", uvw),
-                        ("DiffDir", diffuse), ("GlossDir", specular),
-                        ("DiffInd", diff_ind), ("GlossInd", gloss_ind),
-                        ("Emit", mat.emission), ("Albedo", mat.albedo),
-                        ("Specular Color", mat.rf0), ("Gloss", mat.gloss[:, None])):
-        out[:, SAMPLED[name]] = value
+    f32 = np.ascontiguousarray
+    cols = np.array([SAMPLED[name].start for name in shading.COMPOSED], np.int64)
+    shading.compose(out, cols, n, p, uv, f32(frame.has_uv[tri]), diffuse, specular,
+                    f32(diff_ind, np.float32), f32(gloss_ind, np.float32),
+                    *(f32(a, np.float32) for a in (mat.emission, mat.albedo, mat.rf0,
+                                                   mat.gloss)))
     return out
 
 
-def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
-    """All samples of one tile, averaged: {pass name: (npx, C)}.
+SHADE_BLOCK = 1 << 16  # points shaded at once (bounds the shading's temporaries)
+
+
+def _render_tile(frame: Frame, tile, offsets, tick):
+    """All samples of one tile, averaged: the passes of ``SAMPLED`` side by side
+    (npx, SAMPLED_WIDTH), Depth (npx,) and IndexMA (npx,), float32.
 
     Shading is done once per pixel and triangle, as in multisample anti-aliasing: every
     sample position is rasterized, but a sample that sees the same triangle as the pixel's
-    first sample reuses that sample's shading; only samples that see another triangle (edges)
-    are shaded on their own. ``settings.shade_every_sample`` shades every sample instead.
+    first sample reuses that sample's shading (weighted by the number of samples that do);
+    only samples that see another triangle (edges) are shaded on their own. The points of all
+    samples are shaded together, in blocks of ``SHADE_BLOCK``.
+    ``settings.shade_every_sample`` shades every sample instead.
     """
+    from .kernels import shading
+
     scene = frame.scene
     x0, y0, x1, y1 = tile
     npx = (x1 - x0) * (y1 - y0)
-    acc = np.zeros((npx, SAMPLED_WIDTH), np.float32)  # sum of the samples shaded on their own
-    first = np.zeros((npx, SAMPLED_WIDTH), np.float32)  # shading of each pixel's first sample
+    acc = np.zeros((npx, SAMPLED_WIDTH), np.float32)
     central = int(np.argmin(np.abs(np.asarray(offsets) - 0.5).sum(-1)))  # Depth and IndexMA
     depth_acc = index_acc = None
     first_tri = None
@@ -384,6 +385,7 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
+    points = []  # per sample: (tri, bary, sx, sy, pixel) of the points it shades
     for k, offset in enumerate(offsets):
         tick()
         tri, bary, depth, sx, sy = _raster(frame, tile, offset)
@@ -399,29 +401,76 @@ def _render_tile(frame: Frame, tile, offsets, tick) -> dict[str, np.ndarray]:
                 acc[miss, rgba.start:rgba.start + 3] += _background(scene, sx[miss], sy[miss])
                 acc[miss, rgba.start + 3] += 1.0
         if first_tri is None:
-            first_tri, fresh, target = tri, hit, first
+            first_tri, fresh = tri, hit
             reuse_count += hit
         elif scene.settings.shade_every_sample:
-            fresh, target = hit, acc
+            fresh = hit
         else:
             reuse = hit & (tri == first_tri)
             reuse_count += reuse
-            fresh, target = hit & ~reuse, acc
-        if fresh.any():
-            target[fresh] += _shade_points(frame, tri[fresh], bary[fresh], sx[fresh], sy[fresh])
+            fresh = hit & ~reuse
+        pixel = np.flatnonzero(fresh)
+        points.append((tri[pixel], bary[pixel], sx[pixel], sy[pixel], pixel))
         if k == central:
             depth_acc = np.where(hit, depth, np.float32(EMPTY_DEPTH))
             index_acc = np.zeros(npx, np.float32)
             index_acc[hit] = frame.tables["pass_index"][frame.material[tri[hit]]]
-    acc += first * reuse_count[:, None]
+    # the later samples' own points first, then the first sample's, weighted by its reuses
+    points = points[1:] + points[:1]
+    tri, bary, sx, sy, pixel = (np.concatenate(a) for a in zip(*points, strict=True))
+    weight = np.ones(len(pixel), np.float32)
+    first = len(pixel) - len(points[-1][4])
+    weight[first:] = reuse_count[pixel[first:]]
+    count = len(pixel)
+    if not count:
+        tick()
+    for lo in range(0, count, SHADE_BLOCK):
+        block = slice(lo, lo + SHADE_BLOCK)
+        tick(len(pixel[block]) / count)
+        shading.splat(acc, pixel[block], weight[block],
+                      _shade_points(frame, tri[block], bary[block], sx[block], sy[block]))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color
     acc *= np.float32(1.0 / len(offsets))
-    out = {name: acc[:, SAMPLED[name]] for name in SAMPLED}
-    out["Depth"] = depth_acc[:, None]
-    out["IndexMA"] = index_acc[:, None].astype(np.float32)
-    return out
+    return acc, depth_acc, index_acc
+
+
+def _tile_results(scene: Scene, progress, should_stop, warn, frame):
+    """``render_tiles``'s work: yields (tile, ``_render_tile``'s arrays) in tile order."""
+    if frame is None:
+        frame = prepare(scene, warn, should_stop)
+    offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
+    todo = tiles(scene)
+    total = len(todo) * (len(offsets) + 1)  # per tile: its samples' rasters, then the shading
+    done = [0.0, 0.0]  # work finished over all tiles; that amount when progress was last called
+    lock, stop, caller = threading.Lock(), threading.Event(), threading.get_ident()
+
+    def poll() -> None:  # on the calling thread only: the host's callbacks are not thread-safe
+        if should_stop is not None and should_stop():
+            raise Cancelled()
+        if progress is not None and done[0] != done[1]:
+            done[1] = done[0]
+            progress(done[1] / total)
+
+    def tick(amount: float = 1.0) -> None:  # on the tile's thread, before each step of a tile
+        if threading.get_ident() == caller:
+            poll()
+        elif stop.is_set():
+            raise Cancelled()
+        with lock:
+            done[0] += amount
+
+    def job(tile):
+        return lambda: _render_tile(frame, tile, offsets, tick)
+
+    results = _ordered([job(tile) for tile in todo], thread_count(scene.settings), poll, stop)
+    try:
+        yield from zip(todo, results, strict=True)
+    finally:
+        results.close()  # a caller that stops early stops the threads too
+    if progress is not None:
+        progress(1.0)
 
 
 def render_tiles(
@@ -440,53 +489,30 @@ def render_tiles(
     yields:      ((x0, y0, x1, y1), {pass name: (y1 - y0, x1 - x0, C) float32}), row 0 at the
                  top, for every tile of ``tiles(scene)``
     """
-    if frame is None:
-        frame = prepare(scene, warn, should_stop)
-    offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
-    todo = tiles(scene)
-    total = len(todo) * len(offsets)
-    done = [0, 0]  # samples finished over all tiles; that count when progress was last called
-    lock, stop, caller = threading.Lock(), threading.Event(), threading.get_ident()
-
-    def poll() -> None:  # on the calling thread only: the host's callbacks are not thread-safe
-        if should_stop is not None and should_stop():
-            raise Cancelled()
-        if progress is not None and done[0] != done[1]:
-            done[1] = done[0]
-            progress(done[1] / total)
-
-    def tick() -> None:  # before every sample of every tile, on the tile's thread
-        if threading.get_ident() == caller:
-            poll()
-        elif stop.is_set():
-            raise Cancelled()
-        with lock:
-            done[0] += 1
-
-    def job(tile):
-        return lambda: _render_tile(frame, tile, offsets, tick)
-
-    results = _ordered([job(tile) for tile in todo], thread_count(scene.settings), poll, stop)
-    try:
-        for (x0, y0, x1, y1), acc in zip(todo, results, strict=True):
-            yield (x0, y0, x1, y1), {name: buf.reshape(y1 - y0, x1 - x0, -1)
-                                     for name, buf in acc.items()}
-    finally:
-        results.close()  # a caller that stops early stops the threads too
-    if progress is not None:
-        progress(1.0)
+    for (x0, y0, x1, y1), (acc, depth, index) in _tile_results(scene, progress, should_stop,
+                                                                warn, frame):
+        shape = (y1 - y0, x1 - x0)
+        image = acc.reshape(*shape, SAMPLED_WIDTH)
+        out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
+        out["Depth"], out["IndexMA"] = depth.reshape(*shape, 1), index.reshape(*shape, 1)
+        yield (x0, y0, x1, y1), out
 
 
 def render_frame(scene: Scene, progress=None, should_stop=None, warn=None, frame=None) -> dict:
-    """Render the whole frame: {pass name: (H, W, C) float32}, row 0 at the top.
+    """Render the whole frame: {pass name: (H, W, C) float32}, row 0 at the top; the averaged
+    passes are views of one (H, W, SAMPLED_WIDTH) film.
 
     Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``.
     """
     cam = scene.camera
-    out = {name: np.zeros((cam.height, cam.width, p.channels), np.float32)
-           for name, p in PASSES.items()}
-    out["Depth"][:] = EMPTY_DEPTH
-    for (x0, y0, x1, y1), passes in render_tiles(scene, progress, should_stop, warn, frame):
-        for name, image in passes.items():
-            out[name][y0:y1, x0:x1] = image
+    film = np.zeros((cam.height, cam.width, SAMPLED_WIDTH), np.float32)
+    depth = np.full((cam.height, cam.width, 1), EMPTY_DEPTH, np.float32)
+    index = np.zeros((cam.height, cam.width, 1), np.float32)
+    for (x0, y0, x1, y1), (acc, d, i) in _tile_results(scene, progress, should_stop, warn,
+                                                       frame):
+        shape = (y1 - y0, x1 - x0)
+        film[y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
+        depth[y0:y1, x0:x1, 0], index[y0:y1, x0:x1, 0] = d.reshape(shape), i.reshape(shape)
+    out = {name: film[..., SAMPLED[name]] for name in SAMPLED}
+    out["Depth"], out["IndexMA"] = depth, index
     return out

@@ -53,13 +53,15 @@ def light_incidence(light: Light, position: np.ndarray, geo: np.ndarray):
     return l_dir, irradiance, lit
 
 
-def add_direct(normal, view, l_dir, irradiance, albedo, rf0, gloss, model, diffuse, specular):
+def add_direct(normal, view, l_dir, irradiance, albedo, rf0, gloss, model, diffuse, specular,
+               visibility=None):
     """Add one light's reflected radiance, (f_diffuse + f_specular) (n.l) E with the terms of
     ``brdf.direct_brdf`` for ``model`` (``kernels.shading.accumulate``), to ``diffuse`` and
     ``specular`` (N, 3) float32, W/(m^2 sr).
 
-    normal, view, l_dir: (N, 3) unit vectors; irradiance: (N, 3) W/m^2, shadowed
+    normal, view, l_dir: (N, 3) unit vectors; irradiance: (N, 3) W/m^2, unshadowed
     albedo, rf0: (N, 3) linear;  gloss: (N,);  model: a name of ``brdf.MODELS``
+    visibility: (N,) shadow term E is multiplied by (``shadows.shadow_visibility``), or None
     """
     from .kernels import shading
 
@@ -69,7 +71,8 @@ def add_direct(normal, view, l_dir, irradiance, albedo, rf0, gloss, model, diffu
                           ["C", "W"])
 
     n = (len(normal), 3)
-    shading.accumulate(f32(normal, n), f32(view, n), f32(l_dir, n), f32(irradiance, n),
+    vis = f32(1.0 if visibility is None else visibility, n[:1])
+    shading.accumulate(f32(normal, n), f32(view, n), f32(l_dir, n), f32(irradiance, n), vis,
                        f32(albedo, n), f32(rf0, n), f32(gloss, n[:1]), shading.MODELS[model],
                        diffuse, specular)
 

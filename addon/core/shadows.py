@@ -485,7 +485,8 @@ _REACHES = np.float32([1.0, _PCF_REACH, _PCF_REACH_HARD])
 
 
 def shadow_visibility(
-    shadow_map: ShadowMap, points: np.ndarray, normals: np.ndarray, *, jitter: bool = True
+    shadow_map: ShadowMap, points: np.ndarray, normals: np.ndarray, *, jitter: bool = True,
+    where: np.ndarray | None = None,
 ) -> np.ndarray:
     """Fraction of the light that reaches each point (PCF, Reeves 1987; PCSS, Fernando 2005).
 
@@ -495,6 +496,7 @@ def shadow_visibility(
                 receiver planes exact; shading normals are absorbed by the normal offset)
     jitter:     rotate the tap disc per point by a hash of its position (noise rather than
                 banding in wide penumbrae); False uses one fixed rotation
+    where:      (N,) bool: only these points are queried (the others get 1), or None for all
     returns:    (N,) float32 in [0, 1], 1 = fully lit; points outside every map, and points
                 with non-finite coordinates, are lit
     """
@@ -508,6 +510,9 @@ def shadow_visibility(
     depth, mips, offsets, sides, basis, rects, faces, fp, ip = _packed(shadow_map)
     ip = ip.copy()
     ip[kernels.I_JITTER] = bool(jitter)
+    active = (np.ones(len(p), bool) if where is None else
+              np.ascontiguousarray(np.asarray(where, bool).reshape(-1)))
     kernels.visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, _BLOCKER_DISC,
-                       _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, out)
+                       _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, active,
+                       out)
     return out

@@ -34,17 +34,19 @@ def test_accumulate_matches_direct_brdf(model):
     gloss = RNG.random(n_pts)
     gloss[:50] = [0.0, 1.0] * 25
     e = RNG.random((n_pts, 3)) * 5.0
+    vis = np.random.default_rng(3).random(n_pts).astype(np.float32)  # RNG kept for the others
+    vis[:20] = 0.0
     diffuse = np.zeros((n_pts, 3), np.float32)
     specular = np.zeros((n_pts, 3), np.float32)
     args = [a.astype(np.float32) for a in (n, v, l_dir, e, albedo, rf0, gloss)]
     shade.add_direct(*args[:4], *args[4:], model, diffuse, specular)
-    shade.add_direct(*args[:4], *args[4:], model, diffuse, specular)  # it adds
+    shade.add_direct(*args[:4], *args[4:], model, diffuse, specular, visibility=vis)  # it adds
     d_ref, s_ref = brdf.direct_brdf(*(a.astype(np.float64) for a in args[:3]),
                                     args[4].astype(np.float64), args[5].astype(np.float64),
                                     args[6].astype(np.float64), model=model)
-    e64 = args[3].astype(np.float64)
-    np.testing.assert_allclose(diffuse, 2 * d_ref * e64, rtol=2e-6, atol=1e-12)
-    np.testing.assert_allclose(specular, 2 * s_ref * e64, rtol=2e-6, atol=1e-12)
+    e64 = args[3].astype(np.float64) * (1.0 + vis[:, None].astype(np.float64))
+    np.testing.assert_allclose(diffuse, d_ref * e64, rtol=2e-6, atol=1e-12)
+    np.testing.assert_allclose(specular, s_ref * e64, rtol=2e-6, atol=1e-12)
     assert (diffuse[(n * l_dir).sum(-1) <= 0] == 0).all()
 
 
@@ -151,3 +153,34 @@ def test_camera_rays_bit_for_bit():
         ref_o, ref_d = reference_rays(cam, x, y)
         np.testing.assert_array_equal(origins, ref_o)
         np.testing.assert_array_equal(directions, ref_d)
+
+
+def test_splat_and_compose_place_every_value():
+    from bo2_lighting.addon.core.kernels import shading
+    from bo2_lighting.addon.core.passes import SAMPLED, SAMPLED_WIDTH
+
+    m = 500
+    p, n, diff, spec, dind, gind, emit, alb, rf0 = (
+        RNG.random((m, 3)).astype(np.float32) for _ in range(9))
+    uv = RNG.random((m, 2)).astype(np.float32)
+    has_uv = RNG.random(m) < 0.5
+    gloss = RNG.random(m).astype(np.float32)
+    out = np.full((m, SAMPLED_WIDTH), np.nan, np.float32)
+    cols = np.array([SAMPLED[name].start for name in shading.COMPOSED], np.int64)
+    shading.compose(out, cols, n, p, uv, has_uv, diff, spec, dind, gind, emit, alb, rf0, gloss)
+    assert np.isfinite(out).all()  # every column written
+    expect = {"Normal": n, "Position": p, "DiffDir": diff, "GlossDir": spec, "DiffInd": dind,
+              "GlossInd": gind, "Emit": emit, "Albedo": alb, "Specular Color": rf0,
+              "Gloss": gloss[:, None],
+              "Combined": np.concatenate([diff + spec + dind + gind + emit, np.ones((m, 1))], 1),
+              "UV": np.concatenate([uv, np.ones((m, 1))], 1) * has_uv[:, None]}
+    for name, value in expect.items():
+        np.testing.assert_allclose(out[:, SAMPLED[name]], value, rtol=1e-6, err_msg=name)
+    # splat: weighted sums per pixel, by hand
+    pixel = RNG.integers(0, 40, m)
+    weight = RNG.integers(1, 5, m).astype(np.float32)
+    acc = np.zeros((40, SAMPLED_WIDTH), np.float32)
+    shading.splat(acc, pixel, weight, out)
+    ref = np.zeros((40, SAMPLED_WIDTH))
+    np.add.at(ref, pixel, weight[:, None].astype(np.float64) * out)
+    np.testing.assert_allclose(acc, ref, rtol=1e-5)

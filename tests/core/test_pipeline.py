@@ -102,7 +102,7 @@ def test_cancel_and_progress():
     seen = []
     with pytest.raises(pipeline.Cancelled):
         pipeline.render_frame(scene, progress=seen.append, should_stop=lambda: len(seen) >= 3)
-    assert seen == [1 / 8, 2 / 8, 3 / 8]
+    assert seen == [1 / 9, 2 / 9, 3 / 9]  # 8 rasters and the shading of one tile
 
 
 def test_threads_render_the_same_image_and_cancel():

@@ -506,6 +506,9 @@ def test_a_point_does_not_depend_on_the_rest_of_its_query():
         pieces = np.concatenate([shadows.shadow_visibility(sm, p[i : i + 7], n[i : i + 7])
                                  for i in range(0, 700, 7)])
         np.testing.assert_array_equal(pieces, whole[:700])
+        some = rng.random(len(p)) < 0.3  # a query of some points: the others are lit
+        np.testing.assert_array_equal(shadows.shadow_visibility(sm, p, n, where=some),
+                                      np.where(some, whole, 1.0))
 
 
 def block_reduce(maps, size, reduce, fill):

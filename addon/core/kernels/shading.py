@@ -81,14 +81,16 @@ def incidence(p, geo, kind, color, position, axis, cos_half, blend, l_out, e_out
         lit_out[i] = lit
 
 
-@nb.njit(nb.void(_F3, _F3, _F3, _F3, _F3, _F3, nb.float32[::1], nb.int64, _F3, _F3),
-         **_OPTIONS)
-def accumulate(n, v, l, irradiance, albedo, rf0, gloss, model, diffuse, specular):
+@nb.njit(nb.void(_F3, _F3, _F3, _F3, nb.float32[::1], _F3, _F3, nb.float32[::1], nb.int64,
+                 _F3, _F3), **_OPTIONS)
+def accumulate(n, v, l, irradiance, shadow, albedo, rf0, gloss, model, diffuse, specular):
     """Add one light's reflected radiance to ``diffuse`` and ``specular`` (N, 3):
     f(l, v) (n.l) E with the terms of ``brdf.direct_brdf`` for ``model`` (a value of
-    ``MODELS``), E = ``irradiance`` (N, 3) (shadowed, 0 where unlit)."""
+    ``MODELS``), E = ``irradiance`` (N, 3) (0 where unlit) times the visibility ``shadow`` (N,)
+    (the product in float32)."""
     for i in range(n.shape[0]):
-        e0, e1, e2 = irradiance[i, 0], irradiance[i, 1], irradiance[i, 2]
+        e0, e1, e2 = (irradiance[i, 0] * shadow[i], irradiance[i, 1] * shadow[i],
+                      irradiance[i, 2] * shadow[i])
         if e0 == 0.0 and e1 == 0.0 and e2 == 0.0:
             continue
         nx, ny, nz = np.float64(n[i, 0]), np.float64(n[i, 1]), np.float64(n[i, 2])
@@ -135,7 +137,7 @@ def accumulate(n, v, l, irradiance, albedo, rf0, gloss, model, diffuse, specular
         dl = n_dot_l * _INV_PI
         for c in range(3):
             f0 = np.float64(rf0[i, c])
-            e = np.float64(irradiance[i, c])
+            e = np.float64(irradiance[i, c] * shadow[i])
             diffuse[i, c] += np.float32(albedo[i, c] * dl * e)
             specular[i, c] += np.float32(s * (f0 + (1.0 - f0) * f_weight) * e)
 
@@ -211,3 +213,47 @@ def rays(x, y, planes, origins, directions):
             origins[i, k] = ends[0, k]
         directions[i, 0], directions[i, 1], directions[i, 2] = d0 / length, d1 / length, \
             d2 / length
+
+
+@nb.njit(nb.void(_F3, nb.int64[::1], nb.float32[::1], _F3), **_OPTIONS)
+def splat(acc, pixel, weight, values):
+    """Add each shaded point's ``values`` (M, C) times its ``weight`` (M,) to its pixel's row
+    of ``acc`` (P, C): acc[pixel[i]] += weight[i] values[i], in the order of the points."""
+    for i in range(pixel.shape[0]):
+        row, w = pixel[i], weight[i]
+        for c in range(values.shape[1]):
+            acc[row, c] += w * values[i, c]
+
+
+COMPOSED = ("Combined", "Normal", "Position", "UV", "DiffDir", "GlossDir", "DiffInd",
+            "GlossInd", "Emit", "Albedo", "Specular Color", "Gloss")
+
+_COMPOSE = nb.void(_F3, nb.int64[::1], _F3, _F3, _F3, nb.boolean[::1], _F3, _F3, _F3, _F3, _F3,
+                   _F3, _F3, nb.float32[::1])
+
+
+@nb.njit(_COMPOSE, **_OPTIONS)
+def compose(out, cols, n, p, uv, has_uv, diffuse, specular, diff_ind, gloss_ind, emission,
+            albedo, rf0, gloss):
+    """The shaded points' passes side by side in ``out`` (N, C): the first column of each
+    pass of ``COMPOSED`` in ``cols``. Combined is the sum of the light terms (float32, in the
+    order listed) with alpha 1; UV is (u, v, 1) where the triangle has UVs, else 0."""
+    one, zero = np.float32(1.0), np.float32(0.0)
+    for i in range(n.shape[0]):
+        for c in range(3):
+            out[i, cols[0] + c] = (((diffuse[i, c] + specular[i, c]) + diff_ind[i, c])
+                                   + gloss_ind[i, c]) + emission[i, c]
+            out[i, cols[1] + c] = n[i, c]
+            out[i, cols[2] + c] = p[i, c]
+            out[i, cols[4] + c] = diffuse[i, c]
+            out[i, cols[5] + c] = specular[i, c]
+            out[i, cols[6] + c] = diff_ind[i, c]
+            out[i, cols[7] + c] = gloss_ind[i, c]
+            out[i, cols[8] + c] = emission[i, c]
+            out[i, cols[9] + c] = albedo[i, c]
+            out[i, cols[10] + c] = rf0[i, c]
+        out[i, cols[0] + 3] = one
+        out[i, cols[3]] = uv[i, 0] if has_uv[i] else zero
+        out[i, cols[3] + 1] = uv[i, 1] if has_uv[i] else zero
+        out[i, cols[3] + 2] = one if has_uv[i] else zero
+        out[i, cols[11]] = gloss[i]

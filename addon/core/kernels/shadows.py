@@ -506,16 +506,16 @@ _VIS = nb.void(
     nb.float32[::1], nb.int64[::1],  # fparams, iparams
     nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1],  # discs, reaches
     nb.float32[::1], nb.float32[::1],  # rotation cos, sin
-    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1],  # points, normals; out
-)
+    nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean[::1], nb.float32[::1],  # points,
+)  # normals, active; out
 
 
 @nb.njit(_VIS, **_OPTIONS)
 def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker_disc,
-               pcf_disc, hard_disc, reaches, rot_cos, rot_sin, points, normals, out):
+               pcf_disc, hard_disc, reaches, rot_cos, rot_sin, points, normals, active, out):
     """Fraction of the light that reaches each point (``shadows.shadow_visibility``):
-    ``out`` (N,) for points (N, 3) and normals (N, 3); points outside every map, and points
-    with non-finite coordinates, are lit (1)."""
+    ``out`` (N,) for points (N, 3) and normals (N, 3) where ``active`` (N,) (elsewhere 1);
+    points outside every map, and points with non-finite coordinates, are lit (1)."""
     fr = np.zeros(F_SIZE, np.float32)
     bits = points.view(np.uint32)
     ortho = ip[I_KIND] == ORTHO
@@ -523,7 +523,7 @@ def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
         out[i] = np.float32(1.0)
-        if not np.isfinite(px + py + pz + nx + ny + nz):
+        if not active[i] or not np.isfinite(px + py + pz + nx + ny + nz):
             continue
         if ortho:
             ok = _setup_ortho(fr, fp, ip, basis, rects, px, py, pz, nx, ny, nz)
