@@ -10,7 +10,8 @@
   the tile to the whole viewport, so memory depends on the tile size, not the resolution.
 - Deferred: only visible points are shaded, once per pixel and triangle (see ``_render_tile``).
 - Threads: tiles (and the lights' shadow maps) are rendered on ``settings.threads`` threads at
-  once; NumPy releases the GIL inside its loops, so they run on separate cores.
+  once; the compiled kernels (``kernels``) and NumPy's loops release Python's lock, so they run
+  on separate cores.
 
 Passes: the table of ``passes.py``. Depth and IndexMA come from one sample, the one nearest the
 pixel centre, as Cycles writes them from one sample; the others are averaged over every sample,
