@@ -155,6 +155,17 @@ def _drop_broken(positions, normals, uvs, has_uv, holdout, mat_index, warn):
             has_uv[keep], holdout[keep], mat_index[keep])
 
 
+def _project(positions: np.ndarray, camera) -> np.ndarray:
+    """(T, 3, 4) float32 clip-space corners of (T, 3, 3) world corners seen by ``camera``."""
+    from .kernels import raster as kernels
+
+    clip = np.empty(positions.shape[:2] + (4,), np.float32)
+    kernels.project(np.ascontiguousarray(positions, np.float32),
+                    np.ascontiguousarray(camera.projection @ camera.world_to_camera, np.float64),
+                    clip)
+    return clip
+
+
 def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
             should_stop: Callable[[], bool] | None = None, shadow_maps: list | None = None,
             fit_shadows: bool = True) -> Frame:
@@ -186,9 +197,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         positions, normals, uvs.astype(np.float32), has_uv, holdout, mat_index, warn)
 
     cam = scene.camera
-    view_proj = cam.projection @ cam.world_to_camera
-    homog = np.concatenate([positions, np.ones(positions.shape[:2] + (1,), np.float32)], -1)
-    clip = (homog.astype(np.float64) @ view_proj.T).astype(np.float32)
+    clip = _project(positions, cam)
     cull_t = np.array([m.backface_culling for m in mats], bool)
     cull = cull_t[mat_index] if cull_t.any() else None
 
@@ -211,10 +220,8 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
 def with_camera(frame: Frame, camera) -> Frame:
     """``frame`` seen through another camera: only the projection is redone (same geometry,
     materials and shadow maps)."""
-    m = (camera.projection @ camera.world_to_camera).astype(np.float32)
-    clip = frame.positions @ m[:, :3].T + m[:, 3]
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
-                               clip=clip)
+                               clip=_project(frame.positions, camera))
 
 
 def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
@@ -276,18 +283,26 @@ def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.Surface
     return params
 
 
-def _raster(frame: Frame, tile, offset):
-    """One sample position over one tile: (tri, bary, depth) per pixel, flattened, and the
-    sample's window coordinates sx, sy (npx,) in the whole frame."""
+def _margin(frame: Frame, tile) -> tuple[int, np.ndarray]:
+    """The tile grown by the filter's reach (samples drawn from the pixel filter land up to its
+    width beyond their pixel, so triangles next to the tile must not be rejected): the margin
+    m, pixels, and the clip coordinates that map the grown tile to the viewport."""
+    cam = frame.scene.camera
+    x0, y0, x1, y1 = tile
+    m = int(np.ceil(frame.scene.settings.filter_width))
+    return m, tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
+
+
+def _raster(frame: Frame, tile, margin: tuple[int, np.ndarray], offset):
+    """One sample position over one tile (``margin``: ``_margin`` of the tile): (tri, bary,
+    depth) per pixel, flattened, and the sample's window coordinates sx, sy (npx,) in the
+    whole frame."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
-    # Filter-distributed samples reach up to the filter width beyond their pixel: rasterize a
-    # margin around the tile so that no triangle next to the tile is rejected.
-    m = int(np.ceil(frame.scene.settings.filter_width))
-    margin = (x0 - m, y0 - m, x1 + m, y1 + m)
-    frags = raster.rasterize(tile_clip(frame.clip, cam.width, cam.height, margin),
-                             tw + 2 * m, th + 2 * m, cull=frame.cull, sample_offset=tuple(offset))
+    m, clip = margin
+    frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=frame.cull,
+                             sample_offset=tuple(offset))
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     bary = frags.bary[inner].reshape(-1, 3)
@@ -387,9 +402,10 @@ def _render_tile(frame: Frame, tile, offsets, tick):
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
     points = []  # per sample: (tri, bary, sx, sy, pixel) of the points it shades
+    margin = _margin(frame, tile)
     for k, offset in enumerate(offsets):
         tick()
-        tri, bary, depth, sx, sy = _raster(frame, tile, offset)
+        tri, bary, depth, sx, sy = _raster(frame, tile, margin, offset)
         covered = tri >= 0
         hit = covered.copy()
         if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind

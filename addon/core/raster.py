@@ -4,7 +4,8 @@ The output is the visibility part of a G-buffer: for every pixel, the index of t
 triangle, the perspective-correct barycentric weights of its three corners and the view depth.
 Materials and shading read attributes through ``interpolate`` (deferred shading).
 
-Method (steps 1 and 2 vectorized in NumPy, steps 3 to 5 compiled: ``kernels/raster.py``):
+Method (step 1's trivial rejection and steps 3 to 5 compiled, ``kernels/raster.py``; the rest of
+steps 1 and 2 vectorized in NumPy):
 
 1. Trivial rejection of triangles outside one plane of the clip-space frustum (per-corner
    outcodes), then clipping in homogeneous coordinates (Sutherland & Hodgman 1974; Blinn &
@@ -219,8 +220,6 @@ class _Setup:
     sub_index: np.ndarray | None = None  # (N,) intp row of sub_bary where clipped
 
 
-_ALL_FOUR = np.array([1, 1, 1, 1], np.uint8).view(np.uint32)[0]
-_ALL_BUT_W = np.array([1, 1, 1, 0], np.uint8).view(np.uint32)[0]
 
 
 def _take_columns(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
@@ -238,18 +237,11 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
     n_tri = clip.shape[0]
 
     # 1. Reject non-finite and out-of-frustum triangles; clip against near plane and guard band.
-    finite = np.isfinite(clip).view(np.uint32)[:, :, 0]  # one byte per coordinate
-    finite = (finite[:, 0] & finite[:, 1] & finite[:, 2]) == _ALL_FOUR
-    n_nan = int(n_tri - np.count_nonzero(finite))
-    with np.errstate(invalid="ignore"):
-        w = np.repeat(clip[:, :, 3:4], 4, axis=2)
-        # per-corner outcodes, one byte per coordinate (w's byte masked out): x, y, z > w, < -w
-        above = (clip > w).view(np.uint32)[:, :, 0]
-        below = (clip < np.negative(w, out=w)).view(np.uint32)[:, :, 0]
-    above = above[:, 0] & above[:, 1] & above[:, 2]
-    below = below[:, 0] & below[:, 1] & below[:, 2]
-    outside = ((below & _ALL_BUT_W) | above) != 0
-    orig = np.flatnonzero(finite & ~outside)
+    from .kernels import raster as kernels
+
+    orig = np.empty(n_tri, np.int64)
+    count, n_nan = kernels.survivors(clip, orig)
+    orig = orig[:count]
     if orig.size == 0:
         return _Setup(0, n_nan)
     # (12, M) float64: row 4 c + k is coordinate k (x, y, z, w) of corner c

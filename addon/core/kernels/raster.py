@@ -6,7 +6,8 @@ exactness argument and the references; ``raster._setup`` prepares their input).
 three edge functions (exact: integer floor divisions, or float64 where the quotient is provably
 exact), and keeps the smallest packed key (quantized depth, triangle index) of every pixel.
 ``resolve`` turns every pixel's key into the original triangle, perspective-correct weights and
-clip w.
+clip w. ``project`` takes world corners to clip space; ``survivors`` is step 1's trivial
+rejection (non-finite corners, triangles wholly beyond one frustum plane).
 """
 
 from __future__ import annotations
@@ -125,3 +126,54 @@ def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width,
         else:
             for i in range(3):
                 bary_out[p, i] = q[i] * inv
+
+
+@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
+def project(positions, matrix, clip):
+    """Clip-space corners ``clip`` (T, 3, 4) of world corners ``positions`` (T, 3, 3) through
+    the 4 x 4 ``matrix``: each coordinate summed in float64 in the order x, y, z, w, then
+    rounded to float32."""
+    for t in range(positions.shape[0]):
+        for c in range(3):
+            x = np.float64(positions[t, c, 0])
+            y = np.float64(positions[t, c, 1])
+            z = np.float64(positions[t, c, 2])
+            for r in range(4):
+                clip[t, c, r] = np.float32(((x * matrix[r, 0] + y * matrix[r, 1])
+                                            + z * matrix[r, 2]) + matrix[r, 3])
+
+
+_COUNTS = nb.types.UniTuple(nb.int64, 2)
+
+
+@nb.njit([_COUNTS(nb.float32[:, :, ::1], nb.int64[::1]),
+          _COUNTS(nb.float64[:, :, ::1], nb.int64[::1])], **_OPTIONS)
+def survivors(clip, orig):
+    """Step 1's trivial rejection: writes to ``orig`` the indices of the triangles of ``clip``
+    (T, 3, 4) that have finite corners and are not wholly beyond one plane of the frustum
+    (x, y or z above w, or below -w, at all three corners); returns their count and the
+    count of triangles with a non-finite corner."""
+    n = 0
+    n_nan = 0
+    for t in range(clip.shape[0]):
+        finite = True
+        for c in range(3):
+            for k in range(4):
+                if not np.isfinite(clip[t, c, k]):
+                    finite = False
+        if not finite:
+            n_nan += 1
+            continue
+        outside = False
+        for k in range(3):
+            above = True
+            below = True
+            for c in range(3):
+                w = clip[t, c, 3]
+                above = above and clip[t, c, k] > w
+                below = below and clip[t, c, k] < -w
+            outside = outside or above or below
+        if not outside:
+            orig[n] = t
+            n += 1
+    return n, n_nan
