@@ -113,13 +113,14 @@ def main() -> None:
     tile = (703, 283, 1217, 797)  # a 512x512 tile near the centre and its one-pixel margin
     for name, clip in (("random", random_triangles(100_000, 1920, 1080)), ("grid mesh", grid)):
         cull = np.random.default_rng(1).random(len(clip)) < 0.5
+        in_tile, index = pipeline.tile_clip(clip, 1920, 1080, tile)
         run_case(
             f"1e5 {name}, 514 px tile, culled",
-            pipeline.tile_clip(clip, 1920, 1080, tile),
+            in_tile,
             514,
             514,
             args.repeat,
-            cull=cull,
+            cull=cull[index],
             sample_offset=(0.83, 0.21),
         )
     run_case("grid mesh, shadow-map face", grid, 1024, 1024, args.repeat)

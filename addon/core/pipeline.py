@@ -233,15 +233,25 @@ def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
             for y in range(by0, by1, size) for x in range(bx0, bx1, size)]
 
 
-def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> np.ndarray:
-    """Clip coordinates re-projected so that ``tile`` fills the viewport."""
+def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarray, np.ndarray]:
+    """Clip coordinates re-projected so that ``tile`` fills the viewport, of the triangles that
+    may touch it (the others lie wholly beyond one plane of its frustum).
+
+    clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``)
+    returns: (K, 3, 4) float32 clip coordinates and (K,) int64 indices into ``clip``, increasing
+    """
+    from .kernels import raster as kernels
+
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
-    out = clip.copy()
-    w = clip[..., 3]
-    out[..., 0] = clip[..., 0] * (width / tw) + w * ((width - 2.0 * x0) / tw - 1.0)
-    out[..., 1] = clip[..., 1] * (height / th) + w * (1.0 - height / th + 2.0 * y0 / th)
-    return out
+    clip = np.ascontiguousarray(clip, np.float32)
+    out = np.empty_like(clip)
+    index = np.empty(len(clip), np.int64)
+    count = kernels.tile_survivors(clip, np.float32(width / tw),
+                                   np.float32((width - 2.0 * x0) / tw - 1.0),
+                                   np.float32(height / th),
+                                   np.float32(1.0 - height / th + 2.0 * y0 / th), out, index)
+    return out[:count], index[:count]
 
 
 def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -283,28 +293,31 @@ def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.Surface
     return params
 
 
-def _margin(frame: Frame, tile) -> tuple[int, np.ndarray]:
+def _margin(frame: Frame, tile):
     """The tile grown by the filter's reach (samples drawn from the pixel filter land up to its
     width beyond their pixel, so triangles next to the tile must not be rejected): the margin
-    m, pixels, and the clip coordinates that map the grown tile to the viewport."""
+    m, pixels, and ``tile_clip`` of the grown tile with the culling flags of its triangles."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     m = int(np.ceil(frame.scene.settings.filter_width))
-    return m, tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
+    clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
+    return m, clip, index, None if frame.cull is None else frame.cull[index]
 
 
-def _raster(frame: Frame, tile, margin: tuple[int, np.ndarray], offset):
+def _raster(frame: Frame, tile, margin, offset):
     """One sample position over one tile (``margin``: ``_margin`` of the tile): (tri, bary,
     depth) per pixel, flattened, and the sample's window coordinates sx, sy (npx,) in the
     whole frame."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
-    m, clip = margin
-    frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=frame.cull,
+    m, clip, index, cull = margin
+    frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=cull,
                              sample_offset=tuple(offset))
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
+    if len(index):  # the subset's triangles -> the frame's
+        tri = np.where(tri >= 0, index.take(tri, mode="clip"), -1).astype(np.int32)
     bary = frags.bary[inner].reshape(-1, 3)
     depth = frags.depth[inner].reshape(-1)
     if cam.orthographic:  # clip w is 1: the view-axis distance comes from the corners' view z

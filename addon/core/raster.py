@@ -64,7 +64,6 @@ __all__ = ["Fragments", "coverage", "interpolate", "rasterize"]
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
 _FIXED_BITS = 29
 _FLOAT_SPANS = 1 << 20  # images under this side get their spans in float64 (exact: see step 3)
-_NEVER = 2.0**-40  # |A| standing in for a horizontal edge: its bound is +-2^39 columns
 _KEEP_BYTES = 1 << 28  # largest set-up kept for the next call
 
 
@@ -201,7 +200,7 @@ class _Setup:
     eb: np.ndarray | None = None
     ec: np.ndarray | None = None
     eb_f: np.ndarray | None = None  # (3, N) float64 eb
-    ea_abs: np.ndarray | None = None  # (3, N) float64 |ea|, _NEVER where ea == 0
+    ea_abs: np.ndarray | None = None  # (3, N) float64 |ea|, kernels.raster.NEVER where ea == 0
     half: np.ndarray | None = None  # (3, N) float64 0.5 where ea == 0
     off_lo: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the left, else -inf
     off_hi: np.ndarray | None = None  # (N,) float64 0 where edge 2 bounds on the right, else -inf
@@ -269,18 +268,14 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         v, orig, sub_index = _take_columns(v, order), orig[order], sub_index[order]
 
     # 2. Window coordinates (y down), (3, M): float64 for interpolation, fixed point for coverage.
-    cw = v[3::4]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        usable = (cw[0] > 0.0) & (cw[1] > 0.0) & (cw[2] > 0.0)
-        inv_w = 1.0 / np.where(usable, cw, 1.0)
-        px = (v[0::4] * inv_w + 1.0) * (0.5 * width)
-        py = (1.0 - v[1::4] * inv_w) * (0.5 * height)
-        zn = v[2::4] * inv_w
-    del v, cw
-    lim = float(2 ** (guard_bits + sub_bits) + unit)
-    xi = np.rint(np.clip(px * unit, -lim, lim)).astype(np.int64)
-    yi = np.rint(np.clip(py * unit, -lim, lim)).astype(np.int64)
-    area2 = (xi[1] - xi[0]) * (yi[2] - yi[0]) - (xi[2] - xi[0]) * (yi[1] - yi[0])
+    m = v.shape[1]
+    xi, yi = np.empty((3, m), np.int64), np.empty((3, m), np.int64)
+    px, py, zn, inv_w = (np.empty((3, m)) for _ in range(4))
+    usable, area2 = np.empty(m, bool), np.empty(m, np.int64)
+    kernels.window(np.ascontiguousarray(v), width, height, unit,
+                   float(2 ** (guard_bits + sub_bits) + unit), xi, yi, px, py, zn, inv_w, usable,
+                   area2)
+    del v
     ok = usable & (area2 != 0)
     n_degenerate = 0
     if not ok.all():
@@ -305,40 +300,19 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
     slot = np.empty(n_sub, np.intp)
     slot[order] = np.arange(n_sub)
     sel = keep.take(order)
-    orig, area2 = orig.take(sel), area2.take(sel)
-    xi, yi, px, py, zn, inv_w = (_take_columns(a, sel) for a in (xi, yi, px, py, zn, inv_w))
-
-    sign = np.where(area2 > 0, 1, -1)
-    p1, p2 = [1, 2, 0], [2, 0, 1]  # edge i runs from corner i+1 to corner i+2
-    ea = (yi[p1] - yi[p2]) * sign
-    eb = (xi[p2] - xi[p1]) * sign
-    ec = (xi[p1] * yi[p2] - yi[p1] * xi[p2]) * sign
-    ec += (ea > 0) | ((ea == 0) & (eb > 0))  # top-left rule: E == 0 is inside on these edges
-    # edges in slots (left, right, either): ea > 0 and ea < 0 both occur in every triangle
-    slot0 = np.argmax(ea > 0, axis=0)
-    slot1 = np.argmax(ea < 0, axis=0)
-    perm = np.stack([slot0, slot1, 3 - slot0 - slot1]) * n_sub + np.arange(n_sub)
-    ea, eb, ec = (a.reshape(-1).take(perm) for a in (ea, eb, ec))
-    flat = ea == 0
-    # float64 screen-space barycentrics l_i = la_i x + lb_i y + lc_i, from corner 0
-    e1x, e1y = px[1] - px[0], py[1] - py[0]
-    e2x, e2y = px[2] - px[0], py[2] - py[0]
-    fa = e1x * e2y - e2x * e1y
-    inv_a = np.divide(1.0, fa, out=np.zeros_like(fa), where=fa != 0.0)
-    la = np.stack([np.zeros_like(fa), e2y * inv_a, -e1y * inv_a])
-    lb = np.stack([np.zeros_like(fa), -e2x * inv_a, e1x * inv_a])
-    lc = -la * px[0] - lb * py[0]
-    la[0], lb[0], lc[0] = -la[1] - la[2], -lb[1] - lb[2], 1.0 - lc[1] - lc[2]
-    zs = (zn + 1.0) * (0.5 * qmax)
-    za, zb, zc = (la * zs).sum(0), (lb * zs).sum(0), (lc * zs).sum(0)
+    orig = orig.take(sel)
+    ea, eb, ec = (np.empty((3, n_sub), np.int64) for _ in range(3))
+    eb_f, ea_abs, half = (np.empty((3, n_sub)) for _ in range(3))
+    off_lo, off_hi, za, zb, zc = (np.empty(n_sub) for _ in range(5))
+    tame = np.empty(n_sub, bool)
+    table = np.empty((9, n_sub))
     # u is affine: on the snapped triangle (which holds the covered samples) it lies between its
     # values at the snapped corners. Where those are in [0, qmax] by far more than any rounding
     # of u (at the corners, inside the guard band, and at the samples), the fragments need no
     # far-plane test and no clamp.
-    with np.errstate(invalid="ignore", over="ignore"):
-        u = za * (xi / unit) + zb * (yi / unit) + zc
-        err = (np.abs(za) + np.abs(zb)) * 2.0 ** (guard_bits - 38) + np.abs(zc) * 2.0**-46
-        tame = (u.min(0) - err >= 0.0) & (u.max(0) + err <= qmax)
+    kernels.edges(keep.astype(np.int64), slot.astype(np.int64), xi, yi, px, py, zn, inv_w,
+                  area2, unit, qmax, 2.0 ** (guard_bits - 38), 2.0**-46, ea, eb, ec, eb_f,
+                  ea_abs, half, off_lo, off_hi, za, zb, zc, tame, table)
     if sub_index is None:
         clipped = np.zeros(n_sub, bool)
         sub_bary, sub_index = np.zeros((1, 3, 3)), np.zeros(n_sub, np.intp)
@@ -357,11 +331,11 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         ea=ea,
         eb=eb,
         ec=ec,
-        eb_f=eb.astype(np.float64),
-        ea_abs=np.where(flat, _NEVER, np.abs(ea).astype(np.float64)),
-        half=np.where(flat, 0.5, 0.0),
-        off_lo=np.where(ea[2] >= 0, 0.0, -np.inf),
-        off_hi=np.where(ea[2] >= 0, -np.inf, 0.0),
+        eb_f=eb_f,
+        ea_abs=ea_abs,
+        half=half,
+        off_lo=off_lo,
+        off_hi=off_hi,
         ymin=ymin,
         rows=rows,
         za=za,
@@ -369,7 +343,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         zc=zc,
         tame=tame,
         all_tame=bool(tame.all()),
-        table=np.concatenate([la * inv_w, lb * inv_w, lc * inv_w]),
+        table=table,
         orig=orig.astype(np.int32),
         clipped=clipped,
         any_clipped=bool(clipped.any()),

@@ -18,6 +18,7 @@ import numpy as np
 _OPTIONS = {"cache": True, "nogil": True}
 EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
 _FAR_COLUMN = 2.0**39  # the bound of a horizontal edge: beyond any image
+NEVER = 2.0**-40  # |A| standing in for a horizontal edge: its bound is +-2^39 columns
 
 _SCAN = nb.void(
     nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[:, ::1],  # ea, eb, ec (3, N)
@@ -177,3 +178,154 @@ def survivors(clip, orig):
             orig[n] = t
             n += 1
     return n, n_nan
+
+
+_I3 = nb.int64[:, ::1]
+_D3 = nb.float64[:, ::1]
+
+
+@nb.njit(nb.void(_D3, nb.int64, nb.int64, nb.int64, nb.float64, _I3, _I3, _D3, _D3, _D3, _D3,
+                 nb.boolean[::1], nb.int64[::1]), **_OPTIONS)
+def window(v, width, height, unit, lim, xi, yi, px, py, zn, inv_w, usable, area2):
+    """Step 2's window coordinates of the (clipped) triangles, corners c = 0, 1, 2 of column t
+    of ``v`` (12, M) (row 4 c + k: clip coordinate k): float64 ``px``, ``py`` (y down), NDC
+    z ``zn`` and 1 / w ``inv_w`` (3, M) (1 where some corner has w <= 0: ``usable`` False),
+    fixed-point ``xi``, ``yi`` (3, M) (rounded half to even, clamped to +-``lim``), and twice
+    the fixed-point signed area ``area2`` (M,)."""
+    half_w, half_h = 0.5 * width, 0.5 * height
+    for t in range(v.shape[1]):
+        ok = v[3, t] > 0.0 and v[7, t] > 0.0 and v[11, t] > 0.0
+        usable[t] = ok
+        for c in range(3):
+            iw = 1.0 / (v[4 * c + 3, t] if ok else 1.0)
+            inv_w[c, t] = iw
+            x = (v[4 * c, t] * iw + 1.0) * half_w
+            y = (1.0 - v[4 * c + 1, t] * iw) * half_h
+            px[c, t], py[c, t] = x, y
+            zn[c, t] = v[4 * c + 2, t] * iw
+            xi[c, t] = np.int64(np.rint(min(max(x * unit, -lim), lim)))
+            yi[c, t] = np.int64(np.rint(min(max(y * unit, -lim), lim)))
+        area2[t] = ((xi[1, t] - xi[0, t]) * (yi[2, t] - yi[0, t])
+                    - (xi[2, t] - xi[0, t]) * (yi[1, t] - yi[0, t]))
+
+
+_EDGES = nb.void(
+    nb.int64[::1], nb.int64[::1], _I3, _I3, _D3, _D3, _D3, _D3, nb.int64[::1],  # keep, slot;
+    # xi, yi, px, py, zn, inv_w (3, M), area2 (M,)
+    nb.int64, nb.float64, nb.float64, nb.float64,  # unit, qmax, err_ab, err_c
+    _I3, _I3, _I3, _D3, _D3, _D3,  # out: ea, eb, ec, eb_f, ea_abs, half (3, N)
+    nb.float64[::1], nb.float64[::1],  # off_lo, off_hi (N,)
+    nb.float64[::1], nb.float64[::1], nb.float64[::1], nb.boolean[::1], _D3,  # za, zb, zc, tame,
+)  # table (9, N)
+
+
+@nb.njit(_EDGES, **_OPTIONS)
+def edges(keep, slot, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err_c, ea, eb, ec,
+          eb_f, ea_abs, half, off_lo, off_hi, za, zb, zc, tame, table):
+    """Step 2's edge functions and step 3's planes of the triangles ``keep`` (N,) (columns of
+    ``window``'s output), written to column ``slot`` (N,) (scan order): edges in slots (left
+    ea > 0, right ea < 0, either), the top-left rule's 1 added to ec; the float64 screen-space
+    barycentric planes (divided by w in ``table``: qa_i, qb_i, qc_i of ``raster._Setup``), the
+    key-depth plane za, zb, zc and ``tame`` (the corners' key depths inside [0, qmax] by more
+    than err_ab (|za| + |zb|) + err_c |zc|); NumPy's order of operations throughout."""
+    p1 = (1, 2, 0)
+    p2 = (2, 0, 1)
+    e_a = np.empty(3, np.int64)
+    e_b = np.empty(3, np.int64)
+    e_c = np.empty(3, np.int64)
+    la = np.empty(3)
+    lb = np.empty(3)
+    lc = np.empty(3)
+    for q in range(keep.shape[0]):
+        t, j = keep[q], slot[q]
+        sign = np.int64(1) if area2[t] > 0 else np.int64(-1)
+        for i in range(3):
+            a, b = p1[i], p2[i]
+            e_a[i] = (yi[a, t] - yi[b, t]) * sign
+            e_b[i] = (xi[b, t] - xi[a, t]) * sign
+            e_c[i] = (xi[a, t] * yi[b, t] - yi[a, t] * xi[b, t]) * sign
+            if e_a[i] > 0 or (e_a[i] == 0 and e_b[i] > 0):
+                e_c[i] += 1
+        s0 = 0
+        while s0 < 2 and not e_a[s0] > 0:
+            s0 += 1
+        if not e_a[s0] > 0:
+            s0 = 0
+        s1 = 0
+        while s1 < 2 and not e_a[s1] < 0:
+            s1 += 1
+        if not e_a[s1] < 0:
+            s1 = 0
+        for k in range(3):
+            s = s0 if k == 0 else (s1 if k == 1 else 3 - s0 - s1)
+            ea[k, j], eb[k, j], ec[k, j] = e_a[s], e_b[s], e_c[s]
+            eb_f[k, j] = np.float64(e_b[s])
+            flat = e_a[s] == 0
+            ea_abs[k, j] = NEVER if flat else np.float64(abs(e_a[s]))
+            half[k, j] = 0.5 if flat else 0.0
+        off_lo[j] = 0.0 if ea[2, j] >= 0 else -np.inf
+        off_hi[j] = -np.inf if ea[2, j] >= 0 else 0.0
+        e1x, e1y = px[1, t] - px[0, t], py[1, t] - py[0, t]
+        e2x, e2y = px[2, t] - px[0, t], py[2, t] - py[0, t]
+        fa = e1x * e2y - e2x * e1y
+        inv_a = 1.0 / fa if fa != 0.0 else 0.0
+        la[1], la[2] = e2y * inv_a, -e1y * inv_a
+        lb[1], lb[2] = -e2x * inv_a, e1x * inv_a
+        for i in (1, 2):
+            lc[i] = -la[i] * px[0, t] - lb[i] * py[0, t]
+        la[0], lb[0], lc[0] = -la[1] - la[2], -lb[1] - lb[2], 1.0 - lc[1] - lc[2]
+        a_sum = b_sum = c_sum = 0.0
+        for i in range(3):
+            zs = (zn[i, t] + 1.0) * (0.5 * qmax)
+            a_sum = a_sum + la[i] * zs if i else la[i] * zs
+            b_sum = b_sum + lb[i] * zs if i else lb[i] * zs
+            c_sum = c_sum + lc[i] * zs if i else lc[i] * zs
+        za[j], zb[j], zc[j] = a_sum, b_sum, c_sum
+        err = (abs(a_sum) + abs(b_sum)) * err_ab + abs(c_sum) * err_c
+        ok = True
+        for c in range(3):
+            u = (a_sum * (xi[c, t] / unit) + b_sum * (yi[c, t] / unit)) + c_sum
+            ok = ok and u - err >= 0.0 and u + err <= qmax
+        tame[j] = ok
+        for i in range(3):
+            table[i, j] = la[i] * inv_w[i, t]
+            table[3 + i, j] = lb[i] * inv_w[i, t]
+            table[6 + i, j] = lc[i] * inv_w[i, t]
+
+
+@nb.njit(nb.int64(nb.float32[:, :, ::1], nb.float32, nb.float32, nb.float32, nb.float32,
+                  nb.float32[:, :, ::1], nb.int64[::1]), **_OPTIONS)
+def tile_survivors(clip, ax, bx, ay, by, out, orig):
+    """Re-project ``clip`` (T, 3, 4) so that a tile fills the viewport (x' = x ax + w bx,
+    y' = y ay + w by, float32) and keep the triangles ``survivors`` keeps: their corners in
+    ``out`` and their indices in ``orig``, in order; returns their count."""
+    n = 0
+    corner = np.empty((3, 4), np.float32)
+    for t in range(clip.shape[0]):
+        finite = True
+        for c in range(3):
+            w = clip[t, c, 3]
+            corner[c, 0] = clip[t, c, 0] * ax + w * bx
+            corner[c, 1] = clip[t, c, 1] * ay + w * by
+            corner[c, 2] = clip[t, c, 2]
+            corner[c, 3] = w
+            for k in range(4):
+                if not np.isfinite(corner[c, k]):
+                    finite = False
+        if not finite:
+            continue
+        outside = False
+        for k in range(3):
+            above = True
+            below = True
+            for c in range(3):
+                above = above and corner[c, k] > corner[c, 3]
+                below = below and corner[c, k] < -corner[c, 3]
+            outside = outside or above or below
+        if not outside:
+            for c in range(3):
+                for k in range(4):
+                    out[n, c, k] = corner[c, k]
+            orig[n] = t
+            n += 1
+    return n
