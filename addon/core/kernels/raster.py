@@ -228,69 +228,56 @@ def edges(keep, slot, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err_
     barycentric planes (divided by w in ``table``: qa_i, qb_i, qc_i of ``raster._Setup``), the
     key-depth plane za, zb, zc and ``tame`` (the corners' key depths inside [0, qmax] by more
     than err_ab (|za| + |zb|) + err_c |zc|); NumPy's order of operations throughout."""
-    p1 = (1, 2, 0)
-    p2 = (2, 0, 1)
-    e_a = np.empty(3, np.int64)
-    e_b = np.empty(3, np.int64)
-    e_c = np.empty(3, np.int64)
-    la = np.empty(3)
-    lb = np.empty(3)
-    lc = np.empty(3)
     for q in range(keep.shape[0]):
         t, j = keep[q], slot[q]
         sign = np.int64(1) if area2[t] > 0 else np.int64(-1)
-        for i in range(3):
-            a, b = p1[i], p2[i]
-            e_a[i] = (yi[a, t] - yi[b, t]) * sign
-            e_b[i] = (xi[b, t] - xi[a, t]) * sign
-            e_c[i] = (xi[a, t] * yi[b, t] - yi[a, t] * xi[b, t]) * sign
-            if e_a[i] > 0 or (e_a[i] == 0 and e_b[i] > 0):
-                e_c[i] += 1
-        s0 = 0
-        while s0 < 2 and not e_a[s0] > 0:
-            s0 += 1
-        if not e_a[s0] > 0:
-            s0 = 0
-        s1 = 0
-        while s1 < 2 and not e_a[s1] < 0:
-            s1 += 1
-        if not e_a[s1] < 0:
-            s1 = 0
+        x0, x1, x2 = xi[0, t], xi[1, t], xi[2, t]
+        y0, y1, y2 = yi[0, t], yi[1, t], yi[2, t]
+        # edge i runs from corner i + 1 to corner i + 2
+        a0, b0, c0 = (y1 - y2) * sign, (x2 - x1) * sign, (x1 * y2 - y1 * x2) * sign
+        a1, b1, c1 = (y2 - y0) * sign, (x0 - x2) * sign, (x2 * y0 - y2 * x0) * sign
+        a2, b2, c2 = (y0 - y1) * sign, (x1 - x0) * sign, (x0 * y1 - y0 * x1) * sign
+        c0 += 1 if a0 > 0 or (a0 == 0 and b0 > 0) else 0  # top-left rule
+        c1 += 1 if a1 > 0 or (a1 == 0 and b1 > 0) else 0
+        c2 += 1 if a2 > 0 or (a2 == 0 and b2 > 0) else 0
+        s0 = 0 if a0 > 0 else (1 if a1 > 0 else (2 if a2 > 0 else 0))  # first ea > 0
+        s1 = 0 if a0 < 0 else (1 if a1 < 0 else (2 if a2 < 0 else 0))  # first ea < 0
         for k in range(3):
             s = s0 if k == 0 else (s1 if k == 1 else 3 - s0 - s1)
-            ea[k, j], eb[k, j], ec[k, j] = e_a[s], e_b[s], e_c[s]
-            eb_f[k, j] = np.float64(e_b[s])
-            flat = e_a[s] == 0
-            ea_abs[k, j] = NEVER if flat else np.float64(abs(e_a[s]))
-            half[k, j] = 0.5 if flat else 0.0
+            ek, fk, gk = (a0, b0, c0) if s == 0 else ((a1, b1, c1) if s == 1 else (a2, b2, c2))
+            ea[k, j], eb[k, j], ec[k, j] = ek, fk, gk
+            eb_f[k, j] = np.float64(fk)
+            ea_abs[k, j] = NEVER if ek == 0 else np.float64(abs(ek))
+            half[k, j] = 0.5 if ek == 0 else 0.0
         off_lo[j] = 0.0 if ea[2, j] >= 0 else -np.inf
         off_hi[j] = -np.inf if ea[2, j] >= 0 else 0.0
-        e1x, e1y = px[1, t] - px[0, t], py[1, t] - py[0, t]
-        e2x, e2y = px[2, t] - px[0, t], py[2, t] - py[0, t]
+        qx, qy = px[0, t], py[0, t]
+        e1x, e1y = px[1, t] - qx, py[1, t] - qy
+        e2x, e2y = px[2, t] - qx, py[2, t] - qy
         fa = e1x * e2y - e2x * e1y
         inv_a = 1.0 / fa if fa != 0.0 else 0.0
-        la[1], la[2] = e2y * inv_a, -e1y * inv_a
-        lb[1], lb[2] = -e2x * inv_a, e1x * inv_a
-        for i in (1, 2):
-            lc[i] = -la[i] * px[0, t] - lb[i] * py[0, t]
-        la[0], lb[0], lc[0] = -la[1] - la[2], -lb[1] - lb[2], 1.0 - lc[1] - lc[2]
-        a_sum = b_sum = c_sum = 0.0
-        for i in range(3):
-            zs = (zn[i, t] + 1.0) * (0.5 * qmax)
-            a_sum = a_sum + la[i] * zs if i else la[i] * zs
-            b_sum = b_sum + lb[i] * zs if i else lb[i] * zs
-            c_sum = c_sum + lc[i] * zs if i else lc[i] * zs
-        za[j], zb[j], zc[j] = a_sum, b_sum, c_sum
-        err = (abs(a_sum) + abs(b_sum)) * err_ab + abs(c_sum) * err_c
+        la1, la2 = e2y * inv_a, -e1y * inv_a
+        lb1, lb2 = -e2x * inv_a, e1x * inv_a
+        lc1 = -la1 * qx - lb1 * qy
+        lc2 = -la2 * qx - lb2 * qy
+        la0, lb0, lc0 = -la1 - la2, -lb1 - lb2, 1.0 - lc1 - lc2
+        zs0 = (zn[0, t] + 1.0) * (0.5 * qmax)
+        zs1 = (zn[1, t] + 1.0) * (0.5 * qmax)
+        zs2 = (zn[2, t] + 1.0) * (0.5 * qmax)
+        pa = (la0 * zs0 + la1 * zs1) + la2 * zs2
+        pb = (lb0 * zs0 + lb1 * zs1) + lb2 * zs2
+        pc = (lc0 * zs0 + lc1 * zs1) + lc2 * zs2
+        za[j], zb[j], zc[j] = pa, pb, pc
+        err = (abs(pa) + abs(pb)) * err_ab + abs(pc) * err_c
         ok = True
         for c in range(3):
-            u = (a_sum * (xi[c, t] / unit) + b_sum * (yi[c, t] / unit)) + c_sum
+            u = (pa * (xi[c, t] / unit) + pb * (yi[c, t] / unit)) + pc
             ok = ok and u - err >= 0.0 and u + err <= qmax
         tame[j] = ok
-        for i in range(3):
-            table[i, j] = la[i] * inv_w[i, t]
-            table[3 + i, j] = lb[i] * inv_w[i, t]
-            table[6 + i, j] = lc[i] * inv_w[i, t]
+        w0, w1, w2 = inv_w[0, t], inv_w[1, t], inv_w[2, t]
+        table[0, j], table[1, j], table[2, j] = la0 * w0, la1 * w1, la2 * w2
+        table[3, j], table[4, j], table[5, j] = lb0 * w0, lb1 * w1, lb2 * w2
+        table[6, j], table[7, j], table[8, j] = lc0 * w0, lc1 * w1, lc2 * w2
 
 
 @nb.njit(nb.int64(nb.float32[:, :, ::1], nb.float32, nb.float32, nb.float32, nb.float32,
