@@ -73,6 +73,7 @@ class Fragments:
 
     tri:   (H, W) int32 index of the original triangle, -1 where nothing covers the pixel
     bary:  (H, W, 3) float32 perspective-correct weights of that triangle's corners, 0 where empty
+           (None when ``rasterize`` was asked for no weights)
     depth: (H, W) float32 clip-space w of the fragment (view-space distance along the camera
            axis, scene units; 1 for an orthographic projection), +inf where empty
     skipped_degenerate: triangles skipped because they have zero area in window space (after
@@ -391,6 +392,7 @@ def rasterize(
     *,
     cull=None,
     sample_offset=(0.5, 0.5),
+    weights: bool = True,
 ) -> Fragments:
     """Rasterize triangles into the nearest fragment per pixel (one sample per pixel).
 
@@ -402,6 +404,7 @@ def rasterize(
                    call several times with different offsets for supersampling (the set-up of
                    the last input, some 350 bytes per triangle up to 256 MB, is kept and reused
                    while the same clip, size and cull come again)
+    weights:       False leaves ``Fragments.bary`` None (a depth map needs no weights)
     returns:       Fragments; triangles with NaN/inf corners or zero window-space area are skipped
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
@@ -435,16 +438,17 @@ def rasterize(
     kernels.scan(s.ea, s.eb, s.ec, s.eb_f, s.ea_abs, s.half, s.off_lo, s.off_hi, s.ymin, s.rows,
                  s.za, s.zb, s.zc, s.tame, s.sid, width, height, sub_bits, oxi, oyi, ox, oy,
                  s.qmax, s.ibits, max(width, height) >= _FLOAT_SPANS, keybuf)
+    bary = np.empty((height, width, 3) if weights else (1, 3), np.float32)
     frags = Fragments(
         tri=np.empty((height, width), np.int32),
-        bary=np.empty((height, width, 3), np.float32),
+        bary=bary if weights else None,
         depth=np.empty((height, width), np.float32),
         skipped_degenerate=s.n_degenerate,
         skipped_nan=s.n_nan,
     )
     kernels.resolve(keybuf, s.ibits, s.slot, s.table, s.orig, s.clipped, s.sub_bary,
-                    s.sub_index, width, ox, oy, frags.tri.reshape(-1),
-                    frags.bary.reshape(-1, 3), frags.depth.reshape(-1))
+                    s.sub_index, width, ox, oy, weights, frags.tri.reshape(-1),
+                    bary.reshape(-1, 3), frags.depth.reshape(-1))
     return frags
 
 

@@ -199,9 +199,13 @@ def _view(basis: np.ndarray, origin: np.ndarray) -> np.ndarray:
     return m
 
 
-def _homogeneous(tris: np.ndarray) -> np.ndarray:
-    """(T, 3, 3) -> (T, 3, 4) float64 with w = 1."""
-    return np.concatenate([tris, np.ones(tris.shape[:2] + (1,))], axis=-1)
+def _project(tris: np.ndarray, matrix: np.ndarray) -> np.ndarray:
+    """(T, 3, 4) float64 clip-space corners of (T, 3, 3) float64 corners through ``matrix``."""
+    from .kernels import raster as kernels
+
+    clip = np.empty(tris.shape[:2] + (4,))
+    kernels.project(np.ascontiguousarray(tris, np.float64), np.ascontiguousarray(matrix), clip)
+    return clip
 
 
 def _mip_layout(res: int, faces: int) -> tuple[list[int], list[int]]:
@@ -257,7 +261,6 @@ def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
     far = 1.01 * reach + 1e-3
     near = max(1e-5 * far, 1e-6)
     proj = _perspective(tan_half, near, far)
-    homog = _homogeneous(tris)
     centre = (np.arange(res) + 0.5) * (2.0 / res) - 1.0
     ray_len = np.sqrt(1.0 + tan_half**2 * (centre[:, None] ** 2 + centre[None, :] ** 2))
     ray_len = ray_len.astype(np.float32)  # distance from the light / face-axis depth
@@ -266,7 +269,7 @@ def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
     pyramids, min_depth = [], np.inf
     for f, frame in enumerate(basis):
         view_proj[f] = proj @ _view(frame, origin)
-        frags = raster.rasterize(homog @ view_proj[f].T, res, res)
+        frags = raster.rasterize(_project(tris, view_proj[f]), res, res, weights=False)
         depth[f] = frags.depth
         del frags
         dist = depth[f] * ray_len  # distance from the light, metres
@@ -364,7 +367,6 @@ def _build_sun(light: Light, tris: np.ndarray, camera: Camera, res: int) -> Shad
     z_hi = float(zs.max()) if len(tris) else 1.0
     pad = 1e-3 * (z_hi - z_lo) + 1e-4
     z_lo, z_hi = z_lo - pad, z_hi + pad
-    homog = _homogeneous(tris)
     depth = np.empty((len(rects), res, res), np.float32)
     view_proj = np.empty((len(rects), 4, 4))
     for c, (cx, cy, half) in enumerate(rects):
@@ -374,7 +376,7 @@ def _build_sun(light: Light, tris: np.ndarray, camera: Camera, res: int) -> Shad
         m[2, :3], m[2, 3] = basis[2] * (2.0 / (z_hi - z_lo)), -2.0 * z_lo / (z_hi - z_lo) - 1.0
         m[3, 3] = 1.0
         view_proj[c] = m
-        frags = raster.rasterize(homog @ m.T, res, res)
+        frags = raster.rasterize(_project(tris, m), res, res)
         hit = frags.tri >= 0
         d = np.full((res, res), np.inf, np.float32)
         d[hit] = np.einsum("nk,nk->n", frags.bary[hit].astype(np.float64), zs[frags.tri[hit]])

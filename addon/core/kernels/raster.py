@@ -88,18 +88,19 @@ def scan(ea, eb, ec, eb_f, ea_abs, half, off_lo, off_hi, ymin, rows, za, zb, zc,
 _RESOLVE = nb.void(
     nb.uint64[::1], nb.int64, nb.intp[::1], nb.float64[:, ::1], nb.int32[::1],  # keys, ibits,
     nb.boolean[::1], nb.float64[:, :, ::1], nb.intp[::1],  # slot, table, orig, clipped, sub
-    nb.int64, nb.float64, nb.float64,  # width, ox, oy
+    nb.int64, nb.float64, nb.float64, nb.boolean,  # width, ox, oy, with_bary
     nb.int32[::1], nb.float32[:, ::1], nb.float32[::1],  # out: tri, bary, depth
 )
 
 
 @nb.njit(_RESOLVE, **_OPTIONS)
 def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width, ox, oy,
-            tri_out, bary_out, depth_out):
-    """Every pixel's original triangle, perspective-correct weights and clip w (-1, 0, +inf
-    where its key is ``EMPTY``): q_i = table[i] x + table[3 + i] y + table[6 + i] (at least 0),
-    weights q_i / sum(q), w = 1 / sum(q); a clipped piece's weights carried to the original
-    corners through its ``sub_bary``."""
+            with_bary, tri_out, bary_out, depth_out):
+    """Every pixel's original triangle, perspective-correct weights (``with_bary``; else
+    ``bary_out`` is not touched) and clip w (-1, 0, +inf where its key is ``EMPTY``):
+    q_i = table[i] x + table[3 + i] y + table[6 + i] (at least 0), weights q_i / sum(q),
+    w = 1 / sum(q); a clipped piece's weights carried to the original corners through its
+    ``sub_bary``."""
     mask = (np.uint64(1) << np.uint64(ibits)) - np.uint64(1)
     q = np.empty(3, np.float64)
     b = np.empty(3, np.float64)
@@ -108,7 +109,8 @@ def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width,
         if key == EMPTY:
             tri_out[p] = -1
             depth_out[p] = np.inf
-            bary_out[p, 0] = bary_out[p, 1] = bary_out[p, 2] = 0.0
+            if with_bary:
+                bary_out[p, 0] = bary_out[p, 1] = bary_out[p, 2] = 0.0
             continue
         s = slot[np.intp(key & mask)]
         x = np.float64(p % width) + ox
@@ -118,6 +120,8 @@ def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width,
         inv = 1.0 / ((q[0] + q[1]) + q[2])
         depth_out[p] = inv
         tri_out[p] = orig[s]
+        if not with_bary:
+            continue
         if clipped[s]:
             sub = sub_bary[sub_index[s]]
             for i in range(3):
@@ -129,19 +133,20 @@ def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width,
                 bary_out[p, i] = q[i] * inv
 
 
-@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
+@nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float32[:, :, ::1]),
+          nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], nb.float64[:, :, ::1])], **_OPTIONS)
 def project(positions, matrix, clip):
     """Clip-space corners ``clip`` (T, 3, 4) of world corners ``positions`` (T, 3, 3) through
     the 4 x 4 ``matrix``: each coordinate summed in float64 in the order x, y, z, w, then
-    rounded to float32."""
+    stored in ``clip``'s type."""
     for t in range(positions.shape[0]):
         for c in range(3):
             x = np.float64(positions[t, c, 0])
             y = np.float64(positions[t, c, 1])
             z = np.float64(positions[t, c, 2])
             for r in range(4):
-                clip[t, c, r] = np.float32(((x * matrix[r, 0] + y * matrix[r, 1])
-                                            + z * matrix[r, 2]) + matrix[r, 3])
+                clip[t, c, r] = ((x * matrix[r, 0] + y * matrix[r, 1])
+                                 + z * matrix[r, 2]) + matrix[r, 3]
 
 
 _COUNTS = nb.types.UniTuple(nb.int64, 2)
