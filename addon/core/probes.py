@@ -151,6 +151,7 @@ class Probes:
                 ``ReflectionProbe.mips``
     world_color: (3,) radiance of a world of one colour (its prefiltered chains are that
                 colour everywhere, so they are not sampled), else None
+    packed:     the chains as the indirect kernel takes them (``_packed_chains``), once
     """
 
     world_sh: np.ndarray
@@ -158,14 +159,7 @@ class Probes:
     world_color: np.ndarray | None = None
     reflection: list[ReflectionProbe] = field(default_factory=list)
     volumes: list[IrradianceVolume] = field(default_factory=list)
-
-
-def _irradiance(y: np.ndarray, coeffs: np.ndarray) -> np.ndarray:
-    """(N, C) irradiance from the convolved basis y (N, 9) (``sh.basis`` times
-    ``sh.BAND_FACTORS``) of SH shared by all points (9, C) or per point (N, 9, C)."""
-    if coeffs.ndim == 2:
-        return (y @ coeffs).astype(np.float32)
-    return np.einsum("nk,nkc->nc", y, coeffs).astype(np.float32)
+    packed: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
 
 def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
@@ -191,32 +185,29 @@ def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
     return acc
 
 
-def _lod(mips: list[np.ndarray], gloss: np.ndarray) -> np.ndarray:
-    """lod = nMips - gloss nMips with nMips = len(mips) - 1 (slide "Black Ops: environment map
-    pre-filtering"): gloss 1 reads the top mip, gloss 0 the 1 x 1 one."""
-    top = len(mips) - 1
-    return (top - np.clip(gloss, 0.0, 1.0) * top).astype(np.float32)
-
-
-def _normalized(sample, probe_sh, pixel_dc, pixel_e, y, normalization):
-    """Prefiltered radiance (N, 3) fitted to the pixel's lighting (module docstring).
-
-    pixel_dc: (N, 3) or (3,) the pixel SH's constant term; pixel_e: (N, 3) its irradiance at
-    the normal; y: (N, 9) convolved basis at the normals
-    """
-    if normalization == "none":
-        return sample
-    probe_sh = np.asarray(probe_sh, np.float64)
-    if normalization == "bo1":
-        ratio = (pixel_dc + _EPS) / (probe_sh[0] + _EPS)
-    elif normalization == "bo2":
-        scalar, tint = sh.to_tinted(probe_sh)
-        probe_e = (y @ scalar.astype(np.float32))[:, None] * tint.astype(np.float32)
-        ratio = (pixel_e + _EPS) / (probe_e + _EPS)
-    else:
-        raise ValueError(f"unknown normalization {normalization!r}; expected one of: "
-                         f"{', '.join(NORMALIZATIONS)}")
-    return sample * np.clip(ratio, 0.0, MAX_NORMALIZATION).astype(np.float32)
+def _packed_chains(probes: Probes, prefilter: str) -> tuple:
+    """The chains of ``prefilter`` of every reflection probe, then the world's, as the indirect
+    kernel takes them (``kernels.indirect``): padded levels in one flat float32 array, level
+    offsets and sides (C, L) int64, level counts (C,); built once per ``Probes`` and prefilter."""
+    key = (prefilter, len(probes.reflection))
+    if probes.packed is not None and probes.packed[0] == key:
+        return probes.packed[1]
+    chains = [p.mips[prefilter] for p in probes.reflection]
+    chains.append(probes.world_mips[prefilter] if probes.world_color is None else [])
+    count = max(len(c) for c in chains) or 1
+    offsets = np.zeros((len(chains), count), np.int64)
+    sides = np.ones((len(chains), count), np.int64)
+    parts, at = [], 0
+    for i, chain in enumerate(chains):
+        for m, level in enumerate(chain):
+            padded = cubemap._pad(np.ascontiguousarray(level[..., :3], np.float32)).reshape(-1)
+            offsets[i, m], sides[i, m] = at, level.shape[1]
+            parts.append(padded)
+            at += padded.size
+    flat = np.concatenate(parts) if parts else np.zeros(1, np.float32)
+    packed = (flat, offsets, sides, np.array([len(c) for c in chains], np.int64))
+    probes.packed = (key, packed)
+    return packed
 
 
 def indirect(
@@ -240,43 +231,41 @@ def indirect(
     env_model:   one of ``env_brdf.MODELS``
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
+    from .kernels import indirect as kernels
+
     if prefilter not in PREFILTERS:
         raise ValueError(f"unknown prefilter {prefilter!r}; expected one of: "
                          f"{', '.join(PREFILTERS)}")
-    pixel_sh = _pixel_sh(probes, points)
-    y = sh.basis(normals).astype(np.float32) * sh.BAND_FACTORS.astype(np.float32)
-    pixel_e = _irradiance(y, pixel_sh)
-    pixel_dc = pixel_sh[..., 0, :]
-    diffuse = albedo * pixel_e * np.float32(1.0 / np.pi)
-
-    n_dot_v = np.einsum("nc,nc->n", normals, view)
-    reflect = 2.0 * n_dot_v[:, None] * normals - view
+    if normalization not in NORMALIZATIONS:
+        raise ValueError(f"unknown normalization {normalization!r}; expected one of: "
+                         f"{', '.join(NORMALIZATIONS)}")
     n = len(points)
-    total = np.zeros(n, np.float32)
-    radiance = np.zeros((n, 3), np.float32)
-    for probe in probes.reflection:
-        w = probe.weight(points)
-        k = np.flatnonzero(w > 0)
-        if not k.size:
-            continue
-        mips = probe.mips[prefilter]
-        s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
-        s = _normalized(s, probe.sh, pixel_dc if pixel_dc.ndim == 1 else pixel_dc[k],
-                        pixel_e[k], y[k], normalization)
-        radiance[k] += w[k, None] * s
-        total[k] += w[k]
-    over = total > 1.0
-    radiance[over] /= total[over, None]
-    world = np.maximum(1.0 - total, 0.0)
-    k = np.flatnonzero(world > 0)
-    if k.size:
-        if probes.world_color is not None:
-            s = np.broadcast_to(np.asarray(probes.world_color, np.float32), (k.size, 3))
-        else:
-            mips = probes.world_mips[prefilter]
-            s = cubemap.sample(mips, reflect[k], _lod(mips, gloss[k]))[:, :3]
-        s = _normalized(s, probes.world_sh, pixel_dc if pixel_dc.ndim == 1 else pixel_dc[k],
-                        pixel_e[k], y[k], normalization)
-        radiance[k] += world[k, None] * s
+    pixel_sh = np.asarray(_pixel_sh(probes, points), np.float32)
+    pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
+                                    else pixel_sh[None])
+    chains, offsets, sides, levels = _packed_chains(probes, prefilter)
+    shs = [p.sh for p in probes.reflection] + [probes.world_sh]
+    tinted = [sh.to_tinted(np.asarray(c, np.float64)) for c in shs]
+    radius_fade = np.array([[p.radius, max(max(p.falloff, 1e-4) * p.radius, 1e-6)]
+                            for p in probes.reflection], np.float32).reshape(-1, 2)
+
+    def f32(a, shape):
+        return np.require(np.broadcast_to(np.asarray(a, np.float32), shape), np.float32,
+                          ["C", "W"])
+
+    diffuse = np.empty((n, 3), np.float32)
+    radiance = np.empty((n, 3), np.float32)
+    kernels.indirect(
+        f32(points, (n, 3)), f32(normals, (n, 3)), f32(view, (n, 3)), f32(albedo, (n, 3)),
+        f32(gloss, (n,)), pixel_sh, sh.BAND_FACTORS.astype(np.float32), chains, offsets, sides,
+        levels, np.array(cubemap.FACES),
+        np.array([p.position for p in probes.reflection], np.float32).reshape(-1, 3),
+        radius_fade, np.array([np.asarray(c, np.float64)[0] + _EPS for c in shs]),
+        np.array([t[0] for t in tinted], np.float32), np.array([t[1] for t in tinted], np.float32),
+        probes.world_color is not None,
+        np.asarray(probes.world_color if probes.world_color is not None else np.zeros(3),
+                   np.float32).reshape(-1)[:3].copy(),
+        kernels.NORMALIZATIONS[normalization], diffuse, radiance)
+    n_dot_v = np.einsum("nc,nc->n", f32(normals, (n, 3)), f32(view, (n, 3)))
     e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
-    return diffuse.astype(np.float32), (radiance * e).astype(np.float32)
+    return diffuse, (radiance * e).astype(np.float32)

@@ -12,7 +12,8 @@ numba 0.62.1 with llvmlite 0.45.1 is bundled in the extension's zip as wheels (P
 3.13, every platform); another extension can bring another numba into Blender's shared
 site-packages, so ``check()`` says exactly what was found.
 
-Modules: ``raster`` (scan conversion with the depth test, resolve), ``shading`` (direct light:
+Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``raster`` (projection,
+set-up, scan conversion with the depth test, resolve), ``shading`` (direct light:
 incidence and the talk's BRDF, the shaded points' surface), ``shadows`` (the shadow filter,
 point by point), ``textures`` (sRGB decode by table, mip chains).
 """
@@ -26,7 +27,7 @@ from pathlib import Path
 NUMBA_VERSION = "0.62.1"
 LLVMLITE_VERSION = "0.45.1"
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
-MODULES = ("raster", "shading", "shadows", "textures")
+MODULES = ("indirect", "raster", "shading", "shadows", "textures")
 
 __all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
            "is_cached", "load"]

@@ -1,0 +1,206 @@
+"""Indirect light kernel: SH irradiance and the normalized, prefiltered reflections of every
+shaded point (``probes.indirect``, which gives the method and the talk's slides).
+
+References (the NumPy this kernel is held to, point by point, in tests/core/test_kernels_indirect):
+``sh.basis`` and ``sh.irradiance`` (Ramamoorthi & Hanrahan 2001), ``cubemap.sample`` (seamless
+trilinear cube-map look-ups, the shader's texCUBElod), the probes' influence weights and the
+"none" / "bo1" / "bo2" normalizations of ``probes`` (slides "Black Ops: normalization
+algorithm" and "Improved normalization algorithm"), with their float32 / float64 precision.
+
+Cube-map chains come packed (``probes._packed_chains``): every level of every chain padded with
+its one-texel seamless border (``cubemap._pad``) in one flat float32 array, chain c's level m at
+``level_offset[c, m]`` with side ``level_size[c, m]`` (padded side minus 2).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+_OPTIONS = {"cache": True, "nogil": True}
+
+NONE, BO1, BO2 = 0, 1, 2  # normalizations
+NORMALIZATIONS = {"none": NONE, "bo1": BO1, "bo2": BO2}
+MAX_NORMALIZATION = 16.0  # probes.MAX_NORMALIZATION
+_EPS = 1e-6  # probes._EPS
+
+_C0 = 0.5 / math.sqrt(math.pi)  # sh._C0 ...
+_C1 = math.sqrt(3.0 / (4.0 * math.pi))
+_C2 = math.sqrt(15.0 / (4.0 * math.pi))
+_C20 = math.sqrt(5.0 / (16.0 * math.pi))
+_C22 = math.sqrt(15.0 / (16.0 * math.pi))
+
+
+@nb.njit(**_OPTIONS)
+def _basis(nx, ny, nz, band, y):
+    """``sh.basis`` of a float32 direction (in float64, rounded to float32) times the
+    float32 band factors ``band`` (9,): into ``y`` (9,) float32."""
+    x, yy, z = np.float64(nx), np.float64(ny), np.float64(nz)
+    y[0] = np.float32(_C0) * band[0]
+    y[1] = np.float32(_C1 * yy) * band[1]
+    y[2] = np.float32(_C1 * z) * band[2]
+    y[3] = np.float32(_C1 * x) * band[3]
+    y[4] = np.float32(_C2 * x * yy) * band[4]
+    y[5] = np.float32(_C2 * yy * z) * band[5]
+    y[6] = np.float32(_C20 * (3.0 * z * z - 1.0)) * band[6]
+    y[7] = np.float32(_C2 * x * z) * band[7]
+    y[8] = np.float32(_C22 * (x * x - yy * yy)) * band[8]
+
+
+@nb.njit(**_OPTIONS)
+def _bilinear(chains, base, size, face, x, y, c):
+    """``cubemap._bilinear_padded``: channel c of a padded level (side ``size`` + 2, at
+    ``base`` in ``chains``) at continuous texel coordinates x, y of ``face``."""
+    s = size
+    fx, fy = x - 0.5, y - 0.5
+    x0 = min(max(np.floor(fx), -1.0), s - 1.0)
+    y0 = min(max(np.floor(fy), -1.0), s - 1.0)
+    tx = np.float32(min(max(fx - x0, 0.0), 1.0))
+    ty = np.float32(min(max(fy - y0, 0.0), 1.0))
+    xi, yi = np.int64(x0) + 1, np.int64(y0) + 1
+    row = s + 2
+    at = base + ((face * row + yi) * row + xi) * 3 + c
+    one = np.float32(1.0)
+    top = chains[at] * (one - tx) + chains[at + 3] * tx
+    below = at + row * 3
+    bottom = chains[below] * (one - tx) + chains[below + 3] * tx
+    return top * (one - ty) + bottom * ty
+
+
+@nb.njit(**_OPTIONS)
+def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, gloss, out):
+    """``cubemap.sample`` of ``chain`` along (dx, dy, dz) (float32) at lod = top - g top,
+    g = gloss clamped to [0, 1] (``probes._lod``): RGB into ``out`` (3,) float32."""
+    d0, d1, d2 = np.float64(dx), np.float64(dy), np.float64(dz)
+    if not (np.isfinite(d0) and np.isfinite(d1) and np.isfinite(d2)) or \
+            not max(abs(d0), abs(d1), abs(d2)) > 0.0:
+        d0, d1, d2 = 1.0, 0.0, 0.0
+    a0, a1, a2 = abs(d0), abs(d1), abs(d2)
+    if a0 >= a1 and a0 >= a2:
+        axis, depth, comp = 0, a0, d0
+    elif a1 >= a2:
+        axis, depth, comp = 1, a1, d1
+    else:
+        axis, depth, comp = 2, a2, d2
+    face = 2 * axis + (1 if comp < 0.0 else 0)
+    a = ((d0 * faces[face, 1, 0] + d1 * faces[face, 1, 1]) + d2 * faces[face, 1, 2]) / depth
+    b = ((d0 * faces[face, 2, 0] + d1 * faces[face, 2, 1]) + d2 * faces[face, 2, 2]) / depth
+    u = (min(max(a, -1.0), 1.0) + 1.0) * 0.5
+    v = (1.0 - min(max(b, -1.0), 1.0)) * 0.5
+    top = levels[chain] - 1
+    g = gloss
+    if g != g:
+        g = np.float32(np.nan)
+    else:
+        g = min(max(g, np.float32(0.0)), np.float32(1.0))
+    lod = np.float64(np.float32(top) - g * np.float32(top))  # float32, as probes._lod
+    if lod != lod:
+        lod = np.float64(top)
+    lod = min(max(lod, 0.0), np.float64(top))
+    base = np.int64(np.floor(lod))
+    frac = np.float32(lod - base)
+    for c in range(3):
+        out[c] = np.float32(0.0)
+    for k in range(base, base + 2):
+        if k > top:
+            break
+        w = (np.float32(1.0) - frac) if k == base else frac
+        if not w > 0.0:
+            continue
+        size = level_size[chain, k]
+        offset = level_offset[chain, k]
+        for c in range(3):
+            out[c] += w * _bilinear(chains, offset, size, face, u * size, v * size, c)
+
+
+_INDIRECT = nb.void(
+    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # points, normals, view
+    nb.float32[:, ::1], nb.float32[::1], nb.float32[:, :, ::1],  # albedo, gloss, pixel_sh
+    nb.float32[::1],  # band factors (9,)
+    nb.float32[::1], nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[::1],  # chains, offsets,
+    nb.float64[:, :, ::1],  # sizes, levels; cube faces (6, 3, 3)
+    nb.float32[:, ::1], nb.float32[:, ::1],  # probe position (R, 3), radius, fade (R, 2)
+    nb.float64[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # dc + eps (R+1, 3), scalar
+    nb.boolean, nb.float32[::1], nb.int64,  # (R+1, 9), tint (R+1, 3); world colour?, colour,
+    nb.float32[:, ::1], nb.float32[:, ::1],  # normalization; out: diffuse, radiance (N, 3)
+)
+
+
+@nb.njit(_INDIRECT, **_OPTIONS)
+def indirect(points, normals, view, albedo, gloss, pixel_sh, band, chains, level_offset,
+             level_size, levels, faces, position, radius_fade, dc_eps, scalar, tint,
+             has_world_color, world_color, normalization, diffuse, radiance):
+    """Indirect diffuse ``diffuse`` (N, 3) (albedo / pi times the SH irradiance at the normal)
+    and the normalized prefiltered radiance ``radiance`` (N, 3) along the reflection vector:
+    the reflection probes' chains 0 .. R - 1 weighted by their influence (divided by the sum
+    where it exceeds 1), the world's (chain R, or ``world_color``) with the weight they leave.
+    ``pixel_sh`` is (N, 9, 3), or (1, 9, 3) shared by every point."""
+    n_probes = position.shape[0]
+    y = np.empty(9, np.float32)
+    e = np.empty(3, np.float32)
+    s = np.empty(3, np.float32)
+    acc = np.empty(3, np.float32)
+    eps32 = np.float32(_EPS)
+    inv_pi = np.float32(1.0 / np.pi)
+    for i in range(points.shape[0]):
+        k_sh = i if pixel_sh.shape[0] > 1 else 0
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        _basis(nx, ny, nz, band, y)
+        for c in range(3):
+            total = np.float32(0.0)
+            for k in range(9):
+                total += y[k] * pixel_sh[k_sh, k, c]
+            e[c] = total
+            diffuse[i, c] = albedo[i, c] * total * inv_pi
+        vx, vy, vz = view[i, 0], view[i, 1], view[i, 2]
+        n_dot_v = (nx * vx + ny * vy) + nz * vz
+        two = np.float32(2.0) * n_dot_v
+        rx, ry, rz = two * nx - vx, two * ny - vy, two * nz - vz
+        weight_sum = np.float32(0.0)
+        for c in range(3):
+            acc[c] = np.float32(0.0)
+        for chain in range(n_probes + 1):
+            if chain < n_probes:
+                px = points[i, 0] - position[chain, 0]
+                py = points[i, 1] - position[chain, 1]
+                pz = points[i, 2] - position[chain, 2]
+                d = np.sqrt((px * px + py * py) + pz * pz)
+                w = (radius_fade[chain, 0] - d) / radius_fade[chain, 1]
+                w = min(max(w, np.float32(0.0)), np.float32(1.0))
+                if not w > 0.0:
+                    continue
+            else:
+                if weight_sum > np.float32(1.0):
+                    for c in range(3):
+                        acc[c] = acc[c] / weight_sum
+                w = max(np.float32(1.0) - weight_sum, np.float32(0.0))
+                if not w > 0.0:
+                    break
+            if chain == n_probes and has_world_color:
+                for c in range(3):
+                    s[c] = world_color[c]
+            else:
+                _sample(chains, level_offset, level_size, levels, chain, faces, rx, ry, rz,
+                        gloss[i], s)
+            if normalization != NONE:
+                if normalization == BO2:
+                    probe_e = np.float32(0.0)
+                    for k in range(9):
+                        probe_e += y[k] * scalar[chain, k]
+                for c in range(3):
+                    if normalization == BO1:
+                        ratio = np.float32(min(max(
+                            (np.float64(pixel_sh[k_sh, 0, c] + eps32)) / dc_eps[chain, c], 0.0),
+                            MAX_NORMALIZATION))
+                    else:
+                        ratio = (e[c] + eps32) / (probe_e * tint[chain, c] + eps32)
+                        ratio = min(max(ratio, np.float32(0.0)), np.float32(MAX_NORMALIZATION))
+                    s[c] = s[c] * ratio
+            for c in range(3):
+                acc[c] += w * s[c]
+            if chain < n_probes:
+                weight_sum += w
+        for c in range(3):
+            radiance[i, c] = acc[c]
