@@ -19,7 +19,7 @@ import math
 import numba as nb
 import numpy as np
 
-_OPTIONS = {"cache": True, "nogil": True}
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 NONE, BO1, BO2 = 0, 1, 2  # normalizations
 NORMALIZATIONS = {"none": NONE, "bo1": BO1, "bo2": BO2}

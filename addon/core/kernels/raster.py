@@ -15,7 +15,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-_OPTIONS = {"cache": True, "nogil": True}
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
 _FAR_COLUMN = 2.0**39  # the bound of a horizontal edge: beyond any image
 NEVER = 2.0**-40  # |A| standing in for a horizontal edge: its bound is +-2^39 columns

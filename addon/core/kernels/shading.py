@@ -14,7 +14,7 @@ import math
 import numba as nb
 import numpy as np
 
-_OPTIONS = {"cache": True, "nogil": True}
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 POINT, SPOT, SUN, AREA = 0, 1, 2, 3
 KINDS = {"POINT": POINT, "SPOT": SPOT, "SUN": SUN, "AREA": AREA}

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-_OPTIONS = {"cache": True, "nogil": True}
+_OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 # map kinds
 CUBE, PERSPECTIVE, ORTHO = 0, 1, 2
