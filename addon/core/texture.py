@@ -146,6 +146,17 @@ class Texture:
         return len(self.mips)
 
     @functools.cached_property
+    def packed(self) -> tuple[np.ndarray, np.ndarray]:
+        """The mip chain as ``kernels.textures.sample`` reads it: every level's texels in one
+        flat float32 array, and (levels, 3) int64 rows (offset, height, width)."""
+        flat = np.concatenate([np.ascontiguousarray(m, np.float32).reshape(-1)
+                               for m in self.mips])
+        sizes = np.array([m.size for m in self.mips], np.int64)
+        offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
+        shapes = np.array([m.shape[:2] for m in self.mips], np.int64)
+        return flat, np.ascontiguousarray(np.column_stack([offsets, shapes]), np.int64)
+
+    @functools.cached_property
     def digest(self) -> str:
         """A digest of level 0's pixels, computed once: equal images have equal digests."""
         return hashlib.blake2b(np.ascontiguousarray(self.mips[0]).tobytes(),
@@ -210,68 +221,14 @@ def make_texture(
 # Sampling
 
 
-def _wrap(i: np.ndarray, n: int, extension: str) -> tuple[np.ndarray, np.ndarray | None]:
-    """Texel indices wrapped into [0, n) by an extension mode (Cycles' wrap_* functions).
-
-    i:       (N,) int64 texel indices, any integer
-    returns: (indices (N,) in [0, n), valid (N,) bool for CLIP, else None)
-    """
-    if extension == "REPEAT":
-        return np.mod(i, n), None
-    if extension == "MIRROR":
-        m = np.mod(np.abs(i + (i < 0)), 2 * n)
-        return np.where(m >= n, 2 * n - m - 1, m), None
-    clamped = np.clip(i, 0, n - 1)
-    if extension == "CLIP":
-        return clamped, (i >= 0) & (i < n)
-    return clamped, None
-
-
-def _bilinear(level: np.ndarray, u: np.ndarray, v: np.ndarray, extension: str) -> np.ndarray:
-    """Bilinear filter of one mip level at UV positions.
-
-    level:   (h, w, C) float32, row 0 at the top
-    u, v:    (N,) float64 UV, v up
-    returns: (N, C) float32
-    """
-    h, w, c = level.shape
-    flat = level.reshape(h * w, c)
-    x = u * w - 0.5
-    y = v * h - 0.5  # texel rows counted from the bottom
-    x0 = np.floor(x)
-    y0 = np.floor(y)
-    tx = (x - x0).astype(np.float32)[:, None]
-    ty = (y - y0).astype(np.float32)[:, None]
-    x0 = x0.astype(np.int64)
-    y0 = y0.astype(np.int64)
-    cols = [_wrap(x0, w, extension), _wrap(x0 + 1, w, extension)]
-    rows = [_wrap(y0, h, extension), _wrap(y0 + 1, h, extension)]
-    weights_x = (1.0 - tx, tx)
-    weights_y = (1.0 - ty, ty)
-    out = np.zeros((len(u), c), np.float32)
-    for (row, row_ok), wy in zip(rows, weights_y, strict=True):
-        base = (h - 1 - row) * w
-        for (col, col_ok), wx in zip(cols, weights_x, strict=True):
-            weight = wx * wy
-            if row_ok is not None:
-                weight = weight * (row_ok & col_ok)[:, None]
-            out += weight * flat[base + col]
-    return out
-
-
-def _closest(level: np.ndarray, u: np.ndarray, v: np.ndarray, extension: str) -> np.ndarray:
-    """Nearest texel of one level at UV positions: (N,) u, v -> (N, C) float32."""
-    h, w, c = level.shape
-    col, col_ok = _wrap(np.floor(u * w).astype(np.int64), w, extension)
-    row, row_ok = _wrap(np.floor(v * h).astype(np.int64), h, extension)
-    out = level.reshape(h * w, c)[(h - 1 - row) * w + col]
-    if col_ok is not None:
-        out = out * (col_ok & row_ok)[:, None]
-    return out
-
-
 def sample(texture: Texture, uv, lod=None) -> np.ndarray:
-    """Filtered texture lookups (Williams 1983 trilinear filtering, Blender's UV conventions).
+    """Filtered texture lookups (Williams 1983 trilinear filtering, Blender's UV conventions):
+    ``kernels.textures.sample``.
+
+    Bilinear between the four texels around the position (texel centres at ((i + 0.5) / w,
+    (j + 0.5) / h)), wrapped by the texture's extension as Cycles' wrap functions do (REPEAT,
+    MIRROR, EXTEND clamps, CLIP gives 0 outside the image); "Closest" takes the nearest texel;
+    with ``lod``, linear between the two nearest levels.
 
     texture: the texture
     uv:      (N, 2) UV; (0, 0) is the bottom-left corner of the image, (1, 1) the top-right,
@@ -281,32 +238,19 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
              level-0 texels), clamped to [0, levels - 1]; NaN means the coarsest level
     returns: (N, C) float32; with CLIP, 0 (all channels, alpha too) outside the unit square
     """
-    uv = np.nan_to_num(np.asarray(uv, np.float64).reshape(-1, 2), posinf=0.0, neginf=0.0)
-    u, v = uv[:, 0], uv[:, 1]
+    from .kernels import textures as kernels
+
+    uv = np.asarray(uv, np.float64).reshape(-1, 2)
     n = len(uv)
-    ext = texture.extension
-    if texture.interpolation == "Closest":
-        out = _closest(texture.mips[0], u, v, ext)
-    elif lod is None:
-        out = _bilinear(texture.mips[0], u, v, ext)
-    else:
-        top = texture.levels - 1
-        lod = np.broadcast_to(np.asarray(lod, np.float64), (n,))
-        lod = np.clip(np.nan_to_num(lod, nan=top), 0.0, top)
-        base = np.floor(lod).astype(np.int64)
-        frac = (lod - base).astype(np.float32)
-        out = np.zeros((n, texture.channels), np.float32)
-        for k in range(int(base.min(initial=0)), int(base.max(initial=0)) + 2):
-            if k > top:
-                break
-            weight = np.where(base == k, 1.0 - frac, 0.0) + np.where(base + 1 == k, frac, 0.0)
-            idx = np.flatnonzero(weight > 0.0)
-            if idx.size:
-                out[idx] += weight[idx, None] * _bilinear(texture.mips[k], u[idx], v[idx], ext)
-    if ext == "CLIP":
-        inside = (u >= 0.0) & (u <= 1.0) & (v >= 0.0) & (v <= 1.0)
-        out = np.where(inside[:, None], out, np.float32(0.0))
-    return out.astype(np.float32, copy=False)
+    texels, levels = texture.packed
+    use_lod = lod is not None
+    lod = np.array(np.broadcast_to(np.asarray(0.0 if lod is None else lod, np.float64), (n,)))
+    out = np.empty((n, texture.channels), np.float32)
+    kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.REPEAT),
+                   texture.channels, texture.interpolation == "Closest",
+                   np.ascontiguousarray(uv[:, 0]), np.ascontiguousarray(uv[:, 1]), lod, use_lod,
+                   out)
+    return out
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ site-packages, so ``check()`` says exactly what was found.
 Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``raster`` (projection,
 set-up, scan conversion with the depth test, resolve), ``shading`` (direct light:
 incidence and the talk's BRDF, the shaded points' surface), ``shadows`` (the shadow filter,
-point by point), ``textures`` (sRGB decode by table, mip chains).
+point by point), ``textures`` (sRGB decode by table, mip chains, filtered look-ups).
 """
 
 from __future__ import annotations

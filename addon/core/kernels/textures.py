@@ -1,8 +1,10 @@
-"""Texture preparation kernels: an image's copy with sRGB decoded by table, and one
-box-filtered mip level.
+"""Texture kernels: an image's copy with sRGB decoded by table, one box-filtered mip level,
+and filtered look-ups.
 
-References (the NumPy these kernels are held to): ``texture.srgb_to_linear`` (IEC 61966-2-1)
-and ``texture._halve_axis`` (area-weighted box filter, Williams 1983).
+References (what tests/core/test_kernels_textures.py holds these kernels to):
+``texture.srgb_to_linear`` (IEC 61966-2-1), ``texture._halve_axis`` (area-weighted box filter,
+Williams 1983), and bilinear / trilinear look-ups written out texel by texel with Cycles' wrap
+rules (``sample``, which gave bit for bit the results of the NumPy it replaced).
 """
 
 from __future__ import annotations
@@ -87,3 +89,88 @@ def halve(src, out):
                 for c in range(nc):
                     out[i, x, c] = (w0 * rows[i, 2 * x, c] + wm * rows[i, 2 * x + 1, c]) \
                         + w2_ * rows[i, 2 * x + 2, c]
+
+
+REPEAT, EXTEND, CLIP, MIRROR = 0, 1, 2, 3
+EXTENSIONS = {"REPEAT": REPEAT, "EXTEND": EXTEND, "CLIP": CLIP, "MIRROR": MIRROR}
+
+
+@nb.njit(**_OPTIONS)
+def _wrap(i, n, extension):
+    """Texel index i wrapped into [0, n) by an extension mode (Cycles' wrap functions), and
+    whether it is inside the image (CLIP)."""
+    if extension == REPEAT:
+        return i % n, True
+    if extension == MIRROR:
+        m = abs(i + (1 if i < 0 else 0)) % (2 * n)
+        return (2 * n - m - 1 if m >= n else m), True
+    clamped = min(max(i, 0), n - 1)
+    return clamped, (extension != CLIP or (0 <= i < n))
+
+
+_SAMPLE = nb.void(
+    nb.float32[::1], nb.int64[:, ::1], nb.int64, nb.int64, nb.boolean,  # texels, levels
+    nb.float64[::1], nb.float64[::1], nb.float64[::1], nb.boolean,  # u, v, lod, use lod
+    nb.float32[:, ::1],  # out (N, C)
+)
+
+
+@nb.njit(_SAMPLE, **_OPTIONS)
+def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, out):
+    """``texture.sample``: filtered look-ups of a texture whose mip level k (rows: offset into
+    ``texels``, height, width) is stored row 0 at the top, C = ``channels``; bilinear (closest:
+    nearest) at level 0 without ``use_lod``, else trilinear at ``lod`` (N,) (clamped to the
+    levels, NaN: the coarsest). UV as Blender's, v up; out (N, C) float32."""
+    top = levels.shape[0] - 1
+    for i in range(u.shape[0]):
+        uu, vv = u[i], v[i]
+        if not np.isfinite(uu):
+            uu = 0.0
+        if not np.isfinite(vv):
+            vv = 0.0
+        for c in range(channels):
+            out[i, c] = np.float32(0.0)
+        if closest:
+            off, h, w = levels[0, 0], levels[0, 1], levels[0, 2]
+            col, col_ok = _wrap(np.int64(np.floor(uu * w)), w, extension)
+            row, row_ok = _wrap(np.int64(np.floor(vv * h)), h, extension)
+            at = off + ((h - 1 - row) * w + col) * channels
+            for c in range(channels):
+                out[i, c] = texels[at + c] if col_ok and row_ok else np.float32(0.0)
+        else:
+            if use_lod:
+                level = lod[i]
+                level = np.float64(top) if level != level else min(max(level, 0.0), np.float64(top))
+                base = np.int64(np.floor(level))
+                frac = np.float32(level - base)
+            else:
+                base, frac = np.int64(0), np.float32(0.0)
+            for k in range(base, base + 2):
+                if k > top:
+                    break
+                weight = (np.float32(1.0) - frac) if k == base else frac
+                if not weight > 0.0:
+                    continue
+                off, h, w = levels[k, 0], levels[k, 1], levels[k, 2]
+                x = uu * w - 0.5
+                y = vv * h - 0.5
+                x0, y0 = np.floor(x), np.floor(y)
+                tx, ty = np.float32(x - x0), np.float32(y - y0)
+                c0, ok0 = _wrap(np.int64(x0), w, extension)
+                c1, ok1 = _wrap(np.int64(x0) + 1, w, extension)
+                r0, okr0 = _wrap(np.int64(y0), h, extension)
+                r1, okr1 = _wrap(np.int64(y0) + 1, h, extension)
+                one = np.float32(1.0)
+                for c in range(channels):
+                    acc = np.float32(0.0)
+                    for (row, row_ok, wy) in ((r0, okr0, one - ty), (r1, okr1, ty)):
+                        base_row = off + (h - 1 - row) * w * channels
+                        for (col, col_ok, wx) in ((c0, ok0, one - tx), (c1, ok1, tx)):
+                            wgt = wx * wy
+                            if not (row_ok and col_ok):
+                                wgt = np.float32(0.0)
+                            acc += wgt * texels[base_row + col * channels + c]
+                    out[i, c] += weight * acc
+        if extension == CLIP and not (0.0 <= uu <= 1.0 and 0.0 <= vv <= 1.0):
+            for c in range(channels):
+                out[i, c] = np.float32(0.0)
