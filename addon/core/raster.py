@@ -311,7 +311,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
     # values at the snapped corners. Where those are in [0, qmax] by far more than any rounding
     # of u (at the corners, inside the guard band, and at the samples), the fragments need no
     # far-plane test and no clamp.
-    kernels.edges(keep.astype(np.int64), slot.astype(np.int64), xi, yi, px, py, zn, inv_w,
+    kernels.edges(keep.astype(np.int64), order.astype(np.int64), xi, yi, px, py, zn, inv_w,
                   area2, unit, qmax, 2.0 ** (guard_bits - 38), 2.0**-46, ea, eb, ec, eb_f,
                   ea_abs, half, off_lo, off_hi, za, zb, zc, tame, table)
     if sub_index is None:

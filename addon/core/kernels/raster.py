@@ -214,8 +214,19 @@ def window(v, width, height, unit, lim, xi, yi, px, py, zn, inv_w, usable, area2
                     - (xi[2, t] - xi[0, t]) * (yi[1, t] - yi[0, t]))
 
 
+@nb.njit(**_OPTIONS)
+def _permute(rows, order):
+    """Each row r of ``rows`` (R, N) replaced by rows[r, order] (one row at a time, so that
+    the gather stays in cache)."""
+    buf = np.empty(rows.shape[1], rows.dtype)
+    for r in range(rows.shape[0]):
+        for j in range(order.shape[0]):
+            buf[j] = rows[r, order[j]]
+        rows[r, :] = buf
+
+
 _EDGES = nb.void(
-    nb.int64[::1], nb.int64[::1], _I3, _I3, _D3, _D3, _D3, _D3, nb.int64[::1],  # keep, slot;
+    nb.int64[::1], nb.int64[::1], _I3, _I3, _D3, _D3, _D3, _D3, nb.int64[::1],  # keep, order;
     # xi, yi, px, py, zn, inv_w (3, M), area2 (M,)
     nb.int64, nb.float64, nb.float64, nb.float64,  # unit, qmax, err_ab, err_c
     _I3, _I3, _I3, _D3, _D3, _D3,  # out: ea, eb, ec, eb_f, ea_abs, half (3, N)
@@ -225,16 +236,16 @@ _EDGES = nb.void(
 
 
 @nb.njit(_EDGES, **_OPTIONS)
-def edges(keep, slot, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err_c, ea, eb, ec,
-          eb_f, ea_abs, half, off_lo, off_hi, za, zb, zc, tame, table):
+def edges(keep, order, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err_c, ea, eb,
+          ec, eb_f, ea_abs, half, off_lo, off_hi, za, zb, zc, tame, table):
     """Step 2's edge functions and step 3's planes of the triangles ``keep`` (N,) (columns of
-    ``window``'s output), written to column ``slot`` (N,) (scan order): edges in slots (left
+    ``window``'s output), in scan order: column j for triangle keep[order[j]]; edges in slots (left
     ea > 0, right ea < 0, either), the top-left rule's 1 added to ec; the float64 screen-space
     barycentric planes (divided by w in ``table``: qa_i, qb_i, qc_i of ``raster._Setup``), the
     key-depth plane za, zb, zc and ``tame`` (the corners' key depths inside [0, qmax] by more
     than err_ab (|za| + |zb|) + err_c |zc|); NumPy's order of operations throughout."""
-    for q in range(keep.shape[0]):
-        t, j = keep[q], slot[q]
+    for j in range(keep.shape[0]):  # in the order of keep, then permuted row by row
+        t = keep[j]
         sign = np.int64(1) if area2[t] > 0 else np.int64(-1)
         x0, x1, x2 = xi[0, t], xi[1, t], xi[2, t]
         y0, y1, y2 = yi[0, t], yi[1, t], yi[2, t]
@@ -283,6 +294,13 @@ def edges(keep, slot, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err_
         table[0, j], table[1, j], table[2, j] = la0 * w0, la1 * w1, la2 * w2
         table[3, j], table[4, j], table[5, j] = lb0 * w0, lb1 * w1, lb2 * w2
         table[6, j], table[7, j], table[8, j] = lc0 * w0, lc1 * w1, lc2 * w2
+    for a in (ea, eb, ec):
+        _permute(a, order)
+    for b in (eb_f, ea_abs, half, table):
+        _permute(b, order)
+    for c in (off_lo, off_hi, za, zb, zc):
+        _permute(c.reshape(1, -1), order)
+    _permute(tame.reshape(1, -1), order)
 
 
 @nb.njit(nb.int64(nb.float32[:, :, ::1], nb.float32, nb.float32, nb.float32, nb.float32,
