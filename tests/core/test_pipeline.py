@@ -164,3 +164,29 @@ def test_orthographic_depth_is_the_view_axis_distance():
     scene = lambert_scene(Light("SUN", color=np.ones(3)))
     depth = pipeline.render_frame(scene)["Depth"][..., 0]
     np.testing.assert_allclose(depth, 5.0, rtol=1e-5)
+
+
+def test_hostile_geometry_in_a_corner_of_an_8k_frame_stays_finite():
+    """Huge triangles (1e30 m), NaN and zero-area ones, a point light inside the geometry and
+    a 7680x4320 frame rendered through a border: every tile's every pass is finite."""
+    light = Light("POINT", color=np.full(3, 50.0), position=np.array([0.0, 0.0, 0.5]),
+                  radius=0.1)
+    scene = lambert_scene(light)
+    huge = floor(2e30)
+    bad = floor()
+    bad.positions[0, 0, 0] = np.nan
+    bad.positions[1, :, :] = bad.positions[1, 0]
+    scene.meshes += [huge, bad]
+    scene.camera = Camera.look_at([0.0, -3.0, 2.0], [0.0, 0.0, 0.0], np.radians(50.0), 7680,
+                                  4320, 0.1, 100.0)
+    scene.settings.border = (3800, 2100, 3864, 2164)
+    scene.settings.samples = 2
+    seen = 0
+    for (x0, y0, x1, y1), passes in pipeline.render_tiles(scene):
+        seen += (x1 - x0) * (y1 - y0)
+        for name, image in passes.items():
+            finite = np.isfinite(image) if name != "Depth" else ~np.isnan(image)
+            assert finite.all(), name
+        assert (passes["Combined"][..., 3] == 1.0).all()  # the floors cover the border
+        assert passes["Combined"][..., 0].max() > 0.0  # and the light reaches them
+    assert seen == 64 * 64
