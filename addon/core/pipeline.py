@@ -205,14 +205,14 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         if should_stop is not None and should_stop():
             raise Cancelled()
 
-    def shadow_map(light):
-        return lambda: shadows.build_shadow_map(light, positions, cam if fit_shadows else None,
-                                                resolution=scene.settings.shadow_resolution)
-
     maps = [None] * len(scene.lights) if shadow_maps is None else shadow_maps
-    if len(positions) and shadow_maps is None:
-        maps = list(_ordered([shadow_map(light) for light in scene.lights],
-                             thread_count(scene.settings), poll, threading.Event()))
+    if len(positions) and shadow_maps is None:  # every face and cascade of every light at once
+        plans = [shadows.shadow_map_jobs(light, positions, cam if fit_shadows else None,
+                                         resolution=scene.settings.shadow_resolution)
+                 for light in scene.lights]
+        done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
+                                  thread_count(scene.settings), poll, threading.Event())))
+        maps = [finish([next(done) for _ in jobs]) for jobs, finish in plans]
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
                  _constant_tables(mats))
 

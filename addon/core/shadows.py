@@ -58,6 +58,7 @@ grazing receivers stay bounded.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -65,7 +66,7 @@ import numpy as np
 from . import raster
 from .scene import Camera, Light
 
-__all__ = ["ShadowMap", "build_shadow_map", "shadow_visibility"]
+__all__ = ["ShadowMap", "build_shadow_map", "shadow_map_jobs", "shadow_visibility"]
 
 NORMAL_OFFSET_TEXELS = 1.0  # receiver moved along its normal by this many texels (world size)
 DEPTH_BIAS_TEXELS = 0.05  # constant depth bias, texels (world size at the receiver)
@@ -246,7 +247,9 @@ def _flatten_pyramids(pyramids: list[list[np.ndarray]]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, 3), np.float32)
 
 
-def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
+def _perspective_jobs(light: Light, tris: np.ndarray, res: int):
+    """A point, spot or area light's maps: one job per face, and the function that assembles
+    the faces' results into the ShadowMap (``shadow_map_jobs``)."""
     origin = np.asarray(light.position, np.float64)
     if light.kind == "AREA":
         size = 0.5 * float(np.hypot(*np.asarray(light.size, np.float64)[:2]))
@@ -264,30 +267,29 @@ def _build_perspective(light: Light, tris: np.ndarray, res: int) -> ShadowMap:
     centre = (np.arange(res) + 0.5) * (2.0 / res) - 1.0
     ray_len = np.sqrt(1.0 + tan_half**2 * (centre[:, None] ** 2 + centre[None, :] ** 2))
     ray_len = ray_len.astype(np.float32)  # distance from the light / face-axis depth
-    depth = np.empty((len(basis), res, res), np.float32)
-    view_proj = np.empty((len(basis), 4, 4))
-    pyramids, min_depth = [], np.inf
-    for f, frame in enumerate(basis):
-        view_proj[f] = proj @ _view(frame, origin)
-        frags = raster.rasterize(_project(tris, view_proj[f]), res, res, weights=False)
-        depth[f] = frags.depth
-        del frags
-        dist = depth[f] * ray_len  # distance from the light, metres
-        min_depth = min(min_depth, float(dist.min()))
-        pyramids.append(_pyramid(dist, depth[f]))
-    return ShadowMap(
-        kind=kind,
-        light_kind=light.kind,
-        depth=depth,
-        view_proj=view_proj,
-        basis=basis.copy(),
-        origin=origin,
-        tan_half=float(tan_half),
-        near=near,
-        light_size=max(size, 0.0),
-        mips=_flatten_pyramids(pyramids),
-        min_depth=min_depth,
-    )
+    view_proj = np.stack([proj @ _view(frame, origin) for frame in basis])
+
+    def face(f: int):
+        depth = raster.rasterize(_project(tris, view_proj[f]), res, res, weights=False).depth
+        dist = depth * ray_len  # distance from the light, metres
+        return depth, _pyramid(dist, depth), float(dist.min())
+
+    def finish(faces: list) -> ShadowMap:
+        return ShadowMap(
+            kind=kind,
+            light_kind=light.kind,
+            depth=np.stack([depth for depth, _, _ in faces]),
+            view_proj=view_proj,
+            basis=basis.copy(),
+            origin=origin,
+            tan_half=float(tan_half),
+            near=near,
+            light_size=max(size, 0.0),
+            mips=_flatten_pyramids([pyramid for _, pyramid, _ in faces]),
+            min_depth=min((m for _, _, m in faces), default=np.inf),
+        )
+
+    return [lambda f=f: face(f) for f in range(len(basis))], finish
 
 
 def _camera_depth_range(camera: Camera, lo: np.ndarray, hi: np.ndarray):
@@ -350,7 +352,8 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     return np.array(rects), splits
 
 
-def _build_sun(light: Light, tris: np.ndarray, camera: Camera, res: int) -> ShadowMap:
+def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
+    """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
     tan_half = float(np.tan(0.5 * max(float(light.radius), 0.0)))
     if len(tris) and camera is not None:
@@ -367,34 +370,54 @@ def _build_sun(light: Light, tris: np.ndarray, camera: Camera, res: int) -> Shad
     z_hi = float(zs.max()) if len(tris) else 1.0
     pad = 1e-3 * (z_hi - z_lo) + 1e-4
     z_lo, z_hi = z_lo - pad, z_hi + pad
-    depth = np.empty((len(rects), res, res), np.float32)
-    view_proj = np.empty((len(rects), 4, 4))
+    view_proj = np.zeros((len(rects), 4, 4))
     for c, (cx, cy, half) in enumerate(rects):
-        m = np.zeros((4, 4))
+        m = view_proj[c]
         m[0, :3], m[0, 3] = basis[0] / half, -cx / half
         m[1, :3], m[1, 3] = basis[1] / half, -cy / half
         m[2, :3], m[2, 3] = basis[2] * (2.0 / (z_hi - z_lo)), -2.0 * z_lo / (z_hi - z_lo) - 1.0
         m[3, 3] = 1.0
-        view_proj[c] = m
-        frags = raster.rasterize(_project(tris, m), res, res)
+
+    def cascade(c: int):
+        frags = raster.rasterize(_project(tris, view_proj[c]), res, res)
         hit = frags.tri >= 0
         d = np.full((res, res), np.inf, np.float32)
         d[hit] = np.einsum("nk,nk->n", frags.bary[hit].astype(np.float64), zs[frags.tri[hit]])
-        depth[c] = d
-        del frags, hit, d
-    return ShadowMap(
-        kind="ORTHO",
-        light_kind="SUN",
-        depth=depth,
-        view_proj=view_proj,
-        basis=np.broadcast_to(basis, (len(rects), 3, 3)).copy(),
-        rects=rects,
-        z_min=z_lo,
-        light_size=tan_half,
-        splits=splits,
-        mips=_flatten_pyramids([_pyramid(d, d) for d in depth]),
-        min_depth=float(depth.min()) if depth.size else np.inf,
-    )
+        return d, _pyramid(d, d)
+
+    def finish(cascades: list) -> ShadowMap:
+        depth = (np.stack([d for d, _ in cascades]) if cascades
+                 else np.empty((0, res, res), np.float32))
+        return ShadowMap(
+            kind="ORTHO",
+            light_kind="SUN",
+            depth=depth,
+            view_proj=view_proj,
+            basis=np.broadcast_to(basis, (len(rects), 3, 3)).copy(),
+            rects=rects,
+            z_min=z_lo,
+            light_size=tan_half,
+            splits=splits,
+            mips=_flatten_pyramids([pyramid for _, pyramid in cascades]),
+            min_depth=float(depth.min()) if depth.size else np.inf,
+        )
+
+    return [lambda c=c: cascade(c) for c in range(len(rects))], finish
+
+
+def shadow_map_jobs(
+    light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024
+) -> tuple[list[Callable[[], object]], Callable[[list], ShadowMap | None]]:
+    """The work of ``build_shadow_map`` as independent jobs (one per cube face or cascade, to
+    run on any threads) and the function that assembles their results, in order, into the
+    ShadowMap (None when the light casts no shadow). Arguments as ``build_shadow_map``."""
+    if not light.shadow:
+        return [], lambda results: None
+    res = max(1, int(resolution))
+    tris = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
+    if light.kind == "SUN":
+        return _sun_jobs(light, tris, camera, res)
+    return _perspective_jobs(light, tris, res)
 
 
 def build_shadow_map(
@@ -411,13 +434,8 @@ def build_shadow_map(
                 up to 4 res^2 for the sun)
     returns:    ShadowMap, or None when the light casts no shadow
     """
-    if not light.shadow:
-        return None
-    res = max(1, int(resolution))
-    tris = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
-    if light.kind == "SUN":
-        return _build_sun(light, tris, camera, res)
-    return _build_perspective(light, tris, res)
+    jobs, finish = shadow_map_jobs(light, triangles, camera, resolution=resolution)
+    return finish([job() for job in jobs])
 
 
 # --------------------------------------------------------------------------------------------
