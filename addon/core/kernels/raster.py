@@ -222,7 +222,8 @@ def _permute(rows, order):
     for r in range(rows.shape[0]):
         for j in range(order.shape[0]):
             buf[j] = rows[r, order[j]]
-        rows[r, :] = buf
+        for j in range(order.shape[0]):  # (a loop: slice assignment is slow to compile)
+            rows[r, j] = buf[j]
 
 
 _EDGES = nb.void(
@@ -259,8 +260,13 @@ def edges(keep, order, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err
         s0 = 0 if a0 > 0 else (1 if a1 > 0 else (2 if a2 > 0 else 0))  # first ea > 0
         s1 = 0 if a0 < 0 else (1 if a1 < 0 else (2 if a2 < 0 else 0))  # first ea < 0
         for k in range(3):
-            s = s0 if k == 0 else (s1 if k == 1 else 3 - s0 - s1)
-            ek, fk, gk = (a0, b0, c0) if s == 0 else ((a1, b1, c1) if s == 1 else (a2, b2, c2))
+            e = s0 if k == 0 else (s1 if k == 1 else 3 - s0 - s1)
+            if e == 0:
+                ek, fk, gk = a0, b0, c0
+            elif e == 1:
+                ek, fk, gk = a1, b1, c1
+            else:
+                ek, fk, gk = a2, b2, c2
             ea[k, j], eb[k, j], ec[k, j] = ek, fk, gk
             eb_f[k, j] = np.float64(fk)
             ea_abs[k, j] = NEVER if ek == 0 else np.float64(abs(ek))
@@ -294,12 +300,18 @@ def edges(keep, order, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err
         table[0, j], table[1, j], table[2, j] = la0 * w0, la1 * w1, la2 * w2
         table[3, j], table[4, j], table[5, j] = lb0 * w0, lb1 * w1, lb2 * w2
         table[6, j], table[7, j], table[8, j] = lc0 * w0, lc1 * w1, lc2 * w2
-    for a in (ea, eb, ec):
-        _permute(a, order)
-    for b in (eb_f, ea_abs, half, table):
-        _permute(b, order)
-    for c in (off_lo, off_hi, za, zb, zc):
-        _permute(c.reshape(1, -1), order)
+    _permute(ea, order)
+    _permute(eb, order)
+    _permute(ec, order)
+    _permute(eb_f, order)
+    _permute(ea_abs, order)
+    _permute(half, order)
+    _permute(table, order)
+    _permute(off_lo.reshape(1, -1), order)
+    _permute(off_hi.reshape(1, -1), order)
+    _permute(za.reshape(1, -1), order)
+    _permute(zb.reshape(1, -1), order)
+    _permute(zc.reshape(1, -1), order)
     _permute(tame.reshape(1, -1), order)
 
 

@@ -39,6 +39,7 @@ P_SIZE_ALL = 18
 F_SIZE = 32
 
 _NEG = np.float32(-1e-30)
+_NEG_INF = np.float32(-np.inf)
 _MIP_FIRST = 3  # shadows.MIP_FIRST_LEVEL
 _MAX_SLOPE = np.float32(10.0)  # shadows.MAX_SLOPE
 _BIAS_REL = np.float32(2e-5)  # shadows.DEPTH_BIAS_RELATIVE
@@ -252,17 +253,17 @@ def _footprint_min(fr, ip, mips, offsets, sides, radius):
     2 x 2 pyramid blocks over it); -inf where the square leaves the point's map."""
     res, levels = ip[I_RES], ip[I_LEVELS]
     if levels == 0:
-        return -np.inf
+        return _NEG_INF
     rc = radius * fr[F_L1C]
     rr = radius * fr[F_L1R]
     c0, c1 = np.floor(fr[F_CX] - rc), np.floor(fr[F_CX] + rc)
     r0, r1 = np.floor(fr[F_RY] - rr), np.floor(fr[F_RY] + rr)
     fres = np.float32(res)
     if not (c0 >= 0 and c1 < fres and r0 >= 0 and r1 < fres):
-        return -np.inf
+        return _NEG_INF
     level = _level(_mx(c1 - c0, r1 - r0) + np.float32(1.0))
     if level > _MIP_FIRST + levels - 1:
-        return -np.inf
+        return _NEG_INF
     m = np.int64(fr[F_M])
     a, b, c, d = np.int64(c0), np.int64(c1), np.int64(r0), np.int64(r1)
     best = mips[3 * _mip_row(ip, offsets, sides, m, level, a, c)]
@@ -386,7 +387,12 @@ def _outside_tap(fr, fp, ip, depth, rects, faces, u, v, r, span):
     return stored, _mn(_mx(z, w0 - span), w0 + span)
 
 
-@nb.njit(**_OPTIONS)
+_TAPS = nb.types.Tuple((nb.int64, nb.float32))(
+    nb.float32[::1], nb.float32[::1], nb.int64[::1], nb.float32[::1], nb.float32[:, ::1],
+    nb.float32[:, ::1], nb.float32, nb.float32[:, ::1], nb.boolean, nb.boolean)
+
+
+@nb.njit(_TAPS, **_OPTIONS)  # one compiled form whatever the flags (compile time)
 def _taps(fr, fp, ip, depth, rects, faces, radius, disc, measure, check):
     """Blocked taps of ``disc`` (K, 2) scaled to ``radius`` around the point, and (measure)
     their blocker measure sum: d_blocker / d_receiver along the tap's ray (perspective) or

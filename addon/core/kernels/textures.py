@@ -55,8 +55,10 @@ def halve(src, out):
     h, w, nc = src.shape
     h2, w2 = out.shape[0], out.shape[1]
     rows = np.empty((h2, w, nc), np.float32)
-    if h == 1:
-        rows[:] = src
+    if h == 1:  # (element loops: slice assignment is slow to compile)
+        for x in range(w):
+            for c in range(nc):
+                rows[0, x, c] = src[0, x, c]
     elif h % 2 == 0:
         for i in range(h2):
             for x in range(w):
@@ -73,7 +75,9 @@ def halve(src, out):
                     rows[i, x, c] = (w0 * src[2 * i, x, c] + wm * src[2 * i + 1, x, c]) \
                         + w2_ * src[2 * i + 2, x, c]
     if w == 1:
-        out[:] = rows
+        for i in range(h2):
+            for c in range(nc):
+                out[i, 0, c] = rows[i, 0, c]
     elif w % 2 == 0:
         for i in range(h2):
             for x in range(w2):
