@@ -34,6 +34,27 @@ def test_default_cache_folder_is_per_user(monkeypatch, tmp_path):
 LOAD = ("import sys; from bo2_lighting.addon.core import kernels; "
         "kernels.load(lambda m: print(m)); print('cached', kernels.is_cached())")
 
+# After compiling: every helper of the kernels compiled once, for float32 data where the kernel
+# works in float32 (a stray float64 constant silently doubles a helper's compile and changes
+# its rounding); the multi-typed kernels are the ones declared so.
+TYPES = """
+import importlib
+from bo2_lighting.addon.core import kernels
+kernels.load()
+several = {("raster", "project"), ("raster", "survivors"), ("raster", "_permute")}
+for module in kernels.MODULES:
+    mod = importlib.import_module(f"{kernels.__name__}.{module}")
+    for name, f in vars(mod).items():
+        sigs = getattr(f, "signatures", None)
+        if sigs is None or (module, name) in several:
+            continue
+        if len(sigs) > 1:
+            print("several", module, name, len(sigs))
+        if module == "shadows" and any("float64" in str(s) for s in sigs):
+            print("float64", module, name)
+print("done")
+"""
+
 
 def test_kernels_compile_once_into_the_cache_folder(tmp_path):
     env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
@@ -45,3 +66,11 @@ def test_kernels_compile_once_into_the_cache_folder(tmp_path):
     second = subprocess.run([sys.executable, "-c", LOAD], env=env, capture_output=True,
                             text=True, timeout=600)
     assert second.stdout.splitlines() == ["cached True"]
+
+
+def test_each_helper_compiles_once_in_its_types(tmp_path):
+    env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    run = subprocess.run([sys.executable, "-c", TYPES], env=env, capture_output=True, text=True,
+                         timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines() == ["done"]
