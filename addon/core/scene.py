@@ -248,8 +248,8 @@ class RenderSettings:
     film_transparent: background alpha 0 instead of the world colour
     shadow_resolution: shadow map size in texels (per cube face or cascade)
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
-    threads:        tiles and shadow maps rendered at once (NumPy releases the GIL in its
-                    loops); 0 = one per CPU core
+    threads:        tiles and shadow-map faces rendered at once (the kernels release the
+                    GIL); 0 = one per CPU core
     border:         optional (x0, y0, x1, y1) pixel region to render, top-left origin,
                     x1 and y1 exclusive (Blender's render border)
     """
