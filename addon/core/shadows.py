@@ -223,21 +223,24 @@ def _mip_layout(res: int, faces: int) -> tuple[list[int], list[int]]:
 
 def _pyramid(dist: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:
     """Reduction pyramid of one (res, res) map: levels MIP_FIRST_LEVEL, ... as (side, side, 3)
-    float32 (least dist, least depth, greatest depth); odd sides are padded with texels that
-    change no reduction."""
+    float32 (least dist, least depth, greatest depth); an odd side's last blocks are cut by the
+    edge (``kernels.raster.first_reduction``, ``next_reduction``)."""
+    from .kernels import raster as kernels
+
     levels = []
-    cur, level = [dist, depth, depth], 0
-    while cur[0].shape[-1] > 1:
-        if cur[0].shape[-1] % 2:
-            cur = [np.pad(c, ((0, 1), (0, 1)), constant_values=v)
-                   for c, v in zip(cur, (np.inf, np.inf, -np.inf), strict=True)]
-        cur = [
-            op(op(c[0::2, 0::2], c[1::2, 0::2]), op(c[0::2, 1::2], c[1::2, 1::2]))
-            for c, op in zip(cur, (np.minimum, np.minimum, np.maximum), strict=True)
-        ]
-        level += 1
+    side, level = dist.shape[-1], 0
+    current = None
+    while side > 1:
+        side = (side + 1) // 2
+        out = np.empty((side, side, 3), np.float32)
+        if current is None:
+            kernels.first_reduction(np.ascontiguousarray(dist, np.float32),
+                                    np.ascontiguousarray(depth, np.float32), out)
+        else:
+            kernels.next_reduction(current, out)
+        current, level = out, level + 1
         if level >= MIP_FIRST_LEVEL:
-            levels.append(np.stack(cur, -1))
+            levels.append(out)
     return levels
 
 
@@ -379,10 +382,11 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
         m[3, 3] = 1.0
 
     def cascade(c: int):
+        from .kernels import raster as kernels
+
         frags = raster.rasterize(_project(tris, view_proj[c]), res, res)
-        hit = frags.tri >= 0
-        d = np.full((res, res), np.inf, np.float32)
-        d[hit] = np.einsum("nk,nk->n", frags.bary[hit].astype(np.float64), zs[frags.tri[hit]])
+        d = np.empty((res, res), np.float32)  # depth along the light of each texel's surface
+        kernels.corner_sum(frags.tri, frags.bary, np.ascontiguousarray(zs, np.float64), d)
         return d, _pyramid(d, d)
 
     def finish(cascades: list) -> ShadowMap:

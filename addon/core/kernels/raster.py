@@ -351,3 +351,55 @@ def tile_survivors(clip, ax, bx, ay, by, out, orig):
             orig[n] = t
             n += 1
     return n
+
+
+_D2 = nb.float32[:, ::1]
+
+
+@nb.njit(nb.void(_D2, _D2, nb.float32[:, :, ::1]), **_OPTIONS)
+def first_reduction(dist, depth, out):
+    """The first level of a shadow map's reduction pyramid: per 2 x 2 block of the (S, S) maps
+    (an odd side's last block is cut by the edge), the least ``dist``, the least and the
+    greatest ``depth``: ``out`` (ceil(S / 2), ceil(S / 2), 3)."""
+    s = dist.shape[0]
+    for i in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            lo_d, lo, hi = np.float32(np.inf), np.float32(np.inf), np.float32(-np.inf)
+            for r in range(2 * i, min(2 * i + 2, s)):
+                for c in range(2 * j, min(2 * j + 2, s)):
+                    lo_d = min(lo_d, dist[r, c])
+                    lo = min(lo, depth[r, c])
+                    hi = max(hi, depth[r, c])
+            out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
+
+
+@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
+def next_reduction(level, out):
+    """The next level of a reduction pyramid ``level`` (S, S, 3) (least, least, greatest per
+    2 x 2 block, an odd side's last block cut by the edge): ``out`` (ceil(S/2), ceil(S/2), 3)."""
+    s = level.shape[0]
+    for i in range(out.shape[0]):
+        for j in range(out.shape[1]):
+            lo_d, lo, hi = np.float32(np.inf), np.float32(np.inf), np.float32(-np.inf)
+            for r in range(2 * i, min(2 * i + 2, s)):
+                for c in range(2 * j, min(2 * j + 2, s)):
+                    lo_d = min(lo_d, level[r, c, 0])
+                    lo = min(lo, level[r, c, 1])
+                    hi = max(hi, level[r, c, 2])
+            out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
+
+
+@nb.njit(nb.void(nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float64[:, ::1], _D2), **_OPTIONS)
+def corner_sum(tri, bary, values, out):
+    """Per pixel of ``tri`` (H, W) (-1: none, +inf in ``out``), its triangle's corner
+    ``values`` (T, 3) float64 weighted by ``bary`` (H, W, 3), summed in float64 in corner
+    order and rounded to float32 into ``out`` (H, W) (e.g. a sun map's depth)."""
+    for i in range(tri.shape[0]):
+        for j in range(tri.shape[1]):
+            t = tri[i, j]
+            if t < 0:
+                out[i, j] = np.float32(np.inf)
+            else:
+                out[i, j] = ((np.float64(bary[i, j, 0]) * values[t, 0]
+                              + np.float64(bary[i, j, 1]) * values[t, 1])
+                             + np.float64(bary[i, j, 2]) * values[t, 2])
