@@ -37,13 +37,13 @@ search region is under 1.5 texels, and lights of zero size, get that one-texel k
 are placed in the plane through the receiver perpendicular to the light ray, so the filtered
 result of a disc kernel over a straight shadow edge is the visible fraction of a disc light.
 
-Evaluation (the same result as comparing every tap, faster): the taps of a kernel land in a
-texel rectangle known from its radius whatever the rotation. When it is at most 4 x 4 texels,
-each of its texels is compared once and the taps read those results (all blocked -> 0, none ->
-1, without taps). Wider rectangles are first tested against the least and greatest depth of
-the pyramid blocks over them (``ShadowMap.mips``) and the receiver-plane depths at their
-corners: provably unblocked or blocked points skip their taps, and so does the blocker search
-of points whose search region is blocked everywhere.
+Evaluation (the same result as comparing every tap, faster; ``kernels.shadows``, one point at
+a time): the taps of a kernel land in a texel rectangle known from its radius whatever the
+rotation. When it is at most 4 x 4 texels, each of its texels is compared first (all blocked
+-> 0, none -> 1, without taps). Wider rectangles are first tested against the least and
+greatest depth of the pyramid blocks over them (``ShadowMap.mips``) and the receiver-plane
+depths at their corners: provably unblocked or blocked points skip their taps, and so does the
+blocker search of points whose search region is blocked everywhere.
 
 Bias (no acne, no peter-panning): every tap compares the stored depth with the depth of the
 receiver's tangent plane along the ray through the centre of the texel it reads (receiver-plane
