@@ -155,17 +155,6 @@ def _drop_broken(positions, normals, uvs, has_uv, holdout, mat_index, warn):
             has_uv[keep], holdout[keep], mat_index[keep])
 
 
-def _project(positions: np.ndarray, camera) -> np.ndarray:
-    """(T, 3, 4) float32 clip-space corners of (T, 3, 3) world corners seen by ``camera``."""
-    from .kernels import raster as kernels
-
-    clip = np.empty(positions.shape[:2] + (4,), np.float32)
-    kernels.project(np.ascontiguousarray(positions, np.float32),
-                    np.ascontiguousarray(camera.projection @ camera.world_to_camera, np.float64),
-                    clip)
-    return clip
-
-
 def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
             should_stop: Callable[[], bool] | None = None, shadow_maps: list | None = None,
             fit_shadows: bool = True) -> Frame:
@@ -197,7 +186,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         positions, normals, uvs.astype(np.float32), has_uv, holdout, mat_index, warn)
 
     cam = scene.camera
-    clip = _project(positions, cam)
+    clip = raster.project(positions, cam.projection @ cam.world_to_camera)
     cull_t = np.array([m.backface_culling for m in mats], bool)
     cull = cull_t[mat_index] if cull_t.any() else None
 
@@ -221,7 +210,8 @@ def with_camera(frame: Frame, camera) -> Frame:
     """``frame`` seen through another camera: only the projection is redone (same geometry,
     materials and shadow maps)."""
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
-                               clip=_project(frame.positions, camera))
+                               clip=raster.project(frame.positions,
+                                                   camera.projection @ camera.world_to_camera))
 
 
 def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
@@ -330,7 +320,7 @@ def _raster(frame: Frame, tile, margin, offset):
     return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1]
 
 
-def _shade_points(frame: Frame, tri, bary, sx, sy) -> dict[str, np.ndarray]:
+def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,).
 
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;

@@ -188,10 +188,15 @@ def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
 def _packed_chains(probes: Probes, prefilter: str) -> tuple:
     """The chains of ``prefilter`` of every reflection probe, then the world's, as the indirect
     kernel takes them (``kernels.indirect``): padded levels in one flat float32 array, level
-    offsets and sides (C, L) int64, level counts (C,); built once per ``Probes`` and prefilter."""
-    key = (prefilter, len(probes.reflection))
-    if probes.packed is not None and probes.packed[0] == key:
-        return probes.packed[1]
+    offsets and sides (C, L) int64, level counts (C,); built again only when the chains (the
+    list objects), the prefilter or the world colour change."""
+    key = (prefilter, probes.world_color is None,
+           [probes.world_mips.get(prefilter), *(p.mips.get(prefilter) for p in probes.reflection)])
+    if probes.packed is not None:
+        (name, no_color, chains), packed = probes.packed
+        if (name, no_color) == key[:2] and len(chains) == len(key[2]) and all(
+                a is b for a, b in zip(chains, key[2], strict=True)):  # the same list objects
+            return packed
     chains = [p.mips[prefilter] for p in probes.reflection]
     chains.append(probes.world_mips[prefilter] if probes.world_color is None else [])
     count = max(len(c) for c in chains) or 1
@@ -265,7 +270,8 @@ def indirect(
         probes.world_color is not None,
         np.asarray(probes.world_color if probes.world_color is not None else np.zeros(3),
                    np.float32).reshape(-1)[:3].copy(),
-        kernels.NORMALIZATIONS[normalization], diffuse, radiance)
+        kernels.NORMALIZATIONS[normalization], np.array([_EPS, MAX_NORMALIZATION]), diffuse,
+        radiance)
     n_dot_v = np.einsum("nc,nc->n", f32(normals, (n, 3)), f32(view, (n, 3)))
     e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
     return diffuse, (radiance * e).astype(np.float32)

@@ -4,8 +4,8 @@ The output is the visibility part of a G-buffer: for every pixel, the index of t
 triangle, the perspective-correct barycentric weights of its three corners and the view depth.
 Materials and shading read attributes through ``interpolate`` (deferred shading).
 
-Method (step 1's trivial rejection and steps 3 to 5 compiled, ``kernels/raster.py``; the rest of
-steps 1 and 2 vectorized in NumPy):
+Method (compiled in ``kernels/raster.py``, apart from step 1's clipping and the scan order's
+sort, which stay in NumPy):
 
 1. Trivial rejection of triangles outside one plane of the clip-space frustum (per-corner
    outcodes), then clipping in homogeneous coordinates (Sutherland & Hodgman 1974; Blinn &
@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Fragments", "coverage", "interpolate", "rasterize"]
+__all__ = ["Fragments", "coverage", "interpolate", "project", "rasterize"]
 
 # Fixed point: window coordinates in units of 2^-S pixel, |x| <= 2^G pixels (guard band), with
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
@@ -98,10 +98,11 @@ def coverage(frags: Fragments) -> np.ndarray:
     return frags.tri >= 0
 
 
-def _empty_fragments(height: int, width: int, degenerate: int = 0, nan: int = 0) -> Fragments:
+def _empty_fragments(height: int, width: int, degenerate: int = 0, nan: int = 0,
+                     weights: bool = True) -> Fragments:
     return Fragments(
         tri=np.full((height, width), -1, np.int32),
-        bary=np.zeros((height, width, 3), np.float32),
+        bary=np.zeros((height, width, 3), np.float32) if weights else None,
         depth=np.full((height, width), np.inf, np.float32),
         skipped_degenerate=degenerate,
         skipped_nan=nan,
@@ -263,7 +264,8 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
         whole[cut] = False
         v = np.concatenate([v[:, whole], cv[:, :, :4].reshape(-1, 12).T], axis=1)
         orig = np.concatenate([orig[whole], co])
-        sub_index = np.concatenate([np.full(orig.size - co.size, -1), np.arange(co.size)])
+        sub_index = np.concatenate([np.full(orig.size - co.size, -1, np.intp),
+                                    np.arange(co.size, dtype=np.intp)])
         sub_bary = np.ascontiguousarray(cv[:, :, 4:])  # (K, 3 corners, 3 original weights)
         order = np.argsort(orig, kind="stable")
         v, orig, sub_index = _take_columns(v, order), orig[order], sub_index[order]
@@ -421,7 +423,7 @@ def rasterize(
         if cull.shape != (n_tri,):
             raise ValueError(f"cull must have shape ({n_tri},), got {cull.shape}")
     if width <= 0 or height <= 0 or n_tri == 0:
-        return _empty_fragments(max(height, 0), max(width, 0))
+        return _empty_fragments(max(height, 0), max(width, 0), weights=weights)
     if clip.dtype != np.float32:
         clip = clip.astype(np.float64, copy=False)
     clip = np.ascontiguousarray(clip)
@@ -433,7 +435,7 @@ def rasterize(
 
     s = _cached_setup(clip, width, height, cull, guard_bits)
     if s.n_sub == 0:
-        return _empty_fragments(height, width, s.n_degenerate, s.n_nan)
+        return _empty_fragments(height, width, s.n_degenerate, s.n_nan, weights)
     keybuf = np.full(height * width, kernels.EMPTY, np.uint64)
     kernels.scan(s.ea, s.eb, s.ec, s.eb_f, s.ea_abs, s.half, s.off_lo, s.off_hi, s.ymin, s.rows,
                  s.za, s.zb, s.zc, s.tame, s.sid, width, height, sub_bits, oxi, oyi, ox, oy,
@@ -450,6 +452,18 @@ def rasterize(
                     s.sub_index, width, ox, oy, weights, frags.tri.reshape(-1),
                     bary.reshape(-1, 3), frags.depth.reshape(-1))
     return frags
+
+
+def project(corners: np.ndarray, matrix: np.ndarray, dtype=np.float32) -> np.ndarray:
+    """(T, 3, 4) clip-space corners of (T, 3, 3) world corners through a 4 x 4 matrix, each
+    coordinate summed in float64 (``kernels.raster.project``) and stored as ``dtype``
+    (float32 or float64)."""
+    from .kernels import raster as kernels
+
+    corners = np.ascontiguousarray(corners, dtype)
+    clip = np.empty(corners.shape[:2] + (4,), dtype)
+    kernels.project(corners, np.ascontiguousarray(matrix, np.float64), clip)
+    return clip
 
 
 def interpolate(frags: Fragments, attr, *, block: int = 1 << 20) -> np.ndarray:

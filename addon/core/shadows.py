@@ -200,15 +200,6 @@ def _view(basis: np.ndarray, origin: np.ndarray) -> np.ndarray:
     return m
 
 
-def _project(tris: np.ndarray, matrix: np.ndarray) -> np.ndarray:
-    """(T, 3, 4) float64 clip-space corners of (T, 3, 3) float64 corners through ``matrix``."""
-    from .kernels import raster as kernels
-
-    clip = np.empty(tris.shape[:2] + (4,))
-    kernels.project(np.ascontiguousarray(tris, np.float64), np.ascontiguousarray(matrix), clip)
-    return clip
-
-
 def _mip_layout(res: int, faces: int) -> tuple[list[int], list[int]]:
     """Offsets (rows of ``ShadowMap.mips``) and sides of the pyramid levels MIP_FIRST_LEVEL, ..."""
     offsets, sides, side, level, row = [], [], res, 0, 0
@@ -273,7 +264,8 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int):
     view_proj = np.stack([proj @ _view(frame, origin) for frame in basis])
 
     def face(f: int):
-        depth = raster.rasterize(_project(tris, view_proj[f]), res, res, weights=False).depth
+        depth = raster.rasterize(raster.project(tris, view_proj[f], np.float64), res, res,
+                                 weights=False).depth
         dist = depth * ray_len  # distance from the light, metres
         return depth, _pyramid(dist, depth), float(dist.min())
 
@@ -384,7 +376,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
     def cascade(c: int):
         from .kernels import raster as kernels
 
-        frags = raster.rasterize(_project(tris, view_proj[c]), res, res)
+        frags = raster.rasterize(raster.project(tris, view_proj[c], np.float64), res, res)
         d = np.empty((res, res), np.float32)  # depth along the light of each texel's surface
         kernels.corner_sum(frags.tri, frags.bary, np.ascontiguousarray(zs, np.float64), d)
         return d, _pyramid(d, d)
@@ -495,8 +487,13 @@ def _packed(sm: ShadowMap) -> tuple:
     fp[kernels.P_OX : kernels.P_OZ + 1] = sm.origin
     fp[kernels.P_HALF_INV] = 0.5 * inv - 1.0
     fp[kernels.P_ONE_HALF_INV] = 1.0 - 0.5 * inv
+    fp[kernels.P_MAX_SLOPE] = MAX_SLOPE
+    fp[kernels.P_BIAS_REL] = DEPTH_BIAS_RELATIVE
+    fp[kernels.P_BIAS_TEXELS] = DEPTH_BIAS_TEXELS
+    fp[kernels.P_MIN_FILTER] = MIN_FILTER_TEXELS
     ip = np.zeros(kernels.I_SIZE, np.int64)
     ip[kernels.I_KIND], ip[kernels.I_RES], ip[kernels.I_LEVELS] = kind[sm.kind], res, len(sides)
+    ip[kernels.I_MIP_FIRST], ip[kernels.I_REFINEMENTS] = MIP_FIRST_LEVEL, SEARCH_REFINEMENTS
     packed = (sm.depth.reshape(-1), np.ascontiguousarray(sm.mips.reshape(-1), np.float32),
               np.asarray(offsets, np.int64), np.asarray(sides, np.int64),
               np.ascontiguousarray(sm.basis[0], np.float32),
@@ -526,8 +523,11 @@ def shadow_visibility(
     """
     from .kernels import shadows as kernels
 
-    p = np.ascontiguousarray(np.asarray(points, np.float32).reshape(-1, 3))
-    n = np.ascontiguousarray(np.asarray(normals, np.float32).reshape(-1, 3))
+    p = np.require(np.asarray(points, np.float32).reshape(-1, 3), np.float32, ["C", "W"])
+    n = np.require(np.asarray(normals, np.float32).reshape(-1, 3), np.float32, ["C", "W"])
+    if len(n) != len(p) or (where is not None and np.shape(where) != (len(p),)):
+        raise ValueError(f"points {p.shape}, normals {n.shape} and where "
+                         f"{np.shape(where) if where is not None else None} do not match")
     out = np.ones(len(p), np.float32)
     if shadow_map is None or shadow_map.depth.shape[0] == 0 or not len(p):
         return out
@@ -535,7 +535,7 @@ def shadow_visibility(
     ip = ip.copy()
     ip[kernels.I_JITTER] = bool(jitter)
     active = (np.ones(len(p), bool) if where is None else
-              np.ascontiguousarray(np.asarray(where, bool).reshape(-1)))
+              np.require(np.asarray(where, bool), bool, ["C", "W"]))
     kernels.visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, _BLOCKER_DISC,
                        _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, active,
                        out)

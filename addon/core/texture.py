@@ -227,8 +227,8 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
 
     Bilinear between the four texels around the position (texel centres at ((i + 0.5) / w,
     (j + 0.5) / h)), wrapped by the texture's extension as Cycles' wrap functions do (REPEAT,
-    MIRROR, EXTEND clamps, CLIP gives 0 outside the image); "Closest" takes the nearest texel;
-    with ``lod``, linear between the two nearest levels.
+    MIRROR, EXTEND clamps (and so does an unknown mode), CLIP gives 0 outside the image);
+    "Closest" takes the nearest texel; with ``lod``, linear between the two nearest levels.
 
     texture: the texture
     uv:      (N, 2) UV; (0, 0) is the bottom-left corner of the image, (1, 1) the top-right,
@@ -241,15 +241,15 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
     from .kernels import textures as kernels
 
     uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    u, v = (np.require(uv[:, k], np.float64, ["C", "W"]) for k in (0, 1))
     n = len(uv)
     texels, levels = texture.packed
     use_lod = lod is not None
     lod = np.array(np.broadcast_to(np.asarray(0.0 if lod is None else lod, np.float64), (n,)))
     out = np.empty((n, texture.channels), np.float32)
-    kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.REPEAT),
+    kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.EXTEND),
                    texture.channels, texture.interpolation == "Closest",
-                   np.ascontiguousarray(uv[:, 0]), np.ascontiguousarray(uv[:, 1]), lod, use_lod,
-                   out)
+                   u, v, lod, use_lod, out)
     return out
 
 

@@ -41,7 +41,8 @@ TYPES = """
 import importlib
 from bo2_lighting.addon.core import kernels
 kernels.load()
-several = {("raster", "project"), ("raster", "survivors"), ("raster", "_permute")}
+several = {("raster", "project"), ("raster", "survivors"), ("raster", "_permute"),
+           ("raster", "_rejection")}
 for module in kernels.MODULES:
     mod = importlib.import_module(f"{kernels.__name__}.{module}")
     for name, f in vars(mod).items():

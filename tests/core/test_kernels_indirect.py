@@ -135,3 +135,18 @@ def test_indirect_kernel_with_bad_input_stays_finite():
     # of a NaN gloss stays NaN, as in env_brdf); a NaN normal gives NaN, never a crash
     rows = [0, 2, 3, 4]
     assert np.isfinite(diffuse[rows]).all() and np.isfinite(specular[2:]).all()
+
+
+def test_changed_probes_are_packed_again():
+    probes = random_probes(True, False)
+    n = 200
+    points = RNG.uniform(-3, 3, (n, 3)).astype(np.float32)
+    normals = np.tile(np.float32([0, 0, 1]), (n, 1))
+    args = (points, normals, normals, np.ones((n, 3), np.float32),
+            np.full((n, 3), 0.5, np.float32), np.full(n, 0.6, np.float32))
+    cp.indirect(probes, *args)  # packs the chains with a world colour
+    probes.world_color = None  # the world's chain is read from now on
+    probes.reflection[0].mips["bo2"] = chain(16)  # and a probe's chain is replaced
+    _, spec = cp.indirect(probes, *args, normalization="none")
+    _, ref = reference(probes, *args, "none", "bo2", "bo2")
+    np.testing.assert_allclose(spec, ref, rtol=2e-5, atol=1e-7)

@@ -12,10 +12,11 @@ numba 0.62.1 with llvmlite 0.45.1 is bundled in the extension's zip as wheels (P
 3.13, every platform); another extension can bring another numba into Blender's shared
 site-packages, so ``check()`` says exactly what was found.
 
-Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``raster`` (projection,
-set-up, scan conversion with the depth test, resolve), ``shading`` (direct light:
-incidence and the talk's BRDF, the shaded points' surface), ``shadows`` (the shadow filter,
-point by point), ``textures`` (sRGB decode by table, mip chains, filtered look-ups).
+Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``raster``
+(projection, set-up, scan conversion with the depth test, resolve; shadow-map pyramids),
+``shading`` (direct light: incidence and the talk's BRDF; the shaded points' surface; the
+passes' assembly and accumulation), ``shadows`` (the shadow filter, point by point),
+``textures`` (sRGB decode by table, mip chains, filtered look-ups).
 """
 
 from __future__ import annotations

@@ -3,9 +3,9 @@ shaded point (``probes.indirect``, which gives the method and the talk's slides)
 
 References (the NumPy this kernel is held to, point by point, in tests/core/test_kernels_indirect):
 ``sh.basis`` and ``sh.irradiance`` (Ramamoorthi & Hanrahan 2001), ``cubemap.sample`` (seamless
-trilinear cube-map look-ups, the shader's texCUBElod), the probes' influence weights and the
-"none" / "bo1" / "bo2" normalizations of ``probes`` (slides "Black Ops: normalization
-algorithm" and "Improved normalization algorithm"), with their float32 / float64 precision.
+trilinear cube-map look-ups, the shader's texCUBElod), ``ReflectionProbe.weight``, and the
+"none" / "bo1" / "bo2" normalizations of ``probes``'s module docstring (slides "Black Ops:
+normalization algorithm" and "Improved normalization algorithm"), written out in the test.
 
 Cube-map chains come packed (``probes._packed_chains``): every level of every chain padded with
 its one-texel seamless border (``cubemap._pad``) in one flat float32 array, chain c's level m at
@@ -23,8 +23,6 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 NONE, BO1, BO2 = 0, 1, 2  # normalizations
 NORMALIZATIONS = {"none": NONE, "bo1": BO1, "bo2": BO2}
-MAX_NORMALIZATION = 16.0  # probes.MAX_NORMALIZATION
-_EPS = 1e-6  # probes._EPS
 
 _C0 = 0.5 / math.sqrt(math.pi)  # sh._C0 ...
 _C1 = math.sqrt(3.0 / (4.0 * math.pi))
@@ -72,7 +70,8 @@ def _bilinear(chains, base, size, face, x, y, c):
 @nb.njit(**_OPTIONS)
 def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, gloss, out):
     """``cubemap.sample`` of ``chain`` along (dx, dy, dz) (float32) at lod = top - g top,
-    g = gloss clamped to [0, 1] (``probes._lod``): RGB into ``out`` (3,) float32."""
+    g = gloss clamped to [0, 1] (slide "Black Ops: environment map pre-filtering", in
+    float32): RGB into ``out`` (3,) float32; 0 for a chain without levels."""
     d0, d1, d2 = np.float64(dx), np.float64(dy), np.float64(dz)
     if not (np.isfinite(d0) and np.isfinite(d1) and np.isfinite(d2)) or \
             not max(abs(d0), abs(d1), abs(d2)) > 0.0:
@@ -95,7 +94,7 @@ def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, 
         g = np.float32(np.nan)
     else:
         g = min(max(g, np.float32(0.0)), np.float32(1.0))
-    lod = np.float64(np.float32(top) - g * np.float32(top))  # float32, as probes._lod
+    lod = np.float64(np.float32(top) - g * np.float32(top))
     if lod != lod:
         lod = np.float64(top)
     lod = min(max(lod, 0.0), np.float64(top))
@@ -103,6 +102,8 @@ def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, 
     frac = np.float32(lod - base)
     for c in range(3):
         out[c] = np.float32(0.0)
+    if top < 0:
+        return
     for k in range(base, base + 2):
         if k > top:
             break
@@ -116,22 +117,23 @@ def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, 
 
 
 _INDIRECT = nb.void(
-    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # points, normals, view
-    nb.float32[:, ::1], nb.float32[::1], nb.float32[:, :, ::1],  # albedo, gloss, pixel_sh
+    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # points, normals, view (N, 3)
+    nb.float32[:, ::1], nb.float32[::1], nb.float32[:, :, ::1],  # albedo, gloss, pixel SH
     nb.float32[::1],  # band factors (9,)
-    nb.float32[::1], nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[::1],  # chains, offsets,
-    nb.float64[:, :, ::1],  # sizes, levels; cube faces (6, 3, 3)
-    nb.float32[:, ::1], nb.float32[:, ::1],  # probe position (R, 3), radius, fade (R, 2)
-    nb.float64[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # dc + eps (R+1, 3), scalar
-    nb.boolean, nb.float32[::1], nb.int64,  # (R+1, 9), tint (R+1, 3); world colour?, colour,
-    nb.float32[:, ::1], nb.float32[:, ::1],  # normalization; out: diffuse, radiance (N, 3)
+    nb.float32[::1], nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[::1],  # chains, level offsets,
+    nb.float64[:, :, ::1],  # sides and counts; cube faces (6, 3, 3)
+    nb.float32[:, ::1], nb.float32[:, ::1],  # probe positions (R, 3), radius and fade (R, 2)
+    nb.float64[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # SH constant term + eps,
+    nb.boolean, nb.float32[::1], nb.int64,  # scalar SH, tint; world colour?, colour, normalization
+    nb.float64[::1],  # eps, largest normalization ratio
+    nb.float32[:, ::1], nb.float32[:, ::1],  # out: diffuse, radiance (N, 3)
 )
 
 
 @nb.njit(_INDIRECT, **_OPTIONS)
 def indirect(points, normals, view, albedo, gloss, pixel_sh, band, chains, level_offset,
              level_size, levels, faces, position, radius_fade, dc_eps, scalar, tint,
-             has_world_color, world_color, normalization, diffuse, radiance):
+             has_world_color, world_color, normalization, limits, diffuse, radiance):
     """Indirect diffuse ``diffuse`` (N, 3) (albedo / pi times the SH irradiance at the normal)
     and the normalized prefiltered radiance ``radiance`` (N, 3) along the reflection vector:
     the reflection probes' chains 0 .. R - 1 weighted by their influence (divided by the sum
@@ -142,7 +144,8 @@ def indirect(points, normals, view, albedo, gloss, pixel_sh, band, chains, level
     e = np.empty(3, np.float32)
     s = np.empty(3, np.float32)
     acc = np.empty(3, np.float32)
-    eps32 = np.float32(_EPS)
+    eps32 = np.float32(limits[0])
+    max_ratio = limits[1]
     inv_pi = np.float32(1.0 / np.pi)
     for i in range(points.shape[0]):
         k_sh = i if pixel_sh.shape[0] > 1 else 0
@@ -193,10 +196,10 @@ def indirect(points, normals, view, albedo, gloss, pixel_sh, band, chains, level
                     if normalization == BO1:
                         ratio = np.float32(min(max(
                             (np.float64(pixel_sh[k_sh, 0, c] + eps32)) / dc_eps[chain, c], 0.0),
-                            MAX_NORMALIZATION))
+                            max_ratio))
                     else:
                         ratio = (e[c] + eps32) / (probe_e * tint[chain, c] + eps32)
-                        ratio = min(max(ratio, np.float32(0.0)), np.float32(MAX_NORMALIZATION))
+                        ratio = min(max(ratio, np.float32(0.0)), np.float32(max_ratio))
                     s[c] = s[c] * ratio
             for c in range(3):
                 acc[c] += w * s[c]

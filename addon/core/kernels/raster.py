@@ -1,13 +1,15 @@
-"""Rasterization kernels: scan conversion with the depth test, and the resolve of each pixel's
-nearest fragment (steps 3 to 5 of ``raster``'s module docstring, which gives the method, the
-exactness argument and the references; ``raster._setup`` prepares their input).
+"""Rasterization kernels: every step of ``raster``'s module docstring but the clipping and the
+scan order's sort (the docstring gives the method, the exactness argument and the references).
 
-``scan`` walks each triangle's rows of samples, finds the covered span of each row from the
-three edge functions (exact: integer floor divisions, or float64 where the quotient is provably
-exact), and keeps the smallest packed key (quantized depth, triangle index) of every pixel.
-``resolve`` turns every pixel's key into the original triangle, perspective-correct weights and
-clip w. ``project`` takes world corners to clip space; ``survivors`` is step 1's trivial
-rejection (non-finite corners, triangles wholly beyond one frustum plane).
+``project`` takes world corners to clip space; ``survivors`` and ``tile_survivors`` are step 1's
+trivial rejection (non-finite corners, triangles wholly beyond one frustum plane), the latter
+re-projecting a tile to the viewport; ``window`` and ``edges`` are step 2's set-up, bit for bit
+the NumPy they replaced; ``scan`` walks each triangle's rows of samples, finds the covered span
+of each row from the three edge functions (exact: integer floor divisions, or float64 where
+the quotient is provably exact), and keeps the smallest packed key (quantized depth, triangle
+index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
+perspective-correct weights and clip w. For shadow maps: ``first_reduction`` and
+``next_reduction`` build the min/max pyramid, ``corner_sum`` a sun map's depths.
 """
 
 from __future__ import annotations
@@ -149,39 +151,47 @@ def project(positions, matrix, clip):
                                  + z * matrix[r, 2]) + matrix[r, 3]
 
 
+KEPT, OUTSIDE, NOT_FINITE = 0, 1, 2
+
+
+@nb.njit(**_OPTIONS)
+def _rejection(corners):
+    """Step 1's trivial rejection of one triangle's clip corners (3, 4): NOT_FINITE, OUTSIDE
+    (x, y or z above w, or below -w, at all three corners) or KEPT."""
+    for c in range(3):
+        for k in range(4):
+            if not np.isfinite(corners[c, k]):
+                return NOT_FINITE
+    for k in range(3):
+        above = True
+        below = True
+        for c in range(3):
+            w = corners[c, 3]
+            above = above and corners[c, k] > w
+            below = below and corners[c, k] < -w
+        if above or below:
+            return OUTSIDE
+    return KEPT
+
+
 _COUNTS = nb.types.UniTuple(nb.int64, 2)
 
 
 @nb.njit([_COUNTS(nb.float32[:, :, ::1], nb.int64[::1]),
           _COUNTS(nb.float64[:, :, ::1], nb.int64[::1])], **_OPTIONS)
 def survivors(clip, orig):
-    """Step 1's trivial rejection: writes to ``orig`` the indices of the triangles of ``clip``
-    (T, 3, 4) that have finite corners and are not wholly beyond one plane of the frustum
-    (x, y or z above w, or below -w, at all three corners); returns their count and the
-    count of triangles with a non-finite corner."""
+    """Writes to ``orig`` the indices of the triangles of ``clip`` (T, 3, 4) that
+    ``_rejection`` keeps; returns their count and the count of triangles with a non-finite
+    corner."""
     n = 0
     n_nan = 0
     for t in range(clip.shape[0]):
-        finite = True
-        for c in range(3):
-            for k in range(4):
-                if not np.isfinite(clip[t, c, k]):
-                    finite = False
-        if not finite:
-            n_nan += 1
-            continue
-        outside = False
-        for k in range(3):
-            above = True
-            below = True
-            for c in range(3):
-                w = clip[t, c, 3]
-                above = above and clip[t, c, k] > w
-                below = below and clip[t, c, k] < -w
-            outside = outside or above or below
-        if not outside:
+        code = _rejection(clip[t])
+        if code == KEPT:
             orig[n] = t
             n += 1
+        elif code == NOT_FINITE:
+            n_nan += 1
     return n, n_nan
 
 
@@ -322,41 +332,24 @@ def tile_survivors(clip, ax, bx, ay, by, out, orig):
     y' = y ay + w by, float32) and keep the triangles ``survivors`` keeps: their corners in
     ``out`` and their indices in ``orig``, in order; returns their count."""
     n = 0
-    corner = np.empty((3, 4), np.float32)
     for t in range(clip.shape[0]):
-        finite = True
+        corner = out[n]  # written in place, kept when the triangle survives
         for c in range(3):
             w = clip[t, c, 3]
             corner[c, 0] = clip[t, c, 0] * ax + w * bx
             corner[c, 1] = clip[t, c, 1] * ay + w * by
             corner[c, 2] = clip[t, c, 2]
             corner[c, 3] = w
-            for k in range(4):
-                if not np.isfinite(corner[c, k]):
-                    finite = False
-        if not finite:
-            continue
-        outside = False
-        for k in range(3):
-            above = True
-            below = True
-            for c in range(3):
-                above = above and corner[c, k] > corner[c, 3]
-                below = below and corner[c, k] < -corner[c, 3]
-            outside = outside or above or below
-        if not outside:
-            for c in range(3):
-                for k in range(4):
-                    out[n, c, k] = corner[c, k]
+        if _rejection(corner) == KEPT:
             orig[n] = t
             n += 1
     return n
 
 
-_D2 = nb.float32[:, ::1]
+_F2 = nb.float32[:, ::1]
 
 
-@nb.njit(nb.void(_D2, _D2, nb.float32[:, :, ::1]), **_OPTIONS)
+@nb.njit(nb.void(_F2, _F2, nb.float32[:, :, ::1]), **_OPTIONS)
 def first_reduction(dist, depth, out):
     """The first level of a shadow map's reduction pyramid: per 2 x 2 block of the (S, S) maps
     (an odd side's last block is cut by the edge), the least ``dist``, the least and the
@@ -389,7 +382,7 @@ def next_reduction(level, out):
             out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
 
 
-@nb.njit(nb.void(nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float64[:, ::1], _D2), **_OPTIONS)
+@nb.njit(nb.void(nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float64[:, ::1], _F2), **_OPTIONS)
 def corner_sum(tri, bary, values, out):
     """Per pixel of ``tri`` (H, W) (-1: none, +inf in ``out``), its triangle's corner
     ``values`` (T, 3) float64 weighted by ``bary`` (H, W, 3), summed in float64 in corner

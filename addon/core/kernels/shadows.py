@@ -9,8 +9,9 @@ float32, in the order the formulas are written in ``shadows``; the independent c
 ``tests/core/test_shadows.py`` (ray casts of hard shadows and of the visible fraction of disc
 lights, penumbra widths, acne and peter-panning).
 
-Per-point set-up values live in a small scratch vector (``_F_*`` slots) reused point after
-point; map constants come packed by ``shadows._packed``.
+Per-point set-up values live in a small scratch vector (``F_*`` slots) reused point after
+point; the map's constants and the filter's (``shadows.MAX_SLOPE`` ...) come packed by
+``shadows._packed`` (``P_*`` and ``I_*`` slots).
 """
 
 from __future__ import annotations
@@ -24,13 +25,14 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 CUBE, PERSPECTIVE, ORTHO = 0, 1, 2
 
 # integer constants of a map (``iparams``)
-I_KIND, I_RES, I_LEVELS, I_JITTER = range(4)
-I_SIZE = 4
+I_KIND, I_RES, I_LEVELS, I_JITTER, I_MIP_FIRST, I_REFINEMENTS = range(6)
+I_SIZE = 6
 
 # float32 constants of a map (``fparams``)
 (P_TAN, P_HALF_RES, P_NEAR, P_NEAR2, P_OFFSET, P_TEXEL, P_INV, P_SIZE, P_MIN_DEPTH, P_Z_MIN,
- P_SLACK, P_CAP, P_NEAR_FLOOR, P_OX, P_OY, P_OZ, P_HALF_INV, P_ONE_HALF_INV) = range(18)
-P_SIZE_ALL = 18
+ P_SLACK, P_CAP, P_NEAR_FLOOR, P_OX, P_OY, P_OZ, P_HALF_INV, P_ONE_HALF_INV, P_MAX_SLOPE,
+ P_BIAS_REL, P_BIAS_TEXELS, P_MIN_FILTER) = range(22)
+P_SIZE_ALL = 22
 
 # per-point slots of the scratch vector
 (F_CX, F_RY, F_JC1, F_JC2, F_JR1, F_JR2, F_W0, F_DIST, F_TEXEL, F_K, F_A, F_B, F_C, F_BIAS,
@@ -40,11 +42,6 @@ F_SIZE = 32
 
 _NEG = np.float32(-1e-30)
 _NEG_INF = np.float32(-np.inf)
-_MIP_FIRST = 3  # shadows.MIP_FIRST_LEVEL
-_MAX_SLOPE = np.float32(10.0)  # shadows.MAX_SLOPE
-_BIAS_REL = np.float32(2e-5)  # shadows.DEPTH_BIAS_RELATIVE
-_BIAS_TEXELS = np.float32(0.05)  # shadows.DEPTH_BIAS_TEXELS
-_MIN_FILTER = np.float32(1.0)  # shadows.MIN_FILTER_TEXELS
 _M32 = np.uint64(0xFFFFFFFF)
 
 
@@ -61,13 +58,13 @@ def _mx(a, b):
 
 
 @nb.njit(**_OPTIONS)
-def _level(width):
-    """max(ceil(log2(width)), first pyramid level) of an integer-valued float width >= 1."""
+def _level(width, first):
+    """max(ceil(log2(width)), ``first`` pyramid level) of an integer-valued float width >= 1."""
     iw = np.int64(width)
     level = 0
     while (np.int64(1) << level) < iw:
         level += 1
-    return max(level, _MIP_FIRST)
+    return max(level, first)
 
 
 @nb.njit(**_OPTIONS)
@@ -173,7 +170,7 @@ def _setup_perspective(fr, fp, ip, basis, px, py, pz, nx, ny, nz):
     fr[F_TEXEL] = fp[P_TEXEL] * w
     fr[F_K] = dr * nr + du * nu + w * nf
     _plane_in_texels(fr, fp, res, nf, s * nr, s * nu)
-    fr[F_BIAS] = _BIAS_REL * w + _BIAS_TEXELS * fr[F_TEXEL]
+    fr[F_BIAS] = fp[P_BIAS_REL] * w + fp[P_BIAS_TEXELS] * fr[F_TEXEL]
     fr[F_L1C] = abs(fr[F_JC1]) + abs(fr[F_JC2])
     fr[F_L1R] = abs(fr[F_JR1]) + abs(fr[F_JR2])
     fr[F_DR], fr[F_DU], fr[F_NR], fr[F_NU], fr[F_NF] = dr, du, nr, nu, nf
@@ -210,7 +207,7 @@ def _setup_ortho(fr, fp, ip, basis, rects, px, py, pz, nx, ny, nz):
     inv_nf = np.float32(1.0) / nf
     z0 = z - ((cx - x) * nr + (cy - y) * nu) * inv_nf
     _plane_in_texels(fr, fp, res, z0, -half * nr * inv_nf, -half * nu * inv_nf)
-    fr[F_BIAS] = _BIAS_REL * abs(z - fp[P_Z_MIN]) + _BIAS_TEXELS * fr[F_TEXEL]
+    fr[F_BIAS] = fp[P_BIAS_REL] * abs(z - fp[P_Z_MIN]) + fp[P_BIAS_TEXELS] * fr[F_TEXEL]
     fr[F_XW], fr[F_YW], fr[F_NR], fr[F_NU], fr[F_NF] = x, y, nr, nu, nf
     fr[F_L1C], fr[F_L1R] = g, g
     return True
@@ -234,7 +231,7 @@ def _rotation_index(bits):
 @nb.njit(**_OPTIONS)
 def _mip_row(ip, offsets, sides, m, level, col, row):
     """Row of the pyramid block of ``level`` that holds texel (col, row) of map m."""
-    li = level - _MIP_FIRST
+    li = level - ip[I_MIP_FIRST]
     side = sides[li]
     return offsets[li] + (m * side + (row >> level)) * side + (col >> level)
 
@@ -261,8 +258,8 @@ def _footprint_min(fr, ip, mips, offsets, sides, radius):
     fres = np.float32(res)
     if not (c0 >= 0 and c1 < fres and r0 >= 0 and r1 < fres):
         return _NEG_INF
-    level = _level(_mx(c1 - c0, r1 - r0) + np.float32(1.0))
-    if level > _MIP_FIRST + levels - 1:
+    level = _level(_mx(c1 - c0, r1 - r0) + np.float32(1.0), ip[I_MIP_FIRST])
+    if level > ip[I_MIP_FIRST] + levels - 1:
         return _NEG_INF
     m = np.int64(fr[F_M])
     a, b, c, d = np.int64(c0), np.int64(c1), np.int64(r0), np.int64(r1)
@@ -285,10 +282,10 @@ def _search_radius(fr, fp, ip, mips, offsets, sides):
         d_near = _mx(d_near, fp[P_NEAR_FLOOR])
     cap = fp[P_CAP] * fr[F_TEXEL]
     radius = cap
-    for it in range(4):  # shadows.SEARCH_REFINEMENTS + 1
+    for it in range(ip[I_REFINEMENTS] + 1):
         gap = _mx(d_r - d_near, np.float32(0.0))
         radius = _mn(size * gap if ortho else size * gap / d_near, cap)
-        if it < 3:
+        if it < ip[I_REFINEMENTS]:
             d_near = _mx(d_near, _footprint_min(fr, ip, mips, offsets, sides, radius))
     return radius
 
@@ -317,8 +314,8 @@ def _block_test(fr, ip, mips, offsets, sides, c0, c1, r0, r1, lo, hi, dark_cap):
     t1 = _receiver_depth(t1, fr[F_K], lo, hi, persp)
     t_lo, t_hi = _mn(t0, t1), _mx(t0, t1)
     t_lo = _mn(t_lo, dark_cap)
-    level = _level(_mx(_mx(c1 - c0, r1 - r0), np.float32(1.0)))
-    if level > _MIP_FIRST + ip[I_LEVELS] - 1:
+    level = _level(_mx(_mx(c1 - c0, r1 - r0), np.float32(1.0)), ip[I_MIP_FIRST])
+    if level > ip[I_MIP_FIRST] + ip[I_LEVELS] - 1:
         return False, False
     m = np.int64(fr[F_M])
     a, b, c, d = np.int64(c0), np.int64(c1), np.int64(r0), np.int64(r1)
@@ -406,7 +403,7 @@ def _taps(fr, fp, ip, depth, rects, faces, radius, disc, measure, check):
     ar, br = radius * fr[F_AR], radius * fr[F_BR]
     cx, ry = fr[F_CX], fr[F_RY]
     fa, fb, fc, fk, bias = fr[F_A], fr[F_B], fr[F_C], fr[F_K], fr[F_BIAS]
-    span = _MAX_SLOPE * (radius + fr[F_TEXEL])
+    span = fp[P_MAX_SLOPE] * (radius + fr[F_TEXEL])
     lo, hi = fr[F_W0] - span, fr[F_W0] + span
     cs, sn = fr[F_COS], fr[F_SIN]
     count = 0
@@ -444,7 +441,7 @@ def _pcf(fr, fp, ip, depth, mips, offsets, sides, rects, faces, radius, disc, re
     if not (c0 >= 0 and r0 >= 0 and c1 < fres and r1 < fres):
         count, _ = _taps(fr, fp, ip, depth, rects, faces, radius, disc, False, True)
         return np.float32(1.0) - np.float32(count) * scale
-    span = _MAX_SLOPE * (radius + fr[F_TEXEL])
+    span = fp[P_MAX_SLOPE] * (radius + fr[F_TEXEL])
     lo, hi = fr[F_W0] - span, fr[F_W0] + span
     if _mx(c1 - c0, r1 - r0) < np.float32(4.0):
         persp = ip[I_KIND] != ORTHO
@@ -483,8 +480,8 @@ def _pcss(fr, fp, ip, depth, mips, offsets, sides, rects, faces, r_search, r_min
     c0, c1, r0, r1 = _footprint(fr, fp, r_search, np.float32(1.0))
     inside = c0 >= 0 and r0 >= 0 and c1 < fres and r1 < fres
     if inside:
-        span = _MAX_SLOPE * (r_search + fr[F_TEXEL])
-        cap = fr[F_W0] + _MAX_SLOPE * (r_min + fr[F_TEXEL])
+        span = fp[P_MAX_SLOPE] * (r_search + fr[F_TEXEL])
+        cap = fr[F_W0] + fp[P_MAX_SLOPE] * (r_min + fr[F_TEXEL])
         lit, dark = _block_test(fr, ip, mips, offsets, sides, c0, c1, r0, r1,
                                 fr[F_W0] - span, fr[F_W0] + span, cap)
         if dark:
@@ -549,7 +546,7 @@ def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker
         fr[F_AR] = c * fr[F_JR1] + s * fr[F_JR2]
         fr[F_BR] = c * fr[F_JR2] - s * fr[F_JR1]
         fr[F_COS], fr[F_SIN] = c, s
-        r_min = _MIN_FILTER * fr[F_TEXEL]
+        r_min = fp[P_MIN_FILTER] * fr[F_TEXEL]
         if fp[P_SIZE] > 0:
             r_search = _search_radius(fr, fp, ip, mips, offsets, sides)
             if r_search > np.float32(1.5) * r_min:  # else too small a light: hard shadows

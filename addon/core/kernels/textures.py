@@ -2,8 +2,8 @@
 and filtered look-ups.
 
 References (what tests/core/test_kernels_textures.py holds these kernels to):
-``texture.srgb_to_linear`` (IEC 61966-2-1), ``texture._halve_axis`` (area-weighted box filter,
-Williams 1983), and bilinear / trilinear look-ups written out texel by texel with Cycles' wrap
+``texture.srgb_to_linear`` (IEC 61966-2-1), the test's two-pass area-weighted box filter
+(Williams 1983), and bilinear / trilinear look-ups written out texel by texel with Cycles' wrap
 rules (``sample``, which gave bit for bit the results of the NumPy it replaced).
 """
 
@@ -50,8 +50,8 @@ def prepare(image, decode, lut, out):
 @nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
 def halve(src, out):
     """One mip level: ``src`` (h, w, C) box-filtered to ``out`` (max(1, h // 2),
-    max(1, w // 2), C), rows first then columns, with the weights and float32 rounding of
-    ``texture._halve_axis`` (pairs for even sizes; (m - i)/n, m/n, (i + 1)/n for odd n)."""
+    max(1, w // 2), C), rows first then columns, with the weights and float32 rounding of the
+    test's reference (pairs for even sizes; (m - i)/n, m/n, (i + 1)/n for odd n)."""
     h, w, nc = src.shape
     h2, w2 = out.shape[0], out.shape[1]
     rows = np.empty((h2, w, nc), np.float32)
