@@ -34,6 +34,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -233,7 +234,8 @@ def indirect(
                  directions to the eye
     albedo, rf0: (N, 3) float32;  gloss: (N,) float32
     normalization: one of ``NORMALIZATIONS``; prefilter: one of ``PREFILTERS``;
-    env_model:   one of ``env_brdf.MODELS``
+    env_model:   one of ``env_brdf.MODELS`` but "truth" (a quadrature per point: tools and
+                 tests call ``env_brdf`` for it; "table" is its look-up)
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
     from .kernels import indirect as kernels
@@ -244,6 +246,9 @@ def indirect(
     if normalization not in NORMALIZATIONS:
         raise ValueError(f"unknown normalization {normalization!r}; expected one of: "
                          f"{', '.join(NORMALIZATIONS)}")
+    if env_model not in kernels.ENV_MODELS:
+        raise ValueError(f"unknown environment BRDF {env_model!r} for shading; expected one of: "
+                         f"{', '.join(kernels.ENV_MODELS)}")
     n = len(points)
     pixel_sh = np.asarray(_pixel_sh(probes, points), np.float32)
     pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
@@ -258,20 +263,30 @@ def indirect(
         return np.require(np.broadcast_to(np.asarray(a, np.float32), shape), np.float32,
                           ["C", "W"])
 
+    table, table_gloss, table_nv = _env_table()
     diffuse = np.empty((n, 3), np.float32)
-    radiance = np.empty((n, 3), np.float32)
+    specular = np.empty((n, 3), np.float32)
     kernels.indirect(
         f32(points, (n, 3)), f32(normals, (n, 3)), f32(view, (n, 3)), f32(albedo, (n, 3)),
-        f32(gloss, (n,)), pixel_sh, sh.BAND_FACTORS.astype(np.float32), chains, offsets, sides,
-        levels, np.array(cubemap.FACES),
+        f32(rf0, (n, 3)), f32(gloss, (n,)), pixel_sh, sh.BAND_FACTORS.astype(np.float32), chains,
+        offsets, sides, levels, np.array(cubemap.FACES),
         np.array([p.position for p in probes.reflection], np.float32).reshape(-1, 3),
         radius_fade, np.array([np.asarray(c, np.float64)[0] + _EPS for c in shs]),
         np.array([t[0] for t in tinted], np.float32), np.array([t[1] for t in tinted], np.float32),
         probes.world_color is not None,
         np.asarray(probes.world_color if probes.world_color is not None else np.zeros(3),
                    np.float32).reshape(-1)[:3].copy(),
-        kernels.NORMALIZATIONS[normalization], np.array([_EPS, MAX_NORMALIZATION]), diffuse,
-        radiance)
-    n_dot_v = np.einsum("nc,nc->n", f32(normals, (n, 3)), f32(view, (n, 3)))
-    e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
-    return diffuse, (radiance * e).astype(np.float32)
+        kernels.NORMALIZATIONS[normalization],
+        np.array([_EPS, MAX_NORMALIZATION, env_brdf.N_DOT_V_MIN]), kernels.ENV_MODELS[env_model],
+        table, table_gloss, table_nv, np.array(env_brdf.FIT_A0 + env_brdf.FIT_A1, np.float64),
+        diffuse, specular)
+    return diffuse, specular
+
+
+@functools.lru_cache(maxsize=1)
+def _env_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The environment BRDF's table for the kernel: parts (2, G, N), gloss (G,), n.v (N,),
+    float64 (the reference visibility, as ``env_brdf.table_parts``)."""
+    t = env_brdf._table()
+    return tuple(np.ascontiguousarray(t[name], np.float64)
+                 for name in ("reference", "gloss", "n_dot_v"))

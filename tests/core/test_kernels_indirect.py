@@ -5,9 +5,10 @@ band factors for the irradiance at the normal (Ramamoorthi & Hanrahan 2001), ``c
 for the seamless trilinear look-ups at lod = top - g top (slide "Black Ops: environment map
 pre-filtering"), the probes' influence weights, and the "bo1" and "bo2" normalizations of
 slides "Black Ops: normalization algorithm" and "Improved normalization algorithm" written out
-here. Random probes that overlap (weights summing over 1), points outside every probe, a world
-cube or a world colour, shared and per-point pixel SH, every normalization and both chains:
-relative difference below 2e-5 (float32 sums in another order).
+here, and ``env_brdf.environment_brdf``. Random probes that overlap (weights summing over 1),
+points outside every probe, a world cube or a world colour, shared and per-point pixel SH, every
+normalization, both chains and every environment BRDF: relative difference below 2e-5 (float32
+sums in another order).
 """
 
 import numpy as np
@@ -98,12 +99,14 @@ def reference(probes, points, normals, view, albedo, rf0, gloss, normalization, 
     return diffuse.astype(np.float32), (radiance * e).astype(np.float32)
 
 
-@pytest.mark.parametrize("normalization", ["none", "bo1", "bo2"])
+@pytest.mark.parametrize("normalization,env_model", [("none", "table"), ("bo1", "bo1"),
+                                                     ("bo2", "bo2"), ("bo2", "fit")])
 @pytest.mark.parametrize("prefilter", ["bo2", "bo1"])
 @pytest.mark.parametrize("world_color,volumes", [(False, False), (True, True)])
-def test_indirect_kernel_matches_numpy(normalization, prefilter, world_color, volumes):
+def test_indirect_kernel_matches_numpy(normalization, env_model, prefilter, world_color,
+                                       volumes):
     probes = random_probes(world_color, volumes)
-    n = 3000
+    n = 6000
     points = RNG.uniform(-3, 3, (n, 3)).astype(np.float32)
     normals = RNG.normal(size=(n, 3))
     normals = (normals / np.linalg.norm(normals, axis=1, keepdims=True)).astype(np.float32)
@@ -112,10 +115,12 @@ def test_indirect_kernel_matches_numpy(normalization, prefilter, world_color, vo
     albedo, rf0 = (RNG.random((n, 3)).astype(np.float32) for _ in range(2))
     gloss = RNG.random(n).astype(np.float32)
     gloss[:4] = [0.0, 1.0, 0.5, 0.25]
+    rf0[:3] = [[0.0, 0.04, 1.0], [1.0, 0.5, 0.0], [0.04, 0.04, 0.04]]
+    view[:3] = normals[:3]  # n.v = 1, the table's last column
     args = (points, normals, view, albedo, rf0, gloss)
     diffuse, specular = cp.indirect(probes, *args, normalization=normalization,
-                                    prefilter=prefilter, env_model="bo2")
-    d_ref, s_ref = reference(probes, *args, normalization, prefilter, "bo2")
+                                    prefilter=prefilter, env_model=env_model)
+    d_ref, s_ref = reference(probes, *args, normalization, prefilter, env_model)
     weights = np.stack([p.weight(points) for p in probes.reflection])
     assert (weights.sum(0) > 1).sum() > 20 and (weights.sum(0) == 0).sum() > 20  # both cases
     np.testing.assert_allclose(diffuse, d_ref, rtol=2e-5, atol=1e-7)
@@ -150,3 +155,33 @@ def test_changed_probes_are_packed_again():
     _, spec = cp.indirect(probes, *args, normalization="none")
     _, ref = reference(probes, *args, "none", "bo2", "bo2")
     np.testing.assert_allclose(spec, ref, rtol=2e-5, atol=1e-7)
+
+
+@pytest.mark.parametrize("env_model", ["table", "bo1", "bo2", "fit"])
+def test_environment_brdf_of_the_kernel_clamps_like_numpy(env_model):
+    """Out-of-range gloss, n.v and rf0 (negative, over 1, infinite) are clamped as in
+    env_brdf; the kernel's E, read through a white uniform world, is the NumPy value."""
+    probes = cp.Probes(world_sh=DC.astype(np.float32) * 2.0, world_mips={"bo2": chain(4)},
+                       world_color=np.float32([1.0, 1.0, 1.0]))
+    gloss = np.float32([-1.0, 0.0, 0.3, 1.0, 2.0, 0.7, 0.5, 0.9])
+    nv = np.float32([0.5, -0.2, 0.0, 1.0, 0.3, 1e-5, 0.999, 0.05])
+    n = len(gloss)
+    normals = np.tile(np.float32([0, 0, 1]), (n, 1))
+    view = np.stack([np.sqrt(np.maximum(1 - nv * nv, 0)), np.zeros(n), nv], 1).astype(np.float32)
+    rf0 = np.float32([[-0.5, 0.04, 2.0], [np.inf, 0.5, 1.0], [0.0, 0.2, 0.9],
+                      [1.0, 1.0, 1.0], [0.04, -np.inf, 0.3], [0.6, 0.7, 0.8],
+                      [0.0, 0.0, 0.0], [0.5, 0.25, 0.125]])
+    _, spec = cp.indirect(probes, np.zeros((n, 3), np.float32), normals, view, rf0, rf0, gloss,
+                          normalization="none", env_model=env_model)
+    n_dot_v = np.einsum("nc,nc->n", normals, view)
+    expected = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
+    assert np.isfinite(spec).all()
+    np.testing.assert_allclose(spec, expected, rtol=2e-6, atol=1e-7)
+
+
+def test_quadrature_is_not_a_shading_model():
+    probes = random_probes(False, False)
+    n = np.tile(np.float32([0, 0, 1]), (2, 1))
+    with pytest.raises(ValueError, match="environment BRDF 'truth'"):
+        cp.indirect(probes, np.zeros((2, 3), np.float32), n, n, n, n, np.ones(2, np.float32),
+                    env_model="truth")

@@ -5,7 +5,9 @@ References (the NumPy this kernel is held to, point by point, in tests/core/test
 ``sh.basis`` and ``sh.irradiance`` (Ramamoorthi & Hanrahan 2001), ``cubemap.sample`` (seamless
 trilinear cube-map look-ups, the shader's texCUBElod), ``ReflectionProbe.weight``, and the
 "none" / "bo1" / "bo2" normalizations of ``probes``'s module docstring (slides "Black Ops:
-normalization algorithm" and "Improved normalization algorithm"), written out in the test.
+normalization algorithm" and "Improved normalization algorithm"), written out in the test, and
+``env_brdf.environment_brdf`` (the models "table", "bo1", "bo2" and "fit"; "truth" integrates
+per point and is for tools and tests only).
 
 Cube-map chains come packed (``probes._packed_chains``): every level of every chain padded with
 its one-texel seamless border (``cubemap._pad``) in one flat float32 array, chain c's level m at
@@ -23,6 +25,8 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 NONE, BO1, BO2 = 0, 1, 2  # normalizations
 NORMALIZATIONS = {"none": NONE, "bo1": BO1, "bo2": BO2}
+TABLE, ENV_BO1, ENV_BO2, FIT = 0, 1, 2, 3  # environment BRDFs
+ENV_MODELS = {"table": TABLE, "bo1": ENV_BO1, "bo2": ENV_BO2, "fit": FIT}
 
 _C0 = 0.5 / math.sqrt(math.pi)  # sh._C0 ...
 _C1 = math.sqrt(3.0 / (4.0 * math.pi))
@@ -116,34 +120,111 @@ def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, 
             out[c] += w * _bilinear(chains, offset, size, face, u * size, v * size, c)
 
 
+@nb.njit(**_OPTIONS)
+def _clamp(x, lo, hi):
+    """x clamped to [lo, hi]; NaN stays NaN (``np.clip``)."""
+    if x != x:
+        return x
+    return min(max(x, lo), hi)
+
+
+@nb.njit(**_OPTIONS)
+def _position(x, axis):
+    """``np.interp(x, axis, arange(len(axis)))``: x's fractional index on an increasing axis."""
+    n = axis.shape[0]
+    if x != x:
+        return x
+    if x <= axis[0]:
+        return 0.0
+    if x >= axis[n - 1]:
+        return np.float64(n - 1)
+    j = np.searchsorted(axis, x, side="right") - 1
+    return j + (x - axis[j]) / (axis[j + 1] - axis[j])
+
+
+@nb.njit(**_OPTIONS)
+def _table_part(part, fg, fn):
+    """``env_brdf.table_parts``'s bilinear look-up of ``part`` (G, N) at fractional indices
+    fg, fn, rounded to float32 as the NumPy does."""
+    i0 = min(max(np.int64(np.floor(fg)) if fg == fg else 0, 0), part.shape[0] - 2)
+    j0 = min(max(np.int64(np.floor(fn)) if fn == fn else 0, 0), part.shape[1] - 2)
+    tg, tn = fg - i0, fn - j0
+    top = part[i0, j0] * (1.0 - tn) + part[i0, j0 + 1] * tn
+    bottom = part[i0 + 1, j0] * (1.0 - tn) + part[i0 + 1, j0 + 1] * tn
+    return np.float64(np.float32(top * (1.0 - tg) + bottom * tg))
+
+
+@nb.njit(**_OPTIONS)
+def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_min, out):
+    """``env_brdf.environment_brdf`` of ``model`` (``ENV_MODELS``) at float32 gloss, n.v and
+    rf0 (3,), n.v clamped to [nv_min, 1], in float64 (slides "Black Ops: environment map
+    'Fresnel'", "Final approximation"; docs/env_brdf.md for the fit): float32 E into ``out``.
+    ``table`` (2, G, N) holds the parts a0, a1 over ``table_gloss`` (G,) x ``table_nv`` (N,);
+    ``fit`` (7,) is (y1, y0, k, b, q1, q0, s)."""
+    g = _clamp(np.float64(gloss), 0.0, 1.0)
+    nv = _clamp(np.float64(n_dot_v), nv_min, 1.0)
+    a0 = a1 = 0.0
+    if model == TABLE:
+        fg, fn = _position(g, table_gloss), _position(nv, table_nv)
+        a0 = _table_part(table[0], fg, fn)
+        a1 = _table_part(table[1], fg, fn)
+    elif model == ENV_BO2:
+        tx = g * (1.0 / 0.96)
+        ty = g * 0.475
+        tz = g * ((0.0275 - 0.25 * 0.04) / 0.96) + (0.015 - 0.75 * 0.04) / 0.96
+        a0 = tx * min(ty, np.exp2(-9.28 * nv)) + tz
+        a1 = g * 0.25 + 0.75
+    elif model == FIT:
+        y = fit[0] * g + fit[1]
+        m = min(y, np.exp2(fit[2] * nv + fit[3]))
+        a0 = y * m
+        a1 = min(fit[6] * m + (fit[4] * g + fit[5]), 1.0)
+    for c in range(3):
+        f0 = _clamp(np.float64(rf0[c]), 0.0, 1.0)
+        if model == ENV_BO1:
+            t = 1.0 - nv
+            e = f0 + (1.0 - f0) * (t * t) * (t * t) * t / (4.0 - 3.0 * g)
+        elif model == ENV_BO2:
+            e = _clamp(a0 + f0 * (a1 - a0), 0.0, 1.0)
+        else:
+            e = a0 * (1.0 - f0) + a1 * f0
+        out[c] = np.float32(e)
+
+
 _INDIRECT = nb.void(
     nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # points, normals, view (N, 3)
-    nb.float32[:, ::1], nb.float32[::1], nb.float32[:, :, ::1],  # albedo, gloss, pixel SH
+    nb.float32[:, ::1], nb.float32[:, ::1],  # albedo, rf0 (N, 3)
+    nb.float32[::1], nb.float32[:, :, ::1],  # gloss (N,), pixel SH
     nb.float32[::1],  # band factors (9,)
     nb.float32[::1], nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[::1],  # chains, level offsets,
     nb.float64[:, :, ::1],  # sides and counts; cube faces (6, 3, 3)
     nb.float32[:, ::1], nb.float32[:, ::1],  # probe positions (R, 3), radius and fade (R, 2)
     nb.float64[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # SH constant term + eps,
     nb.boolean, nb.float32[::1], nb.int64,  # scalar SH, tint; world colour?, colour, normalization
-    nb.float64[::1],  # eps, largest normalization ratio
-    nb.float32[:, ::1], nb.float32[:, ::1],  # out: diffuse, radiance (N, 3)
+    nb.float64[::1],  # eps, largest normalization ratio, smallest n.v of the environment BRDF
+    nb.int64, nb.float64[:, :, ::1], nb.float64[::1], nb.float64[::1],  # environment BRDF,
+    nb.float64[::1],  # its table (2, G, N) over gloss (G,) and n.v (N,); its fit (7,)
+    nb.float32[:, ::1], nb.float32[:, ::1],  # out: diffuse, specular (N, 3)
 )
 
 
 @nb.njit(_INDIRECT, **_OPTIONS)
-def indirect(points, normals, view, albedo, gloss, pixel_sh, band, chains, level_offset,
+def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, level_offset,
              level_size, levels, faces, position, radius_fade, dc_eps, scalar, tint,
-             has_world_color, world_color, normalization, limits, diffuse, radiance):
+             has_world_color, world_color, normalization, limits, env_model, table, table_gloss,
+             table_nv, fit, diffuse, specular):
     """Indirect diffuse ``diffuse`` (N, 3) (albedo / pi times the SH irradiance at the normal)
-    and the normalized prefiltered radiance ``radiance`` (N, 3) along the reflection vector:
-    the reflection probes' chains 0 .. R - 1 weighted by their influence (divided by the sum
-    where it exceeds 1), the world's (chain R, or ``world_color``) with the weight they leave.
-    ``pixel_sh`` is (N, 9, 3), or (1, 9, 3) shared by every point."""
+    and specular ``specular`` (N, 3): the normalized prefiltered radiance along the reflection
+    vector times the environment BRDF (slide "Environment lighting: split approximation"). The
+    radiance is the reflection probes' chains 0 .. R - 1 weighted by their influence (divided
+    by the sum where it exceeds 1), and the world's (chain R, or ``world_color``) with the
+    weight they leave. ``pixel_sh`` is (N, 9, 3), or (1, 9, 3) shared by every point."""
     n_probes = position.shape[0]
     y = np.empty(9, np.float32)
     e = np.empty(3, np.float32)
     s = np.empty(3, np.float32)
     acc = np.empty(3, np.float32)
+    brdf = np.empty(3, np.float32)
     eps32 = np.float32(limits[0])
     max_ratio = limits[1]
     inv_pi = np.float32(1.0 / np.pi)
@@ -205,5 +286,7 @@ def indirect(points, normals, view, albedo, gloss, pixel_sh, band, chains, level
                 acc[c] += w * s[c]
             if chain < n_probes:
                 weight_sum += w
+        _env_brdf(env_model, gloss[i], n_dot_v, rf0[i], table, table_gloss, table_nv, fit,
+                  limits[2], brdf)
         for c in range(3):
-            radiance[i, c] = acc[c]
+            specular[i, c] = acc[c] * brdf[c]
