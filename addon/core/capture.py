@@ -52,21 +52,16 @@ class Capture:
              probes: Probes | None = None) -> np.ndarray:
         """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres, between
         the clip distances ``near`` and ``far`` (metres), lit indirectly by ``probes``."""
-        out = np.empty((6, size, size, 3), np.float32)
         far = max(far, 2.0 * near)
-        for face in range(6):
-            cam = face_camera(position, face, size, near, far)
-            if self._frame is None:
-                scene = dataclasses.replace(self.scene, camera=cam)
-                self._frame = pipeline.prepare(scene, self.warn, self.should_stop,
-                                               fit_shadows=False)
-            frame = pipeline.with_camera(self._frame, cam)
-            frame = dataclasses.replace(frame, scene=dataclasses.replace(frame.scene,
-                                                                         probes=probes))
-            image = pipeline.render_frame(frame.scene, should_stop=self.should_stop,
-                                          frame=frame)
-            out[face] = image["Combined"][..., :3]
-        return out
+        cams = [face_camera(position, face, size, near, far) for face in range(6)]
+        if self._frame is None:
+            scene = dataclasses.replace(self.scene, camera=cams[0])
+            self._frame = pipeline.prepare(scene, self.warn, self.should_stop, fit_shadows=False)
+        frame = dataclasses.replace(self._frame, scene=dataclasses.replace(
+            self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
+        faces = pipeline.render_views(frame.scene, cams, should_stop=self.should_stop,
+                                      frame=frame)
+        return np.stack([face["Combined"][..., :3] for face in faces])
 
 
 def world_cube(world: World, size: int) -> np.ndarray:

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import probes, raster, shade, shadows, surface, texture
+from . import affine, probes, raster, shade, shadows, surface, texture
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
 
@@ -250,7 +250,7 @@ def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     if world.texture is None:
         return np.broadcast_to(np.asarray(world.color, np.float32), (len(x), 3))
     _, d = scene.camera.rays(x, y)
-    d = d @ np.asarray(world.rotation, np.float32).T
+    d = affine.linear(d, world.rotation)
     px = texture.sample(world.texture, texture.direction_to_equirect_uv(d))
     return (px[:, :3] * np.float32(world.strength)).astype(np.float32)
 
@@ -313,7 +313,7 @@ def _raster(frame: Frame, tile, margin, offset):
     if cam.orthographic:  # clip w is 1: the view-axis distance comes from the corners' view z
         hit = np.flatnonzero(tri >= 0)
         row = np.asarray(cam.world_to_camera, np.float64)[2]
-        z = frame.positions[tri[hit]] @ row[:3].astype(np.float32) + np.float32(row[3])
+        z = affine.linear(frame.positions[tri[hit]], row[None, :3])[..., 0] + np.float32(row[3])
         depth = depth.copy()
         depth[hit] = -np.einsum("nk,nk->n", bary[hit], z)
     rows, cols = np.divmod(np.arange(tw * th), tw)
@@ -456,12 +456,17 @@ def _render_tile(frame: Frame, tile, offsets, tick):
     return acc, depth_acc, index_acc
 
 
-def _tile_results(scene: Scene, progress, should_stop, warn, frame):
-    """``render_tiles``'s work: yields (tile, ``_render_tile``'s arrays) in tile order."""
+def _tile_results(scene: Scene, progress, should_stop, warn, frame, cameras=None):
+    """``render_tiles``'s work: yields (view, tile, ``_render_tile``'s arrays) in order, the
+    views being ``frame`` through each of ``cameras`` (all the same size), or through its own
+    camera when ``cameras`` is None. Every view's tiles share the render's threads; a view's
+    projection is done once, on the thread of its first tile."""
     if frame is None:
         frame = prepare(scene, warn, should_stop)
     offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
-    todo = tiles(scene)
+    views = [frame] if cameras is None else [None] * len(cameras)
+    view_locks = [threading.Lock() for _ in views]
+    todo = [(k, tile) for k in range(len(views)) for tile in tiles(scene)]
     total = len(todo) * (len(offsets) + 1)  # per tile: its samples' rasters, then the shading
     done = [0.0, 0.0]  # work finished over all tiles; that amount when progress was last called
     lock, stop, caller = threading.Lock(), threading.Event(), threading.get_ident()
@@ -481,12 +486,20 @@ def _tile_results(scene: Scene, progress, should_stop, warn, frame):
         with lock:
             done[0] += amount
 
-    def job(tile):
-        return lambda: _render_tile(frame, tile, offsets, tick)
+    def view(k: int) -> Frame:
+        with view_locks[k]:
+            if views[k] is None:
+                views[k] = with_camera(frame, cameras[k])
+            return views[k]
 
-    results = _ordered([job(tile) for tile in todo], thread_count(scene.settings), poll, stop)
+    def job(k, tile):
+        return lambda: _render_tile(view(k), tile, offsets, tick)
+
+    results = _ordered([job(k, tile) for k, tile in todo], thread_count(scene.settings), poll,
+                       stop)
     try:
-        yield from zip(todo, results, strict=True)
+        for (k, tile), arrays in zip(todo, results, strict=True):
+            yield k, tile, arrays
     finally:
         results.close()  # a caller that stops early stops the threads too
     if progress is not None:
@@ -509,8 +522,8 @@ def render_tiles(
     yields:      ((x0, y0, x1, y1), {pass name: (y1 - y0, x1 - x0, C) float32}), row 0 at the
                  top, for every tile of ``tiles(scene)``
     """
-    for (x0, y0, x1, y1), (acc, depth, index) in _tile_results(scene, progress, should_stop,
-                                                                warn, frame):
+    for _, (x0, y0, x1, y1), (acc, depth, index) in _tile_results(scene, progress, should_stop,
+                                                                   warn, frame):
         shape = (y1 - y0, x1 - x0)
         image = acc.reshape(*shape, SAMPLED_WIDTH)
         out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
@@ -524,15 +537,28 @@ def render_frame(scene: Scene, progress=None, should_stop=None, warn=None, frame
 
     Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``.
     """
+    return render_views(scene, None, progress, should_stop, warn, frame)[0]
+
+
+def render_views(scene: Scene, cameras, progress=None, should_stop=None, warn=None,
+                 frame=None) -> list[dict]:
+    """``render_frame`` of the scene through each of ``cameras`` (a list of ``Camera`` of the
+    scene camera's size, or None for the scene camera alone), their tiles rendered side by
+    side on the render's threads (probe captures: six small faces at once), the scene prepared
+    once: [{pass name: (H, W, C) float32}] in camera order. Arguments as ``render_tiles``."""
     cam = scene.camera
-    film = np.zeros((cam.height, cam.width, SAMPLED_WIDTH), np.float32)
-    depth = np.full((cam.height, cam.width, 1), EMPTY_DEPTH, np.float32)
-    index = np.zeros((cam.height, cam.width, 1), np.float32)
-    for (x0, y0, x1, y1), (acc, d, i) in _tile_results(scene, progress, should_stop, warn,
-                                                       frame):
+    count = 1 if cameras is None else len(cameras)
+    film = np.zeros((count, cam.height, cam.width, SAMPLED_WIDTH), np.float32)
+    depth = np.full((count, cam.height, cam.width, 1), EMPTY_DEPTH, np.float32)
+    index = np.zeros((count, cam.height, cam.width, 1), np.float32)
+    for k, (x0, y0, x1, y1), (acc, d, i) in _tile_results(scene, progress, should_stop, warn,
+                                                          frame, cameras):
         shape = (y1 - y0, x1 - x0)
-        film[y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
-        depth[y0:y1, x0:x1, 0], index[y0:y1, x0:x1, 0] = d.reshape(shape), i.reshape(shape)
-    out = {name: film[..., SAMPLED[name]] for name in SAMPLED}
-    out["Depth"], out["IndexMA"] = depth, index
+        film[k, y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
+        depth[k, y0:y1, x0:x1, 0], index[k, y0:y1, x0:x1, 0] = d.reshape(shape), i.reshape(shape)
+    out = []
+    for k in range(count):
+        passes = {name: film[k, ..., SAMPLED[name]] for name in SAMPLED}
+        passes["Depth"], passes["IndexMA"] = depth[k], index[k]
+        out.append(passes)
     return out

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import cubemap, env_brdf, sh
+from . import affine, cubemap, env_brdf, sh
 
 __all__ = [
     "MAX_NORMALIZATION",
@@ -101,8 +101,8 @@ class IrradianceVolume:
     influence: float = 0.0
 
     def _local(self, points: np.ndarray) -> np.ndarray:
-        inv = np.linalg.inv(np.asarray(self.local_to_world, np.float64))
-        return (points.astype(np.float64) @ inv[:3, :3].T + inv[:3, 3]).astype(np.float32)
+        inv = affine.inverse(self.local_to_world)
+        return affine.transform(points.astype(np.float64), inv).astype(np.float32)
 
     def weight(self, points: np.ndarray) -> np.ndarray:
         """(N,) influence in [0, 1]: 1 inside the box, fading to 0 ``influence`` metres out."""

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from . import affine
 from .probes import Probes
 from .texture import Texture
 
@@ -57,7 +58,7 @@ class Camera:
     @property
     def camera_to_world(self) -> np.ndarray:
         """(4, 4) float64 inverse of ``world_to_camera``."""
-        return np.linalg.inv(self.world_to_camera)
+        return affine.inverse(self.world_to_camera)
 
     @property
     def position(self) -> np.ndarray:
@@ -79,7 +80,7 @@ class Camera:
         """
         from .kernels import shading
 
-        inv = np.linalg.inv(self.projection @ self.world_to_camera)
+        inv = affine.inverse(self.projection @ self.world_to_camera)
         # Clip-space points on the near (z = -1) and far (z = 1) planes, as affine functions of
         # the pixel position: p(x, y) = a x + b y + c.
         planes = np.stack([(2.0 / self.width) * inv[:, 0], (-2.0 / self.height) * inv[:, 1],

@@ -63,7 +63,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import raster
+from . import affine, raster
 from .scene import Camera, Light
 
 __all__ = ["ShadowMap", "build_shadow_map", "shadow_map_jobs", "shadow_visibility"]
@@ -295,7 +295,7 @@ def _camera_depth_range(camera: Camera, lo: np.ndarray, hi: np.ndarray):
     """
     ndc = np.array([[x, y, z, 1.0] for z in (-1.0, 1.0) for x, y in
                     ((-1, -1), (1, -1), (1, 1), (-1, 1))])
-    cs = ndc @ np.linalg.inv(np.asarray(camera.projection, np.float64)).T
+    cs = ndc @ affine.inverse(camera.projection).T
     cs = cs[:, :3] / cs[:, 3:]
     near_c, far_c = cs[:4], cs[4:]
     n, f = -near_c[:, 2].mean(), -far_c[:, 2].mean()
@@ -328,16 +328,15 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     i = np.arange(count + 1) / count
     splits = SPLIT_LAMBDA * z0 * (z1 / z0) ** i + (1.0 - SPLIT_LAMBDA) * (z0 + (z1 - z0) * i)
     splits[0], splits[-1] = z0, z1
-    c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
-    xy = pts @ basis[:2].T
+    c2w = affine.inverse(camera.world_to_camera)
+    xy = affine.linear(pts, basis[:2])
     ext_lo, ext_hi = xy.min(0), xy.max(0)
     rects = []
     for a, b in zip(splits[:-1], splits[1:], strict=True):
         corners = np.concatenate(
             [near_c + (far_c - near_c) * ((z - n) / (f - n)) for z in (a, b)]
         )
-        world = corners @ c2w[:3, :3].T + c2w[:3, 3]
-        sxy = world @ basis[:2].T
+        sxy = affine.linear(affine.transform(corners, c2w), basis[:2])
         r_lo = np.maximum(sxy.min(0), ext_lo)
         r_hi = np.minimum(sxy.max(0), ext_hi)
         centre = 0.5 * (r_lo + r_hi)
@@ -354,13 +353,13 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
     if len(tris) and camera is not None:
         rects, splits = _fit_cascades(camera, basis, tris, res)
     elif len(tris):
-        xy = tris.reshape(-1, 3) @ basis[:2].T
+        xy = affine.linear(tris.reshape(-1, 3), basis[:2])
         lo, hi = xy.min(0), xy.max(0)
         half = 0.5 * max(float((hi - lo).max()), 1e-6) * (1.0 + 8.0 / res)
         rects, splits = np.array([[*(0.5 * (lo + hi)), half]]), np.zeros(0)
     else:
         rects, splits = np.zeros((0, 3)), np.zeros(0)
-    zs = tris @ basis[2]  # (T, 3) depth of every corner along the light
+    zs = affine.linear(tris, basis[2:])[..., 0]  # (T, 3) depth of every corner along the light
     z_lo = float(zs.min()) if len(tris) else 0.0
     z_hi = float(zs.max()) if len(tris) else 1.0
     pad = 1e-3 * (z_hi - z_lo) + 1e-4

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import brdf, texture
+from . import affine, brdf, texture
 from .scene import Material, NormalMap, TextureInput
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722], np.float32)
@@ -61,7 +61,7 @@ def _value(value, n: int, lookup: Lookup, channels: int) -> np.ndarray:
             out = px[:, 3] if px.shape[1] == 4 else np.ones(n, np.float32)
             return np.repeat(out[:, None], 3, 1) if channels == 3 else out
         rgb = px[:, :3] if px.shape[1] >= 3 else np.repeat(px[:, :1], 3, 1)
-        return rgb if channels == 3 else rgb @ LUMINANCE
+        return rgb if channels == 3 else affine.linear(rgb, LUMINANCE[None])[:, 0]
     arr = np.asarray(value, np.float32)
     if channels == 3:
         return np.broadcast_to(arr.reshape(-1)[:3] if arr.size >= 3 else arr, (n, 3))
