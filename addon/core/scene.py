@@ -264,7 +264,7 @@ class RenderSettings:
     prefilter: str = "bo2"
     film_transparent: bool = False
     shadow_resolution: int = 1024
-    tile_size: int = 512
+    tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None
 

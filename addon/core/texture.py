@@ -44,6 +44,8 @@ from __future__ import annotations
 
 import functools
 import hashlib
+import os
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -180,6 +182,9 @@ def build_mips(image: np.ndarray) -> list[np.ndarray]:
     return mips
 
 
+PREPARE_BAND = 1 << 20  # values per thread, at least, when an image is decoded
+
+
 def make_texture(
     pixels,
     *,
@@ -213,7 +218,12 @@ def make_texture(
     if image.ndim != 3 or image.shape[2] not in (1, 3, 4) or 0 in image.shape[:2]:
         raise ValueError(f"expected an (H, W, C) image with C in 1, 3, 4, got {image.shape}")
     level0 = np.empty(image.shape, np.float32)
-    kernels.prepare(image, min(image.shape[2], 3) if srgb else 0, _SRGB_LUT, level0)
+    decode = min(image.shape[2], 3) if srgb else 0
+    count = max(1, min(os.cpu_count() or 1, image.size // PREPARE_BAND))
+    edges = np.linspace(0, image.shape[0], count + 1).astype(int)
+    with ThreadPoolExecutor(count) as pool:  # row bands; the kernel releases Python's lock
+        list(pool.map(lambda y0, y1: kernels.prepare(image[y0:y1], decode, _SRGB_LUT,
+                                                     level0[y0:y1]), edges[:-1], edges[1:]))
     return Texture(build_mips(level0), extension, interpolation, name)
 
 

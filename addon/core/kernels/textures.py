@@ -54,6 +54,15 @@ def halve(src, out):
     test's reference (pairs for even sizes; (m - i)/n, m/n, (i + 1)/n for odd n)."""
     h, w, nc = src.shape
     h2, w2 = out.shape[0], out.shape[1]
+    half = np.float32(0.5)
+    if h % 2 == 0 and w % 2 == 0:  # both passes at once, the same operations
+        for i in range(h2):
+            for x in range(w2):
+                for c in range(nc):
+                    left = half * (src[2 * i, 2 * x, c] + src[2 * i + 1, 2 * x, c])
+                    right = half * (src[2 * i, 2 * x + 1, c] + src[2 * i + 1, 2 * x + 1, c])
+                    out[i, x, c] = half * (left + right)
+        return
     rows = np.empty((h2, w, nc), np.float32)
     if h == 1:  # (element loops: slice assignment is slow to compile)
         for x in range(w):
