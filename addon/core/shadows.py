@@ -215,21 +215,18 @@ def _mip_layout(res: int, faces: int) -> tuple[list[int], list[int]]:
 def _pyramid(dist: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:
     """Reduction pyramid of one (res, res) map: levels MIP_FIRST_LEVEL, ... as (side, side, 3)
     float32 (least dist, least depth, greatest depth); an odd side's last blocks are cut by the
-    edge (``kernels.raster.first_reduction``, ``next_reduction``)."""
+    edge (``kernels.raster.reduction``)."""
     from .kernels import raster as kernels
 
     levels = []
     side, level = dist.shape[-1], 0
-    current = None
+    depth = np.asarray(depth, np.float32)
+    planes = np.asarray(dist, np.float32), depth, depth
     while side > 1:
         side = (side + 1) // 2
         out = np.empty((side, side, 3), np.float32)
-        if current is None:
-            kernels.first_reduction(np.ascontiguousarray(dist, np.float32),
-                                    np.ascontiguousarray(depth, np.float32), out)
-        else:
-            kernels.next_reduction(current, out)
-        current, level = out, level + 1
+        kernels.reduction(*planes, out)
+        planes, level = (out[..., 0], out[..., 1], out[..., 2]), level + 1
         if level >= MIP_FIRST_LEVEL:
             levels.append(out)
     return levels

@@ -8,8 +8,8 @@ the NumPy they replaced; ``scan`` walks each triangle's rows of samples, finds t
 of each row from the three edge functions (exact: integer floor divisions, or float64 where
 the quotient is provably exact), and keeps the smallest packed key (quantized depth, triangle
 index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
-perspective-correct weights and clip w. For shadow maps: ``first_reduction`` and
-``next_reduction`` build the min/max pyramid, ``corner_sum`` a sun map's depths.
+perspective-correct weights and clip w. For shadow maps: ``reduction`` builds the
+min/max pyramid, ``corner_sum`` a sun map's depths.
 """
 
 from __future__ import annotations
@@ -347,13 +347,15 @@ def tile_survivors(clip, ax, bx, ay, by, out, orig):
 
 
 _F2 = nb.float32[:, ::1]
+_PLANE = nb.float32[:, :]  # any layout: a map, or one channel of a pyramid level
 
 
-@nb.njit(nb.void(_F2, _F2, nb.float32[:, :, ::1]), **_OPTIONS)
-def first_reduction(dist, depth, out):
-    """The first level of a shadow map's reduction pyramid: per 2 x 2 block of the (S, S) maps
-    (an odd side's last block is cut by the edge), the least ``dist``, the least and the
-    greatest ``depth``: ``out`` (ceil(S / 2), ceil(S / 2), 3)."""
+@nb.njit(nb.void(_PLANE, _PLANE, _PLANE, nb.float32[:, :, ::1]), **_OPTIONS)
+def reduction(dist, lo_depth, hi_depth, out):
+    """One level of a shadow map's reduction pyramid: per 2 x 2 block of the (S, S) planes (an
+    odd side's last block is cut by the edge), the least ``dist``, the least ``lo_depth`` and
+    the greatest ``hi_depth``: ``out`` (ceil(S / 2), ceil(S / 2), 3). The first level reduces
+    a map (dist, depth, depth), each next one the channels of the level before."""
     s = dist.shape[0]
     for i in range(out.shape[0]):
         for j in range(out.shape[1]):
@@ -361,24 +363,8 @@ def first_reduction(dist, depth, out):
             for r in range(2 * i, min(2 * i + 2, s)):
                 for c in range(2 * j, min(2 * j + 2, s)):
                     lo_d = min(lo_d, dist[r, c])
-                    lo = min(lo, depth[r, c])
-                    hi = max(hi, depth[r, c])
-            out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
-
-
-@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
-def next_reduction(level, out):
-    """The next level of a reduction pyramid ``level`` (S, S, 3) (least, least, greatest per
-    2 x 2 block, an odd side's last block cut by the edge): ``out`` (ceil(S/2), ceil(S/2), 3)."""
-    s = level.shape[0]
-    for i in range(out.shape[0]):
-        for j in range(out.shape[1]):
-            lo_d, lo, hi = np.float32(np.inf), np.float32(np.inf), np.float32(-np.inf)
-            for r in range(2 * i, min(2 * i + 2, s)):
-                for c in range(2 * j, min(2 * j + 2, s)):
-                    lo_d = min(lo_d, level[r, c, 0])
-                    lo = min(lo, level[r, c, 1])
-                    hi = max(hi, level[r, c, 2])
+                    lo = min(lo, lo_depth[r, c])
+                    hi = max(hi, hi_depth[r, c])
             out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
 
 
