@@ -150,13 +150,21 @@ class Texture:
     @functools.cached_property
     def packed(self) -> tuple[np.ndarray, np.ndarray]:
         """The mip chain as ``kernels.textures.sample`` reads it: every level's texels in one
-        flat float32 array, and (levels, 3) int64 rows (offset, height, width)."""
-        flat = np.concatenate([np.ascontiguousarray(m, np.float32).reshape(-1)
-                               for m in self.mips])
+        flat float32 array, and (levels, 3) int64 rows (offset, height, width). A chain of
+        ``build_mips`` already lies in one array, which is returned without a copy."""
         sizes = np.array([m.size for m in self.mips], np.int64)
         offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
         shapes = np.array([m.shape[:2] for m in self.mips], np.int64)
-        return flat, np.ascontiguousarray(np.column_stack([offsets, shapes]), np.int64)
+        rows = np.ascontiguousarray(np.column_stack([offsets, shapes]), np.int64)
+        flat = self.mips[0].base
+        if not (isinstance(flat, np.ndarray) and flat.dtype == np.float32 and flat.ndim == 1
+                and flat.size == sizes.sum()
+                and all(m.base is flat and m.flags.c_contiguous
+                        and m.ctypes.data == flat.ctypes.data + 4 * int(o)
+                        for m, o in zip(self.mips, offsets, strict=True))):
+            flat = np.concatenate([np.ascontiguousarray(m, np.float32).reshape(-1)
+                                   for m in self.mips])
+        return flat, rows
 
     @functools.cached_property
     def digest(self) -> str:
@@ -165,21 +173,43 @@ class Texture:
                                digest_size=16).hexdigest()
 
 
+def _chain(shape) -> list[np.ndarray]:
+    """Empty levels (h_k, w_k, C) float32 of a mip chain of an (H, W, C) image, views in
+    order of one flat array (``Texture.packed``): h_{k+1} = max(1, h_k // 2), same for w."""
+    shapes = [tuple(shape)]
+    while shapes[-1][0] > 1 or shapes[-1][1] > 1:
+        h, w, c = shapes[-1]
+        shapes.append((max(1, h // 2), max(1, w // 2), c))
+    flat = np.empty(sum(h * w * c for h, w, c in shapes), np.float32)
+    levels, at = [], 0
+    for h, w, c in shapes:
+        levels.append(flat[at:at + h * w * c].reshape(h, w, c))
+        at += h * w * c
+    return levels
+
+
+def _filter_chain(levels: list[np.ndarray]) -> list[np.ndarray]:
+    """Fill levels 1, 2, ... of ``_chain``'s levels from level 0, each the area-weighted box
+    filter of the one above (``kernels.textures.halve``)."""
+    from .kernels import textures as kernels
+
+    for above, level in zip(levels[:-1], levels[1:], strict=True):
+        kernels.halve(above, level)
+    return levels
+
+
 def build_mips(image: np.ndarray) -> list[np.ndarray]:
     """The mip chain of an image, from the image itself down to 1 x 1 (Williams 1983): each
     level the area-weighted box filter of the one above (``kernels.textures.halve``).
 
     image:   (H, W, C) float32
-    returns: list of (h_k, w_k, C) float32 with h_{k+1} = max(1, h_k // 2), same for w
+    returns: list of (h_k, w_k, C) float32 with h_{k+1} = max(1, h_k // 2), same for w, views
+             of one flat array
     """
-    from .kernels import textures as kernels
-
-    mips = [np.ascontiguousarray(image, np.float32)]
-    while mips[-1].shape[0] > 1 or mips[-1].shape[1] > 1:
-        h, w, c = mips[-1].shape
-        mips.append(np.empty((max(1, h // 2), max(1, w // 2), c), np.float32))
-        kernels.halve(mips[-2], mips[-1])
-    return mips
+    image = np.asarray(image, np.float32)
+    levels = _chain(image.shape)
+    levels[0][...] = image
+    return _filter_chain(levels)
 
 
 PREPARE_BAND = 1 << 20  # values per thread, at least, when an image is decoded
@@ -217,14 +247,15 @@ def make_texture(
         image = image[:, :, None]
     if image.ndim != 3 or image.shape[2] not in (1, 3, 4) or 0 in image.shape[:2]:
         raise ValueError(f"expected an (H, W, C) image with C in 1, 3, 4, got {image.shape}")
-    level0 = np.empty(image.shape, np.float32)
+    levels = _chain(image.shape)
+    level0 = levels[0]
     decode = min(image.shape[2], 3) if srgb else 0
     count = max(1, min(os.cpu_count() or 1, image.size // PREPARE_BAND))
     edges = np.linspace(0, image.shape[0], count + 1).astype(int)
     with ThreadPoolExecutor(count) as pool:  # row bands; the kernel releases Python's lock
         list(pool.map(lambda y0, y1: kernels.prepare(image[y0:y1], decode, _SRGB_LUT,
                                                      level0[y0:y1]), edges[:-1], edges[1:]))
-    return Texture(build_mips(level0), extension, interpolation, name)
+    return Texture(_filter_chain(levels), extension, interpolation, name)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -137,3 +137,15 @@ def test_sample_matches_texel_by_texel_lookups(extension):
                                          None if per_point is None else per_point[i])
                         for i, (a, b) in enumerate(uv)])
         np.testing.assert_allclose(got, ref, rtol=1e-6, atol=1e-6)
+
+
+def test_packed_chain_is_the_chain_itself():
+    """A chain of build_mips / make_texture lies in one array: packed returns it without a
+    copy, and it equals the chain packed from separate arrays."""
+    tex = texture.make_texture(RNG.random((37, 20, 4), dtype=np.float32), srgb=True)
+    flat, rows = tex.packed
+    assert all(np.shares_memory(flat, m) for m in tex.mips)
+    apart = texture.Texture([m.copy() for m in tex.mips], "REPEAT", "Linear")
+    np.testing.assert_array_equal(apart.packed[0], flat)
+    np.testing.assert_array_equal(apart.packed[1], rows)
+    assert [tuple(r) for r in rows[:2]] == [(0, 37, 20), (37 * 20 * 4, 18, 10)]
