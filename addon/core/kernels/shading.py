@@ -200,8 +200,8 @@ def rays(x, y, planes, origins, directions):
     x and y columns times 2 / width and -2 / height, and its images of the near (z = -1) and
     far (z = 1) clip points at the corner; a plane point is h = a x + b y + c, divided by h_w
     (``scene.Camera.rays``, in the order of its NumPy arithmetic)."""
+    ends = np.empty((2, 3))
     for i in range(x.shape[0]):
-        ends = np.empty((2, 3))
         for e in range(2):
             c = planes[2 + e]
             hw = (x[i] * planes[0, 3] + y[i] * planes[1, 3]) + c[3]
