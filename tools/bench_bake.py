@@ -93,7 +93,7 @@ def probe_scene():
     parts += [sphere(np.array([-3 + 2 * (i % 4), -3 + 2 * (i // 4), 0.5]), 0.5)
               for i in range(16)]
     meshes = [MeshBatch(p, n, np.full(len(p), i % 3, np.int32)) for i, (p, n) in enumerate(parts)]
-    mats = [Material(albedo=np.array(c, np.float32)) for c in
+    mats = [Material.talk(albedo=np.array(c, np.float32)) for c in
             ((0.7, 0.7, 0.7), (0.8, 0.1, 0.1), (0.2, 0.4, 0.8))]
     sun = np.array([0.3, 0.5, -0.8]) / np.linalg.norm([0.3, 0.5, -0.8])
     lights = [Light("SUN", color=np.full(3, 3.0), direction=sun),

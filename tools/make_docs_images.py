@@ -39,7 +39,7 @@ def model_row(model: str, width=600, height=130) -> np.ndarray:
     meshes, materials = [], [Material()]
     for i, g in enumerate(GLOSSES):
         pos, nrm = uv_sphere(np.array([(i - 2) * 1.15, 0.0, 0.0]), 0.5)
-        materials.append(Material(name=f"g{g}", albedo=np.zeros(3, np.float32),
+        materials.append(Material.talk(name=f"g{g}", albedo=np.zeros(3, np.float32),
                                   rf0=np.full(3, 0.04, np.float32), gloss=g))
         meshes.append(MeshBatch(pos, nrm, np.full(len(pos), i + 1, np.int32)))
     grazing = Light("POINT", color=np.full(3, 3000.0), position=np.array([6.0, 3.0, 2.0]),

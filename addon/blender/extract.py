@@ -57,11 +57,13 @@ def extract_camera(depsgraph) -> cs.Camera:
     )
 
 
-def _read_mesh(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndarray]:
+def _read_mesh(mesh, requires=frozenset(), warn=None):
     """Object-space triangles of an evaluated mesh.
 
-    returns: positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
-             UV map (T, 3, 2) or None, material slot (T,)
+    requires: corner attributes the materials read (``core.material.Program.requires``)
+    warn:     called with (key, reason) for an attribute the mesh cannot give
+    returns:  positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
+              UV map (T, 3, 2) or None, material slot (T,), attributes {key: (T, 3, k)}
     """
     mesh.calc_loop_triangles()
     tris = mesh.loop_triangles
@@ -78,29 +80,122 @@ def _read_mesh(mesh) -> tuple[np.ndarray, np.ndarray, np.ndarray | None, np.ndar
     mesh.corner_normals.foreach_get("vector", corner)
     pos = co.reshape(-1, 3)[vert_idx].reshape(nt, 3, 3)
     nrm = corner.reshape(-1, 3)[loop_idx].reshape(nt, 3, 3)
-    uvs = None
-    layer = next((uv for uv in mesh.uv_layers if uv.active_render), None)
-    if layer is not None and len(layer.uv) == len(mesh.loops):
-        flat = np.empty(len(mesh.loops) * 2, np.float32)
-        layer.uv.foreach_get("vector", flat)
-        uvs = flat.reshape(-1, 2)[loop_idx].reshape(nt, 3, 2)
-    return pos, nrm, uvs, slot
+    active = next((uv for uv in mesh.uv_layers if uv.active_render), None)
+    uvs = _uv_layer(mesh, active, loop_idx, nt)
+    attributes = {}
+    for key in sorted(requires):
+        kind, name = key
+        if kind == "uv":
+            layer = active if name == "" else mesh.uv_layers.get(name)
+            value = _uv_layer(mesh, layer, loop_idx, nt)
+        elif kind == "attribute":
+            value = _attribute(mesh, name, vert_idx, loop_idx, tris, nt)
+        else:
+            value = _tangents(mesh, active if name == "" else mesh.uv_layers.get(name),
+                              loop_idx, nt)
+        if value is None:
+            if warn is not None:
+                warn(key)
+            continue
+        attributes[key] = value
+    return pos, nrm, uvs, slot, attributes
 
 
-def _to_world(pos: np.ndarray, nrm: np.ndarray, uvs: np.ndarray | None, matrix: np.ndarray):
-    """Object-space triangles -> world space; mirrored matrices keep counter-clockwise fronts."""
+def _uv_layer(mesh, layer, loop_idx, nt):
+    if layer is None or len(layer.uv) != len(mesh.loops):
+        return None
+    flat = np.empty(len(mesh.loops) * 2, np.float32)
+    layer.uv.foreach_get("vector", flat)
+    return flat.reshape(-1, 2)[loop_idx].reshape(nt, 3, 2)
+
+
+_ATTRIBUTE_WIDTH = {"FLOAT": ("value", 1), "INT": ("value", 1), "INT8": ("value", 1),
+                    "BOOLEAN": ("value", 1), "FLOAT2": ("vector", 2), "INT32_2D": ("value", 2),
+                    "FLOAT_VECTOR": ("vector", 3), "FLOAT_COLOR": ("color", 4),
+                    "BYTE_COLOR": ("color", 4)}
+
+
+def _attribute(mesh, name, vert_idx, loop_idx, tris, nt):
+    """(T, 3, 4) RGBA corner values of a mesh attribute (a value f as (f, f, f, 1), a vector as
+    (x, y, z, 1), colours linear), as Cycles' Attribute node reads them; None if absent."""
+    if name == "":
+        attrs = mesh.color_attributes
+        index = getattr(attrs, "render_color_index", -1)
+        attr = attrs[index] if 0 <= index < len(attrs) else None
+    else:
+        attr = mesh.attributes.get(name)
+    if attr is None or attr.data_type not in _ATTRIBUTE_WIDTH or attr.domain == "EDGE":
+        return None
+    kind, width = _ATTRIBUTE_WIDTH[attr.data_type]
+    prop = {"color": "color", "vector": "vector"}.get(kind, "value")
+    raw = np.empty(len(attr.data) * width, np.float32)
+    if attr.data_type in ("INT", "INT8", "BOOLEAN", "INT32_2D"):
+        ints = np.empty(len(attr.data) * width, np.int64 if attr.data_type != "BOOLEAN" else bool)
+        attr.data.foreach_get("value", ints)
+        raw = ints.astype(np.float32)
+    else:
+        attr.data.foreach_get(prop, raw)
+    raw = raw.reshape(-1, width)
+    if attr.domain == "POINT":
+        index = vert_idx
+    elif attr.domain == "CORNER":
+        index = loop_idx
+    else:  # FACE
+        poly = np.empty(nt, np.int32)
+        tris.foreach_get("polygon_index", poly)
+        index = np.repeat(poly, 3)
+    values = raw[index]
+    out = np.ones((nt * 3, 4), np.float32)
+    if width == 1:
+        out[:, :3] = values
+    else:
+        out[:, :width] = values
+        if width == 2:
+            out[:, 2] = 0.0
+    return out.reshape(nt, 3, 4)
+
+
+def _tangents(mesh, layer, loop_idx, nt):
+    """(T, 3, 4) MikkTSpace tangents (object space) and bitangent signs of a UV map, as
+    Blender computes them (``Mesh.calc_tangents``); None without that map."""
+    if layer is None:
+        return None
+    try:
+        mesh.calc_tangents(uvmap=layer.name)
+    except RuntimeError:
+        return None
+    t = np.empty(len(mesh.loops) * 3, np.float32)
+    sign = np.empty(len(mesh.loops), np.float32)
+    mesh.loops.foreach_get("tangent", t)
+    mesh.loops.foreach_get("bitangent_sign", sign)
+    out = np.concatenate([t.reshape(-1, 3), sign[:, None]], 1)[loop_idx]
+    return out.reshape(nt, 3, 4)
+
+
+def _to_world(pos, nrm, uvs, attributes: dict, matrix: np.ndarray):
+    """Object-space triangles -> world space; mirrored matrices keep counter-clockwise fronts
+    (the corners of every attribute reversed alike, bitangent signs turned)."""
     lin = matrix[:3, :3]
     det = np.linalg.det(lin)
     wpos = pos @ lin.T.astype(np.float32) + matrix[:3, 3].astype(np.float32)
     normal_matrix = np.linalg.inv(lin).T if abs(det) > 1e-20 else lin
     wn = nrm @ normal_matrix.T.astype(np.float32)
     wn /= np.maximum(np.linalg.norm(wn, axis=-1, keepdims=True), 1e-20)
+    attributes = dict(attributes)
+    for key, a in attributes.items():
+        if key[0] == "tangent":
+            t = a.copy()
+            t[..., :3] = a[..., :3] @ lin.T.astype(np.float32)
+            if det < 0:
+                t[..., 3] = -t[..., 3]
+            attributes[key] = t
     if det < 0:
         wpos, wn = wpos[:, ::-1], wn[:, ::-1]
         uvs = uvs[:, ::-1] if uvs is not None else None
+        attributes = {k: a[:, ::-1] for k, a in attributes.items()}
     contiguous = (np.ascontiguousarray(a, np.float32) if a is not None else None
                   for a in (wpos, wn, uvs))
-    return tuple(contiguous)
+    return (*contiguous, {k: np.ascontiguousarray(a, np.float32) for k, a in attributes.items()})
 
 
 def _light(obj, matrix: np.ndarray) -> cs.Light:
@@ -197,12 +292,12 @@ def _visible(obj) -> bool:
 
 
 def _object_data(obj, materials, mat_ids, warnings):
-    """Object-space triangles and global material indices of an evaluated object, or None."""
+    """Object-space triangles, global material indices, corner attributes and texture space of
+    an evaluated object, or None."""
     mesh = obj.to_mesh()
     try:
         if mesh is None or len(mesh.polygons) == 0:
             return None
-        pos, nrm, uvs, slot = _read_mesh(mesh)
         slot_ids = []
         for ms in obj.material_slots:
             mat = ms.material
@@ -211,8 +306,23 @@ def _object_data(obj, materials, mat_ids, warnings):
                 mat_ids[key] = len(materials)
                 materials.append(convert_material(mat, warnings))
             slot_ids.append(mat_ids[key])
+        readers: dict[tuple, list[str]] = {}
+        for k in slot_ids:
+            for key in materials[k].program.requires():
+                readers.setdefault(key, []).append(materials[k].name)
+
+        def missing(key):
+            kind, name = key
+            what = {"uv": "UV map", "attribute": "attribute", "tangent": "UV map"}[kind]
+            label = f"'{name}'" if name else "(the active one)"
+            warnings.append(f"Material '{readers[key][0]}' reads {what} {label}, which object "
+                            f"'{obj.name}' does not have; it reads 0")
+
+        pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing)
+        texspace = np.array([np.asarray(mesh.texspace_location) - np.asarray(mesh.texspace_size),
+                             2.0 * np.asarray(mesh.texspace_size)], np.float32)
         lut = np.array(slot_ids or [0], np.int32)
-        return pos, nrm, uvs, lut[np.clip(slot, 0, len(lut) - 1)]
+        return pos, nrm, uvs, lut[np.clip(slot, 0, len(lut) - 1)], attributes, texspace
     finally:
         obj.to_mesh_clear()
 
@@ -283,11 +393,14 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         data = cache[key]
         if data is None:
             continue
-        pos, nrm, uvs, mat_index = data
-        wpos, wn, wuv = _to_world(pos, nrm, uvs, _matrix(inst.matrix_world))
+        pos, nrm, uvs, mat_index, attributes, texspace = data
+        matrix = _matrix(inst.matrix_world)
+        wpos, wn, wuv, wattr = _to_world(pos, nrm, uvs, attributes, matrix)
         holdout = obj.is_holdout or obj.original.holdout_get(view_layer=depsgraph.view_layer)
+        inverse = np.linalg.inv(matrix) if abs(np.linalg.det(matrix)) > 1e-30 else np.eye(4)
         meshes.append(cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
-                                   holdout=bool(holdout)))
+                                   holdout=bool(holdout), attributes=wattr,
+                                   world_to_object=inverse, texspace=texspace))
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
     world = extract_world(scene, warnings)

@@ -1,36 +1,31 @@
-"""Blender materials -> ``core.scene.Material``; images -> ``core.texture.Texture``.
+"""Blender materials -> ``core.scene.Material`` (a compiled ``core.material.Program``).
 
-What the engine reads, per input socket: its constant value, or an Image Texture node linked to
-it directly (Color or Alpha output; the node's extension and interpolation; sampled by the
-mesh's active render UV map), and for Normal a Normal Map node (tangent space) fed by an Image
-Texture. Surfaces it understands:
-
-- Principled BSDF: base color, metallic, roughness, IOR, specular IOR level, specular tint,
-  transmission and emission; converted to the talk's albedo, rf0 and gloss per pixel by
-  ``core.surface.principled_to_talk`` (formulas in its module docstring).
-- The BO2 Material node group: Albedo, Specular Color, Gloss, Normal, Emission, Emission
-  Strength, read as they are.
-- Emission: an emitter with no reflection. Diffuse BSDF: albedo = its colour, rf0 = 0.
-
-Alpha (transparency, cut-outs) is not rendered yet: a material that uses it renders opaque, with
-one warning.
-
-Anything else (other shader nodes, node chains between a texture and a socket, a UV map other
-than the active render one) falls back to the socket's own value, or for an unknown surface to a
-grey dielectric with the viewport colour, with one warning naming the material and node. A
-missing or unreadable image renders with the socket's value and one warning.
+A node tree is translated once per material: each node becomes operations of the core's
+material program with Blender's semantics (the core evaluates them; this module only reads
+nodes). Node groups (nested), reroutes, frames and muted nodes (through their internal links,
+as Blender passes them through) are followed; implicit socket conversions are Cycles' (colour
+to float by luminance, vector to float by average, float to colour or vector by repetition,
+colour to shader by emission). The supported nodes are listed in ``docs/engine.md``
+("Materials"). Any other node gives the value of the socket it feeds and one warning naming
+material, node and socket; a node loop, a group without its tree, a missing image (Cycles'
+magenta) or attribute (zero) give one warning each and the render goes on.
 """
 
 from __future__ import annotations
 
+import bpy
 import numpy as np
 
 from ..core import texture
-from ..core.scene import Material, NormalMap, Principled, TextureInput
+from ..core.material import ProgramBuilder
+from ..core.scene import Material
 from . import images
 from .node_groups import is_bo2_material_node
 
 _cache: dict[tuple, texture.Texture] = {}
+RAMP_TABLE_SIZE = 256  # Cycles' RAMP_TABLE_SIZE
+_GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
+_VECTOR_VALUE_OPS = {"DOT_PRODUCT", "DISTANCE", "LENGTH"}
 
 
 def _image_key(image) -> tuple:
@@ -39,9 +34,10 @@ def _image_key(image) -> tuple:
 
 
 def load_image(image, extension: str, interpolation: str, warnings: list[str], where: str):
-    """A Blender image as a mipmapped linear ``Texture``, or None (with a warning) if unusable."""
+    """A Blender image as a mipmapped linear ``Texture``, or None (with a warning) if unusable.
+    Prepared once per image and settings, and reused across renders while it is unchanged."""
     if image is None:
-        warnings.append(f"{where}: the Image Texture node has no image; its socket value is used")
+        warnings.append(f"{where}: the Image Texture node has no image")
         return None
     key = _image_key(image) + (extension, interpolation)
     if key in _cache and not image.is_dirty:
@@ -55,7 +51,7 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
         width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
         warnings.append(f"{where}: image '{image.name}' could not be loaded "
-                        f"({image.filepath or 'no file'}); its socket value is used")
+                        f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
         return None
     pixels = images.image_pixels(image)
     # Byte images hold encoded values; float images are already scene-linear in memory.
@@ -66,155 +62,533 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
     return tex
 
 
-def _linked_node(socket):
-    links = socket.links if socket is not None else ()
-    return (links[0].from_node, links[0].from_socket) if links else (None, None)
+def _width(socket) -> int:
+    return 1 if socket.type in ("VALUE", "INT", "BOOLEAN") else 3
 
 
-def _texture_input(node, socket_name: str, material_name: str, warnings: list[str]):
-    """A TextureInput when an Image Texture feeds the socket directly, else None (+ warning)."""
-    sock = node.inputs.get(socket_name)
-    src, out = _linked_node(sock)
-    if src is None:
-        return None
-    where = f"Material '{material_name}'"
-    if src.type != "TEX_IMAGE":
-        warnings.append(f"{where}: node '{src.name}' ({src.bl_idname}) feeding "
-                        f"'{socket_name}' is not supported; the socket's value is used")
-        return None
-    uv_src, _ = _linked_node(src.inputs.get("Vector"))
-    if uv_src is not None and not (uv_src.type == "UVMAP" or
-                                   (uv_src.type == "TEX_COORD")):
-        warnings.append(f"{where}: node '{uv_src.name}' on the vector of '{src.name}' is not "
-                        "supported; the active render UV map is used")
-    tex = load_image(src.image, src.extension, src.interpolation, warnings,
-                     f"{where}, node '{src.name}'")
-    if tex is None:
-        return None
-    return TextureInput(tex, channel="alpha" if out.name == "Alpha" else "color")
+def _kind(socket) -> str:
+    return {"RGBA": "color", "VECTOR": "vector", "SHADER": "shader"}.get(socket.type, "float")
 
 
-def _value(node, name: str, default, material_name: str, warnings: list[str]):
-    """A socket's texture input if any, else its constant: float or (3,) float32."""
-    tex = _texture_input(node, name, material_name, warnings)
-    if tex is not None:
-        return tex
-    sock = node.inputs.get(name)
-    if sock is None:
-        return default
-    value = sock.default_value
-    try:
-        return np.array(value[:3], np.float32)
-    except TypeError:
-        return float(value)
+class _Compiler:
+    """Translates one material's tree; ``socket`` returns a register for an input socket."""
+
+    def __init__(self, material, warnings: list[str]) -> None:
+        self.material = material
+        self.name = material.name
+        self.warnings = warnings
+        self.b = ProgramBuilder()
+        self.memo: dict[tuple, tuple[int, str]] = {}
+        self.busy: set[tuple] = set()
+        self.said: set[str] = set()
+
+    # -- messages and constants
+
+    def warn(self, text: str) -> None:
+        message = f"Material '{self.name}': {text}"
+        if message not in self.said:
+            self.said.add(message)
+            self.warnings.append(message)
+
+    def constant(self, value, kind: str) -> int:
+        if kind == "shader":
+            return self.b.add("emission", self.b.const(0.0, 0.0, 0.0), self.b.const(0.0))
+        try:
+            v = [float(x) for x in value][:3]
+        except TypeError:
+            v = [float(value)]
+        if kind == "float":
+            return self.b.const(v[0] if len(v) == 1 else float(np.mean(v)))
+        return self.b.const(*(v * 3 if len(v) == 1 else v))
+
+    def convert(self, reg: int, src: str, dst: str) -> int:
+        """Cycles' implicit conversion of a value of kind ``src`` to kind ``dst``."""
+        if src == dst or dst in ("color", "vector") and src in ("color", "vector"):
+            return reg
+        if dst == "shader":  # colour or value into a shader socket: an emission
+            return self.b.add("emission", self.convert(reg, src, "color"), self.b.const(1.0))
+        if src == "shader":
+            return self.constant(0.0, dst)
+        if dst == "float":
+            return self.b.add("to_float", reg, param=(src,))
+        return self.b.add("to_vector", reg)
+
+    # -- following links
+
+    def default(self, socket, kind: str) -> int:
+        value = getattr(socket, "default_value", None)
+        if value is None:
+            if kind == "shader":
+                return self.constant(0.0, "shader")
+            return self.constant(0.0, kind)
+        return self.constant(value, kind)
+
+    def socket(self, socket, kind: str, ctx: tuple = ()) -> int | None:
+        """The value flowing into input ``socket`` as ``kind`` ("float", "color", "vector",
+        "shader"); None for an unlinked normal input (``normal``)."""
+        link = next((lk for lk in socket.links if not lk.is_muted), None) \
+            if socket.is_linked else None
+        if link is None or not link.is_valid:
+            return self.default(socket, kind)
+        node, out = link.from_node, link.from_socket
+        reg, got = self.output(node, out, ctx, socket)
+        return self.convert(reg, got, kind)
+
+    def normal(self, node, name: str, ctx: tuple) -> int | None:
+        sock = node.inputs.get(name)
+        if sock is None or not sock.is_linked:
+            return None
+        return self.socket(sock, "vector", ctx)
+
+    def output(self, node, out, ctx: tuple, into) -> tuple[int, str]:
+        """(register, kind) of output ``out`` of ``node`` in group context ``ctx``."""
+        key = (ctx, node.as_pointer(), out.identifier)
+        if key in self.memo:
+            return self.memo[key]
+        if key in self.busy:
+            self.warn(f"node '{node.name}' is part of a loop; socket '{into.name}' keeps its "
+                      "own value")
+            return self.default(into, _kind(into)), _kind(into)
+        self.busy.add(key)
+        try:
+            result = self._output(node, out, ctx, into)
+        finally:
+            self.busy.discard(key)
+        self.memo[key] = result
+        return result
+
+    def _output(self, node, out, ctx, into) -> tuple[int, str]:
+        if node.bl_idname == "NodeReroute":
+            return self._through(node.inputs[0], ctx, into)
+        if node.mute:
+            for link in node.internal_links:
+                if link.to_socket.identifier == out.identifier:
+                    return self._through(link.from_socket, ctx, into)
+            return self.default(out, _kind(out)), _kind(out)
+        if node.bl_idname == "NodeGroupInput":
+            if not ctx:
+                return self.default(into, _kind(into)), _kind(into)
+            group = ctx[-1]
+            sock = next((s for s in group.inputs if s.identifier == out.identifier), None)
+            if sock is None:
+                return self.default(into, _kind(into)), _kind(into)
+            return self._through(sock, ctx[:-1], into)
+        if node.bl_idname == "ShaderNodeGroup" and not is_bo2_material_node(node):
+            return self._group(node, out, ctx, into)
+        handler = _NODES.get(node.bl_idname)
+        if is_bo2_material_node(node):
+            handler = _bo2
+        if handler is None:
+            self.warn(f"node '{node.name}' ({node.bl_idname}) feeding '{into.name}' is not "
+                      "supported; the socket's value is used")
+            kind = _kind(into)
+            if kind == "shader":
+                return self._viewport_surface(), "shader"
+            return self.default(into, kind), kind
+        return handler(self, node, out, ctx)
+
+    def _through(self, socket, ctx, into) -> tuple[int, str]:
+        kind = _kind(socket) if socket.type != "CUSTOM" else _kind(into)
+        return self.socket(socket, kind, ctx), kind
+
+    def _group(self, node, out, ctx, into) -> tuple[int, str]:
+        tree = node.node_tree
+        if tree is None or not len(tree.nodes):
+            what = "has no node tree" if tree is None else \
+                f"uses '{tree.name}', which is missing or empty"
+            self.warn(f"group node '{node.name}' {what}; socket '{into.name}' keeps its value")
+            return self.default(into, _kind(into)), _kind(into)
+        outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
+        active = [n for n in outputs if n.is_active_output] or outputs
+        if not active:
+            return self.default(into, _kind(into)), _kind(into)
+        sock = next((s for s in active[0].inputs if s.identifier == out.identifier), None)
+        if sock is None:
+            return self.default(into, _kind(into)), _kind(into)
+        kind = _kind(out)
+        return self.socket(sock, kind, ctx + (node,)), kind
+
+    def _viewport_surface(self) -> int:
+        m = self.material
+        b = self.b
+        return b.add("principled", b.const(*m.diffuse_color[:3]), b.const(m.metallic),
+                     b.const(m.roughness), b.const(1.5), b.const(0.5), b.const(1.0, 1.0, 1.0),
+                     b.const(0.0), b.const(0.0, 0.0, 0.0), b.const(0.0), b.const(1.0), None)
+
+    # -- the whole material
+
+    def compile(self):
+        tree = self.material.node_tree
+        if tree is None or bpy.app.version < (5, 0, 0) and not self.material.use_nodes:
+            return self.b.build(self._viewport_surface())
+        outputs = [n for n in tree.nodes if n.bl_idname == "ShaderNodeOutputMaterial"
+                   and n.target in ("ALL", "CYCLES")]
+        active = [n for n in outputs if n.is_active_output] or outputs
+        if not active:
+            self.warn("no Material Output node; rendered with the viewport colour")
+            return self.b.build(self._viewport_surface())
+        surface_socket = active[0].inputs["Surface"]
+        if not surface_socket.is_linked:
+            self.warn("nothing is connected to the Material Output's Surface; it renders "
+                      "black, as in Cycles")
+        surface = self.socket(surface_socket, "shader")
+        occlusion = None
+        for node in tree.nodes:
+            if (node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None
+                    and node.node_tree.name.split(".")[0] in _GLTF_GROUPS
+                    and "Occlusion" in node.inputs and node.inputs["Occlusion"].is_linked):
+                occlusion = self.socket(node.inputs["Occlusion"], "float")
+        return self.b.build(surface, occlusion)
 
 
-def _normal_map(node, material_name: str, warnings: list[str]) -> NormalMap | None:
-    src, _ = _linked_node(node.inputs.get("Normal"))
-    if src is None:
-        return None
-    if src.type != "NORMAL_MAP" or src.space != "TANGENT":
-        warnings.append(f"Material '{material_name}': node '{src.name}' on Normal is not a "
-                        "tangent-space Normal Map; the surface normal is used")
-        return None
-    tex = _texture_input(src, "Color", material_name, warnings)
-    if tex is None:
-        return None
-    return NormalMap(tex, strength=float(src.inputs["Strength"].default_value))
+# ---------------------------------------------------------------------------------------------
+# Nodes: handler(compiler, node, out, ctx) -> (register, kind of the output)
 
 
-def _principled(node, name: str, warnings: list[str]) -> Material:
-    def v(socket, default):
-        return _value(node, socket, default, name, warnings)
-
-    tint = node.inputs.get("Specular Tint")
-    tint = (np.array(tint.default_value[:3], np.float32) if tint is not None
-            and hasattr(tint.default_value, "__len__") else np.ones(3, np.float32))
-    emission_strength = node.inputs.get("Emission Strength")
-    return Material(
-        name=name,
-        principled=Principled(
-            base_color=v("Base Color", np.full(3, 0.8, np.float32)),
-            metallic=v("Metallic", 0.0),
-            roughness=v("Roughness", 0.5),
-            ior=float(node.inputs["IOR"].default_value) if "IOR" in node.inputs else 1.5,
-            specular_level=v("Specular IOR Level", 0.5),
-            specular_tint=tint,
-            transmission=float(node.inputs["Transmission Weight"].default_value)
-            if "Transmission Weight" in node.inputs else 0.0,
-        ),
-        emission=v("Emission Color", np.zeros(3, np.float32)),
-        emission_strength=float(emission_strength.default_value) if emission_strength else 0.0,
-        normal_map=_normal_map(node, name, warnings),
-    )
+def _in(c, node, key, kind, ctx):
+    """Input ``key`` (name or index) of ``node`` as ``kind``."""
+    sock = node.inputs[key]
+    return c.socket(sock, kind, ctx)
 
 
-def _check_alpha(node, name: str, warnings: list[str]) -> None:
-    """Transparency is not rendered: say so once when a material asks for it."""
-    sock = node.inputs.get("Alpha")
-    if sock is not None and (sock.is_linked or float(sock.default_value) < 1.0):
-        warnings.append(f"Material '{name}': Alpha is not supported by BO2 Lighting yet; "
-                        "the surface renders opaque")
+def _by_id(node, identifier):
+    return next(s for s in node.inputs if s.identifier == identifier)
 
 
-def _bo2_group(node, name: str, warnings: list[str]) -> Material:
-    def v(socket, default):
-        return _value(node, socket, default, name, warnings)
-
-    strength = v("Emission Strength", 1.0)
-    if isinstance(strength, TextureInput):
-        warnings.append(f"Material '{name}': a texture on Emission Strength is not supported")
-        strength = float(node.inputs["Emission Strength"].default_value)
-    return Material(
-        name=name,
-        albedo=v("Albedo", np.full(3, 0.8, np.float32)),
-        rf0=v("Specular Color", np.full(3, 0.04, np.float32)),
-        gloss=v("Gloss", 0.5),
-        emission=v("Emission", np.zeros(3, np.float32)),
-        emission_strength=float(strength),
-        normal_map=_normal_map(node, name, warnings),
-    )
+def _swizzle(c, reg, start, stop):
+    return c.b.add("swizzle", reg, param=(start, stop))
 
 
-def _surface_node(material):
-    tree = material.node_tree if material is not None else None
-    if tree is None:
-        return None
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
-    active = [n for n in outputs if n.is_active_output] or outputs
-    if not active:
-        return None
-    src, _ = _linked_node(active[0].inputs["Surface"])
-    return src
+def _image(c, node, out, ctx):
+    alpha_linked = node.outputs["Alpha"].is_linked
+    if node.projection != "FLAT":
+        c.warn(f"node '{node.name}': projection {node.projection} is read as Flat")
+    tex = load_image(node.image, node.extension, node.interpolation, c.warnings,
+                     f"Material '{c.name}', node '{node.name}'")
+    alpha_mode = getattr(node.image, "alpha_mode", "STRAIGHT") if node.image else "NONE"
+    premultiply = (not alpha_linked) and alpha_mode in ("STRAIGHT", "PREMUL")
+    vec = node.inputs["Vector"]
+    args = (c.socket(vec, "vector", ctx),) if vec.is_linked else ()
+    reg = c.b.add("image", *args, param=(tex, premultiply))
+    if out.name == "Alpha":
+        return _swizzle(c, reg, 3, 4), "float"
+    return _swizzle(c, reg, 0, 3), "color"
 
+
+def _texcoord(c, node, out, ctx):
+    if getattr(node, "object", None) is not None:
+        c.warn(f"node '{node.name}': coordinates of another object are not supported; the "
+               "shaded object's are used")
+    if out.name == "UV":
+        return c.b.add("uv", param=("",)), "vector"
+    return c.b.add("texcoord", param=(out.name,)), "vector"
+
+
+def _uvmap(c, node, out, ctx):
+    return c.b.add("uv", param=(node.uv_map,)), "vector"
+
+
+def _attribute_out(c, reg, out_name):
+    if out_name in ("Color",):
+        return _swizzle(c, reg, 0, 3), "color"
+    if out_name == "Vector":
+        return _swizzle(c, reg, 0, 3), "vector"
+    if out_name == "Alpha":
+        return _swizzle(c, reg, 3, 4), "float"
+    return c.b.add("to_float", _swizzle(c, reg, 0, 3), param=("vector",)), "float"  # Fac
+
+
+def _attribute(c, node, out, ctx):
+    if node.attribute_type != "GEOMETRY":
+        c.warn(f"node '{node.name}': {node.attribute_type.lower()} attributes are not "
+               "supported; they read 0")
+        return c.constant(0.0, _kind(out)), _kind(out)
+    return _attribute_out(c, c.b.add("attribute", param=(node.attribute_name,)), out.name)
+
+
+def _color_attribute(c, node, out, ctx):
+    return _attribute_out(c, c.b.add("attribute", param=(node.layer_name,)), out.name)
+
+
+def _value(c, node, out, ctx):
+    return c.constant(out.default_value, _kind(out)), _kind(out)
+
+
+_GEOMETRY = {"Position", "Normal", "True Normal", "Incoming", "Backfacing"}
+
+
+def _geometry(c, node, out, ctx):
+    if out.name not in _GEOMETRY:
+        c.warn(f"node '{node.name}': output '{out.name}' is not supported; it reads 0")
+        return c.constant(0.0, _kind(out)), _kind(out)
+    return c.b.add("geometry", param=(out.name,)), _kind(out)
+
+
+def _fresnel(c, node, out, ctx):
+    return c.b.add("fresnel", _in(c, node, "IOR", "float", ctx),
+                   c.normal(node, "Normal", ctx)), "float"
+
+
+def _layer_weight(c, node, out, ctx):
+    reg = c.b.add("layer_weight", _in(c, node, "Blend", "float", ctx),
+                  c.normal(node, "Normal", ctx))
+    k = 0 if out.name == "Fresnel" else 1
+    return _swizzle(c, reg, k, k + 1), "float"
+
+
+def _mapping(c, node, out, ctx):
+    args = [_in(c, node, name, "vector", ctx) if name in node.inputs
+            else c.b.const(0.0, 0.0, 0.0) for name in ("Vector", "Location", "Rotation")]
+    args.append(_in(c, node, "Scale", "vector", ctx))
+    return c.b.add("mapping", *args, param=(node.vector_type,)), "vector"
+
+
+def _separate_color(c, node, out, ctx):
+    reg = c.b.add("separate", _in(c, node, 0, "color", ctx), param=(node.mode,))
+    k = list(node.outputs).index(out)
+    return _swizzle(c, reg, k, k + 1), "float"
+
+
+def _combine_color(c, node, out, ctx):
+    return c.b.add("combine", *(_in(c, node, k, "float", ctx) for k in range(3)),
+                   param=(node.mode,)), "color"
+
+
+def _separate_xyz(c, node, out, ctx):
+    reg = _in(c, node, 0, "vector", ctx)
+    k = list(node.outputs).index(out)
+    return _swizzle(c, reg, k, k + 1), "float"
+
+
+def _combine_xyz(c, node, out, ctx):
+    return c.b.add("combine", *(_in(c, node, k, "float", ctx) for k in range(3)),
+                   param=("XYZ",)), "vector"
+
+
+def _math(c, node, out, ctx):
+    return c.b.add("math", *(_in(c, node, k, "float", ctx) for k in range(3)),
+                   param=(node.operation, bool(node.use_clamp))), "float"
+
+
+def _vector_math(c, node, out, ctx):
+    op = node.operation
+    args = [_in(c, node, k, "vector", ctx) for k in range(3)]
+    args.append(_in(c, node, 3, "float", ctx) if len(node.inputs) > 3 else c.b.const(1.0))
+    value_op = op in _VECTOR_VALUE_OPS
+    if (out.name == "Value") != value_op:  # the output this operation leaves unset reads 0
+        return c.constant(0.0, _kind(out)), _kind(out)
+    return c.b.add("vector_math", *args, param=(op,)), "float" if value_op else "vector"
+
+
+def _mix(c, node, out, ctx):
+    dt = node.data_type
+    if dt not in ("FLOAT", "VECTOR", "RGBA"):
+        c.warn(f"node '{node.name}': Mix of {dt} is not supported; its A input is used")
+        dt = "FLOAT"
+    suffix, kind = {"FLOAT": ("Float", "float"), "VECTOR": ("Vector", "vector"),
+                    "RGBA": ("Color", "color")}[dt]
+    uniform = dt != "VECTOR" or node.factor_mode == "UNIFORM"
+    factor = c.socket(_by_id(node, "Factor_Float" if uniform else "Factor_Vector"),
+                      "float" if uniform else "vector", ctx)
+    a = c.socket(_by_id(node, f"A_{suffix}"), kind, ctx)
+    b = c.socket(_by_id(node, f"B_{suffix}"), kind, ctx)
+    return c.b.add("mix", factor, a, b, param=(dt, node.blend_type, bool(node.clamp_factor),
+                                               bool(node.clamp_result))), kind
+
+
+def _mix_rgb(c, node, out, ctx):
+    return c.b.add("mix", _in(c, node, "Fac", "float", ctx), _in(c, node, 1, "color", ctx),
+                   _in(c, node, 2, "color", ctx),
+                   param=("RGBA", node.blend_type, True, bool(node.use_clamp))), "color"
+
+
+def _invert(c, node, out, ctx):
+    return c.b.add("invert", _in(c, node, "Fac", "float", ctx),
+                   _in(c, node, "Color", "color", ctx)), "color"
+
+
+def _gamma(c, node, out, ctx):
+    return c.b.add("gamma", _in(c, node, "Color", "color", ctx),
+                   _in(c, node, "Gamma", "float", ctx)), "color"
+
+
+def _bright_contrast(c, node, out, ctx):
+    return c.b.add("bright_contrast", _in(c, node, "Color", "color", ctx),
+                   _in(c, node, "Bright", "float", ctx),
+                   _in(c, node, "Contrast", "float", ctx)), "color"
+
+
+def _hsv(c, node, out, ctx):
+    return c.b.add("hsv", *(_in(c, node, k, "float", ctx) for k in range(4)),
+                   _in(c, node, "Color", "color", ctx)), "color"
+
+
+def _ramp(c, node, out, ctx):
+    ramp = node.color_ramp
+    table = np.array([ramp.evaluate(i / (RAMP_TABLE_SIZE - 1)) for i in range(RAMP_TABLE_SIZE)],
+                     np.float32)
+    reg = c.b.add("ramp", _in(c, node, "Fac", "float", ctx),
+                  param=(table, ramp.interpolation != "CONSTANT"))
+    if out.name == "Alpha":
+        return _swizzle(c, reg, 3, 4), "float"
+    return _swizzle(c, reg, 0, 3), "color"
+
+
+def _curve_table(mapping, curves, combine):
+    """Cycles' ``curvemapping_color_to_array``: (table (256, k), min_x, max_x)."""
+    mapping.initialize()
+    lo = min(cm.points[0].location[0] for cm in mapping.curves if len(cm.points))
+    hi = max(cm.points[-1].location[0] for cm in mapping.curves if len(cm.points))
+    xs = lo + np.arange(RAMP_TABLE_SIZE) / (RAMP_TABLE_SIZE - 1) * (hi - lo)
+    cm = mapping.curves
+    if combine:  # each channel's curve after the combined one
+        rows = [[mapping.evaluate(cm[k], mapping.evaluate(cm[3], x)) for k in curves]
+                for x in xs]
+    else:
+        rows = [[mapping.evaluate(cm[k], x) for k in curves] for x in xs]
+    return np.array(rows, np.float32), float(lo), float(hi)
+
+
+def _rgb_curves(c, node, out, ctx):
+    table, lo, hi = _curve_table(node.mapping, (0, 1, 2), True)
+    return c.b.add("curves", _in(c, node, "Fac", "float", ctx),
+                   _in(c, node, "Color", "color", ctx), param=(table, lo, hi)), "color"
+
+
+def _float_curve(c, node, out, ctx):
+    table, lo, hi = _curve_table(node.mapping, (0,), False)
+    return c.b.add("float_curve", _in(c, node, 0, "float", ctx), _in(c, node, 1, "float", ctx),
+                   param=(table, lo, hi)), "float"
+
+
+def _map_range(c, node, out, ctx):
+    vector = node.data_type == "FLOAT_VECTOR"
+    kind = "vector" if vector else "float"
+    ids = (["Vector", "From_Min_FLOAT3", "From_Max_FLOAT3", "To_Min_FLOAT3", "To_Max_FLOAT3",
+            "Steps_FLOAT3"] if vector else
+           ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
+    socks = [_by_id(node, i) if vector else node.inputs[i] for i in ids]
+    args = [c.socket(s, kind, ctx) for s in socks]
+    return c.b.add("map_range", *args, param=(node.interpolation_type, bool(node.clamp))), kind
+
+
+def _clamp(c, node, out, ctx):
+    return c.b.add("clamp", *(_in(c, node, k, "float", ctx) for k in ("Value", "Min", "Max")),
+                   param=(node.clamp_type,)), "float"
+
+
+def _rgb_to_bw(c, node, out, ctx):
+    return c.b.add("to_float", _in(c, node, "Color", "color", ctx), param=("color",)), "float"
+
+
+def _normal_map(c, node, out, ctx):
+    return c.b.add("normal_map", _in(c, node, "Strength", "float", ctx),
+                   _in(c, node, "Color", "color", ctx),
+                   param=(node.space, node.uv_map)), "vector"
+
+
+def _bump(c, node, out, ctx):
+    return c.b.add("bump", _in(c, node, "Strength", "float", ctx),
+                   _in(c, node, "Distance", "float", ctx), _in(c, node, "Height", "float", ctx),
+                   c.normal(node, "Normal", ctx), param=(bool(node.invert),)), "vector"
+
+
+def _linked_or_nonzero(node, name) -> bool:
+    s = node.inputs.get(name)
+    return s is not None and (s.is_linked or float(np.max(np.atleast_1d(
+        np.asarray(s.default_value, float)))) > 0.0)
+
+
+def _principled(c, node, out, ctx):
+    for name in ("Coat Weight", "Sheen Weight", "Subsurface Weight"):
+        if _linked_or_nonzero(node, name):
+            c.warn(f"node '{node.name}': {name} is not part of the talk's model and is "
+                   "ignored")
+
+    def v(name, kind, default):
+        return _in(c, node, name, kind, ctx) if name in node.inputs else c.constant(default, kind)
+
+    return c.b.add(
+        "principled", v("Base Color", "color", 0.8), v("Metallic", "float", 0.0),
+        v("Roughness", "float", 0.5), v("IOR", "float", 1.5),
+        v("Specular IOR Level", "float", 0.5), v("Specular Tint", "color", 1.0),
+        v("Transmission Weight", "float", 0.0), v("Emission Color", "color", 0.0),
+        v("Emission Strength", "float", 0.0), v("Alpha", "float", 1.0),
+        c.normal(node, "Normal", ctx)), "shader"
+
+
+def _bo2(c, node, out, ctx):
+    def v(name, kind, default):
+        return _in(c, node, name, kind, ctx) if name in node.inputs else c.constant(default, kind)
+
+    return c.b.add("bo2", v("Albedo", "color", 0.8), v("Specular Color", "color", 0.04),
+                   v("Gloss", "float", 0.5), c.normal(node, "Normal", ctx),
+                   v("Emission", "color", 0.0), v("Emission Strength", "float", 1.0),
+                   v("Alpha", "float", 1.0)), "shader"
+
+
+def _diffuse(c, node, out, ctx):
+    return c.b.add("diffuse", _in(c, node, "Color", "color", ctx),
+                   c.normal(node, "Normal", ctx)), "shader"
+
+
+def _glossy(c, node, out, ctx):
+    return c.b.add("glossy", _in(c, node, "Color", "color", ctx),
+                   _in(c, node, "Roughness", "float", ctx),
+                   c.normal(node, "Normal", ctx)), "shader"
+
+
+def _emission(c, node, out, ctx):
+    return c.b.add("emission", _in(c, node, "Color", "color", ctx),
+                   _in(c, node, "Strength", "float", ctx)), "shader"
+
+
+def _transparent(c, node, out, ctx):
+    return c.b.add("transparent", _in(c, node, "Color", "color", ctx)), "shader"
+
+
+def _holdout(c, node, out, ctx):
+    return c.b.add("holdout"), "shader"
+
+
+def _mix_shader(c, node, out, ctx):
+    return c.b.add("mix_shader", _in(c, node, 0, "float", ctx), _in(c, node, 1, "shader", ctx),
+                   _in(c, node, 2, "shader", ctx)), "shader"
+
+
+def _add_shader(c, node, out, ctx):
+    return c.b.add("add_shader", _in(c, node, 0, "shader", ctx),
+                   _in(c, node, 1, "shader", ctx)), "shader"
+
+
+_NODES = {
+    "ShaderNodeTexImage": _image, "ShaderNodeTexCoord": _texcoord, "ShaderNodeUVMap": _uvmap,
+    "ShaderNodeAttribute": _attribute, "ShaderNodeVertexColor": _color_attribute,
+    "ShaderNodeValue": _value, "ShaderNodeRGB": _value, "ShaderNodeNewGeometry": _geometry,
+    "ShaderNodeFresnel": _fresnel, "ShaderNodeLayerWeight": _layer_weight,
+    "ShaderNodeMapping": _mapping, "ShaderNodeSeparateColor": _separate_color,
+    "ShaderNodeCombineColor": _combine_color, "ShaderNodeSeparateXYZ": _separate_xyz,
+    "ShaderNodeCombineXYZ": _combine_xyz, "ShaderNodeMath": _math,
+    "ShaderNodeVectorMath": _vector_math, "ShaderNodeMix": _mix, "ShaderNodeMixRGB": _mix_rgb,
+    "ShaderNodeInvert": _invert, "ShaderNodeGamma": _gamma,
+    "ShaderNodeBrightContrast": _bright_contrast, "ShaderNodeHueSaturation": _hsv,
+    "ShaderNodeValToRGB": _ramp, "ShaderNodeMapRange": _map_range, "ShaderNodeClamp": _clamp,
+    "ShaderNodeRGBToBW": _rgb_to_bw, "ShaderNodeRGBCurve": _rgb_curves,
+    "ShaderNodeFloatCurve": _float_curve, "ShaderNodeNormalMap": _normal_map,
+    "ShaderNodeBump": _bump, "ShaderNodeBsdfPrincipled": _principled,
+    "ShaderNodeBsdfDiffuse": _diffuse, "ShaderNodeBsdfGlossy": _glossy,
+    "ShaderNodeBsdfAnisotropic": _glossy, "ShaderNodeEmission": _emission,
+    "ShaderNodeBsdfTransparent": _transparent, "ShaderNodeHoldout": _holdout,
+    "ShaderNodeMixShader": _mix_shader, "ShaderNodeAddShader": _add_shader,
+}
+SUPPORTED_NODES = frozenset(_NODES) | {"NodeReroute", "NodeFrame", "NodeGroupInput",
+                                       "NodeGroupOutput", "ShaderNodeGroup",
+                                       "ShaderNodeOutputMaterial"}
 
 def convert_material(material, warnings: list[str]) -> Material:
     """One Blender material (or None for an empty slot) -> ``core.scene.Material``."""
     if material is None:
         return Material(name="(empty slot)")
-    name = material.name
-    node = _surface_node(material)
-    if node is not None and node.type == "BSDF_PRINCIPLED":
-        result = _principled(node, name, warnings)
-        _check_alpha(node, name, warnings)
-    elif node is not None and is_bo2_material_node(node):
-        result = _bo2_group(node, name, warnings)
-        _check_alpha(node, name, warnings)
-    elif node is not None and node.type == "EMISSION":
-        result = Material(name=name, albedo=np.zeros(3, np.float32),
-                          rf0=np.zeros(3, np.float32),
-                          emission=_value(node, "Color", np.ones(3, np.float32), name, warnings),
-                          emission_strength=float(node.inputs["Strength"].default_value))
-    elif node is not None and node.type == "BSDF_DIFFUSE":
-        result = Material(name=name, rf0=np.zeros(3, np.float32),
-                          albedo=_value(node, "Color", np.full(3, 0.8, np.float32), name,
-                                        warnings),
-                          normal_map=_normal_map(node, name, warnings))
-    else:
-        kind = "no surface node" if node is None else f"node '{node.name}' ({node.bl_idname})"
-        warnings.append(f"Material '{name}': {kind} is not supported; rendered as a grey "
-                        "dielectric with the material's viewport colour")
-        result = Material(name=name, albedo=np.array(material.diffuse_color[:3], np.float32))
-    result.backface_culling = bool(getattr(material, "use_backface_culling", False))
-    result.pass_index = int(material.pass_index)
-    return result
+    return Material(name=material.name, program=_Compiler(material, warnings).compile(),
+                    backface_culling=bool(getattr(material, "use_backface_culling", False)),
+                    pass_index=int(material.pass_index))

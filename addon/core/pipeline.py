@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import affine, probes, raster, shade, shadows, surface, texture
+from . import affine, material, probes, raster, shade, shadows, texture
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
 
@@ -120,39 +120,59 @@ class Frame:
     cull: np.ndarray | None
     shadow_maps: list
     tables: dict            # constant material parameters per material: name -> array
+    attributes: dict        # key -> (T, 3, k) float32 corner values (MeshBatch.attributes)
+    obj: np.ndarray         # (T,) int32 index of the triangle's mesh batch
+    world_to_object: np.ndarray  # (B, 4, 4) float64 per mesh batch
+    texspace: np.ndarray    # (B, 2, 3) float32 per mesh batch
 
 
 def _constant_tables(materials: list[Material]) -> dict:
-    """Per-material constants for the untextured fast path."""
+    """Per-material constants of the materials whose program is constant, and which vary."""
     n = len(materials)
-    zero = surface.Lookup(None, None, None)
-    params = [surface.evaluate(m, 1, zero) if not m.textured else None for m in materials]
     table = {k: np.zeros((n, c), np.float32) for k, c in
-             (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1))}
-    for i, p in enumerate(params):
-        if p is not None:
+             (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1), ("alpha", 1))}
+    varying = np.array([not m.program.constant for m in materials], bool)
+    for i, m in enumerate(materials):
+        if not varying[i]:
+            p = material.evaluate(m.program, _constant_points())
             for k in table:
-                table[k][i] = getattr(p, k).reshape(-1)[: table[k].shape[1]]
-    table["textured"] = np.array([p is None for p in params], bool)
+                table[k][i] = np.asarray(getattr(p, k), np.float32).reshape(-1)[
+                    : table[k].shape[1]]
+    table["varying"] = varying
     table["pass_index"] = np.array([m.pass_index for m in materials], np.float32)
     return table
 
 
-def _drop_broken(positions, normals, uvs, has_uv, holdout, mat_index, warn):
-    """Remove triangles with non-finite corners or zero area; warn once with the counts."""
+def _constant_points() -> material.Points:
+    """One point for constant programs (which read nothing of it)."""
+    z = np.zeros((1, 3), np.float32)
+    up = np.array([[0.0, 0.0, 1.0]], np.float32)
+    return material.Points(1, z, up, up, up, np.zeros((1, 1), np.float32),
+                           np.array([[1.0, 0.0, 0.0]], np.float32), lambda key: None,
+                           np.eye(4)[None], np.array([[[0.0] * 3, [1.0] * 3]], np.float32),
+                           np.zeros((1, 2), np.float32), np.eye(4))
+
+
+def _broken(positions) -> tuple[np.ndarray, int, int]:
+    """Triangles to keep (finite corners and non-zero area), and the counts of the others."""
     finite = np.isfinite(positions).all(axis=(1, 2))
     with np.errstate(invalid="ignore", over="ignore"):
         cross = np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0])
         area2 = np.einsum("tc,tc->t", cross, cross)
     flat = finite & ~(area2 > 0.0)
-    keep = finite & ~flat
-    if keep.all():
-        return positions, normals, uvs, has_uv, holdout, mat_index
-    if warn is not None:
-        warn(f"Skipped {int((~finite).sum())} triangles with NaN or infinite vertices and "
-             f"{int(flat.sum())} with zero area")
-    return (positions[keep], np.nan_to_num(normals[keep]), np.nan_to_num(uvs[keep]),
-            has_uv[keep], holdout[keep], mat_index[keep])
+    return finite & ~flat, int((~finite).sum()), int(flat.sum())
+
+
+def _concat_attributes(meshes) -> dict:
+    """Every mesh batch's corner attributes, concatenated; zeros where a batch lacks one."""
+    widths = {}
+    for m in meshes:
+        for key, a in m.attributes.items():
+            widths.setdefault(key, a.shape[2])
+    return {key: np.concatenate([
+        np.asarray(m.attributes[key], np.float32) if key in m.attributes
+        else np.zeros((len(m.positions), 3, w), np.float32) for m in meshes])
+        for key, w in widths.items()}
 
 
 def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
@@ -174,16 +194,31 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                               np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes])
         has_uv = np.concatenate([np.full(len(m.positions), m.uvs is not None) for m in meshes])
         holdout = np.concatenate([np.full(len(m.positions), m.holdout) for m in meshes])
+        obj = np.concatenate([np.full(len(m.positions), k, np.int32)
+                              for k, m in enumerate(meshes)])
     else:
         positions = normals = np.zeros((0, 3, 3), np.float32)
         uvs = np.zeros((0, 3, 2), np.float32)
-        mat_index = np.zeros(0, np.int32)
+        mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
+    attributes = _concat_attributes(meshes)
+    world_to_object = np.array([np.eye(4) if m.world_to_object is None else m.world_to_object
+                                for m in meshes] or [np.eye(4)], np.float64)
+    texspace = np.array([[[0.0] * 3, [1.0] * 3] if m.texspace is None else m.texspace
+                         for m in meshes] or [[[0.0] * 3, [1.0] * 3]], np.float32)
     mats = scene.materials or [Material()]
     if len(mat_index) and (mat_index.max() >= len(mats) or mat_index.min() < 0):
         raise ValueError("a triangle refers to a material index outside Scene.materials")
-    positions, normals, uvs, has_uv, holdout, mat_index = _drop_broken(
-        positions, normals, uvs.astype(np.float32), has_uv, holdout, mat_index, warn)
+    keep, nonfinite, flat = _broken(positions)
+    if not keep.all():
+        if warn is not None:
+            warn(f"Skipped {nonfinite} triangles with NaN or infinite vertices and "
+                 f"{flat} with zero area")
+        positions, mat_index, has_uv, holdout, obj = (
+            a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
+        normals, uvs = np.nan_to_num(normals[keep]), np.nan_to_num(uvs[keep])
+        attributes = {k: np.nan_to_num(a[keep]) for k, a in attributes.items()}
+    uvs = uvs.astype(np.float32, copy=False)
 
     cam = scene.camera
     clip = raster.project(positions, cam.projection @ cam.world_to_camera)
@@ -203,7 +238,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                                   thread_count(scene.settings), poll, threading.Event())))
         maps = [finish([next(done) for _ in jobs]) for jobs, finish in plans]
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
-                 _constant_tables(mats))
+                 _constant_tables(mats), attributes, obj, world_to_object, texspace)
 
 
 def with_camera(frame: Frame, camera) -> Frame:
@@ -255,32 +290,85 @@ def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return (px[:, :3] * np.float32(world.strength)).astype(np.float32)
 
 
-def _materials(frame: Frame, tri, uv, duv_dx, duv_dy, has_uv) -> surface.SurfaceParams:
-    """Material parameters of the points on triangles ``tri`` (N,)."""
-    n = len(tri)
+def _plane_points(tri_positions, origin, direction):
+    """Where rays meet the planes of their triangles: barycentrics (N, 3) (outside the
+    triangle too) and positions (N, 3), float32; None rows (NaN) where a ray runs along the
+    plane."""
+    p = np.asarray(tri_positions, np.float64)
+    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
+    normal = np.cross(e1, e2)
+    nn = np.einsum("nc,nc->n", normal, normal)
+    d = np.broadcast_to(np.asarray(direction, np.float64), (len(p), 3))
+    o = np.broadcast_to(np.asarray(origin, np.float64), (len(p), 3))
+    denom = np.einsum("nc,nc->n", normal, d)
+    with np.errstate(all="ignore"):
+        t = np.einsum("nc,nc->n", normal, p[:, 0] - o) / denom
+        hit = o + t[:, None] * d
+        rel = hit - p[:, 0]
+        b1 = np.einsum("nc,nc->n", np.cross(rel, e2), normal) / nn
+        b2 = np.einsum("nc,nc->n", np.cross(e1, rel), normal) / nn
+    bary = np.stack([1.0 - b1 - b2, b1, b2], 1)
+    return bary.astype(np.float32), hit.astype(np.float32)
+
+
+def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.Points:
+    """What a material program reads at the points (``material.Points``)."""
+    cam = frame.scene.camera
+    attributes = frame.attributes
+
+    def corner(key):
+        if key == ("uv", ""):
+            return frame.uvs[tri]
+        a = attributes.get(key)
+        return None if a is None else a[tri]
+
+    def shifts(axis):
+        origin, direction = cam.rays(sx + (axis == 0), sy + (axis == 1))
+        b, q = _plane_points(frame.positions[tri], origin, direction)
+        bad = ~np.isfinite(b).all(axis=1)
+        b[bad], q[bad] = bary[bad], p[bad]
+        return b, q
+
+    back = np.einsum("nc,nc->n", geo, frame_normals_raw(frame, tri)) < 0.0
+    ob = frame.obj[tri]
+    window = np.stack([sx / cam.width, 1.0 - sy / cam.height], 1).astype(np.float32)
+    return material.Points(len(tri), p, n, geo, v, back[:, None].astype(np.float32), bary,
+                           corner, frame.world_to_object[ob], frame.texspace[ob], window,
+                           cam.world_to_camera, shifts)
+
+
+def frame_normals_raw(frame: Frame, tri) -> np.ndarray:
+    """(N, 3) unnormalized front-face normals of triangles ``tri`` (counter-clockwise)."""
+    q = frame.positions[tri]
+    return np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+
+
+def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.SurfaceParams:
+    """The talk's parameters at the points on triangles ``tri`` (N,): constants from the
+    tables, programs evaluated per material over its points. The normal is the shading
+    normal ``n`` unless a program changes it."""
     mid = frame.material[tri]
     t = frame.tables
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
-    emission, gloss = t["emission"][mid], t["gloss"][mid, 0]
-    normal_map = np.full((n, 3), np.nan, np.float32) if t["textured"].any() else None
-    strength = np.ones(n, np.float32)
+    emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
+    normal, occlusion = n, None
     mats = frame.scene.materials or [Material()]
-    for m in np.flatnonzero(t["textured"]):
+    for m in np.flatnonzero(t["varying"]):
         sel = np.flatnonzero(mid == m)
         if not len(sel):
             continue
-        with_uv = has_uv[sel]
-        lookup = surface.Lookup(np.where(with_uv[:, None], uv[sel], 0.0),
-                                duv_dx[sel], duv_dy[sel])
-        p = surface.evaluate(mats[m], len(sel), lookup)
-        albedo[sel], rf0[sel], emission[sel] = p.albedo, p.rf0, p.emission
-        gloss[sel] = p.gloss
-        if p.normal_map is not None:
-            normal_map[sel] = np.where(with_uv[:, None], p.normal_map, np.nan)
-            strength[sel] = p.normal_strength
-    params = surface.SurfaceParams(albedo, rf0, gloss, emission, normal_map)
-    params.normal_strength = strength
-    return params
+        pts = _points(frame, tri[sel], bary[sel], p[sel], n[sel], geo[sel], v[sel], sx[sel],
+                      sy[sel])
+        s = material.evaluate(mats[m].program, pts)
+        albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
+        gloss[sel], alpha[sel] = s.gloss, s.alpha
+        if s.normal is not None:
+            normal = normal.copy() if normal is n else normal
+            normal[sel] = s.normal
+        if s.occlusion is not None:
+            occlusion = np.ones(len(tri), np.float32) if occlusion is None else occlusion
+            occlusion[sel] = s.occlusion
+    return material.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal, occlusion)
 
 
 def _margin(frame: Frame, tile):
@@ -337,18 +425,8 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
     # position, normals (turned towards the camera), UV
     shading.surface(np.ascontiguousarray(tri, np.int32), np.ascontiguousarray(bary, np.float32),
                     frame.positions, frame.normals, frame.uvs, v, p, n, geo, uv)
-    duv_dx = duv_dy = np.zeros_like(uv)
-    if frame.tables["textured"][frame.material[tri]].any():
-        duv_dx, duv_dy = texture.uv_derivatives(frame.positions[tri], frame.uvs[tri], p,
-                                                *cam.rays(sx + 1.0, sy), *cam.rays(sx, sy + 1.0))
-    mat = _materials(frame, tri, uv, duv_dx, duv_dy, frame.has_uv[tri])
-    if mat.normal_map is not None:
-        mapped = np.isfinite(mat.normal_map[:, 0])
-        if mapped.any():
-            t, sign = texture.tangent_frame(frame.positions[tri[mapped]],
-                                            frame.uvs[tri[mapped]], n[mapped])
-            n[mapped] = texture.apply_normal_map(n[mapped], t, sign, mat.normal_map[mapped],
-                                                 mat.normal_strength[mapped])
+    mat = _materials(frame, tri, bary, p, n, geo, v, sx, sy)
+    n = mat.normal
 
     diffuse = np.zeros((len(tri), 3), np.float32)
     specular = np.zeros((len(tri), 3), np.float32)
@@ -365,6 +443,9 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
         s = scene.settings
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf)
+        if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
+            diff_ind *= mat.occlusion[:, None]
+            gloss_ind *= mat.occlusion[:, None]
     else:
         diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
     out = np.empty((len(tri), SAMPLED_WIDTH), np.float32)

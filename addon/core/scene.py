@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import affine
+from .material import Program, talk_program
 from .probes import Probes
 from .texture import Texture
 
@@ -94,76 +95,27 @@ class Camera:
 
 
 @dataclass
-class TextureInput:
-    """An image texture feeding a material input, sampled by the mesh's render UV map.
-
-    texture: a ``core.texture.Texture`` (linear, mipmapped)
-    channel: "color" (RGB; its luminance for a scalar input) or "alpha"
-    """
-
-    texture: Texture
-    channel: str = "color"
-
-
-# A material input: a constant (float or (3,) colour) or a texture.
-Value = float | np.ndarray | TextureInput
-
-
-@dataclass
-class NormalMap:
-    """A tangent-space normal map (Blender's Normal Map node): texture (Non-Color), strength."""
-
-    texture: TextureInput
-    strength: float = 1.0
-
-
-@dataclass
-class Principled:
-    """Inputs of a Principled BSDF; ``core.surface`` converts them to the talk's parameters
-    per pixel. Colours are (3,) linear, scalars floats, either may be a ``TextureInput``."""
-
-    base_color: Value = field(default_factory=lambda: np.full(3, 0.8, np.float32))
-    metallic: Value = 0.0
-    roughness: Value = 0.5
-    ior: float = 1.5
-    specular_level: Value = 0.5
-    specular_tint: np.ndarray = field(default_factory=lambda: np.ones(3, np.float32))
-    transmission: float = 0.0
-
-
-@dataclass
 class Material:
-    """A surface in the talk's parameters, constant or textured.
+    """A surface: its compiled node tree (``core.material.Program``) and its settings.
 
-    albedo:   (3,) diffuse reflectance, linear, or a TextureInput
-    rf0:      (3,) specular colour: base reflectance at normal incidence, or a TextureInput
-    gloss:    gloss in [0, 1] (specular power alpha = 8192^gloss), or a TextureInput
-    emission: (3,) emitted colour or a TextureInput, times ``emission_strength``: W/(m^2 sr)
-    normal_map: optional tangent-space normal map
-    principled: when set, albedo and rf0 and gloss come from these inputs instead
+    program: what the surface is at each point (``material.talk_program()``: a grey dielectric)
     backface_culling: cull faces seen from behind
     pass_index: the material's index in the IndexMA pass (Blender's Material > Pass Index)
     """
 
     name: str = "Material"
-    albedo: Value = field(default_factory=lambda: np.full(3, 0.8, np.float32))
-    rf0: Value = field(default_factory=lambda: np.full(3, 0.04, np.float32))
-    gloss: Value = 0.5
-    emission: Value = field(default_factory=lambda: np.zeros(3, np.float32))
-    emission_strength: float = 1.0
-    normal_map: NormalMap | None = None
-    principled: Principled | None = None
+    program: Program = field(default_factory=talk_program)
     backface_culling: bool = False
     pass_index: int = 0
 
-    @property
-    def textured(self) -> bool:
-        """True when any input is a texture or a normal map."""
-        values = [self.albedo, self.rf0, self.gloss, self.emission, self.normal_map]
-        if self.principled is not None:
-            p = self.principled
-            values += [p.base_color, p.metallic, p.roughness, p.specular_level]
-        return any(isinstance(v, TextureInput | NormalMap) for v in values)
+    @classmethod
+    def talk(cls, name: str = "Material", albedo=(0.8, 0.8, 0.8), rf0=(0.04, 0.04, 0.04),
+             gloss: float = 0.5, emission=(0.0, 0.0, 0.0), emission_strength: float = 1.0,
+             **settings) -> Material:
+        """A constant material in the talk's parameters: albedo, rf0 (3,) linear, gloss in
+        [0, 1], emission (3,) times ``emission_strength``, W/(m^2 sr)."""
+        return cls(name, talk_program(albedo, rf0, gloss, emission, emission_strength),
+                   **settings)
 
 
 @dataclass
@@ -176,6 +128,12 @@ class MeshBatch:
     uvs:       (T, 3, 2) float32 corner UVs of the active render UV map, or None
     name:      the object's name, for messages
     holdout:   the object cuts a hole: alpha 0 and no colour where it is visible
+    attributes: corner values the materials read (``material.Program.requires``), by key:
+               ("uv", map) (T, 3, 2); ("attribute", name) (T, 3, 4) RGBA (a float f as
+               (f, f, f, 1), a vector as (x, y, z, 1)); ("tangent", map) (T, 3, 4) world
+               MikkTSpace tangent and bitangent sign. Map or name "" is the active render one
+    world_to_object: (4, 4) float64 (Object texture coordinates); identity when None
+    texspace:  (2, 3) Generated coordinates are (p_object - texspace[0]) / texspace[1]
     """
 
     positions: np.ndarray
@@ -184,6 +142,9 @@ class MeshBatch:
     uvs: np.ndarray | None = None
     name: str = ""
     holdout: bool = False
+    attributes: dict = field(default_factory=dict)
+    world_to_object: np.ndarray | None = None
+    texspace: np.ndarray | None = None
 
 
 @dataclass

@@ -45,8 +45,8 @@ def pixel_centres():
 
 
 def lambert_scene(light, albedo=0.6):
-    mat = Material(name="lambert", albedo=np.full(3, albedo, np.float32),
-                   rf0=np.zeros(3, np.float32), gloss=0.0)
+    mat = Material.talk(name="lambert", albedo=np.full(3, albedo, np.float32),
+                        rf0=np.zeros(3, np.float32), gloss=0.0)
     return Scene(camera=ortho_camera(), meshes=[floor()], materials=[Material(), mat],
                  lights=[light], settings=RenderSettings(samples=1))
 

@@ -1,0 +1,694 @@
+"""Material programs: a material's node tree as a list of operations over per-point arrays.
+
+The Blender side (``addon/blender/materials.py``) translates a node tree once per material into
+a ``Program``: operations in dependency order, each reading earlier results ("registers") by
+index. The renderer evaluates the program over the visible points of a shading block
+(``evaluate``) and gets the talk's parameters there (slide "Black Ops: shading model": albedo,
+specular colour rf0, gloss with alpha = 8192^gloss), plus emission, alpha and a shading normal.
+
+Values are float32 arrays (N, 1) for a float socket, (N, 3) for a colour or vector socket and
+(N, 4) for an image look-up (RGBA); a constant has N = 1 and broadcasts. A shader socket holds a
+``Closure``: weighted sums, so that Mix Shader and Add Shader act per point, as in Cycles:
+
+    mix(a, b, f) = (1 - f) a + f b,   add(a, b) = a + b
+
+over albedo, rf0, emission, the transparent weight, and the weighted gloss and normal (the talk
+has one specular lobe: gloss and normal are the averages of the closures that have one,
+weighted by their share). Surfaces map to the talk as follows (docs/engine.md, "Materials"):
+
+- Principled BSDF: ``principled_to_talk`` below; Alpha a mixes it with a Transparent BSDF;
+- the BO2 Material group: read as it is;
+- Diffuse BSDF: albedo = colour, no specular;  Glossy BSDF: rf0 = colour, gloss from roughness
+  (Cycles' Glossy has no Fresnel; the talk's Schlick Fresnel brightens it at grazing angles);
+- Emission: emitted radiance colour x strength;  Transparent BSDF: its colour's luminance is the
+  transparent weight.
+
+Alpha = 1 - transparent weight. A point is drawn with probability alpha (Blender's "Dithered"
+render method) and its parameters are then divided by alpha, which keeps the expected radiance
+of Cycles' stochastic transparency.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import brdf
+from . import node_math as nm
+
+# Operations that read the shaded points (the others are pure functions of their arguments).
+INPUT_KINDS = frozenset({"uv", "attribute", "geometry", "texcoord"})
+
+
+@dataclass(frozen=True)
+class Op:
+    """One operation. kind: a key of ``_OPS``; args: registers read; param: static data."""
+
+    kind: str
+    args: tuple = ()
+    param: tuple = ()
+
+
+@dataclass
+class Program:
+    """A compiled material: ``ops`` in dependency order; ``surface`` the register of the final
+    closure; ``occlusion`` an optional float register (the glTF importer's occlusion)."""
+
+    ops: list[Op]
+    surface: int
+    occlusion: int | None = None
+
+    def __post_init__(self) -> None:
+        varying = []
+        for op in self.ops:
+            varying.append(op.kind in INPUT_KINDS or op.kind == "image" and not op.args
+                           or any(varying[a] for a in op.args if a is not None))
+        self._varying = varying
+
+    @property
+    def constant(self) -> bool:
+        """True when the result does not depend on the point: evaluated once per material."""
+        outs = [self.surface] + ([self.occlusion] if self.occlusion is not None else [])
+        return not any(self._varying[r] for r in outs)
+
+    def requires(self) -> set[tuple[str, str]]:
+        """Corner attributes the program reads: ("uv", map), ("attribute", name),
+        ("tangent", map); "" names the active render UV map or colour attribute."""
+        need = set()
+        for op in self.ops:
+            if op.kind == "uv" or op.kind == "image" and not op.args:
+                need.add(("uv", op.param[0] if op.kind == "uv" else ""))
+            elif op.kind == "attribute":
+                need.add(("attribute", op.param[0]))
+            elif op.kind == "normal_map" and op.param[0] == "TANGENT":
+                need.add(("uv", op.param[1]))
+                need.add(("tangent", op.param[1]))
+        return need
+
+
+class ProgramBuilder:
+    """Appends operations and returns their registers (constants are shared)."""
+
+    def __init__(self) -> None:
+        self.ops: list[Op] = []
+        self._consts: dict[tuple, int] = {}
+
+    def add(self, kind: str, *args, param: tuple = ()) -> int:
+        self.ops.append(Op(kind, tuple(args), tuple(param)))
+        return len(self.ops) - 1
+
+    def const(self, *values: float) -> int:
+        key = tuple(float(v) for v in values)
+        if key not in self._consts:
+            self._consts[key] = self.add("const", param=key)
+        return self._consts[key]
+
+    def build(self, surface: int, occlusion: int | None = None) -> Program:
+        return Program(list(self.ops), surface, occlusion)
+
+
+def talk_program(albedo=(0.8, 0.8, 0.8), rf0=(0.04, 0.04, 0.04), gloss=0.5,
+                 emission=(0.0, 0.0, 0.0), emission_strength=1.0) -> Program:
+    """A constant material in the talk's parameters (the BO2 Material's inputs)."""
+    b = ProgramBuilder()
+
+    def col(v):
+        v = np.broadcast_to(np.asarray(v, np.float32).reshape(-1), (3,))
+        return b.const(*v)
+
+    surface = b.add("bo2", col(albedo), col(rf0), b.const(gloss), None, col(emission),
+                    b.const(emission_strength), b.const(1.0))
+    return b.build(surface)
+
+
+@dataclass
+class Closure:
+    """A shader socket's value at N points, every field weighted (module docstring).
+
+    albedo, rf0, emission: (N, 3); spec: (N, 1) weight of closures with a specular lobe;
+    gloss: (N, 1) spec-weighted gloss; normal: (N, 3) weighted normal and nweight (N, 1) the
+    weight of closures with one; transparent: (N, 1) transparent weight; weight: (N, 1) weight
+    of the other closures
+    """
+
+    albedo: np.ndarray
+    rf0: np.ndarray
+    spec: np.ndarray
+    gloss: np.ndarray
+    emission: np.ndarray
+    normal: np.ndarray
+    nweight: np.ndarray
+    transparent: np.ndarray
+    weight: np.ndarray
+
+    def scaled(self, w) -> Closure:
+        return Closure(*(getattr(self, f) * w for f in _CLOSURE_FIELDS))
+
+
+_CLOSURE_FIELDS = ("albedo", "rf0", "spec", "gloss", "emission", "normal", "nweight",
+                   "transparent", "weight")
+_Z1 = np.zeros((1, 1), np.float32)
+_Z3 = np.zeros((1, 3), np.float32)
+
+
+_ONE = np.ones((1, 1), np.float32)
+
+
+def _closure(albedo=_Z3, rf0=_Z3, spec=_Z1, gloss=_Z1, emission=_Z3, normal=None,
+             transparent=None) -> Closure:
+    nweight = _Z1 if normal is None else _ONE
+    weight = _ONE if transparent is None else _Z1
+    return Closure(albedo, rf0, spec, gloss * spec, emission, _Z3 if normal is None else normal,
+                   nweight, _Z1 if transparent is None else transparent, weight)
+
+
+@dataclass
+class SurfaceParams:
+    """The talk's parameters at N points: albedo, rf0, emission (N, 3); gloss, alpha (N,);
+    normal (N, 3) unit shading normal or None (the geometry's); occlusion (N,) or None."""
+
+    albedo: np.ndarray
+    rf0: np.ndarray
+    gloss: np.ndarray
+    emission: np.ndarray
+    alpha: np.ndarray
+    normal: np.ndarray | None = None
+    occlusion: np.ndarray | None = None
+
+
+def principled_to_talk(base, metallic, roughness, ior, level, tint, transmission):
+    """Principled BSDF inputs -> (albedo (N, 3), rf0 (N, 3), gloss (N, 1)):
+
+        albedo = base (1 - metallic) (1 - transmission)
+        rf0    = lerp(F0(ior) 2 level tint, base, metallic),  F0 = ((ior - 1) / (ior + 1))^2
+        gloss  = brdf.roughness_to_gloss(roughness)        (docs/model.md)
+
+    base, tint (N, 3); metallic, roughness, ior, level, transmission (N, 1); N may be 1.
+    """
+    metallic = np.clip(metallic, 0.0, 1.0)
+    ior = np.maximum(ior, 1.0)
+    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
+    dielectric = np.clip(f0 * 2.0 * level * tint, 0.0, 1.0)
+    albedo = base * (1.0 - metallic) * (1.0 - np.clip(transmission, 0.0, 1.0))
+    rf0 = dielectric + (base - dielectric) * metallic
+    gloss = brdf.roughness_to_gloss(np.clip(roughness, 0.0, 1.0).astype(np.float32))
+    return (np.maximum(albedo, 0.0).astype(np.float32), np.maximum(rf0, 0.0).astype(np.float32),
+            np.asarray(gloss, np.float32))
+
+
+# ---------------------------------------------------------------------------------------------
+# The shaded points
+
+
+class Points:
+    """What the input operations read at N shaded points.
+
+    position, normal, geo, view: (N, 3) float32 world position, unit shading normal and true
+    normal (both facing the viewer), unit direction to the viewer; backfacing (N, 1).
+    corner(key): (N, 3, k) the corner values of attribute ``key`` of each point's triangle
+    (``Program.requires``), or None when no mesh has it; bary (N, 3) barycentrics.
+    world_to_object: (N, 4, 4) float64; texspace: (N, 2, 3) Generated = (p_obj - [0]) / [1].
+    window: (N, 2) position in the frame, [0, 1], origin bottom left; world_to_camera (4, 4).
+    shifted(axis): the same points moved one pixel right (0) or down (1) along the surface's
+    plane (``bary`` and ``position`` change, the rest is shared), for screen derivatives.
+    """
+
+    def __init__(self, n, position, normal, geo, view, backfacing, bary, corner,
+                 world_to_object, texspace, window, world_to_camera, shifts=None):
+        self.n, self.position, self.normal, self.geo, self.view = n, position, normal, geo, view
+        self.backfacing, self.bary, self.corner = backfacing, bary, corner
+        self.world_to_object, self.texspace = world_to_object, texspace
+        self.window, self.world_to_camera = window, world_to_camera
+        self._shifts = shifts  # callable axis -> (bary, position), or None
+
+    def shifted(self, axis: int) -> Points | None:
+        if self._shifts is None:
+            return None
+        bary, position = self._shifts(axis)
+        return Points(self.n, position, self.normal, self.geo, self.view, self.backfacing,
+                      bary, self.corner, self.world_to_object, self.texspace, self.window,
+                      self.world_to_camera)
+
+    def attribute(self, key, width: int) -> np.ndarray:
+        """(N, width) ``key`` interpolated at the points; zeros where no mesh has it."""
+        c = self.corner(key)
+        if c is None:
+            return np.zeros((self.n, width), np.float32)
+        return np.einsum("nk,nkc->nc", self.bary, c[:, :, :width]).astype(np.float32)
+
+    def object_point(self, p) -> np.ndarray:
+        m = self.world_to_object
+        return (np.einsum("nij,nj->ni", m[:, :3, :3], p) + m[:, :3, 3]).astype(np.float32)
+
+    def object_direction(self, d) -> np.ndarray:
+        """Normals to object space (by the inverse transpose of object-to-world), unit."""
+        m = self.world_to_object[:, :3, :3]
+        return _unit(np.einsum("nji,nj->ni", np.linalg.inv(m), d))
+
+
+def _unit(v) -> np.ndarray:
+    v = np.asarray(v, np.float32)
+    length = np.linalg.norm(v, axis=-1, keepdims=True)
+    return np.where(length > 0.0, v / np.where(length > 0.0, length, 1.0), 0.0).astype(
+        np.float32)
+
+
+# ---------------------------------------------------------------------------------------------
+# Operations: fn(ev, op, points) -> value; ev.arg(k) is argument k at the same points
+
+
+def _op_const(ev, op, pts):
+    return np.asarray(op.param, np.float32).reshape(1, -1)
+
+
+def _op_uv(ev, op, pts):
+    uv = pts.attribute(("uv", op.param[0]), 2)
+    return np.concatenate([uv, np.zeros((pts.n, 1), np.float32)], 1)
+
+
+def _op_attribute(ev, op, pts):
+    """(N, 4): RGB (or XYZ, or the value thrice) and alpha of a corner attribute."""
+    c = pts.corner(("attribute", op.param[0]))
+    if c is None:
+        return np.zeros((pts.n, 4), np.float32)
+    return np.einsum("nk,nkc->nc", pts.bary, c).astype(np.float32)
+
+
+def _op_geometry(ev, op, pts):
+    which = op.param[0]
+    if which == "Position":
+        return pts.position
+    if which == "Normal":
+        return pts.normal
+    if which == "True Normal":
+        return pts.geo
+    if which == "Incoming":
+        return pts.view
+    if which == "Backfacing":
+        return pts.backfacing
+    raise KeyError(which)
+
+
+def _op_texcoord(ev, op, pts):
+    which = op.param[0]
+    if which == "Generated":
+        t = pts.texspace
+        with np.errstate(all="ignore"):
+            g = (pts.object_point(pts.position) - t[:, 0]) / np.where(t[:, 1] != 0, t[:, 1], 1)
+        return np.where(np.isfinite(g), g, 0.0).astype(np.float32)
+    if which == "Object":
+        return pts.object_point(pts.position)
+    if which == "Normal":
+        return pts.object_direction(pts.normal)
+    if which == "Camera":
+        m = np.asarray(pts.world_to_camera, np.float64)
+        c = pts.position @ m[:3, :3].T + m[:3, 3]
+        return (c * np.array([1.0, 1.0, -1.0])).astype(np.float32)
+    if which == "Window":
+        return np.concatenate([pts.window, np.zeros((pts.n, 1), np.float32)], 1)
+    if which == "Reflection":
+        n, v = pts.normal, pts.view
+        return (2.0 * np.einsum("nc,nc->n", n, v)[:, None] * n - v).astype(np.float32)
+    raise KeyError(which)
+
+
+def _op_image(ev, op, pts):
+    """(N, 4) RGBA of an image at the vector's (u, v); Cycles' magenta for a missing image.
+    param: (texture or None, premultiply). args: (vector,) or () for the active UV map."""
+    from . import texture
+
+    tex, premultiply = op.param
+    if tex is None:
+        return np.array([[1.0, 0.0, 1.0, 1.0]], np.float32)
+    if op.args:
+        vec = ev.arg(op, 0, pts)
+    else:
+        vec = _op_uv(ev, Op("uv", (), ("",)), pts)
+    vec = np.broadcast_to(vec, (pts.n, 3))
+    lod = ev.lod.get(id(op))
+    if lod is None:  # the centre points: lod from the vector's screen derivatives
+        steps = [ev.shifted_value(op.args[0] if op.args else None, axis, pts) for axis in (0, 1)]
+        if steps[0] is not None and steps[1] is not None:
+            lod = texture.lod_from_uv_derivatives(
+                tex, np.broadcast_to(steps[0], (pts.n, 3))[:, :2] - vec[:, :2],
+                np.broadcast_to(steps[1], (pts.n, 3))[:, :2] - vec[:, :2])
+            ev.lod[id(op)] = lod
+    px = texture.sample(tex, vec[:, :2], lod)
+    c = px.shape[1]
+    rgb = px[:, :3] if c >= 3 else np.repeat(px[:, :1], 3, 1)
+    alpha = px[:, 3:4] if c == 4 else np.ones((pts.n, 1), np.float32)
+    if premultiply:
+        rgb = rgb * alpha
+    return np.concatenate([rgb, alpha], 1).astype(np.float32)
+
+
+def _op_swizzle(ev, op, pts):
+    """Columns of a value: param (start, stop)."""
+    v = ev.arg(op, 0, pts)
+    return v[:, op.param[0]:op.param[1]]
+
+
+def _op_to_float(ev, op, pts):
+    return nm.to_float(ev.arg(op, 0, pts), op.param[0])
+
+
+def _op_to_vector(ev, op, pts):
+    v = ev.arg(op, 0, pts)
+    return np.repeat(v, 3, 1) if v.shape[1] == 1 else v[:, :3]
+
+
+def _op_math(ev, op, pts):
+    a, b, c = (ev.arg(op, k, pts) for k in range(3))
+    return nm.math(op.param[0], a, b, c, op.param[1])
+
+
+def _op_vector_math(ev, op, pts):
+    a, b, c, s = (ev.arg(op, k, pts) for k in range(4))
+    return nm.vector_math(op.param[0], a, b, c, s)
+
+
+def _op_mix(ev, op, pts):
+    """Mix: param (data_type, blend_type, clamp_factor, clamp_result); args (factor, a, b)."""
+    data_type, mode, clamp_factor, clamp_result = op.param
+    f, a, b = (ev.arg(op, k, pts) for k in range(3))
+    if clamp_factor:
+        f = np.clip(f, 0.0, 1.0)
+    if data_type == "RGBA":
+        return nm.blend(mode, f, a, b, clamp_result)
+    return (a + (b - a) * f).astype(np.float32)
+
+
+def _op_separate(ev, op, pts):
+    v = ev.arg(op, 0, pts)[:, :3]
+    mode = op.param[0]
+    if mode == "HSV":
+        return nm.rgb_to_hsv(v)
+    if mode == "HSL":
+        return nm.rgb_to_hsl(v)
+    return v
+
+
+def _op_combine(ev, op, pts):
+    parts = np.broadcast_arrays(*(ev.arg(op, k, pts) for k in range(3)))
+    v = np.concatenate(parts, 1).astype(np.float32)
+    mode = op.param[0]
+    if mode == "HSV":
+        return nm.hsv_to_rgb(v)
+    if mode == "HSL":
+        return nm.hsl_to_rgb(v)
+    return v
+
+
+def _op_mapping(ev, op, pts):
+    v, loc, rot, scale = (ev.arg(op, k, pts) for k in range(4))
+    return nm.mapping(op.param[0], v, loc, rot, scale)
+
+
+def _op_invert(ev, op, pts):
+    return nm.invert(ev.arg(op, 0, pts), ev.arg(op, 1, pts))
+
+
+def _op_gamma(ev, op, pts):
+    return nm.gamma(ev.arg(op, 0, pts), ev.arg(op, 1, pts))
+
+
+def _op_bright_contrast(ev, op, pts):
+    return nm.bright_contrast(*(ev.arg(op, k, pts) for k in range(3)))
+
+
+def _op_hsv(ev, op, pts):
+    return nm.hue_saturation_value(*(ev.arg(op, k, pts) for k in range(5)))
+
+
+def _op_ramp(ev, op, pts):
+    """param (table (S, 4), interpolate); args (factor,) -> (N, 4) colour and alpha."""
+    table, interpolate = op.param
+    return nm.ramp_lookup(table, ev.arg(op, 0, pts), interpolate, False)
+
+
+def _op_curves(ev, op, pts):
+    """RGB Curves: param (table (S, 3), min_x, max_x); args (factor, colour)."""
+    table, lo, hi = op.param
+    f, c = ev.arg(op, 0, pts), ev.arg(op, 1, pts)
+    rel = (c - np.float32(lo)) / np.float32(hi - lo if hi != lo else 1.0)
+    out = np.concatenate([nm.ramp_lookup(table[:, k:k + 1], rel[:, k:k + 1], True, True)
+                          for k in range(3)], 1)
+    return ((1.0 - f) * c + f * out).astype(np.float32)
+
+
+def _op_float_curve(ev, op, pts):
+    table, lo, hi = op.param
+    f, v = ev.arg(op, 0, pts), ev.arg(op, 1, pts)
+    rel = (v - np.float32(lo)) / np.float32(hi - lo if hi != lo else 1.0)
+    out = nm.ramp_lookup(table, rel, True, True)
+    return ((1.0 - f) * v + f * out).astype(np.float32)
+
+
+def _op_map_range(ev, op, pts):
+    kind, use_clamp = op.param
+    return nm.map_range(kind, *(ev.arg(op, k, pts) for k in range(6)), use_clamp)
+
+
+def _op_clamp(ev, op, pts):
+    return nm.clamp(op.param[0], *(ev.arg(op, k, pts) for k in range(3)))
+
+
+def _op_fresnel(ev, op, pts):
+    """Fresnel: args (ior, normal or None)."""
+    ior = np.maximum(ev.arg(op, 0, pts), 1e-5)
+    n = ev.normal_arg(op, 1, pts)
+    back = pts.backfacing > 0.5
+    eta = np.where(back, 1.0 / ior, ior)
+    return nm.fresnel_dielectric_cos(np.einsum("nc,nc->n", pts.view, n)[:, None], eta)
+
+
+def _op_layer_weight(ev, op, pts):
+    """Layer Weight: args (blend, normal or None) -> (N, 2) Fresnel and Facing."""
+    blend = ev.arg(op, 0, pts)
+    n = ev.normal_arg(op, 1, pts)
+    cos = np.einsum("nc,nc->n", pts.view, n)[:, None]
+    back = pts.backfacing > 0.5
+    eta = np.maximum(1.0 - blend, 1e-5)
+    eta = np.where(back, eta, 1.0 / eta)
+    fresnel = nm.fresnel_dielectric_cos(cos, eta)
+    b = np.clip(blend, 0.0, 1.0 - 1e-5)
+    exponent = np.where(b < 0.5, 2.0 * b, 0.5 / (1.0 - b))
+    facing = np.where(blend != 0.5, np.abs(cos) ** exponent, np.abs(cos))
+    return np.concatenate(np.broadcast_arrays(fresnel, 1.0 - facing), 1).astype(np.float32)
+
+
+def _op_normal_map(ev, op, pts):
+    """Normal Map: param (space, uv map); args (strength, colour) -> (N, 3) world normal."""
+    from . import texture
+
+    space = op.param[0]
+    strength = np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1))
+    color = np.broadcast_to(ev.arg(op, 1, pts)[:, :3], (pts.n, 3))
+    n = pts.normal
+    if space == "TANGENT":
+        t4 = pts.corner(("tangent", op.param[1]))
+        if t4 is None:
+            return n
+        t = np.einsum("nk,nkc->nc", pts.bary, t4[:, :, :3])
+        sign = np.where(np.einsum("nk,nk->n", pts.bary, t4[:, :, 3]) < 0.0, -1.0, 1.0)
+        flip = np.where(pts.backfacing > 0.5, -1.0, 1.0).astype(np.float32)
+        out = texture.apply_normal_map(n * flip, t, sign, color, strength[:, 0])
+        return (out * flip).astype(np.float32)
+    c = 2.0 * color - 1.0
+    if space in ("OBJECT", "BLENDER_OBJECT", "BLENDER_WORLD") and space != "OBJECT":
+        c = c * np.array([1.0, -1.0, -1.0], np.float32)  # Blender's own axes convention
+    if space in ("OBJECT", "BLENDER_OBJECT"):  # normals go by the inverse transpose
+        c = np.einsum("nji,nj->ni", pts.world_to_object[:, :3, :3], c)
+    m = _unit(c)
+    s = np.maximum(strength, 0.0)
+    return _unit(n + (m - n) * s)
+
+
+def _op_bump(ev, op, pts):
+    """Bump (Cycles ``svm_node_set_bump``) from the height's screen derivatives: param
+    (invert,); args (strength, distance, height, normal or None) -> (N, 3)."""
+    strength = np.clip(np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1)), 0.0, 1.0)
+    distance = np.broadcast_to(ev.arg(op, 1, pts), (pts.n, 1))
+    if op.param[0]:
+        distance = -distance
+    n = ev.normal_arg(op, 3, pts)
+    h = np.broadcast_to(ev.arg(op, 2, pts), (pts.n, 1))
+    shifted = [pts.shifted(axis) for axis in (0, 1)]
+    if shifted[0] is None or shifted[1] is None:
+        return n
+    hx, hy = (np.broadcast_to(ev.value(op.args[2], s), (pts.n, 1)) for s in shifted)
+    dpdx = shifted[0].position - pts.position
+    dpdy = shifted[1].position - pts.position
+    rx = np.cross(dpdy, n)
+    ry = np.cross(n, dpdx)
+    det = np.einsum("nc,nc->n", dpdx, rx)[:, None]
+    grad = (hx - h) * rx + (hy - h) * ry
+    out = _unit(np.abs(det) * n - distance * np.sign(det) * grad)
+    out = np.where(np.isfinite(out), out, n)
+    return _unit(strength * out + (1.0 - strength) * n)
+
+
+# Closures
+
+
+def _op_principled(ev, op, pts):
+    """args: base, metallic, roughness, ior, level, tint, transmission, emission colour,
+    emission strength, alpha, normal (or None)."""
+    base, metallic, rough, ior, level, tint, trans, ecol, estr, alpha = (
+        ev.arg(op, k, pts) for k in range(10))
+    albedo, rf0, gloss = principled_to_talk(base[:, :3], metallic, rough, ior, level,
+                                            tint[:, :3], trans)
+    normal = ev.normal_arg(op, 10, pts) if op.args[10] is not None else None
+    c = _closure(albedo, rf0, _ONE, gloss, ecol[:, :3] * estr, normal)
+    a = np.clip(alpha, 0.0, 1.0)
+    return _add(c.scaled(a), _closure(transparent=_ONE).scaled(1.0 - a))
+
+
+def _op_bo2(ev, op, pts):
+    """The BO2 Material group. args: albedo, rf0, gloss, normal, emission, strength, alpha."""
+    albedo, rf0, gloss = (ev.arg(op, k, pts) for k in range(3))
+    normal = ev.normal_arg(op, 3, pts) if op.args[3] is not None else None
+    emission, strength, alpha = (ev.arg(op, k, pts) for k in (4, 5, 6))
+    c = _closure(albedo[:, :3], rf0[:, :3], _ONE,
+                 np.clip(gloss, 0.0, 1.0), emission[:, :3] * strength, normal)
+    a = np.clip(alpha, 0.0, 1.0)
+    return _add(c.scaled(a), _closure(transparent=_ONE).scaled(1.0 - a))
+
+
+def _op_diffuse(ev, op, pts):
+    normal = ev.normal_arg(op, 1, pts) if op.args[1] is not None else None
+    return _closure(albedo=np.maximum(ev.arg(op, 0, pts)[:, :3], 0.0), normal=normal)
+
+
+def _op_glossy(ev, op, pts):
+    """args: colour, roughness, normal (or None)."""
+    normal = ev.normal_arg(op, 2, pts) if op.args[2] is not None else None
+    gloss = brdf.roughness_to_gloss(np.clip(ev.arg(op, 1, pts), 0.0, 1.0)).astype(np.float32)
+    return _closure(rf0=np.clip(ev.arg(op, 0, pts)[:, :3], 0.0, 1.0),
+                    spec=_ONE, gloss=gloss, normal=normal)
+
+
+def _op_emission(ev, op, pts):
+    return _closure(emission=ev.arg(op, 0, pts)[:, :3] * ev.arg(op, 1, pts))
+
+
+def _op_transparent(ev, op, pts):
+    c = np.clip(ev.arg(op, 0, pts)[:, :3], 0.0, 1.0)
+    return _closure(transparent=(c @ nm.LUMINANCE[:, None]).astype(np.float32))
+
+
+def _op_holdout(ev, op, pts):
+    return _closure(transparent=_Z1)
+
+
+def _add(a: Closure, b: Closure) -> Closure:
+    return Closure(*(getattr(a, f) + getattr(b, f) for f in _CLOSURE_FIELDS))
+
+
+def _op_add_shader(ev, op, pts):
+    return _add(ev.closure(op, 0, pts), ev.closure(op, 1, pts))
+
+
+def _op_mix_shader(ev, op, pts):
+    f = np.clip(ev.arg(op, 0, pts), 0.0, 1.0)
+    return _add(ev.closure(op, 1, pts).scaled(1.0 - f), ev.closure(op, 2, pts).scaled(f))
+
+
+_OPS = {
+    "const": _op_const, "uv": _op_uv, "attribute": _op_attribute, "geometry": _op_geometry,
+    "texcoord": _op_texcoord, "image": _op_image, "swizzle": _op_swizzle,
+    "to_float": _op_to_float, "to_vector": _op_to_vector, "math": _op_math,
+    "vector_math": _op_vector_math, "mix": _op_mix, "separate": _op_separate,
+    "combine": _op_combine, "mapping": _op_mapping, "invert": _op_invert, "gamma": _op_gamma,
+    "bright_contrast": _op_bright_contrast, "hsv": _op_hsv, "ramp": _op_ramp,
+    "curves": _op_curves, "float_curve": _op_float_curve, "map_range": _op_map_range,
+    "clamp": _op_clamp, "fresnel": _op_fresnel, "layer_weight": _op_layer_weight,
+    "normal_map": _op_normal_map, "bump": _op_bump, "principled": _op_principled,
+    "bo2": _op_bo2, "diffuse": _op_diffuse, "glossy": _op_glossy, "emission": _op_emission,
+    "transparent": _op_transparent, "holdout": _op_holdout, "add_shader": _op_add_shader,
+    "mix_shader": _op_mix_shader,
+}
+KINDS = frozenset(_OPS)
+
+
+class _Evaluation:
+    """One evaluation of a program at one set of points (and their one-pixel shifts)."""
+
+    def __init__(self, program: Program, points: Points) -> None:
+        self.program = program
+        self.centre = points
+        self.memo: dict[tuple[int, int], object] = {}
+        self.lod: dict[int, np.ndarray] = {}
+
+    def value(self, reg: int, pts: Points):
+        key = (reg, id(pts))
+        if key not in self.memo:
+            op = self.program.ops[reg]
+            with np.errstate(all="ignore"):
+                self.memo[key] = _OPS[op.kind](self, op, pts)
+        return self.memo[key]
+
+    def arg(self, op: Op, k: int, pts: Points) -> np.ndarray:
+        return self.value(op.args[k], pts)
+
+    def closure(self, op: Op, k: int, pts: Points) -> Closure:
+        return self.value(op.args[k], pts)
+
+    def normal_arg(self, op: Op, k: int, pts: Points) -> np.ndarray:
+        """A normal input: its value, unit, or the point's shading normal when unlinked."""
+        if k >= len(op.args) or op.args[k] is None:
+            return pts.normal
+        return _unit(np.broadcast_to(self.value(op.args[k], pts)[:, :3], (pts.n, 3)))
+
+    def shifted_value(self, reg: int | None, axis: int, pts: Points):
+        """``reg`` at the points moved one pixel along ``axis`` (None: the active UV map)."""
+        moved = self._moved(axis, pts)
+        if moved is None:
+            return None
+        if reg is None:
+            return _op_uv(self, Op("uv", (), ("",)), moved)
+        return self.value(reg, moved)
+
+    def _moved(self, axis: int, pts: Points):
+        key = ("moved", axis, id(pts))
+        if key not in self.memo:
+            self.memo[key] = pts.shifted(axis) if pts is self.centre else None
+        return self.memo[key]
+
+
+def evaluate(program: Program, points: Points) -> SurfaceParams:
+    """The talk's parameters of a material at N points (module docstring)."""
+    ev = _Evaluation(program, points)
+    c: Closure = ev.value(program.surface, points)
+    n = points.n
+    full = {f: np.broadcast_to(getattr(c, f), (n, w)) for f, w in
+            (("albedo", 3), ("rf0", 3), ("spec", 1), ("gloss", 1), ("emission", 3),
+             ("normal", 3), ("nweight", 1), ("transparent", 1), ("weight", 1))}
+    alpha = np.clip(1.0 - full["transparent"], 0.0, 1.0)
+    inv = np.where(alpha > 0.0, 1.0 / np.where(alpha > 0.0, alpha, 1.0), 0.0)
+    spec = full["spec"]
+    gloss = np.where(spec > 0.0, full["gloss"] / np.where(spec > 0.0, spec, 1.0), 0.0)
+    normal = None
+    if np.any(full["nweight"] > 0.0):
+        # closures without a normal input contribute the geometry's
+        rest = np.maximum(full["weight"] - full["nweight"], 0.0)
+        normal = _unit(full["normal"] + rest * points.normal)
+        normal = np.where(np.linalg.norm(normal, axis=1, keepdims=True) > 0.5, normal,
+                          points.normal)
+    occlusion = None
+    if program.occlusion is not None:
+        occlusion = np.clip(np.broadcast_to(ev.value(program.occlusion, points), (n, 1))[:, 0],
+                            0.0, 1.0).astype(np.float32)
+
+    def clean(x):
+        return np.where(np.isfinite(x), x, 0.0).astype(np.float32)
+
+    return SurfaceParams(
+        albedo=clean(full["albedo"] * inv), rf0=clean(np.clip(full["rf0"] * inv, 0.0, 1.0)),
+        gloss=clean(np.clip(gloss[:, 0], 0.0, 1.0)), emission=clean(full["emission"] * inv),
+        alpha=clean(alpha[:, 0]), normal=normal, occlusion=occlusion)
+
+
+__all__ = ["Op", "Program", "ProgramBuilder", "Points", "SurfaceParams", "Closure", "KINDS",
+           "evaluate", "principled_to_talk", "talk_program"]
