@@ -113,6 +113,10 @@ class _Compiler:
             return self.b.add("to_float", reg, param=(src,))
         return self.b.add("to_vector", reg)
 
+    def is_zero(self, reg: int) -> bool:
+        op = self.b.ops[reg]
+        return op.kind == "const" and not any(op.param)
+
     # -- following links
 
     def default(self, socket, kind: str) -> int:
@@ -303,6 +307,9 @@ def _attribute(c, node, out, ctx):
         c.warn(f"node '{node.name}': {node.attribute_type.lower()} attributes are not "
                "supported; they read 0")
         return c.constant(0.0, _kind(out)), _kind(out)
+    if not node.attribute_name:  # Cycles looks up no attribute: 0
+        c.warn(f"node '{node.name}' names no attribute; it reads 0")
+        return c.constant(0.0, _kind(out)), _kind(out)
     return _attribute_out(c, c.b.add("attribute", param=(node.attribute_name,)), out.name)
 
 
@@ -467,7 +474,7 @@ def _map_range(c, node, out, ctx):
     ids = (["Vector", "From_Min_FLOAT3", "From_Max_FLOAT3", "To_Min_FLOAT3", "To_Max_FLOAT3",
             "Steps_FLOAT3"] if vector else
            ["Value", "From Min", "From Max", "To Min", "To Max", "Steps"])
-    socks = [_by_id(node, i) if vector else node.inputs[i] for i in ids]
+    socks = [_by_id(node, i) for i in ids]
     args = [c.socket(s, kind, ctx) for s in socks]
     return c.b.add("map_range", *args, param=(node.interpolation_type, bool(node.clamp))), kind
 
@@ -493,15 +500,9 @@ def _bump(c, node, out, ctx):
                    c.normal(node, "Normal", ctx), param=(bool(node.invert),)), "vector"
 
 
-def _linked_or_nonzero(node, name) -> bool:
-    s = node.inputs.get(name)
-    return s is not None and (s.is_linked or float(np.max(np.atleast_1d(
-        np.asarray(s.default_value, float)))) > 0.0)
-
-
 def _principled(c, node, out, ctx):
     for name in ("Coat Weight", "Sheen Weight", "Subsurface Weight"):
-        if _linked_or_nonzero(node, name):
+        if name in node.inputs and not c.is_zero(_in(c, node, name, "float", ctx)):
             c.warn(f"node '{node.name}': {name} is not part of the talk's model and is "
                    "ignored")
 
@@ -589,6 +590,13 @@ def convert_material(material, warnings: list[str]) -> Material:
     """One Blender material (or None for an empty slot) -> ``core.scene.Material``."""
     if material is None:
         return Material(name="(empty slot)")
-    return Material(name=material.name, program=_Compiler(material, warnings).compile(),
+    compiler = _Compiler(material, warnings)
+    try:
+        program = compiler.compile()
+    except (KeyError, AttributeError, TypeError, ValueError, RuntimeError) as exc:
+        compiler.warn(f"its node tree could not be read ({type(exc).__name__}: {exc}); "
+                      "rendered with the viewport colour")
+        program = compiler.b.build(compiler._viewport_surface())
+    return Material(name=material.name, program=program,
                     backface_culling=bool(getattr(material, "use_backface_culling", False)),
                     pass_index=int(material.pass_index))

@@ -71,7 +71,7 @@ def world_cube(world: World, size: int) -> np.ndarray:
     if world.texture is None:
         return np.broadcast_to(np.asarray(world.color, np.float32)[:3],
                                (6, size, size, 3)).copy()
-    cube = cubemap.equirect_to_cube(world.texture.mips[0][..., :3], size,
+    cube = cubemap.equirect_to_cube(world.texture.linear(0)[..., :3], size,
                                     rotation=world.rotation)
     return (cube * np.float32(world.strength)).astype(np.float32)
 

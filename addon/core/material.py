@@ -38,7 +38,8 @@ from . import brdf
 from . import node_math as nm
 
 # Operations that read the shaded points (the others are pure functions of their arguments).
-INPUT_KINDS = frozenset({"uv", "attribute", "geometry", "texcoord"})
+INPUT_KINDS = frozenset({"uv", "attribute", "geometry", "texcoord", "fresnel", "layer_weight",
+                         "normal_map", "bump"})
 
 
 @dataclass(frozen=True)

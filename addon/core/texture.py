@@ -5,6 +5,9 @@ What the module follows, and where from:
 
 - sRGB: the exact piecewise transfer functions of IEC 61966-2-1:1999 (linear segment below
   0.04045 / 0.0031308, power 2.4 above), which is what Blender's "sRGB" colour space decodes.
+  Level 0 of an sRGB texture keeps its encoded values and a look-up decodes after the
+  bilinear step, as Cycles does with 8-bit sRGB images (``compress_as_srgb``), so magnified
+  texels blend as in Cycles; the mip levels are built from the decoded image.
 - Mip maps: Williams 1983, "Pyramidal parametrics". Level k+1 halves level k with a box filter
   (size max(1, floor(n / 2)) per axis, the OpenGL rule); an odd axis of n = 2m + 1 texels uses
   the exact area weights of output texel i over input texels 2i, 2i+1, 2i+2:
@@ -16,8 +19,8 @@ What the module follows, and where from:
 - Sampling: Blender's Image Texture conventions (Cycles ``kernel/device/cpu/image.h``): UV (0, 0)
   is the bottom-left corner, (1, 1) the top-right, texel centres at (i + 0.5) / w; extension
   modes REPEAT (wrap), EXTEND (clamp to the edge texel), CLIP (taps outside the image read
-  transparent black, and the result is 0 outside the unit square; Cycles instead fades out
-  over the half texel beyond the edge) and MIRROR (mirrored repeat, the edge texel repeated:
+  transparent black, so the image fades out over the half texel beyond its edge, as in
+  Cycles) and MIRROR (mirrored repeat, the edge texel repeated:
   ... 1 0 | 0 1 ... w-1 | w-1 w-2 ...). Bilinear within a level, linear between
   the two nearest levels (trilinear, Williams 1983). "Closest" reads the nearest texel of level 0.
   "Cubic" and "Smart" are treated as "Linear" (no bicubic B-spline filter here).
@@ -120,7 +123,8 @@ class Texture:
     """An image texture with its full mip chain.
 
     mips:          list of (h_k, w_k, C) float32 arrays, scene-linear (or Non-Color data), row 0
-                   at the top; mips[0] is the image, the last level is 1 x 1
+                   at the top; mips[0] is the image, the last level is 1 x 1; the first
+                   ``encoded`` channels of level 0 are sRGB-encoded (``linear(0)`` decodes)
     extension:     "REPEAT", "EXTEND", "CLIP" or "MIRROR" (Image Texture node's Extension)
     interpolation: "Linear", "Closest"; "Cubic" and "Smart" sample as "Linear"
     name:          the image's name, for messages
@@ -130,6 +134,16 @@ class Texture:
     extension: str = "REPEAT"
     interpolation: str = "Linear"
     name: str = ""
+    encoded: int = 0
+
+    def linear(self, k: int = 0) -> np.ndarray:
+        """Mip level k, (h_k, w_k, C) float32 scene-linear (level 0 decoded when encoded)."""
+        level = self.mips[k]
+        if k or not self.encoded:
+            return level
+        out = level.copy()
+        out[..., :self.encoded] = srgb_to_linear(np.maximum(level[..., :self.encoded], 0.0))
+        return out
 
     @property
     def size(self) -> tuple[int, int]:
@@ -228,8 +242,9 @@ def make_texture(
     pixels:        (H, W, C) or (H, W) image, row 0 at the top, C in {1, 3, 4}; non-finite
                    values are replaced by 0
     srgb:          True when the values are sRGB-encoded colour: the colour channels (all of
-                   C = 1 or 3, the first three of C = 4; never alpha) are decoded to linear here,
-                   once (IEC 61966-2-1). False for linear or Non-Color data
+                   C = 1 or 3, the first three of C = 4; never alpha) are decoded to linear
+                   (IEC 61966-2-1): the mip levels here, level 0 after each bilinear look-up.
+                   False for linear or Non-Color data
     extension:     one of ``EXTENSIONS``
     interpolation: one of ``INTERPOLATIONS``
     returns:       Texture with float32 straight-alpha mips
@@ -253,9 +268,15 @@ def make_texture(
     count = max(1, min(os.cpu_count() or 1, image.size // PREPARE_BAND))
     edges = np.linspace(0, image.shape[0], count + 1).astype(int)
     with ThreadPoolExecutor(count) as pool:  # row bands; the kernel releases Python's lock
-        list(pool.map(lambda y0, y1: kernels.prepare(image[y0:y1], decode, _SRGB_LUT,
-                                                     level0[y0:y1]), edges[:-1], edges[1:]))
-    return Texture(_filter_chain(levels), extension, interpolation, name)
+        def copy(decoding):
+            list(pool.map(lambda y0, y1: kernels.prepare(image[y0:y1], decoding, _SRGB_LUT,
+                                                         level0[y0:y1]), edges[:-1], edges[1:]))
+
+        copy(decode)
+        mips = _filter_chain(levels)  # from the linear image
+        if decode:  # level 0 keeps the encoded values: decoded after interpolation, as Cycles
+            copy(0)
+    return Texture(mips, extension, interpolation, name, encoded=decode)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -268,7 +289,7 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
 
     Bilinear between the four texels around the position (texel centres at ((i + 0.5) / w,
     (j + 0.5) / h)), wrapped by the texture's extension as Cycles' wrap functions do (REPEAT,
-    MIRROR, EXTEND clamps (and so does an unknown mode), CLIP gives 0 outside the image);
+    MIRROR, EXTEND clamps (and so does an unknown mode), CLIP reads 0 outside the image);
     "Closest" takes the nearest texel; with ``lod``, linear between the two nearest levels.
 
     texture: the texture
@@ -277,7 +298,8 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
              non-finite UVs read as (0, 0)
     lod:     None for level 0, or a scalar or (N,) level of detail (log2 of the footprint in
              level-0 texels), clamped to [0, levels - 1]; NaN means the coarsest level
-    returns: (N, C) float32; with CLIP, 0 (all channels, alpha too) outside the unit square
+    returns: (N, C) float32 scene-linear (sRGB level 0 decoded); with CLIP, 0 (all channels,
+             alpha too) beyond half a texel outside the unit square
     """
     from .kernels import textures as kernels
 
@@ -290,7 +312,7 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
     out = np.empty((n, texture.channels), np.float32)
     kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.EXTEND),
                    texture.channels, texture.interpolation == "Closest",
-                   u, v, lod, use_lod, out)
+                   u, v, lod, use_lod, texture.encoded, out)
     return out
 
 

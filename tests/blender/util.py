@@ -68,3 +68,30 @@ def bare_material(name: str):
         if node.bl_idname != "ShaderNodeOutputMaterial":
             tree.nodes.remove(node)
     return mat, tree
+
+
+def render_passes(scene, engine: str, names, samples: int = 16) -> dict:
+    """Render ``scene`` with ``engine`` with passes ``names`` (pipeline names, ``blender.passes``)
+    turned on; returns {name: (H, W, C) float32, row 0 at the top} of those it wrote."""
+    import tempfile
+    from pathlib import Path
+
+    from bo2_lighting.addon.blender import passes
+
+    layer = bpy.context.view_layer
+    for name in names:
+        passes.set_enabled(layer, name, True)
+    scene.render.engine = engine
+    if engine == "CYCLES":
+        scene.cycles.samples = samples
+        scene.cycles.device = "CPU"
+        scene.cycles.use_denoising = False
+        scene.cycles.use_adaptive_sampling = False
+    else:
+        scene.bo2.samples = samples
+    assert bpy.ops.render.render() == {"FINISHED"}
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "passes.exr"
+        images.save_render_result(scene, path, "OPEN_EXR_MULTILAYER", "32", "RGBA",
+                                  follow_scene=True)
+        return images.read_exr_passes(path, layer.name, list(names))

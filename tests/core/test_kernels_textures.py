@@ -70,7 +70,7 @@ def test_srgb_decode_by_table_and_between_codes():
     np.testing.assert_array_equal(out[0, :, 3], values)  # alpha is never decoded
     # make_texture decodes the colour of an sRGB image once
     tex = texture.make_texture(np.repeat(values[None, :, None], 3, axis=2), srgb=True)
-    np.testing.assert_allclose(tex.mips[0][0, :, 0], expected, rtol=2e-7, atol=1e-9)
+    np.testing.assert_allclose(tex.linear(0)[0, :, 0], expected, rtol=2e-7, atol=1e-9)
 
 
 def test_large_image_is_decoded_in_bands_without_seams():
@@ -80,11 +80,11 @@ def test_large_image_is_decoded_in_bands_without_seams():
     codes = RNG.integers(0, 256, (1031, 1100, 4)).astype(np.float32) / np.float32(255)
     assert codes.size >= 4 * texture.PREPARE_BAND
     tex = texture.make_texture(codes, srgb=True)
-    np.testing.assert_allclose(tex.mips[0][..., :3], texture.srgb_to_linear(codes[..., :3]),
+    np.testing.assert_allclose(tex.linear(0)[..., :3], texture.srgb_to_linear(codes[..., :3]),
                                rtol=2e-7, atol=1e-9)
-    np.testing.assert_array_equal(tex.mips[0][..., 3], codes[..., 3])
+    np.testing.assert_array_equal(tex.linear(0)[..., 3], codes[..., 3])
     np.testing.assert_array_equal(tex.mips[1],
-                                  reference_halve_axis(reference_halve_axis(tex.mips[0], 0), 1))
+                                  reference_halve_axis(reference_halve_axis(tex.linear(0), 0), 1))
 
 
 def wrapped(i, n, extension):
@@ -103,8 +103,6 @@ def reference_lookup(mips, extension, u, v, lod):
     """One trilinear (lod) or bilinear (lod None) look-up, texel by texel, in float64."""
     u = u if np.isfinite(u) else 0.0
     v = v if np.isfinite(v) else 0.0
-    if extension == "CLIP" and not (0.0 <= u <= 1.0 and 0.0 <= v <= 1.0):
-        return np.zeros(mips[0].shape[2])
     top = len(mips) - 1
     level = 0.0 if lod is None else (top if np.isnan(lod) else min(max(lod, 0.0), top))
     k0 = int(np.floor(level))
@@ -149,3 +147,27 @@ def test_packed_chain_is_the_chain_itself():
     np.testing.assert_array_equal(apart.packed[0], flat)
     np.testing.assert_array_equal(apart.packed[1], rows)
     assert [tuple(r) for r in rows[:2]] == [(0, 37, 20), (37 * 20 * 4, 18, 10)]
+
+
+def test_srgb_level_zero_is_decoded_after_interpolation():
+    """Cycles keeps 8-bit sRGB images encoded and decodes each bilinear look-up; the mip levels
+    are made from the decoded image, and a trilinear look-up blends the decoded levels."""
+    codes = np.round(RNG.random((9, 14, 4)) * 255.0).astype(np.float32) / 255.0
+    tex = texture.make_texture(codes, srgb=True)
+    assert tex.encoded == 3
+    np.testing.assert_array_equal(tex.mips[0], codes)
+    linear = texture.make_texture(codes, srgb=False)  # the same texels, read as data
+    uv = RNG.uniform(0.0, 1.0, (300, 2))
+    got = texture.sample(tex, uv)
+    np.testing.assert_allclose(got[:, :3], texture.srgb_to_linear(texture.sample(linear, uv)[:, :3]),
+                               rtol=2e-6, atol=1e-7)
+    np.testing.assert_array_equal(got[:, 3], texture.sample(linear, uv)[:, 3])
+    decoded = texture.srgb_to_linear(codes[..., :3])
+    np.testing.assert_allclose(tex.mips[1][..., :3],
+                               reference_halve_axis(reference_halve_axis(decoded, 0), 1),
+                               rtol=1e-5, atol=1e-7)
+    lod = np.full(300, 0.5)
+    mid = texture.sample(tex, uv, lod)
+    level1 = texture.Texture(tex.mips[1:], tex.extension)
+    np.testing.assert_allclose(mid[:, :3], 0.5 * got[:, :3] + 0.5 * texture.sample(level1, uv)[:, :3],
+                               rtol=1e-5, atol=1e-6)

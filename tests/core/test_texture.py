@@ -41,10 +41,10 @@ def test_srgb_round_trip_any_shape():
 def test_make_texture_decodes_colour_not_alpha():
     px = np.full((2, 2, 4), 0.5, np.float32)
     tex = texture.make_texture(px, srgb=True)
-    np.testing.assert_allclose(tex.mips[0][..., :3], 0.21404114, rtol=2e-6)
-    np.testing.assert_allclose(tex.mips[0][..., 3], 0.5)
+    np.testing.assert_allclose(tex.linear(0)[..., :3], 0.21404114, rtol=2e-6)
+    np.testing.assert_allclose(tex.linear(0)[..., 3], 0.5)
     grey = texture.make_texture(np.full((2, 2, 1), 0.5, np.float32), srgb=True)
-    np.testing.assert_allclose(grey.mips[0], 0.21404114, rtol=2e-6)
+    np.testing.assert_allclose(grey.linear(0), 0.21404114, rtol=2e-6)
     raw = texture.make_texture(px, srgb=False)
     np.testing.assert_allclose(raw.mips[0], 0.5)
 
@@ -130,8 +130,12 @@ def test_extension_modes():
     np.testing.assert_allclose(texture.sample(ext, [[-3.0, 5.0]])[0], img[0, 0], atol=1e-6)
 
     clip = texture.make_texture(img, srgb=False, extension="CLIP")
-    outside = texture.sample(clip, [[1.5, 0.5], [0.5, -0.2], [-0.01, 0.5]])
-    np.testing.assert_array_equal(outside, 0.0)  # alpha too
+    outside = texture.sample(clip, [[1.5, 0.5], [0.5, -0.2], [-0.13, 0.5]])
+    np.testing.assert_array_equal(outside, 0.0)  # alpha too, beyond half a texel
+    # within half a texel outside, the edge texel fades out (Cycles' CLIP): at a quarter
+    # texel beyond the edge, a quarter of the edge texel
+    np.testing.assert_allclose(texture.sample(clip, [[1.0 + 0.25 / 4, v_row0]])[0],
+                               0.25 * img[0, 3], atol=1e-6)
     np.testing.assert_allclose(texture.sample(clip, [centre_uv(3, 0, 4, 4)])[0], img[0, 3],
                                atol=1e-6)
     # On the image edge half of the taps read transparent black.

@@ -124,16 +124,25 @@ def _wrap(i, n, extension):
 _SAMPLE = nb.void(
     nb.float32[::1], nb.int64[:, ::1], nb.int64, nb.int64, nb.boolean,  # texels, levels
     nb.float64[::1], nb.float64[::1], nb.float64[::1], nb.boolean,  # u, v, lod, use lod
-    nb.float32[:, ::1],  # out (N, C)
+    nb.int64, nb.float32[:, ::1],  # decode, out (N, C)
 )
 
 
+@nb.njit(nb.float32(nb.float32), **_OPTIONS)
+def _decode(v):
+    if not v > np.float32(0.0):
+        return np.float32(0.0) if v == v else v
+    return _srgb_formula(v)
+
+
 @nb.njit(_SAMPLE, **_OPTIONS)
-def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, out):
+def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, decode, out):
     """``texture.sample``: filtered look-ups of a texture whose mip level k (rows: offset into
     ``texels``, height, width) is stored row 0 at the top, C = ``channels``; bilinear (closest:
     nearest) at level 0 without ``use_lod``, else trilinear at ``lod`` (N,) (clamped to the
-    levels, NaN: the coarsest). UV as Blender's, v up; out (N, C) float32."""
+    levels, NaN: the coarsest). The first ``decode`` channels of level 0 are sRGB-encoded and
+    decoded after the bilinear step, as Cycles does for 8-bit sRGB images (the other levels are
+    linear). UV as Blender's, v up; out (N, C) float32."""
     top = levels.shape[0] - 1
     for i in range(u.shape[0]):
         uu, vv = u[i], v[i]
@@ -149,7 +158,8 @@ def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, out
             row, row_ok = _wrap(np.int64(np.floor(vv * h)), h, extension)
             at = off + ((h - 1 - row) * w + col) * channels
             for c in range(channels):
-                out[i, c] = texels[at + c] if col_ok and row_ok else np.float32(0.0)
+                t = texels[at + c] if col_ok and row_ok else np.float32(0.0)
+                out[i, c] = _decode(t) if c < decode else t
         else:
             if use_lod:
                 level = lod[i]
@@ -183,7 +193,6 @@ def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, out
                             if not (row_ok and col_ok):
                                 wgt = np.float32(0.0)
                             acc += wgt * texels[base_row + col * channels + c]
+                    if k == 0 and c < decode:
+                        acc = _decode(acc)
                     out[i, c] += weight * acc
-        if extension == CLIP and not (0.0 <= uu <= 1.0 and 0.0 <= vv <= 1.0):
-            for c in range(channels):
-                out[i, c] = np.float32(0.0)
