@@ -73,6 +73,19 @@ class Program:
         outs = [self.surface] + ([self.occlusion] if self.occlusion is not None else [])
         return not any(self._varying[r] for r in outs)
 
+    @property
+    def fades(self) -> bool:
+        """True when the surface may be less than opaque somewhere: a Transparent BSDF or
+        Holdout, or an Alpha input that is not the constant 1."""
+        for op in self.ops:
+            if op.kind in ("transparent", "holdout"):
+                return True
+            if op.kind in ("principled", "bo2"):
+                alpha = self.ops[op.args[9 if op.kind == "principled" else 6]]
+                if not (alpha.kind == "const" and alpha.param[0] >= 1.0):
+                    return True
+        return False
+
     def requires(self) -> set[tuple[str, str]]:
         """Corner attributes the program reads: ("uv", map), ("attribute", name),
         ("tangent", map); "" names the active render UV map or colour attribute."""

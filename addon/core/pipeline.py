@@ -139,6 +139,8 @@ def _constant_tables(materials: list[Material]) -> dict:
                 table[k][i] = np.asarray(getattr(p, k), np.float32).reshape(-1)[
                     : table[k].shape[1]]
     table["varying"] = varying
+    table["fades"] = np.array([m.program.fades and (varying[i] or table["alpha"][i, 0] < 1.0)
+                               for i, m in enumerate(materials)], bool)
     table["pass_index"] = np.array([m.pass_index for m in materials], np.float32)
     return table
 
@@ -229,16 +231,30 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         if should_stop is not None and should_stop():
             raise Cancelled()
 
-    maps = [None] * len(scene.lights) if shadow_maps is None else shadow_maps
+    frame = Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
+                  [None] * len(scene.lights) if shadow_maps is None else shadow_maps,
+                  _constant_tables(mats), attributes, obj, world_to_object, texspace)
     if len(positions) and shadow_maps is None:  # every face and cascade of every light at once
+        fades = frame.tables["fades"][mat_index]
+        cutout = (fades, lambda t, b: _caster_alpha(frame, t, b)) if fades.any() else None
         plans = [shadows.shadow_map_jobs(light, positions, cam if fit_shadows else None,
-                                         resolution=scene.settings.shadow_resolution)
+                                         resolution=scene.settings.shadow_resolution,
+                                         cutout=cutout)
                  for light in scene.lights]
         done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
                                   thread_count(scene.settings), poll, threading.Event())))
-        maps = [finish([next(done) for _ in jobs]) for jobs, finish in plans]
-    return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull, maps,
-                 _constant_tables(mats), attributes, obj, world_to_object, texspace)
+        frame.shadow_maps = [finish([next(done) for _ in jobs]) for jobs, finish in plans]
+    return frame
+
+
+def _caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
+    """(N,) alpha of shadow casters at shadow-map texels (triangles ``tri``, weights ``bary``)."""
+    q = frame.positions[tri]
+    p = np.einsum("nk,nkc->nc", bary, q).astype(np.float32)
+    n = material._unit(np.einsum("nk,nkc->nc", bary, frame.normals[tri]))
+    geo = material._unit(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]))
+    zero = np.zeros(len(tri), np.float32)
+    return _materials(frame, tri, bary, p, n, geo, geo, zero, zero, shifts=False).alpha
 
 
 def with_camera(frame: Frame, camera) -> Frame:
@@ -311,7 +327,7 @@ def _plane_points(tri_positions, origin, direction):
     return bary.astype(np.float32), hit.astype(np.float32)
 
 
-def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.Points:
+def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> material.Points:
     """What a material program reads at the points (``material.Points``)."""
     cam = frame.scene.camera
     attributes = frame.attributes
@@ -322,7 +338,7 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.Points:
         a = attributes.get(key)
         return None if a is None else a[tri]
 
-    def shifts(axis):
+    def moved(axis):
         origin, direction = cam.rays(sx + (axis == 0), sy + (axis == 1))
         b, q = _plane_points(frame.positions[tri], origin, direction)
         bad = ~np.isfinite(b).all(axis=1)
@@ -334,7 +350,7 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.Points:
     window = np.stack([sx / cam.width, 1.0 - sy / cam.height], 1).astype(np.float32)
     return material.Points(len(tri), p, n, geo, v, back[:, None].astype(np.float32), bary,
                            corner, frame.world_to_object[ob], frame.texspace[ob], window,
-                           cam.world_to_camera, shifts)
+                           cam.world_to_camera, moved if shifts else None)
 
 
 def frame_normals_raw(frame: Frame, tri) -> np.ndarray:
@@ -343,7 +359,8 @@ def frame_normals_raw(frame: Frame, tri) -> np.ndarray:
     return np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
 
 
-def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.SurfaceParams:
+def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
+               shifts=True) -> material.SurfaceParams:
     """The talk's parameters at the points on triangles ``tri`` (N,): constants from the
     tables, programs evaluated per material over its points. The normal is the shading
     normal ``n`` unless a program changes it."""
@@ -358,7 +375,7 @@ def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> material.Surfac
         if not len(sel):
             continue
         pts = _points(frame, tri[sel], bary[sel], p[sel], n[sel], geo[sel], v[sel], sx[sel],
-                      sy[sel])
+                      sy[sel], shifts)
         s = material.evaluate(mats[m].program, pts)
         albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
         gloss[sel], alpha[sel] = s.gloss, s.alpha
@@ -382,16 +399,16 @@ def _margin(frame: Frame, tile):
     return m, clip, index, None if frame.cull is None else frame.cull[index]
 
 
-def _raster(frame: Frame, tile, margin, offset):
+def _raster(frame: Frame, tile, margin, offset, behind=None):
     """One sample position over one tile (``margin``: ``_margin`` of the tile): (tri, bary,
-    depth) per pixel, flattened, and the sample's window coordinates sx, sy (npx,) in the
-    whole frame."""
+    depth) per pixel, flattened, the sample's window coordinates sx, sy (npx,) in the whole
+    frame, and the raster's keys (``raster.rasterize``; with ``behind``, the next layer)."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
     m, clip, index, cull = margin
     frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=cull,
-                             sample_offset=tuple(offset))
+                             sample_offset=tuple(offset), behind=behind)
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     if len(index):  # the subset's triangles -> the frame's
@@ -405,7 +422,45 @@ def _raster(frame: Frame, tile, margin, offset):
         depth = depth.copy()
         depth[hit] = -np.einsum("nk,nk->n", bary[hit], z)
     rows, cols = np.divmod(np.arange(tw * th), tw)
-    return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1]
+    return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1], frags.keys
+
+
+def _alpha(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
+    """(N,) the surfaces' alpha at the points on triangles ``tri``."""
+    from .kernels import shading
+
+    m = len(tri)
+    p, n, geo = (np.empty((m, 3), np.float32) for _ in range(3))
+    uv = np.empty((m, 2), np.float32)
+    _, d = frame.scene.camera.rays(sx, sy)
+    shading.surface(np.ascontiguousarray(tri, np.int32), np.ascontiguousarray(bary, np.float32),
+                    frame.positions, frame.normals, frame.uvs, -d, p, n, geo, uv)
+    return _materials(frame, tri, bary, p, n, geo, -d, sx, sy).alpha
+
+
+def _dither(frame: Frame, tile, margin, offset, sample: int, layer0):
+    """Stochastic transparency of one sample (Blender's "Dithered" render method,
+    ``raster.dither``): over the samples a pixel is covered by a fraction alpha of each
+    surface. layer0: ``_raster``'s result, updated."""
+    tri, bary, depth, sx, sy, keys = layer0
+    x0, y0, x1, y1 = tile
+    m = margin[0]
+    tw = x1 - x0
+    rows, cols = np.divmod(np.arange(len(tri)), tw)
+
+    def alpha(pixels, t, b):
+        return _alpha(frame, t, b, sx[pixels], sy[pixels])
+
+    def next_layer(floor):
+        t, b, d, _, _, k = _raster(frame, tile, margin, offset, behind=floor)
+        return t, b, d, k
+
+    def thresholds(pixels, layer):
+        return raster.dither_thresholds(x0 + cols[pixels], y0 + rows[pixels], sample, layer)
+
+    raster.dither((tri, bary, depth, keys), (rows + m) * (tw + 2 * m) + cols + m,
+                  frame.tables["fades"][frame.material], alpha, thresholds, next_layer)
+    return tri, bary, depth, sx, sy
 
 
 def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
@@ -489,7 +544,11 @@ def _render_tile(frame: Frame, tile, offsets, tick):
     margin = _margin(frame, tile)
     for k, offset in enumerate(offsets):
         tick()
-        tri, bary, depth, sx, sy = _raster(frame, tile, margin, offset)
+        layer0 = _raster(frame, tile, margin, offset)
+        if frame.tables["fades"].any():
+            tri, bary, depth, sx, sy = _dither(frame, tile, margin, offset, k, layer0)
+        else:
+            tri, bary, depth, sx, sy, _ = layer0
         covered = tri >= 0
         hit = covered.copy()
         if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind

@@ -86,6 +86,7 @@ class Fragments:
     depth: np.ndarray
     skipped_degenerate: int = 0
     skipped_nan: int = 0
+    keys: np.ndarray | None = None  # (H * W,) uint64 resolve keys: ``rasterize``'s ``behind``
 
     @property
     def shape(self) -> tuple[int, int]:
@@ -395,6 +396,7 @@ def rasterize(
     cull=None,
     sample_offset=(0.5, 0.5),
     weights: bool = True,
+    behind=None,
 ) -> Fragments:
     """Rasterize triangles into the nearest fragment per pixel (one sample per pixel).
 
@@ -407,6 +409,10 @@ def rasterize(
                    the last input, some 350 bytes per triangle up to 256 MB, is kept and reused
                    while the same clip, size and cull come again)
     weights:       False leaves ``Fragments.bary`` None (a depth map needs no weights)
+    behind:        None, or (H * W,) uint64 ``Fragments.keys`` of an earlier call with the same
+                   clip, size, cull and offset: each pixel then gets the next fragment behind
+                   that one (depth peeling; ties in depth go by triangle), and pixels whose
+                   key is 0 get the nearest
     returns:       Fragments; triangles with NaN/inf corners or zero window-space area are skipped
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
@@ -437,9 +443,11 @@ def rasterize(
     if s.n_sub == 0:
         return _empty_fragments(height, width, s.n_degenerate, s.n_nan, weights)
     keybuf = np.full(height * width, kernels.EMPTY, np.uint64)
+    floor = np.zeros(height * width, np.uint64) if behind is None else np.ascontiguousarray(
+        behind, np.uint64)
     kernels.scan(s.ea, s.eb, s.ec, s.eb_f, s.ea_abs, s.half, s.off_lo, s.off_hi, s.ymin, s.rows,
                  s.za, s.zb, s.zc, s.tame, s.sid, width, height, sub_bits, oxi, oyi, ox, oy,
-                 s.qmax, s.ibits, max(width, height) >= _FLOAT_SPANS, keybuf)
+                 s.qmax, s.ibits, max(width, height) >= _FLOAT_SPANS, floor, keybuf)
     bary = np.empty((height, width, 3) if weights else (1, 3), np.float32)
     frags = Fragments(
         tri=np.empty((height, width), np.int32),
@@ -447,6 +455,7 @@ def rasterize(
         depth=np.empty((height, width), np.float32),
         skipped_degenerate=s.n_degenerate,
         skipped_nan=s.n_nan,
+        keys=keybuf,
     )
     kernels.resolve(keybuf, s.ibits, s.slot, s.table, s.orig, s.clipped, s.sub_bary,
                     s.sub_index, width, ox, oy, weights, frags.tri.reshape(-1),
@@ -497,3 +506,68 @@ def interpolate(frags: Fragments, attr, *, block: int = 1 << 20) -> np.ndarray:
         out[i] = acc
     out = out.reshape(h, w, attr.shape[2])
     return out[:, :, 0] if scalar else out
+
+
+# --------------------------------------------------------------------------------------------
+# Stochastic transparency: thresholds and depth peeling
+
+DITHER_LAYERS = 8  # surfaces a sample may see through; the last one is kept whatever its alpha
+_GOLDEN = 0.6180339887498949
+
+
+def dither_thresholds(px, py, sample: int, layer: int) -> np.ndarray:
+    """(N,) float64 in [0, 1): per pixel (px, py) a hashed rotation of the golden-ratio
+    sequence over the samples (so each pixel's samples are stratified), hashed anew per layer
+    (integer hash after Jarzynski and Olano, "Hash functions for GPU rendering", JCGT 2020)."""
+    h = (np.asarray(px, np.uint64) * np.uint64(0x9E3779B1)
+         ^ np.asarray(py, np.uint64) * np.uint64(0x85EBCA77)
+         ^ np.uint64(layer) * np.uint64(0xC2B2AE3D)) & np.uint64(0xFFFFFFFF)
+    for shift, mult in ((15, 0x2C1B3C6D), (12, 0x297A2D39)):
+        h ^= h >> np.uint64(shift)
+        h = (h * np.uint64(mult)) & np.uint64(0xFFFFFFFF)
+    h ^= h >> np.uint64(15)
+    return np.mod(h.astype(np.float64) / 4294967296.0 + sample * _GOLDEN, 1.0)
+
+
+def ordered_thresholds(px, py, layer: int) -> np.ndarray:
+    """(N,) float64 in [0, 1): interleaved gradient noise (Jimenez, "Next generation post
+    processing in Call of Duty: Advanced Warfare", SIGGRAPH 2014), shifted per layer: every
+    small block of pixels holds well spread thresholds, so a filter over a few texels sees
+    a fraction close to alpha."""
+    x = np.asarray(px, np.float64) + 5.588238 * layer
+    y = np.asarray(py, np.float64) + 5.588238 * layer
+    return np.mod(52.9829189 * np.mod(0.06711056 * x + 0.00583715 * y, 1.0), 1.0)
+
+
+def dither(layer0, at, fades, alpha, thresholds, next_layer):
+    """Stochastic transparency of one sample position by depth peeling: where the surface's
+    alpha does not exceed the pixel's threshold (``dither_thresholds``, say), the pixel
+    takes the next surface behind it, up to ``DITHER_LAYERS`` surfaces.
+
+    layer0:     (tri (N,), bary (N, 3) or None, depth (N,)) of the pixels and ``keys`` (K,)
+                of the raster they come from; tri, bary and depth are updated in place
+    at:         (N,) each pixel's index in ``keys``
+    fades:      (T,) bool: triangles whose surface may be transparent
+    alpha:      alpha(pixels (M,) int64, tri (M,), bary (M, 3)) -> (M,) alpha at those pixels
+    thresholds: thresholds(pixels (M,) int64, layer) -> (M,) in [0, 1)
+    next_layer: next_layer(floor (K,) uint64) -> (tri, bary, depth, keys) of the raster again
+                with ``behind=floor``
+    """
+    (tri, bary, depth), keys = layer0[:3], layer0[3]
+    pending = np.arange(len(tri))
+    for layer in range(DITHER_LAYERS):
+        t = tri[pending]
+        cand = pending[(t >= 0) & fades[np.maximum(t, 0)]]
+        if not len(cand):
+            break
+        a = alpha(cand, tri[cand], None if bary is None else bary[cand])
+        pending = cand[~(a > thresholds(cand, layer))]
+        if not len(pending):
+            break
+        floor = np.full(len(keys), np.iinfo(np.uint64).max, np.uint64)
+        floor[at[pending]] = keys[at[pending]]
+        tri2, bary2, depth2, keys2 = next_layer(floor)
+        tri[pending], depth[pending] = tri2[pending], depth2[pending]
+        if bary is not None:
+            bary[pending] = bary2[pending]
+        keys[at[pending]] = keys2[at[pending]]

@@ -238,7 +238,7 @@ def _flatten_pyramids(pyramids: list[list[np.ndarray]]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, 3), np.float32)
 
 
-def _perspective_jobs(light: Light, tris: np.ndarray, res: int):
+def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     """A point, spot or area light's maps: one job per face, and the function that assembles
     the faces' results into the ShadowMap (``shadow_map_jobs``)."""
     origin = np.asarray(light.position, np.float64)
@@ -261,8 +261,8 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int):
     view_proj = np.stack([proj @ _view(frame, origin) for frame in basis])
 
     def face(f: int):
-        depth = raster.rasterize(raster.project(tris, view_proj[f], np.float64), res, res,
-                                 weights=False).depth
+        depth = _rasterize_casters(raster.project(tris, view_proj[f], np.float64), res,
+                                   cutout, f, False).depth
         dist = depth * ray_len  # distance from the light, metres
         return depth, _pyramid(dist, depth), float(dist.min())
 
@@ -343,7 +343,7 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     return np.array(rects), splits
 
 
-def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
+def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None):
     """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
     tan_half = float(np.tan(0.5 * max(float(light.radius), 0.0)))
@@ -372,7 +372,8 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
     def cascade(c: int):
         from .kernels import raster as kernels
 
-        frags = raster.rasterize(raster.project(tris, view_proj[c], np.float64), res, res)
+        frags = _rasterize_casters(raster.project(tris, view_proj[c], np.float64), res,
+                                   cutout, c, True)
         d = np.empty((res, res), np.float32)  # depth along the light of each texel's surface
         kernels.corner_sum(frags.tri, frags.bary, np.ascontiguousarray(zs, np.float64), d)
         return d, _pyramid(d, d)
@@ -398,18 +399,46 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int):
 
 
 def shadow_map_jobs(
-    light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024
+    light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024,
+    cutout=None,
 ) -> tuple[list[Callable[[], object]], Callable[[list], ShadowMap | None]]:
     """The work of ``build_shadow_map`` as independent jobs (one per cube face or cascade, to
     run on any threads) and the function that assembles their results, in order, into the
-    ShadowMap (None when the light casts no shadow). Arguments as ``build_shadow_map``."""
+    ShadowMap (None when the light casts no shadow). Arguments as ``build_shadow_map``, and
+    cutout: None, or (fades (T,) bool, alpha(tri (N,), bary (N, 3)) -> (N,)): casters that may
+    be transparent and their alpha at texels (``_rasterize_casters``)."""
     if not light.shadow:
         return [], lambda results: None
     res = max(1, int(resolution))
     tris = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
     if light.kind == "SUN":
-        return _sun_jobs(light, tris, camera, res)
-    return _perspective_jobs(light, tris, res)
+        return _sun_jobs(light, tris, camera, res, cutout)
+    return _perspective_jobs(light, tris, res, cutout)
+
+
+def _rasterize_casters(clip, res: int, cutout, face: int, weights: bool):
+    """The nearest caster of every texel; with ``cutout``, transparent casters let the texels
+    through stochastically (``raster.dither`` with ``raster.ordered_thresholds``), so that the
+    filtered shadow of a surface of alpha a is a dark."""
+    frags = raster.rasterize(clip, res, res, weights=weights or cutout is not None)
+    if cutout is None:
+        return frags
+    fades, alpha = cutout
+    tri, bary, depth = (frags.tri.reshape(-1).copy(), frags.bary.reshape(-1, 3).copy(),
+                        frags.depth.reshape(-1).copy())
+    py, px = np.divmod(np.arange(res * res), res)
+
+    def next_layer(floor):
+        f = raster.rasterize(clip, res, res, behind=floor)
+        return f.tri.reshape(-1), f.bary.reshape(-1, 3), f.depth.reshape(-1), f.keys
+
+    raster.dither((tri, bary, depth, frags.keys.copy()), np.arange(res * res), fades,
+                  lambda pixels, t, b: alpha(t, b),
+                  lambda pixels, layer: raster.ordered_thresholds(px[pixels] + face * res,
+                                                                  py[pixels], layer),
+                  next_layer)
+    return raster.Fragments(tri.reshape(res, res), bary.reshape(res, res, 3),
+                            depth.reshape(res, res))
 
 
 def build_shadow_map(

@@ -539,3 +539,83 @@ def test_fresnel_and_layer_weight(addon):
     print(f"facing: mean |d| {d.mean():.2e}, p99 {np.percentile(d, 99):.2e}")
     assert cycles.max() > 0.4  # grazing angles reached
     assert d.mean() < 2e-3 and np.percentile(d, 99) < 1e-2
+
+
+def emitter(name, color, alpha_from_u=None):
+    """An emission material; with ``alpha_from_u`` its coverage is u (through a Transparent
+    BSDF mix, "mix") or the Principled BSDF's Alpha ("principled") or an image's alpha."""
+    mat, tree = bare_material(name)
+    emit = _node(tree, "ShaderNodeEmission")
+    emit.inputs["Color"].default_value = (*color, 1.0)
+    out = emit.outputs[0]
+    if alpha_from_u == "mix":
+        _, u, v = uv_parts(tree)
+        mix = _node(tree, "ShaderNodeMixShader")
+        _link(tree, u, mix.inputs[0])
+        _link(tree, _node(tree, "ShaderNodeBsdfTransparent").outputs[0], mix.inputs[1])
+        _link(tree, out, mix.inputs[2])
+        out = mix.outputs[0]
+    elif alpha_from_u == "principled":
+        _, u, v = uv_parts(tree)
+        p = _node(tree, "ShaderNodeBsdfPrincipled")
+        p.inputs["Base Color"].default_value = (0.0, 0.0, 0.0, 1.0)
+        p.inputs["Specular IOR Level"].default_value = 0.0
+        p.inputs["Emission Color"].default_value = (*color, 1.0)
+        p.inputs["Emission Strength"].default_value = 1.0
+        _link(tree, v, p.inputs["Alpha"])
+        out = p.outputs[0]
+    _link(tree, out, tree.nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
+@pytest.mark.parametrize("how", ["mix", "principled"])
+def test_dithered_transparency_matches_cycles(addon, how):
+    """A half-transparent emitter over another: over the samples each pixel shows a fraction
+    alpha of the top surface, as Cycles' transparency does."""
+    top = emitter("top", (0.9, 0.8, 0.1), how)
+    scene, plane = plane_scene(top)
+    plane.location.z = 0.2
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    bpy.context.object.data.materials.append(emitter("bottom", (0.1, 0.2, 0.9)))
+    scene.render.filter_size = scene.cycles.filter_width = 1.5
+    scene.cycles.transparent_max_bounces = 8
+    ours = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=64)["Combined"][..., :3]
+    cycles = render_passes(scene, "CYCLES", ["Combined"], samples=256)["Combined"][..., :3]
+    # the image's rows and columns: alpha runs from 0 to 1 across the frame
+    axis = 1 if how == "mix" else 0
+    ours_line, cycles_line = ours.mean(axis=1 - axis), cycles.mean(axis=1 - axis)
+    d = np.abs(ours_line - cycles_line)
+    print(f"{how}: line mean |d| {d.mean():.4f}, max {d.max():.4f}; per pixel "
+          f"{np.abs(ours - cycles).mean():.4f}")
+    assert np.ptp(cycles_line[:, 2]) > 0.5  # the coverage really varies
+    assert d.mean() < 0.01 and d.max() < 0.03
+    assert np.abs(ours - cycles).mean() < 0.04  # 64 samples: the pixels' own noise
+
+
+def test_shadows_honour_alpha(addon):
+    """A sun shines through a plane whose alpha runs from 0 to 1 across it onto a white floor:
+    its shadow darkens across the floor as Cycles' does."""
+    top = emitter("cut-out", (0.0, 0.0, 0.0), "principled")
+    scene, plane = plane_scene(top)
+    plane.location.z = 1.5  # above the camera: it casts its shadow, the camera does not see it
+    plane.scale = (3.0, 3.0, 1.0)
+    floor, tree = bare_material("floor")
+    rgb = _node(tree, "ShaderNodeRGB")
+    rgb.outputs[0].default_value = (0.8, 0.8, 0.8, 1.0)
+    diffuse_with(tree, rgb.outputs[0])
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    bpy.context.object.data.materials.append(floor)
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.data.angle = 0.0
+    scene.collection.objects.link(sun)
+    scene.cycles.transparent_max_bounces = 8
+    scene.render.filter_size = scene.cycles.filter_width = 1.5  # samples spread over the pixel
+    ours = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=64)["Combined"][..., 0]
+    cycles = render_passes(scene, "CYCLES", ["Combined"], samples=64)["Combined"][..., 0]
+    ours_line, cycles_line = ours.mean(axis=1), cycles.mean(axis=1)  # alpha follows v: rows
+    d = np.abs(ours_line - cycles_line)
+    print(f"shadow: rows {np.round(ours_line[::4], 3)} vs {np.round(cycles_line[::4], 3)}; "
+          f"mean |d| {d.mean():.4f}, max {d.max():.4f}")
+    assert np.ptp(cycles_line) > 0.2  # the shadow's darkness varies with alpha
+    assert d.mean() < 0.02 and d.max() < 0.04

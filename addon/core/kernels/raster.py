@@ -31,14 +31,16 @@ _SCAN = nb.void(
     nb.boolean[::1], nb.uint64[::1],  # tame, sid (N,)
     nb.int64, nb.int64, nb.int64, nb.int64, nb.int64,  # width, height, sub_bits, oxi, oyi
     nb.float64, nb.float64, nb.float64, nb.int64, nb.boolean,  # ox, oy, qmax, ibits, exact_int
-    nb.uint64[::1],  # keybuf (H * W,)
+    nb.uint64[::1], nb.uint64[::1],  # keyfloor, keybuf (H * W,)
 )
 
 
 @nb.njit(_SCAN, **_OPTIONS)
 def scan(ea, eb, ec, eb_f, ea_abs, half, off_lo, off_hi, ymin, rows, za, zb, zc, tame, sid,
-         width, height, sub_bits, oxi, oyi, ox, oy, qmax, ibits, exact_int, keybuf):
+         width, height, sub_bits, oxi, oyi, ox, oy, qmax, ibits, exact_int, keyfloor, keybuf):
     """Depth-resolve every covered (triangle, sample) into ``keybuf`` (the minimum key wins).
+    Keys (depth, then sub-triangle: a total order) not above ``keyfloor`` are refused, so a
+    second scan with the first's keys as the floor peels the next layer (all zeros: none).
 
     Per triangle in scan order: edges (left, right, either) as fixed-point edge functions
     E_j = ea_j x + eb_j y + ec_j (top-left rule folded into ec), its first sample row, rows
@@ -83,7 +85,8 @@ def scan(ea, eb, ec, eb_f, ea_abs, half, off_lo, off_hi, ymin, rows, za, zb, zc,
                         continue
                     u = max(u, 0.0)
                 key = (np.uint64(u) << np.uint64(ibits)) | sid[t]
-                if key < keybuf[base + c]:
+                if key < keybuf[base + c] and (key > keyfloor[base + c] or
+                                               keyfloor[base + c] == 0):
                     keybuf[base + c] = key
 
 
