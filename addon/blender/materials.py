@@ -132,7 +132,11 @@ class _Compiler:
         "shader"); None for an unlinked normal input (``normal``)."""
         link = next((lk for lk in socket.links if not lk.is_muted), None) \
             if socket.is_linked else None
-        if link is None or not link.is_valid:
+        if link is not None and not link.is_valid:
+            self.warn(f"the link from '{link.from_node.name}' to '{link.to_node.name}' is "
+                      f"invalid; '{socket.name}' keeps its own value")
+            link = None
+        if link is None:
             return self.default(socket, kind)
         node, out = link.from_node, link.from_socket
         reg, got = self.output(node, out, ctx, socket)
@@ -200,8 +204,9 @@ class _Compiler:
         if tree is None or not len(tree.nodes):
             what = "has no node tree" if tree is None else \
                 f"uses '{tree.name}', which is missing or empty"
-            self.warn(f"group node '{node.name}' {what}; socket '{into.name}' keeps its value")
-            return self.default(into, _kind(into)), _kind(into)
+            self.warn(f"group node '{node.name}' {what}; its output '{out.name}' reads its "
+                      "default, as in Cycles")
+            return self.default(out, _kind(out)), _kind(out)
         outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
         active = [n for n in outputs if n.is_active_output] or outputs
         if not active:
@@ -231,6 +236,14 @@ class _Compiler:
         if not active:
             self.warn("no Material Output node; rendered with the viewport colour")
             return self.b.build(self._viewport_surface())
+        looped = _looped_tree(tree)
+        if looped is not None and bpy.app.version >= (5, 0, 0):
+            self.warn(f"the node tree '{looped}' has a loop; the material renders black, as in "
+                      "Cycles")
+            return self.b.build(self.constant(0.0, "shader"))
+        if looped is not None:  # Blender 4.5's Cycles drops the loop's invalid link
+            self.warn(f"the node tree '{looped}' has a loop; its invalid link is ignored, as "
+                      "in Cycles")
         surface_socket = active[0].inputs["Surface"]
         if not surface_socket.is_linked:
             self.warn("nothing is connected to the Material Output's Surface; it renders "
@@ -243,6 +256,35 @@ class _Compiler:
                     and "Occlusion" in node.inputs and node.inputs["Occlusion"].is_linked):
                 occlusion = self.socket(node.inputs["Occlusion"], "float")
         return self.b.build(surface, occlusion)
+
+
+def _looped_tree(tree, seen=None) -> str | None:
+    """The name of the first tree (``tree`` or a group used in it) whose links form a loop."""
+    seen = set() if seen is None else seen
+    if tree.as_pointer() in seen:
+        return None
+    seen.add(tree.as_pointer())
+    after: dict[int, set[int]] = {}
+    for link in tree.links:
+        after.setdefault(link.from_node.as_pointer(), set()).add(link.to_node.as_pointer())
+    state: dict[int, int] = {}  # 1: on the path, 2: done
+
+    def visit(node) -> bool:
+        state[node] = 1
+        for nxt in after.get(node, ()):
+            if state.get(nxt) == 1 or state.get(nxt) is None and visit(nxt):
+                return True
+        state[node] = 2
+        return False
+
+    if any(state.get(n) is None and visit(n) for n in list(after)):
+        return tree.name
+    for node in tree.nodes:
+        if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:
+            inner = _looped_tree(node.node_tree, seen)
+            if inner is not None:
+                return inner
+    return None
 
 
 # ---------------------------------------------------------------------------------------------

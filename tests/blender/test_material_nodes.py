@@ -619,3 +619,77 @@ def test_shadows_honour_alpha(addon):
           f"mean |d| {d.mean():.4f}, max {d.max():.4f}")
     assert np.ptp(cycles_line) > 0.2  # the shadow's darkness varies with alpha
     assert d.mean() < 0.02 and d.max() < 0.04
+
+
+def test_bad_node_trees_warn_once_and_render_finite(addon):
+    """A group without its tree, a missing attribute, an image that cannot load and NaN-making
+    math: one warning each, finite pixels, the values Cycles renders."""
+    from bo2_lighting.addon.blender import extract
+
+    mat, tree = bare_material("bad")
+    _, u, v = uv_parts(tree)
+    group = _node(tree, "ShaderNodeGroup")
+    group.node_tree = bpy.data.node_groups.new("Empty", "ShaderNodeTree")
+    group.node_tree.interface.new_socket("Out", in_out="OUTPUT", socket_type="NodeSocketFloat")
+    attr = _node(tree, "ShaderNodeAttribute", attribute_name="no such attribute")
+    tex = _node(tree, "ShaderNodeTexImage")
+    tex.image = bpy.data.images.new("gone", 4, 4)
+    tex.image.source = "FILE"
+    tex.image.filepath = "//missing/gone.png"
+    div = _node(tree, "ShaderNodeMath", operation="DIVIDE")  # u / 0 -> 0 in Cycles
+    _link(tree, u, div.inputs[0])
+    div.inputs[1].default_value = 0.0
+    log = _node(tree, "ShaderNodeMath", operation="LOGARITHM")  # log of a negative -> 0
+    log.inputs[0].default_value = -2.0
+    _link(tree, v, log.inputs[1])
+    comb = _node(tree, "ShaderNodeCombineColor")
+    add = _node(tree, "ShaderNodeMath", operation="ADD")
+    _link(tree, group.outputs[0], add.inputs[0])
+    add.inputs[1].default_value = 0.25
+    _link(tree, add.outputs[0], comb.inputs[0])
+    add2 = _node(tree, "ShaderNodeMath", operation="ADD")
+    _link(tree, div.outputs[0], add2.inputs[0])
+    _link(tree, log.outputs[0], add2.inputs[1])
+    _link(tree, add2.outputs[0], comb.inputs[1])
+    _link(tree, attr.outputs["Fac"], comb.inputs[2])
+    mix = _node(tree, "ShaderNodeMix", data_type="RGBA", blend_type="MIX")
+    ins = {s.identifier: s for s in mix.inputs}
+    ins["Factor_Float"].default_value = 0.25  # a quarter of the missing image's magenta
+    _link(tree, comb.outputs[0], ins["A_Color"])
+    _link(tree, tex.outputs["Color"], ins["B_Color"])
+    diffuse_with(tree, sock(mix.outputs, "Result_Color"))
+    scene, _ = plane_scene(mat)
+    _, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get())
+    text = "\n".join(warnings)
+    assert text.count("'Empty', which is missing or empty") == 1
+    assert text.count("'no such attribute'") == 1
+    assert text.count("could not be loaded") == 1
+    ours = render_passes(scene, "BO2_LIGHTING", ["Albedo"])["Albedo"][..., :3]
+    cycles = render_passes(scene, "CYCLES", ["DiffCol"])["DiffCol"][..., :3]
+    assert np.isfinite(ours).all()
+    print("bad:", ours.mean((0, 1)), cycles.mean((0, 1)))
+    assert cycles.max() > 0.2
+    assert np.abs(ours - cycles).mean() < 2e-3
+
+
+def test_a_node_loop_renders_as_in_cycles(addon):
+    from bo2_lighting.addon.blender import extract
+
+    mat, tree = bare_material("loop")
+    a = _node(tree, "ShaderNodeMath", operation="ADD")
+    b = _node(tree, "ShaderNodeMath", operation="MULTIPLY")
+    _link(tree, a.outputs[0], b.inputs[0])
+    _link(tree, b.outputs[0], a.inputs[0])
+    comb = _node(tree, "ShaderNodeCombineColor")
+    comb.inputs[0].default_value = 0.7
+    _link(tree, b.outputs[0], comb.inputs[1])
+    diffuse_with(tree, comb.outputs[0])
+    scene, _ = plane_scene(mat)
+    _, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get())
+    assert sum("has a loop" in w for w in warnings) == 1
+    ours = render_passes(scene, "BO2_LIGHTING", ["Albedo", "Combined"])
+    cycles = render_passes(scene, "CYCLES", ["DiffCol"])["DiffCol"][..., :3]
+    # Blender 5 renders a material with a loop black; 4.5 drops the loop's invalid link
+    assert (cycles.max() == 0.0) == (bpy.app.version >= (5, 0, 0))
+    assert np.abs(ours["Albedo"][..., :3] - cycles).max() < 1e-4
+    assert np.isfinite(ours["Combined"]).all()
