@@ -216,40 +216,53 @@ def principled_to_talk(base, metallic, roughness, ior, level, tint, transmission
 
 
 class Points:
-    """What the input operations read at N shaded points.
+    """What the input operations read at N shaded points, each field computed when first read.
 
     position, normal, geo, view: (N, 3) float32 world position, unit shading normal and true
     normal (both facing the viewer), unit direction to the viewer; backfacing (N, 1).
-    corner(key): (N, 3, k) the corner values of attribute ``key`` of each point's triangle
-    (``Program.requires``), or None when no mesh has it; bary (N, 3) barycentrics.
     world_to_object: (N, 4, 4) float64; texspace: (N, 2, 3) Generated = (p_obj - [0]) / [1].
     window: (N, 2) position in the frame, [0, 1], origin bottom left; world_to_camera (4, 4).
-    shifted(axis): the same points moved one pixel right (0) or down (1) along the surface's
-    plane (``bary`` and ``position`` change, the rest is shared), for screen derivatives.
+    bary: (N, 3) barycentrics in the points' triangles.
+    fields: those names -> an array, or a function that makes it
+    interpolate: (key, bary) -> (N, k) float32 corner attribute ``key`` (``Program.requires``)
+    at the points, or None when no mesh has it
+    shifts: axis -> (bary, position) of the points moved one pixel right (0) or down (1) in
+    their triangles' planes, for screen derivatives (``shifted``); None when there are none
     """
 
-    def __init__(self, n, position, normal, geo, view, backfacing, bary, corner,
-                 world_to_object, texspace, window, world_to_camera, shifts=None):
-        self.n, self.position, self.normal, self.geo, self.view = n, position, normal, geo, view
-        self.backfacing, self.bary, self.corner = backfacing, bary, corner
-        self.world_to_object, self.texspace = world_to_object, texspace
-        self.window, self.world_to_camera = window, world_to_camera
-        self._shifts = shifts  # callable axis -> (bary, position), or None
+    _FIELDS = ("position", "normal", "geo", "view", "backfacing", "world_to_object", "texspace",
+               "window", "world_to_camera")
+
+    def __init__(self, n: int, bary, fields: dict, interpolate, shifts=None):
+        self.n, self.bary = n, bary
+        self._fields, self._interpolate, self._shifts = dict(fields), interpolate, shifts
+
+    def _field(self, name):
+        value = self._fields[name]
+        if callable(value):
+            value = self._fields[name] = value()
+        return value
+
+    position = property(lambda self: self._field("position"))
+    normal = property(lambda self: self._field("normal"))
+    geo = property(lambda self: self._field("geo"))
+    view = property(lambda self: self._field("view"))
+    backfacing = property(lambda self: self._field("backfacing"))
+    world_to_object = property(lambda self: self._field("world_to_object"))
+    texspace = property(lambda self: self._field("texspace"))
+    window = property(lambda self: self._field("window"))
+    world_to_camera = property(lambda self: self._field("world_to_camera"))
 
     def shifted(self, axis: int) -> Points | None:
         if self._shifts is None:
             return None
         bary, position = self._shifts(axis)
-        return Points(self.n, position, self.normal, self.geo, self.view, self.backfacing,
-                      bary, self.corner, self.world_to_object, self.texspace, self.window,
-                      self.world_to_camera)
+        return Points(self.n, bary, dict(self._fields, position=position), self._interpolate)
 
-    def attribute(self, key, width: int) -> np.ndarray:
-        """(N, width) ``key`` interpolated at the points; zeros where no mesh has it."""
-        c = self.corner(key)
-        if c is None:
-            return np.zeros((self.n, width), np.float32)
-        return np.einsum("nk,nkc->nc", self.bary, c[:, :, :width]).astype(np.float32)
+    def attribute(self, key, width: int):
+        """(N, width) float32 ``key`` at the points, or None when no mesh has it."""
+        out = self._interpolate(key, self.bary)
+        return None if out is None else out[:, :width]
 
     def object_point(self, p) -> np.ndarray:
         m = self.world_to_object
@@ -278,15 +291,16 @@ def _op_const(ev, op, pts):
 
 def _op_uv(ev, op, pts):
     uv = pts.attribute(("uv", op.param[0]), 2)
-    return np.concatenate([uv, np.zeros((pts.n, 1), np.float32)], 1)
+    out = np.zeros((pts.n, 3), np.float32)
+    if uv is not None:
+        out[:, :2] = uv
+    return out
 
 
 def _op_attribute(ev, op, pts):
     """(N, 4): RGB (or XYZ, or the value thrice) and alpha of a corner attribute."""
-    c = pts.corner(("attribute", op.param[0]))
-    if c is None:
-        return np.zeros((pts.n, 4), np.float32)
-    return np.einsum("nk,nkc->nc", pts.bary, c).astype(np.float32)
+    out = pts.attribute(("attribute", op.param[0]), 4)
+    return np.zeros((pts.n, 4), np.float32) if out is None else out
 
 
 def _op_geometry(ev, op, pts):
@@ -341,20 +355,27 @@ def _op_image(ev, op, pts):
         vec = _op_uv(ev, Op("uv", (), ("",)), pts)
     vec = np.broadcast_to(vec, (pts.n, 3))
     lod = ev.lod.get(id(op))
-    if lod is None:  # the centre points: lod from the vector's screen derivatives
-        steps = [ev.shifted_value(op.args[0] if op.args else None, axis, pts) for axis in (0, 1)]
+    if lod is None and pts is ev.centre:  # lod from the vector's screen derivatives
+        steps = [ev.step(op.args[0] if op.args else None, axis, pts) for axis in (0, 1)]
         if steps[0] is not None and steps[1] is not None:
-            lod = texture.lod_from_uv_derivatives(
-                tex, np.broadcast_to(steps[0], (pts.n, 3))[:, :2] - vec[:, :2],
-                np.broadcast_to(steps[1], (pts.n, 3))[:, :2] - vec[:, :2])
+            from .kernels import textures as kernels
+
+            lod = np.empty(pts.n, np.float64)
+            w, h = tex.size
+            kernels.footprint_lod(np.broadcast_to(steps[0], (pts.n, 3)),
+                                  np.broadcast_to(steps[1], (pts.n, 3)), float(w), float(h),
+                                  lod)
             ev.lod[id(op)] = lod
     px = texture.sample(tex, vec[:, :2], lod)
     c = px.shape[1]
-    rgb = px[:, :3] if c >= 3 else np.repeat(px[:, :1], 3, 1)
-    alpha = px[:, 3:4] if c == 4 else np.ones((pts.n, 1), np.float32)
-    if premultiply:
-        rgb = rgb * alpha
-    return np.concatenate([rgb, alpha], 1).astype(np.float32)
+    if c == 4:
+        if premultiply:
+            px[:, :3] *= px[:, 3:]
+        return px
+    out = np.empty((pts.n, 4), np.float32)
+    out[:, :3] = px[:, :3] if c >= 3 else px[:, :1]
+    out[:, 3] = 1.0
+    return out
 
 
 def _op_swizzle(ev, op, pts):
@@ -501,11 +522,10 @@ def _op_normal_map(ev, op, pts):
     color = np.broadcast_to(ev.arg(op, 1, pts)[:, :3], (pts.n, 3))
     n = pts.normal
     if space == "TANGENT":
-        t4 = pts.corner(("tangent", op.param[1]))
+        t4 = pts.attribute(("tangent", op.param[1]), 4)
         if t4 is None:
             return n
-        t = np.einsum("nk,nkc->nc", pts.bary, t4[:, :, :3])
-        sign = np.where(np.einsum("nk,nk->n", pts.bary, t4[:, :, 3]) < 0.0, -1.0, 1.0)
+        t, sign = t4[:, :3], np.where(t4[:, 3] < 0.0, -1.0, 1.0)
         flip = np.where(pts.backfacing > 0.5, -1.0, 1.0).astype(np.float32)
         out = texture.apply_normal_map(n * flip, t, sign, color, strength[:, 0])
         return (out * flip).astype(np.float32)
@@ -655,20 +675,90 @@ class _Evaluation:
             return pts.normal
         return _unit(np.broadcast_to(self.value(op.args[k], pts)[:, :3], (pts.n, 3)))
 
-    def shifted_value(self, reg: int | None, axis: int, pts: Points):
-        """``reg`` at the points moved one pixel along ``axis`` (None: the active UV map)."""
+    def step(self, reg: int | None, axis: int, pts: Points):
+        """How ``reg`` (None: the active UV map) changes over one pixel along ``axis``, (N, k)
+        or None when the points have no neighbours: by the derivative rules of ``_STEPS``
+        (exact for these linear operations), else by evaluating the value there."""
+        key = ("step", reg, axis)
+        if key in self.memo:
+            return self.memo[key]
         moved = self._moved(axis, pts)
         if moved is None:
-            return None
-        if reg is None:
-            return _op_uv(self, Op("uv", (), ("",)), moved)
-        return self.value(reg, moved)
+            result = None
+        elif reg is None:
+            result = _uv_step("", pts, moved)
+        else:
+            op = self.program.ops[reg]
+            rule = _STEPS.get(op.kind)
+            result = rule(self, op, pts, axis, moved) if rule is not None else None
+            if result is None and op.kind != "const":
+                result = self.value(reg, moved) - self.value(reg, pts)
+            elif result is None:
+                result = np.zeros((1, self.value(reg, pts).shape[1]), np.float32)
+        self.memo[key] = result
+        return result
 
     def _moved(self, axis: int, pts: Points):
         key = ("moved", axis, id(pts))
         if key not in self.memo:
             self.memo[key] = pts.shifted(axis) if pts is self.centre else None
         return self.memo[key]
+
+
+def _uv_step(name, pts, moved):
+    """(N, 3) change of a UV map's (u, v, 0) between the points and ``moved``."""
+    d = pts._interpolate(("uv", name), moved.bary - pts.bary)
+    out = np.zeros((pts.n, 3), np.float32)
+    if d is not None:
+        out[:, :2] = d
+    return out
+
+
+def _step_mapping(ev, op, pts, axis, moved):
+    kind = op.param[0]
+    if kind == "NORMAL" or any(ev.program._varying[a] for a in op.args[1:]):
+        return None
+    d = ev.step(op.args[0], axis, pts)
+    _, loc, rot, scale = (ev.arg(op, k, pts) for k in range(4))
+    if kind == "TEXTURE":
+        return nm.mapping("TEXTURE", d, np.zeros((1, 3), np.float32), rot, scale)
+    return nm.mapping("VECTOR", d, loc, rot, scale)
+
+
+def _step_vector_math(ev, op, pts, axis, moved):
+    kind = op.param[0]
+    if kind in ("ADD", "SUBTRACT"):
+        da, db = ev.step(op.args[0], axis, pts), ev.step(op.args[1], axis, pts)
+        return da + db if kind == "ADD" else da - db
+    if kind == "SCALE" and not ev.program._varying[op.args[3]]:
+        return ev.step(op.args[0], axis, pts) * ev.arg(op, 3, pts)
+    if kind in ("MULTIPLY", "MULTIPLY_ADD"):
+        a, b = ev.arg(op, 0, pts), ev.arg(op, 1, pts)
+        out = ev.step(op.args[0], axis, pts) * b + a * ev.step(op.args[1], axis, pts)
+        return out + ev.step(op.args[2], axis, pts) if kind == "MULTIPLY_ADD" else out
+    return None
+
+
+def _step_swizzle(ev, op, pts, axis, moved):
+    return ev.step(op.args[0], axis, pts)[:, op.param[0]:op.param[1]]
+
+
+def _step_combine(ev, op, pts, axis, moved):
+    if op.param[0] != "XYZ":
+        return None
+    parts = [ev.step(a, axis, pts) for a in op.args]
+    return np.concatenate(np.broadcast_arrays(*parts), 1)
+
+
+# Screen-space steps of linear operations (the others are evaluated at the moved points).
+_STEPS = {
+    "uv": lambda ev, op, pts, axis, moved: _uv_step(op.param[0], pts, moved),
+    "mapping": _step_mapping, "vector_math": _step_vector_math, "swizzle": _step_swizzle,
+    "combine": _step_combine,
+    "to_vector": lambda ev, op, pts, axis, moved: (
+        lambda d: np.repeat(d, 3, 1) if d.shape[1] == 1 else d[:, :3])(
+        ev.step(op.args[0], axis, pts)),
+}
 
 
 def evaluate(program: Program, points: Points) -> SurfaceParams:

@@ -461,17 +461,17 @@ def euler_xyz(rotation) -> np.ndarray:
 def mapping(kind: str, vector, location, rotation, scale) -> np.ndarray:
     """The Mapping node (Cycles ``svm_mapping``): POINT, TEXTURE, VECTOR or NORMAL; (N, 3)."""
     v, loc, s = f32(vector), f32(location), f32(scale)
-    rot = euler_xyz(rotation)
+    rot = euler_xyz(rotation).astype(np.float32)  # (1 or N, 3, 3)
+
+    def turn(d, transposed=False):
+        m = rot.transpose(0, 2, 1) if transposed else rot
+        return (d[:, :1] * m[:, :, 0] + d[:, 1:2] * m[:, :, 1] + d[:, 2:3] * m[:, :, 2])
+
     if kind == "TEXTURE":
-        d = np.broadcast_to(v - loc, np.broadcast_shapes(v.shape, loc.shape, (len(rot), 3)))
-        return _safe_div(np.einsum("nji,nj->ni", np.broadcast_to(rot, (len(d), 3, 3)), d), s)
+        return _safe_div(turn(v - loc, transposed=True), s)
     if kind == "NORMAL":
-        d = _safe_div(v, s)
-        d = np.broadcast_to(d, np.broadcast_shapes(d.shape, (len(rot), 3)))
-        return _normalize(np.einsum("nij,nj->ni", np.broadcast_to(rot, (len(d), 3, 3)),
-                                    d).astype(np.float32)).astype(np.float32)
-    d = np.broadcast_to(v * s, np.broadcast_shapes(v.shape, s.shape, (len(rot), 3)))
-    out = np.einsum("nij,nj->ni", np.broadcast_to(rot, (len(d), 3, 3)), d)
+        return _normalize(turn(_safe_div(v, s))).astype(np.float32)
+    out = turn(v * s)
     return (out + loc if kind == "POINT" else out).astype(np.float32)
 
 

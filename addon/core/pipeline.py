@@ -147,12 +147,8 @@ def _constant_tables(materials: list[Material]) -> dict:
 
 def _constant_points() -> material.Points:
     """One point for constant programs (which read nothing of it)."""
-    z = np.zeros((1, 3), np.float32)
-    up = np.array([[0.0, 0.0, 1.0]], np.float32)
-    return material.Points(1, z, up, up, up, np.zeros((1, 1), np.float32),
-                           np.array([[1.0, 0.0, 0.0]], np.float32), lambda key: None,
-                           np.eye(4)[None], np.array([[[0.0] * 3, [1.0] * 3]], np.float32),
-                           np.zeros((1, 2), np.float32), np.eye(4))
+    return material.Points(1, np.array([[1.0, 0.0, 0.0]], np.float32), {},
+                           lambda key, bary: None)
 
 
 def _broken(positions) -> tuple[np.ndarray, int, int]:
@@ -306,51 +302,45 @@ def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     return (px[:, :3] * np.float32(world.strength)).astype(np.float32)
 
 
-def _plane_points(tri_positions, origin, direction):
-    """Where rays meet the planes of their triangles: barycentrics (N, 3) (outside the
-    triangle too) and positions (N, 3), float32; None rows (NaN) where a ray runs along the
-    plane."""
-    p = np.asarray(tri_positions, np.float64)
-    e1, e2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    normal = np.cross(e1, e2)
-    nn = np.einsum("nc,nc->n", normal, normal)
-    d = np.broadcast_to(np.asarray(direction, np.float64), (len(p), 3))
-    o = np.broadcast_to(np.asarray(origin, np.float64), (len(p), 3))
-    denom = np.einsum("nc,nc->n", normal, d)
-    with np.errstate(all="ignore"):
-        t = np.einsum("nc,nc->n", normal, p[:, 0] - o) / denom
-        hit = o + t[:, None] * d
-        rel = hit - p[:, 0]
-        b1 = np.einsum("nc,nc->n", np.cross(rel, e2), normal) / nn
-        b2 = np.einsum("nc,nc->n", np.cross(e1, rel), normal) / nn
-    bary = np.stack([1.0 - b1 - b2, b1, b2], 1)
-    return bary.astype(np.float32), hit.astype(np.float32)
-
-
 def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> material.Points:
-    """What a material program reads at the points (``material.Points``)."""
-    cam = frame.scene.camera
-    attributes = frame.attributes
+    """What a material program reads at the points (``material.Points``): tri (N,), bary
+    (N, 3), p, n, geo, v (N, 3) (``_shade_points``), window positions sx, sy (N,)."""
+    from .kernels import shading
 
-    def corner(key):
-        if key == ("uv", ""):
-            return frame.uvs[tri]
-        a = attributes.get(key)
-        return None if a is None else a[tri]
+    cam = frame.scene.camera
+    tri = np.ascontiguousarray(tri, np.int32)
+
+    def interpolate(key, weights):
+        corners = frame.uvs if key == ("uv", "") else frame.attributes.get(key)
+        if corners is None:
+            return None
+        out = np.empty((len(tri), corners.shape[2]), np.float32)
+        shading.interpolate(tri, np.ascontiguousarray(weights, np.float32), corners, out)
+        return out
 
     def moved(axis):
-        origin, direction = cam.rays(sx + (axis == 0), sy + (axis == 1))
-        b, q = _plane_points(frame.positions[tri], origin, direction)
+        origin, direction = cam.rays(sx() + (axis == 0), sy() + (axis == 1))
+        b, q = np.empty((len(tri), 3), np.float32), np.empty((len(tri), 3), np.float32)
+        shading.plane_hits(tri, frame.positions, origin, direction, b, q)
         bad = ~np.isfinite(b).all(axis=1)
-        b[bad], q[bad] = bary[bad], p[bad]
+        b[bad], q[bad] = bary[bad], p()[bad]
         return b, q
 
-    back = np.einsum("nc,nc->n", geo, frame_normals_raw(frame, tri)) < 0.0
-    ob = frame.obj[tri]
-    window = np.stack([sx / cam.width, 1.0 - sy / cam.height], 1).astype(np.float32)
-    return material.Points(len(tri), p, n, geo, v, back[:, None].astype(np.float32), bary,
-                           corner, frame.world_to_object[ob], frame.texspace[ob], window,
-                           cam.world_to_camera, moved if shifts else None)
+    def part(a):  # the points' rows of a (N, ...) array, gathered when first read
+        return a if callable(a) else (lambda: a)
+
+    p, n, geo, v, sx, sy = (part(a) for a in (p, n, geo, v, sx, sy))
+    fields = {
+        "position": p, "normal": n, "geo": geo, "view": v,
+        "backfacing": lambda: (np.einsum("nc,nc->n", geo(), frame_normals_raw(frame, tri))
+                               < 0.0)[:, None].astype(np.float32),
+        "world_to_object": lambda: frame.world_to_object[frame.obj[tri]],
+        "texspace": lambda: frame.texspace[frame.obj[tri]],
+        "window": lambda: np.stack([sx() / cam.width, 1.0 - sy() / cam.height],
+                                   1).astype(np.float32),
+        "world_to_camera": cam.world_to_camera,
+    }
+    return material.Points(len(tri), bary, fields, interpolate, moved if shifts else None)
 
 
 def frame_normals_raw(frame: Frame, tri) -> np.ndarray:
@@ -366,16 +356,22 @@ def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
     normal ``n`` unless a program changes it."""
     mid = frame.material[tri]
     t = frame.tables
+    mats = frame.scene.materials or [Material()]
+    varying = np.flatnonzero(t["varying"])
+    if len(varying) and len(mid) and (mid == mid[0]).all() and t["varying"][mid[0]]:
+        # one textured material over the whole block: its program alone, nothing gathered
+        s = material.evaluate(mats[mid[0]].program,
+                              _points(frame, tri, bary, p, n, geo, v, sx, sy, shifts))
+        return s if s.normal is not None else dataclasses.replace(s, normal=n)
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
     emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
     normal, occlusion = n, None
-    mats = frame.scene.materials or [Material()]
-    for m in np.flatnonzero(t["varying"]):
+    for m in varying:
         sel = np.flatnonzero(mid == m)
         if not len(sel):
             continue
-        pts = _points(frame, tri[sel], bary[sel], p[sel], n[sel], geo[sel], v[sel], sx[sel],
-                      sy[sel], shifts)
+        rows = [lambda a=a, sel=sel: a[sel] for a in (p, n, geo, v, sx, sy)]
+        pts = _points(frame, tri[sel], bary[sel], *rows, shifts)
         s = material.evaluate(mats[m].program, pts)
         albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
         gloss[sel], alpha[sel] = s.gloss, s.alpha

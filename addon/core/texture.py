@@ -303,12 +303,13 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
     """
     from .kernels import textures as kernels
 
-    uv = np.asarray(uv, np.float64).reshape(-1, 2)
+    uv = np.asarray(uv).reshape(-1, 2)
     u, v = (np.require(uv[:, k], np.float64, ["C", "W"]) for k in (0, 1))
     n = len(uv)
     texels, levels = texture.packed
     use_lod = lod is not None
-    lod = np.array(np.broadcast_to(np.asarray(0.0 if lod is None else lod, np.float64), (n,)))
+    lod = np.require(np.broadcast_to(np.asarray(0.0 if lod is None else lod, np.float64), (n,)),
+                     np.float64, ["C", "W"])
     out = np.empty((n, texture.channels), np.float32)
     kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.EXTEND),
                    texture.channels, texture.interpolation == "Closest",

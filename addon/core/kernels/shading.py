@@ -193,6 +193,50 @@ def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out
             uv_out[i, c] = (b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c]) + b2 * uvs[t, 2, c]
 
 
+@nb.njit(nb.void(nb.int32[::1], _F3, nb.float32[:, :, ::1], _F3), **_OPTIONS)
+def interpolate(tri, bary, corners, out):
+    """Corner values ``corners`` (T, 3, K) of triangles ``tri`` (N,) weighted by ``bary``
+    (N, 3): ``out`` (N, K), float32, summed in corner order."""
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        b0, b1, b2 = bary[i, 0], bary[i, 1], bary[i, 2]
+        for k in range(corners.shape[2]):
+            out[i, k] = (b0 * corners[t, 0, k] + b1 * corners[t, 1, k]) + b2 * corners[t, 2, k]
+
+
+@nb.njit(nb.void(nb.int32[::1], nb.float32[:, :, ::1], _F3, _F3, _F3, _F3), **_OPTIONS)
+def plane_hits(tri, positions, origins, directions, bary_out, p_out):
+    """Where rays (``origins``, ``directions`` (N, 3)) meet the planes of triangles ``tri``:
+    barycentrics ``bary_out`` (N, 3) (outside the triangle too) and points ``p_out`` (N, 3),
+    float64 arithmetic; NaN where a ray runs along the plane or the triangle has no area."""
+    for i in range(tri.shape[0]):
+        t = tri[i]
+        ax, ay, az = (np.float64(positions[t, 0, 0]), np.float64(positions[t, 0, 1]),
+                      np.float64(positions[t, 0, 2]))
+        e1x, e1y, e1z = positions[t, 1, 0] - ax, positions[t, 1, 1] - ay, positions[t, 1, 2] - az
+        e2x, e2y, e2z = positions[t, 2, 0] - ax, positions[t, 2, 1] - ay, positions[t, 2, 2] - az
+        nx, ny, nz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+        nn = nx * nx + ny * ny + nz * nz
+        ox, oy, oz = np.float64(origins[i, 0]), np.float64(origins[i, 1]), np.float64(origins[i, 2])
+        dx, dy, dz = (np.float64(directions[i, 0]), np.float64(directions[i, 1]),
+                      np.float64(directions[i, 2]))
+        denom = nx * dx + ny * dy + nz * dz
+        if denom == 0.0 or nn == 0.0:
+            for c in range(3):
+                bary_out[i, c] = p_out[i, c] = np.nan
+            continue
+        s = (nx * (ax - ox) + ny * (ay - oy) + nz * (az - oz)) / denom
+        hx, hy, hz = ox + s * dx, oy + s * dy, oz + s * dz
+        rx, ry, rz = hx - ax, hy - ay, hz - az
+        # b1 = (r x e2) . n / |n|^2, b2 = (e1 x r) . n / |n|^2
+        b1 = ((ry * e2z - rz * e2y) * nx + (rz * e2x - rx * e2z) * ny
+              + (rx * e2y - ry * e2x) * nz) / nn
+        b2 = ((e1y * rz - e1z * ry) * nx + (e1z * rx - e1x * rz) * ny
+              + (e1x * ry - e1y * rx) * nz) / nn
+        bary_out[i, 0], bary_out[i, 1], bary_out[i, 2] = 1.0 - b1 - b2, b1, b2
+        p_out[i, 0], p_out[i, 1], p_out[i, 2] = hx, hy, hz
+
+
 @nb.njit(nb.void(nb.float64[::1], nb.float64[::1], nb.float64[:, ::1], _F3, _F3), **_OPTIONS)
 def rays(x, y, planes, origins, directions):
     """Camera rays through window positions ``x``, ``y`` (N,): ``origins`` on the near plane

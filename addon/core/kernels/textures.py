@@ -196,3 +196,23 @@ def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, dec
                     if k == 0 and c < decode:
                         acc = _decode(acc)
                     out[i, c] += weight * acc
+
+
+_RO = nb.types.Array(nb.float32, 2, "A", readonly=True)
+
+
+@nb.njit(nb.void(_RO, _RO, nb.float64, nb.float64, nb.float64[::1]), **_OPTIONS)
+def footprint_lod(step_x, step_y, width, height, lod):
+    """``texture.lod_from_uv_derivatives`` of look-ups whose UV (the first two columns)
+    changes by ``step_x`` and ``step_y`` (N, >= 2) over one pixel right and down: lod (N,) =
+    log2 of the longer step in texels; a non-finite step gives the coarsest level (+inf)."""
+    for i in range(step_x.shape[0]):
+        ax = np.float64(step_x[i, 0]) * width
+        ay = np.float64(step_x[i, 1]) * height
+        bx = np.float64(step_y[i, 0]) * width
+        by = np.float64(step_y[i, 1]) * height
+        rho2 = max(ax * ax + ay * ay, bx * bx + by * by)
+        if not np.isfinite(rho2):
+            lod[i] = np.inf
+        else:
+            lod[i] = 0.5 * np.log2(max(rho2, 1e-60))
