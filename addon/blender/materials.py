@@ -146,7 +146,9 @@ class _Compiler:
         sock = node.inputs.get(name)
         if sock is None or not sock.is_linked:
             return None
-        return self.socket(sock, "vector", ctx)
+        reg = self.socket(sock, "vector", ctx)
+        # a group's unconnected Normal input (a zero vector) is the surface normal, as in Cycles
+        return None if self.is_zero(reg) else reg
 
     def output(self, node, out, ctx: tuple, into) -> tuple[int, str]:
         """(register, kind) of output ``out`` of ``node`` in group context ``ctx``."""

@@ -147,7 +147,12 @@ def _constant_tables(materials: list[Material]) -> dict:
 
 def _constant_points() -> material.Points:
     """One point for constant programs (which read nothing of it)."""
-    return material.Points(1, np.array([[1.0, 0.0, 0.0]], np.float32), {},
+    up = np.array([[0.0, 0.0, 1.0]], np.float32)
+    fields = {"position": np.zeros((1, 3), np.float32), "normal": up, "geo": up, "view": up,
+              "backfacing": np.zeros((1, 1), np.float32), "world_to_object": np.eye(4)[None],
+              "texspace": np.array([[[0.0] * 3, [1.0] * 3]], np.float32),
+              "window": np.zeros((1, 2), np.float32), "world_to_camera": np.eye(4)}
+    return material.Points(1, np.array([[1.0, 0.0, 0.0]], np.float32), fields,
                            lambda key, bary: None)
 
 
