@@ -6,8 +6,8 @@ Usage: python tools/bench_render.py [--samples N] [--cycles-samples N] [--skip-c
 Builds a scene of about 120k triangles (a room: floor and walls with the textured node chain of
 an imported PBR asset, 30 smooth spheres, boxes) lit by a point light (cube shadow map), a spot
 and a sun, renders it at 1920x1080 with BO2
-Lighting and with Cycles (CPU, 128 samples by default), and BO2 Lighting at 3840x2160 for
-memory. Each render runs in its own ``bo2 render`` process; the table gives the render time
+Lighting and with Cycles (CPU, 128 samples by default), BO2 Lighting at 3840x2160 for memory,
+and the same scene with constant wall materials ("plain": what the materials cost). Each render runs in its own ``bo2 render`` process; the table gives the render time
 that process reports (scene loading excluded) and the process's peak resident memory.
 ``--profile N`` adds the N functions where one thread's 1920x1080 frame spends its time, and
 the share of the material programs' evaluation.
@@ -84,7 +84,7 @@ def textured(name):
     links.new(tex["normal"].outputs["Color"], nmap.inputs["Color"])
     links.new(nmap.outputs[0], p.inputs["Normal"])
     return m
-wall = textured("Wall")
+wall = textured("Wall") if sys.argv[2] == "textured" else material("Wall", (0.6, 0.6, 0.55))
 for size, loc, rot in [(16, (0, 0, 0), (0, 0, 0)), (16, (0, 6, 4), (math.pi / 2, 0, 0)),
                        (16, (-7, 0, 4), (0, math.pi / 2, 0)), (16, (7, 0, 4), (0, math.pi / 2, 0))]:
     bpy.ops.mesh.primitive_plane_add(size=size, location=loc, rotation=rot)
@@ -180,20 +180,25 @@ def main() -> int:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         blend = Path(tmp) / "bench.blend"
-        build = subprocess.run([sys.executable, "-c", BUILD, str(blend)], capture_output=True,
-                               text=True, check=True)
+        build = subprocess.run([sys.executable, "-c", BUILD, str(blend), "textured"],
+                               capture_output=True, text=True, check=True)
         tris = re.search(r"TRIANGLES (\d+)", build.stdout)[1]
+        plain = Path(tmp) / "plain.blend"  # the same walls with constant materials
+        subprocess.run([sys.executable, "-c", BUILD, str(plain), "plain"], capture_output=True,
+                       text=True, check=True)
         cases = [("BO2 1920x1080", ["--engine", "bo2", "--samples", str(args.samples)]),
                  ("BO2 3840x2160", ["--engine", "bo2", "--samples", str(args.samples),
                                     "--resolution", "3840x2160"])]
         if not args.skip_cycles:
             cases.append(("Cycles 1920x1080", ["--engine", "cycles", "--samples",
                                                str(args.cycles_samples)]))
+        cases.append(("BO2 1920x1080 plain", ["--engine", "bo2", "--samples",
+                                              str(args.samples)]))
         rows = []
         for name, extra in cases:
             print(f"rendering {name} ...", flush=True)
-            seconds, peak, _ = run([str(BO2), "render", str(blend), "-o",
-                                    str(Path(tmp) / "frame.png"), *extra])
+            seconds, peak, _ = run([str(BO2), "render", str(plain if "plain" in name else blend),
+                                    "-o", str(Path(tmp) / "frame.png"), *extra])
             rows.append((name, seconds, peak))
         if args.profile:
             subprocess.run([sys.executable, "-c", PROFILE, str(blend), str(args.profile)],
@@ -203,6 +208,10 @@ def main() -> int:
     print(f"{'case':<20} {'render s':>9} {'peak MiB':>9}")
     for name, seconds, peak in rows:
         print(f"{name:<20} {seconds:9.2f} {peak:9.0f}")
+    textured, plain = rows[0][1], rows[-1][1]
+    print(f"the walls' textured materials cost {textured - plain:.2f} s of the "
+          f"{textured:.2f} s frame ({100 * (textured - plain) / textured:.0f}%; 'plain': the "
+          "same scene with constant wall materials)")
     if not args.skip_cycles:
         print(f"speed-up at 1920x1080: Cycles / BO2 = {rows[2][1] / rows[0][1]:.1f}x")
     return 0

@@ -574,9 +574,7 @@ def _op_principled(ev, op, pts):
     albedo, rf0, gloss = principled_to_talk(base[:, :3], metallic, rough, ior, level,
                                             tint[:, :3], trans)
     normal = ev.normal_arg(op, 10, pts) if op.args[10] is not None else None
-    c = _closure(albedo, rf0, _ONE, gloss, ecol[:, :3] * estr, normal)
-    a = np.clip(alpha, 0.0, 1.0)
-    return _add(c.scaled(a), _closure(transparent=_ONE).scaled(1.0 - a))
+    return _with_alpha(_closure(albedo, rf0, _ONE, gloss, ecol[:, :3] * estr, normal), alpha)
 
 
 def _op_bo2(ev, op, pts):
@@ -584,8 +582,14 @@ def _op_bo2(ev, op, pts):
     albedo, rf0, gloss = (ev.arg(op, k, pts) for k in range(3))
     normal = ev.normal_arg(op, 3, pts) if op.args[3] is not None else None
     emission, strength, alpha = (ev.arg(op, k, pts) for k in (4, 5, 6))
-    c = _closure(albedo[:, :3], rf0[:, :3], _ONE,
-                 np.clip(gloss, 0.0, 1.0), emission[:, :3] * strength, normal)
+    return _with_alpha(_closure(albedo[:, :3], rf0[:, :3], _ONE, np.clip(gloss, 0.0, 1.0),
+                                emission[:, :3] * strength, normal), alpha)
+
+
+def _with_alpha(c: Closure, alpha) -> Closure:
+    """A surface of coverage ``alpha``: mixed with a Transparent BSDF by 1 - alpha."""
+    if alpha.shape == (1, 1) and alpha[0, 0] >= 1.0:
+        return c
     a = np.clip(alpha, 0.0, 1.0)
     return _add(c.scaled(a), _closure(transparent=_ONE).scaled(1.0 - a))
 
@@ -766,32 +770,35 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
     ev = _Evaluation(program, points)
     c: Closure = ev.value(program.surface, points)
     n = points.n
-    full = {f: np.broadcast_to(getattr(c, f), (n, w)) for f, w in
-            (("albedo", 3), ("rf0", 3), ("spec", 1), ("gloss", 1), ("emission", 3),
-             ("normal", 3), ("nweight", 1), ("transparent", 1), ("weight", 1))}
-    alpha = np.clip(1.0 - full["transparent"], 0.0, 1.0)
-    inv = np.where(alpha > 0.0, 1.0 / np.where(alpha > 0.0, alpha, 1.0), 0.0)
-    spec = full["spec"]
-    gloss = np.where(spec > 0.0, full["gloss"] / np.where(spec > 0.0, spec, 1.0), 0.0)
+    alpha = np.clip(1.0 - c.transparent, 0.0, 1.0)
+    opaque = bool(np.all(alpha >= 1.0))
+    inv = 1.0 if opaque else np.where(alpha > 0.0, 1.0 / np.where(alpha > 0.0, alpha, 1.0), 0.0)
+    gloss = np.where(c.spec > 0.0, c.gloss / np.where(c.spec > 0.0, c.spec, 1.0), 0.0)
     normal = None
-    if np.any(full["nweight"] > 0.0):
+    if np.any(c.nweight > 0.0):
         # closures without a normal input contribute the geometry's
-        rest = np.maximum(full["weight"] - full["nweight"], 0.0)
-        normal = _unit(full["normal"] + rest * points.normal)
-        normal = np.where(np.linalg.norm(normal, axis=1, keepdims=True) > 0.5, normal,
+        rest = np.maximum(c.weight - c.nweight, 0.0)
+        mixed = c.normal + rest * points.normal if np.any(rest > 0.0) else c.normal
+        normal = np.broadcast_to(_unit(mixed), (n, 3))
+        normal = np.where(np.einsum("nc,nc->n", normal, normal)[:, None] > 0.25, normal,
                           points.normal)
     occlusion = None
     if program.occlusion is not None:
         occlusion = np.clip(np.broadcast_to(ev.value(program.occlusion, points), (n, 1))[:, 0],
                             0.0, 1.0).astype(np.float32)
 
-    def clean(x):
-        return np.where(np.isfinite(x), x, 0.0).astype(np.float32)
+    def out(x, width):
+        x = np.asarray(x, np.float32)
+        if x.shape != (n, width) or not x.flags.c_contiguous or not x.flags.writeable:
+            x = np.broadcast_to(x, (n, width)).copy()
+        return x if np.isfinite(x).all() else np.where(np.isfinite(x), x, 0.0).astype(np.float32)
 
     return SurfaceParams(
-        albedo=clean(full["albedo"] * inv), rf0=clean(np.clip(full["rf0"] * inv, 0.0, 1.0)),
-        gloss=clean(np.clip(gloss[:, 0], 0.0, 1.0)), emission=clean(full["emission"] * inv),
-        alpha=clean(alpha[:, 0]), normal=normal, occlusion=occlusion)
+        albedo=out(c.albedo if opaque else c.albedo * inv, 3),
+        rf0=out(np.clip(c.rf0 if opaque else c.rf0 * inv, 0.0, 1.0), 3),
+        gloss=out(np.clip(gloss, 0.0, 1.0), 1)[:, 0],
+        emission=out(c.emission if opaque else c.emission * inv, 3),
+        alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion)
 
 
 __all__ = ["Op", "Program", "ProgramBuilder", "Points", "SurfaceParams", "Closure", "KINDS",
