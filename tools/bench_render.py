@@ -5,12 +5,12 @@ Usage: python tools/bench_render.py [--samples N] [--cycles-samples N] [--skip-c
 
 Builds a scene of about 120k triangles (a room: floor and walls with the textured node chain of
 an imported PBR asset, 30 smooth spheres, boxes) lit by a point light (cube shadow map), a spot
-and a sun, renders it at 1920x1080 with BO2
-Lighting and with Cycles (CPU, 128 samples by default), BO2 Lighting at 3840x2160 for memory,
-and the same scene with constant wall materials ("plain": what the materials cost). Each render runs in its own ``bo2 render`` process; the table gives the render time
-that process reports (scene loading excluded) and the process's peak resident memory.
-``--profile N`` adds the N functions where one thread's 1920x1080 frame spends its time, and
-the share of the material programs' evaluation.
+and a sun, and renders it at 1920x1080 with BO2 Lighting and with Cycles (CPU, 128 samples by
+default), with BO2 Lighting at 3840x2160 for memory, and with BO2 Lighting again with constant
+wall materials ("plain": what the materials cost). Each render runs in its own ``bo2 render``
+process; the table gives the render time that process reports (scene loading excluded) and the
+process's peak resident memory. ``--profile N`` adds the N functions where one thread's
+1920x1080 frame spends its time, and the share of the material programs' evaluation.
 Prints figures only.
 """
 

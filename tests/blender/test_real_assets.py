@@ -13,13 +13,13 @@ BSDF fed through the same node chains (base colour times factor and vertex colou
 metallic-roughness channels, normal map, emission, alpha modes).
 """
 
-import math
+import sys
 from pathlib import Path
 
 import bpy
 import numpy as np
 import pytest
-from util import render_passes, set_world_color
+from util import render_passes
 
 ROOT = Path(__file__).resolve().parents[2]
 REFERENCE = ROOT.parent / "shared" / "reference"
@@ -122,39 +122,13 @@ def rebuild_legacy_gltf(material) -> bool:
 
 
 def stage(scene):
-    """The comparison set-up: one sun (the scene's own lights removed), a black world, a camera
-    framing every mesh when the file has none, direct light only in Cycles."""
-    import mathutils
-
-    for obj in list(scene.objects):
-        if obj.type == "LIGHT":
-            bpy.data.objects.remove(obj)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.data.angle = math.radians(2.0)
-    sun.rotation_euler = (math.radians(35), 0.0, math.radians(20))
-    scene.collection.objects.link(sun)
-    set_world_color(scene)
-    r = scene.render
-    r.resolution_x, r.resolution_y, r.resolution_percentage = W, H, 100
-    r.film_transparent = False
-    scene.view_settings.view_transform = "Standard"
-    scene.cycles.max_bounces = 0
-    scene.cycles.transparent_max_bounces = 8
-    meshes = [o for o in scene.objects if o.type == "MESH" and o.visible_get()]
-    if meshes:  # the files' own cameras frame their objects small, or not at all
-        pts = [o.matrix_world @ mathutils.Vector(c) for o in meshes for c in o.bound_box]
-        lo = mathutils.Vector([min(p[i] for p in pts) for i in range(3)])
-        hi = mathutils.Vector([max(p[i] for p in pts) for i in range(3)])
-        centre, radius = (lo + hi) / 2, (hi - lo).length / 2
-        cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-        cam.location = centre + mathutils.Vector((0.5, -0.8, 0.6)).normalized() * radius * 1.9
-        cam.rotation_euler = (centre - cam.location).to_track_quat("-Z", "Y").to_euler()
-        scene.collection.objects.link(cam)
-        scene.camera = cam
-        # the sun shines from over the camera's shoulder: what the camera sees is lit
-        sun.rotation_euler = (cam.rotation_euler.x - 0.35, cam.rotation_euler.y,
-                              cam.rotation_euler.z + 0.3)
+    """``tools/make_asset_images.stage``: one sun, a black world, a framing camera."""
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        import make_asset_images
+    finally:
+        sys.path.pop(0)
+    make_asset_images.stage(scene, W, H)
 
 
 def unsupported_warnings(scene) -> list[str]:
