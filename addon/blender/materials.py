@@ -314,10 +314,14 @@ def _image(c, node, out, ctx):
     tex = load_image(node.image, node.extension, node.interpolation, c.warnings,
                      f"Material '{c.name}', node '{node.name}'")
     alpha_mode = getattr(node.image, "alpha_mode", "STRAIGHT") if node.image else "NONE"
-    premultiply = (not alpha_linked) and alpha_mode in ("STRAIGHT", "PREMUL")
+    # Cycles' Color output of a colour image with alpha is colour times alpha, filtered so,
+    # unless the Alpha output is used (then colour and alpha are filtered each on its own);
+    # data (Non-Color) images are never associated
+    data = node.image is not None and node.image.colorspace_settings.is_data
+    associate = int(not alpha_linked and not data and alpha_mode in ("STRAIGHT", "PREMUL"))
     vec = node.inputs["Vector"]
     args = (c.socket(vec, "vector", ctx),) if vec.is_linked else ()
-    reg = c.b.add("image", *args, param=(tex, premultiply))
+    reg = c.b.add("image", *args, param=(tex, associate))
     if out.name == "Alpha":
         return _swizzle(c, reg, 3, 4), "float"
     return _swizzle(c, reg, 0, 3), "color"

@@ -343,10 +343,11 @@ def _op_texcoord(ev, op, pts):
 
 def _op_image(ev, op, pts):
     """(N, 4) RGBA of an image at the vector's (u, v); Cycles' magenta for a missing image.
-    param: (texture or None, premultiply). args: (vector,) or () for the active UV map."""
+    param: (texture or None, associate: ``texture.sample``'s). args: (vector,) or () for the
+    active UV map."""
     from . import texture
 
-    tex, premultiply = op.param
+    tex, associate = op.param
     if tex is None:
         return np.array([[1.0, 0.0, 1.0, 1.0]], np.float32)
     if op.args:
@@ -366,11 +367,9 @@ def _op_image(ev, op, pts):
                                   np.broadcast_to(steps[1], (pts.n, 3)), float(w), float(h),
                                   lod)
             ev.lod[id(op)] = lod
-    px = texture.sample(tex, vec[:, :2], lod)
+    px = texture.sample(tex, vec[:, :2], lod, associate)
     c = px.shape[1]
     if c == 4:
-        if premultiply:
-            px[:, :3] *= px[:, 3:]
         return px
     out = np.empty((pts.n, 4), np.float32)
     out[:, :3] = px[:, :3] if c >= 3 else px[:, :1]

@@ -6,8 +6,8 @@ What the module follows, and where from:
 - sRGB: the exact piecewise transfer functions of IEC 61966-2-1:1999 (linear segment below
   0.04045 / 0.0031308, power 2.4 above), which is what Blender's "sRGB" colour space decodes.
   Level 0 of an sRGB texture keeps its encoded values and a look-up decodes after the
-  bilinear step, as Cycles does with 8-bit sRGB images (``compress_as_srgb``), so magnified
-  texels blend as in Cycles; the mip levels are built from the decoded image.
+  bilinear step, as Cycles does with 8-bit sRGB images, so magnified texels blend as in
+  Cycles; the mip levels are built from the decoded image.
 - Mip maps: Williams 1983, "Pyramidal parametrics". Level k+1 halves level k with a box filter
   (size max(1, floor(n / 2)) per axis, the OpenGL rule); an odd axis of n = 2m + 1 texels uses
   the exact area weights of output texel i over input texels 2i, 2i+1, 2i+2:
@@ -22,8 +22,9 @@ What the module follows, and where from:
   transparent black, so the image fades out over the half texel beyond its edge, as in
   Cycles) and MIRROR (mirrored repeat, the edge texel repeated:
   ... 1 0 | 0 1 ... w-1 | w-1 w-2 ...). Bilinear within a level, linear between
-  the two nearest levels (trilinear, Williams 1983). "Closest" reads the nearest texel of level 0.
-  "Cubic" and "Smart" are treated as "Linear" (no bicubic B-spline filter here).
+  the two nearest levels (trilinear, Williams 1983). "Closest" reads the nearest texel of level 0;
+  "Cubic" (and "Smart", which is Cubic in Cycles) the uniform cubic B-spline of level 0's 4 x 4
+  texels around the position, as Cycles' Cubic.
 - LOD: the isotropic scale factor of the OpenGL 4.6 specification (section 8.14.1),
   rho = max(|d(uv * size)/dx|, |d(uv * size)/dy|), lod = log2(rho).
 - UV derivatives: ray differentials (Igehy 1999, "Tracing ray differentials"): the rays of the
@@ -126,7 +127,7 @@ class Texture:
                    at the top; mips[0] is the image, the last level is 1 x 1; the first
                    ``encoded`` channels of level 0 are sRGB-encoded (``linear(0)`` decodes)
     extension:     "REPEAT", "EXTEND", "CLIP" or "MIRROR" (Image Texture node's Extension)
-    interpolation: "Linear", "Closest"; "Cubic" and "Smart" sample as "Linear"
+    interpolation: "Linear", "Closest", "Cubic" or "Smart" (Cubic, as Cycles)
     name:          the image's name, for messages
     """
 
@@ -283,14 +284,15 @@ def make_texture(
 # Sampling
 
 
-def sample(texture: Texture, uv, lod=None) -> np.ndarray:
+def sample(texture: Texture, uv, lod=None, associate: int = 0) -> np.ndarray:
     """Filtered texture lookups (Williams 1983 trilinear filtering, Blender's UV conventions):
     ``kernels.textures.sample``.
 
     Bilinear between the four texels around the position (texel centres at ((i + 0.5) / w,
     (j + 0.5) / h)), wrapped by the texture's extension as Cycles' wrap functions do (REPEAT,
     MIRROR, EXTEND clamps (and so does an unknown mode), CLIP reads 0 outside the image);
-    "Closest" takes the nearest texel; with ``lod``, linear between the two nearest levels.
+    "Closest" takes the nearest texel, "Cubic" and "Smart" the cubic B-spline of level 0 (as
+    Cycles); with ``lod``, linear between the two nearest levels.
 
     texture: the texture
     uv:      (N, 2) UV; (0, 0) is the bottom-left corner of the image, (1, 1) the top-right,
@@ -298,6 +300,10 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
              non-finite UVs read as (0, 0)
     lod:     None for level 0, or a scalar or (N,) level of detail (log2 of the footprint in
              level-0 texels), clamped to [0, levels - 1]; NaN means the coarsest level
+    associate: for RGBA textures, 0 filters the channels independently (data, channel-packed
+             images); 1 filters colour times alpha and returns it (Cycles' Color output of an
+             image with alpha when its Alpha output is not used); 2 divides that by the
+             filtered alpha (Cycles' straight Color when the Alpha output is used)
     returns: (N, C) float32 scene-linear (sRGB level 0 decoded); with CLIP, 0 (all channels,
              alpha too) beyond half a texel outside the unit square
     """
@@ -312,8 +318,8 @@ def sample(texture: Texture, uv, lod=None) -> np.ndarray:
                      np.float64, ["C", "W"])
     out = np.empty((n, texture.channels), np.float32)
     kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.EXTEND),
-                   texture.channels, texture.interpolation == "Closest",
-                   u, v, lod, use_lod, texture.encoded, out)
+                   texture.channels, kernels.FILTERS.get(texture.interpolation, kernels.LINEAR),
+                   u, v, lod, use_lod, texture.encoded, int(associate), out)
     return out
 
 

@@ -171,3 +171,52 @@ def test_srgb_level_zero_is_decoded_after_interpolation():
     level1 = texture.Texture(tex.mips[1:], tex.extension)
     blend = 0.5 * got[:, :3] + 0.5 * texture.sample(level1, uv)[:, :3]
     np.testing.assert_allclose(mid[:, :3], blend, rtol=1e-5, atol=1e-6)
+
+
+def bspline(d):
+    """The uniform cubic B-spline kernel at distance d (texels)."""
+    d = abs(d)
+    return (4.0 - 6.0 * d * d + 3.0 * d ** 3) / 6.0 if d < 1.0 else (
+        (2.0 - d) ** 3 / 6.0 if d < 2.0 else 0.0)
+
+
+@pytest.mark.parametrize("extension", ["REPEAT", "EXTEND", "CLIP", "MIRROR"])
+def test_cubic_is_the_b_spline_of_the_texels(extension):
+    """Cubic (as Cycles): the cubic B-spline kernel over the texel centres, each texel wrapped
+    by the extension (CLIP: 0 outside)."""
+    img = RNG.random((7, 9, 2)).astype(np.float32)
+    tex = texture.Texture(texture.build_mips(img), extension, "Cubic")
+    uv = RNG.uniform(-0.3, 1.3, (60, 2))
+    got = texture.sample(tex, uv)
+    h, w = img.shape[:2]
+    for (u, v), value in zip(uv, got, strict=True):
+        x, y = u * w - 0.5, v * h - 0.5  # texel-centre coordinates, row j counted from the bottom
+        expected = np.zeros(2)
+        for j in range(int(np.floor(y)) - 1, int(np.floor(y)) + 3):
+            for i in range(int(np.floor(x)) - 1, int(np.floor(x)) + 3):
+                col, row = wrapped(i, w, extension), wrapped(j, h, extension)
+                if col is None or row is None:
+                    continue
+                expected += bspline(x - i) * bspline(y - j) * img[h - 1 - row, col]
+        np.testing.assert_allclose(value, expected, rtol=1e-5, atol=1e-6)
+
+
+def test_alpha_association():
+    """associate=1 filters colour times alpha (Cycles' premultiplied images), 2 divides the
+    result by the filtered alpha again; CLIP's outside taps are transparent black in both."""
+    img = RNG.random((6, 5, 4)).astype(np.float32)
+    premultiplied = img.copy()
+    premultiplied[..., :3] *= img[..., 3:]
+    for extension in ("REPEAT", "CLIP"):
+        straight = texture.Texture(texture.build_mips(img), extension)
+        reference = texture.Texture(texture.build_mips(premultiplied), extension)
+        uv = RNG.uniform(-0.2, 1.2, (200, 2))
+        expected = texture.sample(reference, uv)
+        np.testing.assert_allclose(texture.sample(straight, uv, associate=1), expected,
+                                   rtol=1e-5, atol=1e-6)
+        got = texture.sample(straight, uv, associate=2)
+        alpha = expected[:, 3:]
+        ok = alpha[:, 0] > 1e-3
+        np.testing.assert_allclose(got[ok, :3], expected[ok, :3] / alpha[ok], rtol=1e-4,
+                                   atol=1e-5)
+        np.testing.assert_array_equal(got[:, 3], expected[:, 3])

@@ -122,9 +122,9 @@ def _wrap(i, n, extension):
 
 
 _SAMPLE = nb.void(
-    nb.float32[::1], nb.int64[:, ::1], nb.int64, nb.int64, nb.boolean,  # texels, levels
+    nb.float32[::1], nb.int64[:, ::1], nb.int64, nb.int64, nb.int64,  # texels, levels
     nb.float64[::1], nb.float64[::1], nb.float64[::1], nb.boolean,  # u, v, lod, use lod
-    nb.int64, nb.float32[:, ::1],  # decode, out (N, C)
+    nb.int64, nb.int64, nb.float32[:, ::1],  # decode, associate, out (N, C)
 )
 
 
@@ -135,14 +135,38 @@ def _decode(v):
     return _srgb_formula(v)
 
 
+LINEAR, CLOSEST, CUBIC = 0, 1, 2
+FILTERS = {"Linear": LINEAR, "Closest": CLOSEST, "Cubic": CUBIC, "Smart": CUBIC}
+
+
+@nb.njit(**_OPTIONS)
+def _spline(t):
+    """Uniform cubic B-spline weights of the four taps around t in [0, 1) (Cycles'
+    ``SET_CUBIC_SPLINE_WEIGHTS``)."""
+    w0 = (((np.float32(-1.0 / 6.0) * t + np.float32(0.5)) * t - np.float32(0.5)) * t
+          + np.float32(1.0 / 6.0))
+    w1 = ((np.float32(0.5) * t - np.float32(1.0)) * t) * t + np.float32(2.0 / 3.0)
+    w2 = ((np.float32(-0.5) * t + np.float32(0.5)) * t + np.float32(0.5)) * t \
+        + np.float32(1.0 / 6.0)
+    w3 = np.float32(1.0 / 6.0) * t * t * t
+    return w0, w1, w2, w3
+
+
 @nb.njit(_SAMPLE, **_OPTIONS)
-def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, decode, out):
+def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode, associate,
+           out):
     """``texture.sample``: filtered look-ups of a texture whose mip level k (rows: offset into
-    ``texels``, height, width) is stored row 0 at the top, C = ``channels``; bilinear (closest:
-    nearest) at level 0 without ``use_lod``, else trilinear at ``lod`` (N,) (clamped to the
-    levels, NaN: the coarsest). The first ``decode`` channels of level 0 are sRGB-encoded and
-    decoded after the bilinear step, as Cycles does for 8-bit sRGB images (the other levels are
-    linear). UV as Blender's, v up; out (N, C) float32."""
+    ``texels``, height, width) is stored row 0 at the top, C = ``channels``; ``mode`` LINEAR:
+    bilinear at level 0 without ``use_lod``, else trilinear at ``lod`` (N,) (clamped to the
+    levels, NaN: the coarsest); CLOSEST: the nearest texel of level 0; CUBIC: level 0 by the
+    cubic B-spline of its 4 x 4 taps (as Cycles' Cubic), blended linearly with level 1 beyond
+    lod 0. The first ``decode`` channels of level 0 are sRGB-encoded and decoded after the
+    interpolation, as Cycles does for 8-bit sRGB images (the other levels are linear). With
+    ``associate`` (RGBA only), the colour of every tap is multiplied by its alpha before it is
+    weighted, as Cycles filters images with alpha: 1 returns that premultiplied colour, 2
+    divides it by the filtered alpha again. UV as Blender's, v up; out (N, C) float32."""
+    closest = mode == CLOSEST
+    assoc = associate > 0 and channels == 4
     top = levels.shape[0] - 1
     for i in range(u.shape[0]):
         uu, vv = u[i], v[i]
@@ -159,6 +183,8 @@ def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, dec
             at = off + ((h - 1 - row) * w + col) * channels
             for c in range(channels):
                 t = texels[at + c] if col_ok and row_ok else np.float32(0.0)
+                if assoc and c < 3 and col_ok and row_ok:
+                    t *= texels[at + 3]
                 out[i, c] = _decode(t) if c < decode else t
         else:
             if use_lod:
@@ -179,6 +205,28 @@ def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, dec
                 y = vv * h - 0.5
                 x0, y0 = np.floor(x), np.floor(y)
                 tx, ty = np.float32(x - x0), np.float32(y - y0)
+                if mode == CUBIC and k == 0:
+                    wx, wy = _spline(tx), _spline(ty)
+                    for c in range(channels):
+                        acc = np.float32(0.0)
+                        for j in range(4):
+                            row, row_ok = _wrap(np.int64(y0) - 1 + j, h, extension)
+                            if not row_ok:
+                                continue
+                            base_row = off + (h - 1 - row) * w * channels
+                            line = np.float32(0.0)
+                            for m in range(4):
+                                col, col_ok = _wrap(np.int64(x0) - 1 + m, w, extension)
+                                if col_ok:
+                                    t = texels[base_row + col * channels + c]
+                                    if assoc and c < 3:
+                                        t *= texels[base_row + col * channels + 3]
+                                    line += wx[m] * t
+                            acc += wy[j] * line
+                        if c < decode:
+                            acc = _decode(acc)
+                        out[i, c] += weight * acc
+                    continue
                 c0, ok0 = _wrap(np.int64(x0), w, extension)
                 c1, ok1 = _wrap(np.int64(x0) + 1, w, extension)
                 r0, okr0 = _wrap(np.int64(y0), h, extension)
@@ -192,10 +240,17 @@ def sample(texels, levels, extension, channels, closest, u, v, lod, use_lod, dec
                             wgt = wx * wy
                             if not (row_ok and col_ok):
                                 wgt = np.float32(0.0)
-                            acc += wgt * texels[base_row + col * channels + c]
+                            t = texels[base_row + col * channels + c]
+                            if assoc and c < 3:
+                                t *= texels[base_row + col * channels + 3]
+                            acc += wgt * t
                     if k == 0 and c < decode:
                         acc = _decode(acc)
                     out[i, c] += weight * acc
+        if assoc and associate == 2:
+            a = out[i, 3]
+            for c in range(3):
+                out[i, c] = out[i, c] / a if a > np.float32(0.0) else np.float32(0.0)
 
 
 _RO = nb.types.Array(nb.float32, 2, "A", readonly=True)
