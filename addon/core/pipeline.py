@@ -132,12 +132,14 @@ def _constant_tables(materials: list[Material]) -> dict:
     table = {k: np.zeros((n, c), np.float32) for k, c in
              (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1), ("alpha", 1))}
     varying = np.array([not m.program.constant for m in materials], bool)
+    table["occlusion"] = np.ones((n, 1), np.float32)
     for i, m in enumerate(materials):
         if not varying[i]:
             p = material.evaluate(m.program, _constant_points())
             for k in table:
-                table[k][i] = np.asarray(getattr(p, k), np.float32).reshape(-1)[
-                    : table[k].shape[1]]
+                value = getattr(p, k)
+                if value is not None:
+                    table[k][i] = np.asarray(value, np.float32).reshape(-1)[:table[k].shape[1]]
     table["varying"] = varying
     table["fades"] = np.array([m.program.fades and (varying[i] or table["alpha"][i, 0] < 1.0)
                                for i, m in enumerate(materials)], bool)
@@ -370,7 +372,8 @@ def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         return s if s.normal is not None else dataclasses.replace(s, normal=n)
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
     emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
-    normal, occlusion = n, None
+    normal = n
+    occlusion = t["occlusion"][mid, 0] if (t["occlusion"] < 1.0).any() else None
     for m in varying:
         sel = np.flatnonzero(mid == m)
         if not len(sel):

@@ -732,3 +732,39 @@ def test_a_node_loop_renders_as_in_cycles(addon):
     assert (cycles.max() == 0.0) == (bpy.app.version >= (5, 0, 0))
     assert np.abs(ours["Albedo"][..., :3] - cycles).max() < 1e-4
     assert np.isfinite(ours["Combined"]).all()
+
+
+def test_gltf_occlusion_dims_indirect_light(addon):
+    """The glTF importer's "glTF Material Output" group: its Occlusion scales the indirect
+    light (Cycles ignores it; glTF defines it so)."""
+    from bo2_lighting.addon.blender import extract
+
+    results = {}
+    for occlusion in (None, 0.25):
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        mat, tree = bare_material("occluded")
+        diffuse_with(tree, _node(tree, "ShaderNodeRGB").outputs[0])
+        if occlusion is not None:
+            group = bpy.data.node_groups.new("glTF Material Output", "ShaderNodeTree")
+            group.interface.new_socket("Occlusion", in_out="INPUT",
+                                       socket_type="NodeSocketFloat")
+            node = _node(tree, "ShaderNodeGroup")
+            node.node_tree = group
+            value = _node(tree, "ShaderNodeValue")
+            value.outputs[0].default_value = occlusion
+            _link(tree, value.outputs[0], node.inputs["Occlusion"])
+        scene, _ = plane_scene(mat)
+        sky = bpy.data.worlds.new("Sky")
+        sky.color = (0.5, 0.5, 0.5)
+        if bpy.app.version < (5, 0, 0):
+            sky.use_nodes = True
+        sky.node_tree.nodes["Background"].inputs["Color"].default_value = (
+            0.5, 0.5, 0.5, 1.0)
+        scene.world = sky
+        scene.bo2.use_indirect = True
+        frame, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get())
+        assert (frame.materials[-1].program.occlusion is None) == (occlusion is None)
+        results[occlusion] = render_passes(scene, "BO2_LIGHTING", ["DiffInd"])["DiffInd"]
+    lit, dimmed = results[None][..., :3].mean(), results[0.25][..., :3].mean()
+    assert lit > 0.05
+    assert dimmed == pytest.approx(0.25 * lit, rel=1e-3)
