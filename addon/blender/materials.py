@@ -13,6 +13,8 @@ magenta) or attribute (zero) give one warning each and the render goes on.
 
 from __future__ import annotations
 
+import hashlib
+
 import bpy
 import numpy as np
 
@@ -22,7 +24,7 @@ from ..core.scene import Material
 from . import images
 from .node_groups import is_bo2_material_node
 
-_cache: dict[tuple, texture.Texture] = {}
+_cache: dict[tuple, tuple] = {}  # image key -> (texture, digest of its pixels)
 RAMP_TABLE_SIZE = 256  # Cycles' RAMP_TABLE_SIZE
 _GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
 _VECTOR_VALUE_OPS = {"DOT_PRODUCT", "DISTANCE", "LENGTH"}
@@ -35,30 +37,34 @@ def _image_key(image) -> tuple:
 
 def load_image(image, extension: str, interpolation: str, warnings: list[str], where: str):
     """A Blender image as a mipmapped linear ``Texture``, or None (with a warning) if unusable.
-    Prepared once per image and settings, and reused across renders while it is unchanged."""
+    Prepared once per image and settings and reused across renders while it is unchanged (an
+    image edited in Blender and not saved is compared by a digest of its pixels)."""
     if image is None:
         warnings.append(f"{where}: the Image Texture node has no image")
         return None
     key = _image_key(image) + (extension, interpolation)
-    if key in _cache and not image.is_dirty:
-        return _cache[key]
-    width, height = image.size
+    cached = _cache.get(key)
+    if cached is not None and not image.is_dirty:
+        return cached[0]
     if not image.has_data:
         try:
             image.pixels[0]  # loads the image from its file when it can be loaded
         except (IndexError, RuntimeError):
             pass
-        width, height = image.size
+    width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
         warnings.append(f"{where}: image '{image.name}' could not be loaded "
                         f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
         return None
     pixels = images.image_pixels(image)
+    digest = hashlib.blake2b(pixels.tobytes(), digest_size=16).hexdigest()
+    if cached is not None and cached[1] == digest:
+        return cached[0]
     # Byte images hold encoded values; float images are already scene-linear in memory.
     srgb = not image.is_float and image.colorspace_settings.name == "sRGB"
     tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
                                interpolation=interpolation, name=image.name)
-    _cache[key] = tex
+    _cache[key] = (tex, digest)
     return tex
 
 

@@ -768,3 +768,36 @@ def test_gltf_occlusion_dims_indirect_light(addon):
     lit, dimmed = results[None][..., :3].mean(), results[0.25][..., :3].mean()
     assert lit > 0.05
     assert dimmed == pytest.approx(0.25 * lit, rel=1e-3)
+
+
+def test_images_are_prepared_once_per_session(addon, monkeypatch):
+    """Three image nodes of one image, two materials, two frames and a second render: the image
+    becomes a texture once, and again only after it changes."""
+    from bo2_lighting.addon.core import texture
+
+    calls = []
+    real = texture.make_texture
+    monkeypatch.setattr(texture, "make_texture",
+                        lambda *a, **k: calls.append(k.get("name")) or real(*a, **k))
+    mat, tree, tex = image_material("shared image")
+    for _ in range(2):
+        other = _node(tree, "ShaderNodeTexImage")
+        other.image = tex.image
+        mix = _node(tree, "ShaderNodeMix", data_type="RGBA")
+        _link(tree, tex.outputs["Color"], sock(mix.inputs, "A_Color"))
+        _link(tree, other.outputs["Color"], sock(mix.inputs, "B_Color"))
+        tex = other
+    diffuse_with(tree, sock(mix.outputs, "Result_Color"))
+    scene, _ = plane_scene(mat)
+    second, tree2, _ = image_material("second material")
+    tree2.nodes["Image Texture"].image = tex.image
+    diffuse_with(tree2, tree2.nodes["Image Texture"].outputs["Color"])
+    bpy.ops.mesh.primitive_plane_add(size=0.5, location=(0.0, 0.0, 0.1))
+    bpy.context.object.data.materials.append(second)
+    for frame in (1, 2):
+        scene.frame_set(frame)
+        render_passes(scene, "BO2_LIGHTING", ["Albedo"], samples=1)
+    assert calls == [tex.image.name]
+    tex.image.pixels[0] = 0.5  # an edit: the texture is made again
+    render_passes(scene, "BO2_LIGHTING", ["Albedo"], samples=1)
+    assert calls == [tex.image.name] * 2
