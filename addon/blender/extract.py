@@ -61,7 +61,7 @@ def _read_mesh(mesh, requires=frozenset(), warn=None):
     """Object-space triangles of an evaluated mesh.
 
     requires: corner attributes the materials read (``core.material.Program.requires``)
-    warn:     called with (key, reason) for an attribute the mesh cannot give
+    warn:     called with the key of each attribute the mesh cannot give
     returns:  positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
               UV map (T, 3, 2) or None, material slot (T,), attributes {key: (T, 3, k)}
     """
@@ -109,6 +109,7 @@ def _uv_layer(mesh, layer, loop_idx, nt):
     return flat.reshape(-1, 2)[loop_idx].reshape(nt, 3, 2)
 
 
+# data type -> (the property foreach_get reads, components)
 _ATTRIBUTE_WIDTH = {"FLOAT": ("value", 1), "INT": ("value", 1), "INT8": ("value", 1),
                     "BOOLEAN": ("value", 1), "FLOAT2": ("vector", 2), "INT32_2D": ("value", 2),
                     "FLOAT_VECTOR": ("vector", 3), "FLOAT_COLOR": ("color", 4),
@@ -127,14 +128,13 @@ def _attribute(mesh, name, vert_idx, loop_idx, tris, nt):
     if attr is None or attr.data_type not in _ATTRIBUTE_WIDTH or attr.domain == "EDGE":
         return None
     kind, width = _ATTRIBUTE_WIDTH[attr.data_type]
-    prop = {"color": "color", "vector": "vector"}.get(kind, "value")
     raw = np.empty(len(attr.data) * width, np.float32)
     if attr.data_type in ("INT", "INT8", "BOOLEAN", "INT32_2D"):
-        ints = np.empty(len(attr.data) * width, np.int64 if attr.data_type != "BOOLEAN" else bool)
+        ints = np.empty(len(attr.data) * width, bool if attr.data_type == "BOOLEAN" else np.int32)
         attr.data.foreach_get("value", ints)
         raw = ints.astype(np.float32)
     else:
-        attr.data.foreach_get(prop, raw)
+        attr.data.foreach_get(kind, raw)
     raw = raw.reshape(-1, width)
     if attr.domain == "POINT":
         index = vert_idx

@@ -801,3 +801,42 @@ def test_images_are_prepared_once_per_session(addon, monkeypatch):
     tex.image.pixels[0] = 0.5  # an edit: the texture is made again
     render_passes(scene, "BO2_LIGHTING", ["Albedo"], samples=1)
     assert calls == [tex.image.name] * 2
+
+
+def test_attributes_of_every_domain_and_type(addon):
+    """Attribute nodes reading a float per face, an integer per point and a vector per corner
+    of a grid, as Cycles reads them (Fac: the average of the components)."""
+    mat, tree = bare_material("attributes")
+    comb = _node(tree, "ShaderNodeCombineColor")
+    for k, (name, out) in enumerate((("f", "Fac"), ("i", "Fac"), ("v", "Color"))):
+        attr = _node(tree, "ShaderNodeAttribute", attribute_name=name)
+        value = attr.outputs[out]
+        if name == "i":
+            scaled = _node(tree, "ShaderNodeMath", operation="MULTIPLY")
+            _link(tree, value, scaled.inputs[0])
+            scaled.inputs[1].default_value = 0.25
+            value = scaled.outputs[0]
+        _link(tree, value, comb.inputs[k])
+    diffuse_with(tree, comb.outputs[0])
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = RES
+    scene.render.filter_size = scene.cycles.filter_width = 0.01
+    scene.cycles.max_bounces = 0
+    bpy.ops.mesh.primitive_grid_add(x_subdivisions=5, y_subdivisions=5, size=2.0)
+    grid = bpy.context.object
+    grid.data.materials.append(mat)
+    add_ortho_camera(scene, 2.0)
+    mesh = grid.data
+    rng = np.random.default_rng(5)
+    f = mesh.attributes.new("f", "FLOAT", "FACE")
+    f.data.foreach_set("value", rng.random(len(f.data)).astype(np.float32))
+    i = mesh.attributes.new("i", "INT", "POINT")
+    i.data.foreach_set("value", rng.integers(0, 4, len(i.data)).astype(np.int32))
+    v = mesh.attributes.new("v", "FLOAT_VECTOR", "CORNER")
+    v.data.foreach_set("vector", rng.random(len(v.data) * 3).astype(np.float32))
+    ours = render_passes(scene, "BO2_LIGHTING", ["Albedo"])["Albedo"][..., :3]
+    cycles = render_passes(scene, "CYCLES", ["DiffCol"])["DiffCol"][..., :3]
+    d = np.abs(ours - cycles)
+    print(f"attributes: mean |d| {d.mean():.2e}, max {d.max():.2e}")
+    assert cycles.std() > 0.1
+    assert d.mean() < 2e-3 and np.percentile(d, 99) < 2e-2
