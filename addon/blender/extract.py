@@ -12,6 +12,7 @@ import bpy
 import numpy as np
 
 from ..core import scene as cs
+from ..core import texture
 from .materials import convert_material, load_image
 from .probes import load_probes
 
@@ -57,11 +58,12 @@ def extract_camera(depsgraph) -> cs.Camera:
     )
 
 
-def _read_mesh(mesh, requires=frozenset(), warn=None):
+def _read_mesh(mesh, requires=frozenset(), warn=None, warn_ngons=None):
     """Object-space triangles of an evaluated mesh.
 
     requires: corner attributes the materials read (``core.material.Program.requires``)
     warn:     called with the key of each attribute the mesh cannot give
+    warn_ngons: called when n-gons leave a normal map with per-triangle tangents
     returns:  positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
               UV map (T, 3, 2) or None, material slot (T,), attributes {key: (T, 3, k)}
     """
@@ -92,7 +94,7 @@ def _read_mesh(mesh, requires=frozenset(), warn=None):
             value = _attribute(mesh, name, vert_idx, loop_idx, tris, nt)
         else:
             value = _tangents(mesh, active if name == "" else mesh.uv_layers.get(name),
-                              loop_idx, nt)
+                              loop_idx, nt, pos, warn_ngons)
         if value is None:
             if warn is not None:
                 warn(key)
@@ -155,15 +157,26 @@ def _attribute(mesh, name, vert_idx, loop_idx, tris, nt):
     return out.reshape(nt, 3, 4)
 
 
-def _tangents(mesh, layer, loop_idx, nt):
+def _tangents(mesh, layer, loop_idx, nt, pos, warn_ngons=None):
     """(T, 3, 4) MikkTSpace tangents (object space) and bitangent signs of a UV map, as
-    Blender computes them (``Mesh.calc_tangents``); None without that map."""
+    Blender computes them (``Mesh.calc_tangents``); None without that map. Blender computes
+    them for triangles and quads only: a mesh with n-gons gets one tangent per triangle
+    (``texture.tangent_frame``) and ``warn_ngons`` is called."""
     if layer is None:
         return None
     try:
         mesh.calc_tangents(uvmap=layer.name)
     except RuntimeError:
-        return None
+        uvs = _uv_layer(mesh, layer, loop_idx, nt)
+        if uvs is None:
+            return None
+        if warn_ngons is not None:
+            warn_ngons()
+        normal = np.cross(pos[:, 1] - pos[:, 0], pos[:, 2] - pos[:, 0])
+        normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-30)
+        tangent, sign = texture.tangent_frame(pos, uvs, normal)
+        out = np.concatenate([tangent, sign[:, None]], 1)
+        return np.repeat(out[:, None], 3, axis=1).astype(np.float32)
     t = np.empty(len(mesh.loops) * 3, np.float32)
     sign = np.empty(len(mesh.loops), np.float32)
     mesh.loops.foreach_get("tangent", t)
@@ -186,6 +199,7 @@ def _to_world(pos, nrm, uvs, attributes: dict, matrix: np.ndarray):
         if key[0] == "tangent":
             t = a.copy()
             t[..., :3] = a[..., :3] @ lin.T.astype(np.float32)
+            t[..., :3] /= np.maximum(np.linalg.norm(t[..., :3], axis=-1, keepdims=True), 1e-20)
             if det < 0:
                 t[..., 3] = -t[..., 3]
             attributes[key] = t
@@ -318,7 +332,11 @@ def _object_data(obj, materials, mat_ids, warnings):
             warnings.append(f"Material '{readers[key][0]}' reads {what} {label}, which object "
                             f"'{obj.name}' does not have; it reads 0")
 
-        pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing)
+        def ngons():
+            warnings.append(f"Object '{obj.name}' has n-gons: Blender's tangents need triangles "
+                            "and quads, so its normal maps use one tangent per triangle")
+
+        pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing, ngons)
         texspace = np.array([np.asarray(mesh.texspace_location) - np.asarray(mesh.texspace_size),
                              2.0 * np.asarray(mesh.texspace_size)], np.float32)
         lut = np.array(slot_ids or [0], np.int32)

@@ -18,6 +18,7 @@ import hashlib
 import bpy
 import numpy as np
 
+from ..core import node_math as nm
 from ..core import texture
 from ..core.material import ProgramBuilder
 from ..core.scene import Material
@@ -27,7 +28,6 @@ from .node_groups import is_bo2_material_node
 _cache: dict[tuple, tuple] = {}  # image key -> (texture, digest of its pixels)
 RAMP_TABLE_SIZE = 256  # Cycles' RAMP_TABLE_SIZE
 _GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
-_VECTOR_VALUE_OPS = {"DOT_PRODUCT", "DISTANCE", "LENGTH"}
 
 
 def _image_key(image) -> tuple:
@@ -164,14 +164,22 @@ class _Compiler:
         if key in self.busy:
             self.warn(f"node '{node.name}' is part of a loop; socket '{into.name}' keeps its "
                       "own value")
-            return self.default(into, _kind(into)), _kind(into)
+            return self.keep(into)
         self.busy.add(key)
+        self.fallback = False
         try:
             result = self._output(node, out, ctx, into)
         finally:
             self.busy.discard(key)
-        self.memo[key] = result
+        if not self.fallback:  # a fallback is the consuming socket's own value: not shared
+            self.memo[key] = result
+        self.fallback = False
         return result
+
+    def keep(self, into) -> tuple[int, str]:
+        """The consuming socket's own value (a fallback, never memoized for other sockets)."""
+        self.fallback = True
+        return self.default(into, _kind(into)), _kind(into)
 
     def _output(self, node, out, ctx, into) -> tuple[int, str]:
         if node.bl_idname == "NodeReroute":
@@ -183,11 +191,11 @@ class _Compiler:
             return self.default(out, _kind(out)), _kind(out)
         if node.bl_idname == "NodeGroupInput":
             if not ctx:
-                return self.default(into, _kind(into)), _kind(into)
+                return self.keep(into)
             group = ctx[-1]
             sock = next((s for s in group.inputs if s.identifier == out.identifier), None)
             if sock is None:
-                return self.default(into, _kind(into)), _kind(into)
+                return self.keep(into)
             return self._through(sock, ctx[:-1], into)
         if node.bl_idname == "ShaderNodeGroup" and not is_bo2_material_node(node):
             return self._group(node, out, ctx, into)
@@ -197,10 +205,9 @@ class _Compiler:
         if handler is None:
             self.warn(f"node '{node.name}' ({node.bl_idname}) feeding '{into.name}' is not "
                       "supported; the socket's value is used")
-            kind = _kind(into)
-            if kind == "shader":
+            if _kind(into) == "shader":
                 return self._viewport_surface(), "shader"
-            return self.default(into, kind), kind
+            return self.keep(into)
         return handler(self, node, out, ctx)
 
     def _through(self, socket, ctx, into) -> tuple[int, str]:
@@ -218,10 +225,10 @@ class _Compiler:
         outputs = [n for n in tree.nodes if n.bl_idname == "NodeGroupOutput"]
         active = [n for n in outputs if n.is_active_output] or outputs
         if not active:
-            return self.default(into, _kind(into)), _kind(into)
+            return self.default(out, _kind(out)), _kind(out)
         sock = next((s for s in active[0].inputs if s.identifier == out.identifier), None)
         if sock is None:
-            return self.default(into, _kind(into)), _kind(into)
+            return self.default(out, _kind(out)), _kind(out)
         kind = _kind(out)
         return self.socket(sock, kind, ctx + (node,)), kind
 
@@ -320,11 +327,12 @@ def _image(c, node, out, ctx):
     tex = load_image(node.image, node.extension, node.interpolation, c.warnings,
                      f"Material '{c.name}', node '{node.name}'")
     alpha_mode = getattr(node.image, "alpha_mode", "STRAIGHT") if node.image else "NONE"
-    # Cycles' Color output of a colour image with alpha is colour times alpha, filtered so,
-    # unless the Alpha output is used (then colour and alpha are filtered each on its own);
-    # data (Non-Color) images are never associated
+    # Cycles filters a colour image with alpha on colour times alpha; its Color output stays so
+    # unless the Alpha output is used (then it is divided by alpha again, before the sRGB
+    # decoding); data (Non-Color) images are never associated
     data = node.image is not None and node.image.colorspace_settings.is_data
-    associate = int(not alpha_linked and not data and alpha_mode in ("STRAIGHT", "PREMUL"))
+    colour = not data and alpha_mode in ("STRAIGHT", "PREMUL")
+    associate = (2 if alpha_linked else 1) if colour else 0
     vec = node.inputs["Vector"]
     args = (c.socket(vec, "vector", ctx),) if vec.is_linked else ()
     reg = c.b.add("image", *args, param=(tex, associate))
@@ -435,7 +443,7 @@ def _vector_math(c, node, out, ctx):
     op = node.operation
     args = [_in(c, node, k, "vector", ctx) for k in range(3)]
     args.append(_in(c, node, 3, "float", ctx) if len(node.inputs) > 3 else c.b.const(1.0))
-    value_op = op in _VECTOR_VALUE_OPS
+    value_op = op in nm.VECTOR_MATH_VALUE
     if (out.name == "Value") != value_op:  # the output this operation leaves unset reads 0
         return c.constant(0.0, _kind(out)), _kind(out)
     return c.b.add("vector_math", *args, param=(op,)), "float" if value_op else "vector"
@@ -496,7 +504,8 @@ def _ramp(c, node, out, ctx):
 
 
 def _curve_table(mapping, curves, combine):
-    """Cycles' ``curvemapping_color_to_array``: (table (256, k), min_x, max_x)."""
+    """Cycles' ``curvemapping_color_to_array``: (table (256, k), min_x, max_x, extrapolate:
+    whether the curves extend their end slopes, Blender's Extrapolated, or hold their ends)."""
     mapping.initialize()
     lo = min(cm.points[0].location[0] for cm in mapping.curves if len(cm.points))
     hi = max(cm.points[-1].location[0] for cm in mapping.curves if len(cm.points))
@@ -507,19 +516,19 @@ def _curve_table(mapping, curves, combine):
                 for x in xs]
     else:
         rows = [[mapping.evaluate(cm[k], x) for k in curves] for x in xs]
-    return np.array(rows, np.float32), float(lo), float(hi)
+    return (np.array(rows, np.float32), float(lo), float(hi),
+            getattr(mapping, "extend", "EXTRAPOLATED") == "EXTRAPOLATED")
 
 
 def _rgb_curves(c, node, out, ctx):
-    table, lo, hi = _curve_table(node.mapping, (0, 1, 2), True)
     return c.b.add("curves", _in(c, node, "Fac", "float", ctx),
-                   _in(c, node, "Color", "color", ctx), param=(table, lo, hi)), "color"
+                   _in(c, node, "Color", "color", ctx),
+                   param=_curve_table(node.mapping, (0, 1, 2), True)), "color"
 
 
 def _float_curve(c, node, out, ctx):
-    table, lo, hi = _curve_table(node.mapping, (0,), False)
     return c.b.add("float_curve", _in(c, node, 0, "float", ctx), _in(c, node, 1, "float", ctx),
-                   param=(table, lo, hi)), "float"
+                   param=_curve_table(node.mapping, (0,), False)), "float"
 
 
 def _map_range(c, node, out, ctx):

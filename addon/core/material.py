@@ -96,7 +96,6 @@ class Program:
             elif op.kind == "attribute":
                 need.add(("attribute", op.param[0]))
             elif op.kind == "normal_map" and op.param[0] == "TANGENT":
-                need.add(("uv", op.param[1]))
                 need.add(("tangent", op.param[1]))
         return need
 
@@ -226,8 +225,9 @@ class Points:
     fields: those names -> an array, or a function that makes it
     interpolate: (key, bary) -> (N, k) float32 corner attribute ``key`` (``Program.requires``)
     at the points, or None when no mesh has it
-    shifts: axis -> (bary, position) of the points moved one pixel right (0) or down (1) in
-    their triangles' planes, for screen derivatives (``shifted``); None when there are none
+    shifts: axis -> (bary, fields) of the points moved one pixel right (0) or down (1) in
+    their triangles' planes (position and window change), for screen derivatives
+    (``shifted``); None when there are none
     """
 
     _FIELDS = ("position", "normal", "geo", "view", "backfacing", "world_to_object", "texspace",
@@ -256,8 +256,8 @@ class Points:
     def shifted(self, axis: int) -> Points | None:
         if self._shifts is None:
             return None
-        bary, position = self._shifts(axis)
-        return Points(self.n, bary, dict(self._fields, position=position), self._interpolate)
+        bary, fields = self._shifts(axis)
+        return Points(self.n, bary, dict(self._fields, **fields), self._interpolate)
 
     def attribute(self, key, width: int):
         """(N, width) float32 ``key`` at the points, or None when no mesh has it."""
@@ -462,20 +462,20 @@ def _op_ramp(ev, op, pts):
 
 
 def _op_curves(ev, op, pts):
-    """RGB Curves: param (table (S, 3), min_x, max_x); args (factor, colour)."""
-    table, lo, hi = op.param
+    """RGB Curves: param (table (S, 3), min_x, max_x, extrapolate); args (factor, colour)."""
+    table, lo, hi, extrapolate = op.param
     f, c = ev.arg(op, 0, pts), ev.arg(op, 1, pts)
     rel = (c - np.float32(lo)) / np.float32(hi - lo if hi != lo else 1.0)
-    out = np.concatenate([nm.ramp_lookup(table[:, k:k + 1], rel[:, k:k + 1], True, True)
+    out = np.concatenate([nm.ramp_lookup(table[:, k:k + 1], rel[:, k:k + 1], True, extrapolate)
                           for k in range(3)], 1)
     return ((1.0 - f) * c + f * out).astype(np.float32)
 
 
 def _op_float_curve(ev, op, pts):
-    table, lo, hi = op.param
+    table, lo, hi, extrapolate = op.param
     f, v = ev.arg(op, 0, pts), ev.arg(op, 1, pts)
     rel = (v - np.float32(lo)) / np.float32(hi - lo if hi != lo else 1.0)
-    out = nm.ramp_lookup(table, rel, True, True)
+    out = nm.ramp_lookup(table, rel, True, extrapolate)
     return ((1.0 - f) * v + f * out).astype(np.float32)
 
 
@@ -534,6 +534,7 @@ def _op_normal_map(ev, op, pts):
     if space in ("OBJECT", "BLENDER_OBJECT"):  # normals go by the inverse transpose
         c = np.einsum("nji,nj->ni", pts.world_to_object[:, :3, :3], c)
     m = _unit(c)
+    m = np.where(pts.backfacing > 0.5, -m, m)  # Cycles turns the mapped normal of back faces
     s = np.maximum(strength, 0.0)
     return _unit(n + (m - n) * s)
 
@@ -541,13 +542,13 @@ def _op_normal_map(ev, op, pts):
 def _op_bump(ev, op, pts):
     """Bump (Cycles ``svm_node_set_bump``) from the height's screen derivatives: param
     (invert,); args (strength, distance, height, normal or None) -> (N, 3)."""
-    strength = np.clip(np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1)), 0.0, 1.0)
+    strength = np.maximum(np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1)), 0.0)
     distance = np.broadcast_to(ev.arg(op, 1, pts), (pts.n, 1))
     if op.param[0]:
         distance = -distance
     n = ev.normal_arg(op, 3, pts)
     h = np.broadcast_to(ev.arg(op, 2, pts), (pts.n, 1))
-    shifted = [pts.shifted(axis) for axis in (0, 1)]
+    shifted = [ev._moved(axis, pts) for axis in (0, 1)]
     if shifted[0] is None or shifted[1] is None:
         return n
     hx, hy = (np.broadcast_to(ev.value(op.args[2], s), (pts.n, 1)) for s in shifted)
@@ -558,8 +559,9 @@ def _op_bump(ev, op, pts):
     det = np.einsum("nc,nc->n", dpdx, rx)[:, None]
     grad = (hx - h) * rx + (hy - h) * ry
     out = _unit(np.abs(det) * n - distance * np.sign(det) * grad)
-    out = np.where(np.isfinite(out), out, n)
-    return _unit(strength * out + (1.0 - strength) * n)
+    out = np.where(np.isfinite(out) & (np.abs(out).sum(1, keepdims=True) > 0.0), out, n)
+    out = _unit(strength * out + (1.0 - strength) * n)
+    return np.where(np.abs(out).sum(1, keepdims=True) > 0.0, out, n)
 
 
 # Closures
@@ -624,12 +626,12 @@ def _add(a: Closure, b: Closure) -> Closure:
 
 
 def _op_add_shader(ev, op, pts):
-    return _add(ev.closure(op, 0, pts), ev.closure(op, 1, pts))
+    return _add(ev.arg(op, 0, pts), ev.arg(op, 1, pts))
 
 
 def _op_mix_shader(ev, op, pts):
     f = np.clip(ev.arg(op, 0, pts), 0.0, 1.0)
-    return _add(ev.closure(op, 1, pts).scaled(1.0 - f), ev.closure(op, 2, pts).scaled(f))
+    return _add(ev.arg(op, 1, pts).scaled(1.0 - f), ev.arg(op, 2, pts).scaled(f))
 
 
 _OPS = {
@@ -646,7 +648,6 @@ _OPS = {
     "transparent": _op_transparent, "holdout": _op_holdout, "add_shader": _op_add_shader,
     "mix_shader": _op_mix_shader,
 }
-KINDS = frozenset(_OPS)
 
 
 class _Evaluation:
@@ -667,9 +668,6 @@ class _Evaluation:
         return self.memo[key]
 
     def arg(self, op: Op, k: int, pts: Points) -> np.ndarray:
-        return self.value(op.args[k], pts)
-
-    def closure(self, op: Op, k: int, pts: Points) -> Closure:
         return self.value(op.args[k], pts)
 
     def normal_arg(self, op: Op, k: int, pts: Points) -> np.ndarray:
@@ -783,12 +781,13 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
                           points.normal)
     occlusion = None
     if program.occlusion is not None:
-        occlusion = np.clip(np.broadcast_to(ev.value(program.occlusion, points), (n, 1))[:, 0],
-                            0.0, 1.0).astype(np.float32)
+        occ = np.broadcast_to(ev.value(program.occlusion, points), (n, 1))[:, 0]
+        occlusion = np.clip(np.nan_to_num(occ, nan=1.0), 0.0, 1.0).astype(np.float32)
 
     def out(x, width):
         x = np.asarray(x, np.float32)
-        if x.shape != (n, width) or not x.flags.c_contiguous or not x.flags.writeable:
+        if (x.shape != (n, width) or not x.flags.c_contiguous or not x.flags.writeable
+                or x is _Z1 or x is _Z3 or x is _ONE):
             x = np.broadcast_to(x, (n, width)).copy()
         return x if np.isfinite(x).all() else np.where(np.isfinite(x), x, 0.0).astype(np.float32)
 
@@ -800,5 +799,5 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
         alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion)
 
 
-__all__ = ["Op", "Program", "ProgramBuilder", "Points", "SurfaceParams", "Closure", "KINDS",
+__all__ = ["Op", "Program", "ProgramBuilder", "Points", "SurfaceParams", "Closure",
            "evaluate", "principled_to_talk", "talk_program"]

@@ -228,8 +228,7 @@ VECTOR_MATH = {
     "COSINE": lambda a, b, c, s: np.cos(a),
     "TANGENT": lambda a, b, c, s: np.tan(a),
 }
-VECTOR_MATH_VALUE = {"DOT_PRODUCT", "DISTANCE", "LENGTH"}
-
+VECTOR_MATH_VALUE = frozenset({"DOT_PRODUCT", "DISTANCE", "LENGTH"})  # the Value output
 
 def vector_math(operation: str, a, b, c, scale) -> np.ndarray:
     """The Vector Math node: (N, 3), or (N, 1) for dot product, distance and length; non-finite
@@ -417,10 +416,11 @@ def invert(factor, color) -> np.ndarray:
 
 
 def gamma(color, g) -> np.ndarray:
-    """Gamma: c^g for c > 0, c elsewhere."""
+    """Gamma: c^g for c > 0, c elsewhere; 1 for g = 0 (Cycles ``svm_math_gamma_color``)."""
     c, g = np.broadcast_arrays(f32(color), f32(g))
     with np.errstate(all="ignore"):
         r = np.where(c > 0.0, np.power(np.where(c > 0.0, c, 1.0), g), c)
+    r = np.where(g == 0.0, 1.0, r)  # Cycles: a gamma of 0 gives white
     return np.where(np.isfinite(r), r, 0.0).astype(np.float32)
 
 
@@ -433,13 +433,14 @@ def bright_contrast(color, bright, contrast) -> np.ndarray:
 
 def hue_saturation_value(hue, saturation, value, factor, color) -> np.ndarray:
     """Hue/Saturation/Value (hue 0.5 is neutral)."""
-    c = np.broadcast_to(f32(color), np.broadcast_shapes(f32(color).shape, f32(hue).shape[:1]
-                                                         + (3,)))
+    hue, saturation, value, factor = (f32(x)[:, :1] for x in (hue, saturation, value, factor))
+    n = max(len(x) for x in (hue, saturation, value, factor, f32(color)))
+    c = np.broadcast_to(f32(color)[:, :3], (n, 3))
     hsv = rgb_to_hsv(c)
-    hsv[:, 0] = np.mod(hsv[:, 0] + f32(hue)[:, 0] + 0.5, 1.0)
-    hsv[:, 1] = np.clip(hsv[:, 1] * f32(saturation)[:, 0], 0.0, 1.0)
-    hsv[:, 2] = hsv[:, 2] * f32(value)[:, 0]
-    return np.maximum(_lerp(c, hsv_to_rgb(hsv), f32(factor)), 0.0).astype(np.float32)
+    hsv[:, 0] = np.mod(hsv[:, 0] + hue[:, 0] + 0.5, 1.0)  # Cycles' fractf
+    hsv[:, 1] = np.clip(hsv[:, 1] * saturation[:, 0], 0.0, 1.0)
+    hsv[:, 2] = hsv[:, 2] * value[:, 0]
+    return np.maximum(_lerp(c, hsv_to_rgb(hsv), factor), 0.0).astype(np.float32)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -222,8 +222,11 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
         normals, uvs = np.nan_to_num(normals[keep]), np.nan_to_num(uvs[keep])
-        attributes = {k: np.nan_to_num(a[keep]) for k, a in attributes.items()}
+        attributes = {k: a[keep] for k, a in attributes.items()}
     uvs = uvs.astype(np.float32, copy=False)
+    # attribute values are data from the mesh (Geometry Nodes can make NaN): finite
+    attributes = {k: a if np.isfinite(a).all() else np.nan_to_num(a, posinf=0.0, neginf=0.0)
+                  for k, a in attributes.items()}
 
     cam = scene.camera
     clip = raster.project(positions, cam.projection @ cam.world_to_camera)
@@ -325,13 +328,17 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> mater
         shading.interpolate(tri, np.ascontiguousarray(weights, np.float32), corners, out)
         return out
 
+    def window(x, y):
+        return np.stack([x / cam.width, 1.0 - y / cam.height], 1).astype(np.float32)
+
     def moved(axis):
-        origin, direction = cam.rays(sx() + (axis == 0), sy() + (axis == 1))
+        x, y = sx() + (axis == 0), sy() + (axis == 1)
+        origin, direction = cam.rays(x, y)
         b, q = np.empty((len(tri), 3), np.float32), np.empty((len(tri), 3), np.float32)
         shading.plane_hits(tri, frame.positions, origin, direction, b, q)
         bad = ~np.isfinite(b).all(axis=1)
         b[bad], q[bad] = bary[bad], p()[bad]
-        return b, q
+        return b, {"position": q, "window": lambda: window(x, y)}
 
     def part(a):  # the points' rows of a (N, ...) array, gathered when first read
         return a if callable(a) else (lambda: a)
@@ -343,8 +350,7 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> mater
                                < 0.0)[:, None].astype(np.float32),
         "world_to_object": lambda: frame.world_to_object[frame.obj[tri]],
         "texspace": lambda: frame.texspace[frame.obj[tri]],
-        "window": lambda: np.stack([sx() / cam.width, 1.0 - sy() / cam.height],
-                                   1).astype(np.float32),
+        "window": lambda: window(sx(), sy()),
         "world_to_camera": cam.world_to_camera,
     }
     return material.Points(len(tri), bary, fields, interpolate, moved if shifts else None)

@@ -152,6 +152,20 @@ def _spline(t):
     return w0, w1, w2, w3
 
 
+@nb.njit(**_OPTIONS)
+def _finish(vals, straight, decode, weight, out):
+    """One level's filtered texel ``vals`` into ``out``: divided by its alpha first when
+    ``straight`` (Cycles unassociates before it decodes), the first ``decode`` channels
+    decoded from sRGB, times ``weight``."""
+    if straight:
+        a = vals[3]
+        for c in range(3):
+            vals[c] = vals[c] / a if a > np.float32(0.0) else np.float32(0.0)
+    for c in range(vals.shape[0]):
+        v = _decode(vals[c]) if c < decode else vals[c]
+        out[c] += weight * v
+
+
 @nb.njit(_SAMPLE, **_OPTIONS)
 def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode, associate,
            out):
@@ -167,6 +181,8 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
     divides it by the filtered alpha again. UV as Blender's, v up; out (N, C) float32."""
     closest = mode == CLOSEST
     assoc = associate > 0 and channels == 4
+    straight = assoc and associate == 2
+    vals = np.empty(channels, np.float32)
     top = levels.shape[0] - 1
     for i in range(u.shape[0]):
         uu, vv = u[i], v[i]
@@ -185,48 +201,47 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
                 t = texels[at + c] if col_ok and row_ok else np.float32(0.0)
                 if assoc and c < 3 and col_ok and row_ok:
                     t *= texels[at + 3]
-                out[i, c] = _decode(t) if c < decode else t
+                vals[c] = t
+            _finish(vals, straight, decode, np.float32(1.0), out[i])
+            continue
+        if use_lod:
+            level = lod[i]
+            level = np.float64(top) if level != level else min(max(level, 0.0), np.float64(top))
+            base = np.int64(np.floor(level))
+            frac = np.float32(level - base)
         else:
-            if use_lod:
-                level = lod[i]
-                level = np.float64(top) if level != level else min(max(level, 0.0), np.float64(top))
-                base = np.int64(np.floor(level))
-                frac = np.float32(level - base)
+            base, frac = np.int64(0), np.float32(0.0)
+        for k in range(base, base + 2):
+            if k > top:
+                break
+            weight = (np.float32(1.0) - frac) if k == base else frac
+            if not weight > 0.0:
+                continue
+            off, h, w = levels[k, 0], levels[k, 1], levels[k, 2]
+            x = uu * w - 0.5
+            y = vv * h - 0.5
+            x0, y0 = np.floor(x), np.floor(y)
+            tx, ty = np.float32(x - x0), np.float32(y - y0)
+            if mode == CUBIC and k == 0:
+                wx, wy = _spline(tx), _spline(ty)
+                for c in range(channels):
+                    acc = np.float32(0.0)
+                    for j in range(4):
+                        row, row_ok = _wrap(np.int64(y0) - 1 + j, h, extension)
+                        if not row_ok:
+                            continue
+                        base_row = off + (h - 1 - row) * w * channels
+                        line = np.float32(0.0)
+                        for m in range(4):
+                            col, col_ok = _wrap(np.int64(x0) - 1 + m, w, extension)
+                            if col_ok:
+                                t = texels[base_row + col * channels + c]
+                                if assoc and c < 3:
+                                    t *= texels[base_row + col * channels + 3]
+                                line += wx[m] * t
+                        acc += wy[j] * line
+                    vals[c] = acc
             else:
-                base, frac = np.int64(0), np.float32(0.0)
-            for k in range(base, base + 2):
-                if k > top:
-                    break
-                weight = (np.float32(1.0) - frac) if k == base else frac
-                if not weight > 0.0:
-                    continue
-                off, h, w = levels[k, 0], levels[k, 1], levels[k, 2]
-                x = uu * w - 0.5
-                y = vv * h - 0.5
-                x0, y0 = np.floor(x), np.floor(y)
-                tx, ty = np.float32(x - x0), np.float32(y - y0)
-                if mode == CUBIC and k == 0:
-                    wx, wy = _spline(tx), _spline(ty)
-                    for c in range(channels):
-                        acc = np.float32(0.0)
-                        for j in range(4):
-                            row, row_ok = _wrap(np.int64(y0) - 1 + j, h, extension)
-                            if not row_ok:
-                                continue
-                            base_row = off + (h - 1 - row) * w * channels
-                            line = np.float32(0.0)
-                            for m in range(4):
-                                col, col_ok = _wrap(np.int64(x0) - 1 + m, w, extension)
-                                if col_ok:
-                                    t = texels[base_row + col * channels + c]
-                                    if assoc and c < 3:
-                                        t *= texels[base_row + col * channels + 3]
-                                    line += wx[m] * t
-                            acc += wy[j] * line
-                        if c < decode:
-                            acc = _decode(acc)
-                        out[i, c] += weight * acc
-                    continue
                 c0, ok0 = _wrap(np.int64(x0), w, extension)
                 c1, ok1 = _wrap(np.int64(x0) + 1, w, extension)
                 r0, okr0 = _wrap(np.int64(y0), h, extension)
@@ -244,13 +259,8 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
                             if assoc and c < 3:
                                 t *= texels[base_row + col * channels + 3]
                             acc += wgt * t
-                    if k == 0 and c < decode:
-                        acc = _decode(acc)
-                    out[i, c] += weight * acc
-        if assoc and associate == 2:
-            a = out[i, 3]
-            for c in range(3):
-                out[i, c] = out[i, c] / a if a > np.float32(0.0) else np.float32(0.0)
+                    vals[c] = acc
+            _finish(vals, straight, decode if k == 0 else 0, weight, out[i])
 
 
 _RO = nb.types.Array(nb.float32, 2, "A", readonly=True)
