@@ -558,9 +558,11 @@ def _normal_map(c, node, out, ctx):
 
 
 def _bump(c, node, out, ctx):
+    width = (_in(c, node, "Filter Width", "float", ctx) if "Filter Width" in node.inputs
+             else c.b.const(1.0))  # before Blender 4.2: one pixel
     return c.b.add("bump", _in(c, node, "Strength", "float", ctx),
                    _in(c, node, "Distance", "float", ctx), _in(c, node, "Height", "float", ctx),
-                   c.normal(node, "Normal", ctx), param=(bool(node.invert),)), "vector"
+                   c.normal(node, "Normal", ctx), width, param=(bool(node.invert),)), "vector"
 
 
 def _principled(c, node, out, ctx):

@@ -74,9 +74,17 @@ class Program:
         return not any(self._varying[r] for r in outs)
 
     @property
+    def holdout(self) -> bool:
+        """True when the surface is a Holdout node: the object cuts a hole, as a holdout
+        object does (a Holdout mixed with other shaders renders black instead)."""
+        return self.ops[self.surface].kind == "holdout"
+
+    @property
     def fades(self) -> bool:
         """True when the surface may be less than opaque somewhere: a Transparent BSDF or
         Holdout, or an Alpha input that is not the constant 1."""
+        if self.holdout:
+            return False
         for op in self.ops:
             if op.kind in ("transparent", "holdout"):
                 return True
@@ -225,9 +233,9 @@ class Points:
     fields: those names -> an array, or a function that makes it
     interpolate: (key, bary) -> (N, k) float32 corner attribute ``key`` (``Program.requires``)
     at the points, or None when no mesh has it
-    shifts: axis -> (bary, fields) of the points moved one pixel right (0) or down (1) in
-    their triangles' planes (position and window change), for screen derivatives
-    (``shifted``); None when there are none
+    shifts: (axis, step) -> (bary, fields) of the points moved ``step`` pixels right (axis 0)
+    or down (1) in their triangles' planes (position and window change), for screen
+    derivatives (``shifted``); None when there are none
     """
 
     _FIELDS = ("position", "normal", "geo", "view", "backfacing", "world_to_object", "texspace",
@@ -253,10 +261,11 @@ class Points:
     window = property(lambda self: self._field("window"))
     world_to_camera = property(lambda self: self._field("world_to_camera"))
 
-    def shifted(self, axis: int) -> Points | None:
+    def shifted(self, axis: int, step: float = 1.0) -> Points | None:
+        """The points moved ``step`` pixels along ``axis`` (0: right, 1: down)."""
         if self._shifts is None:
             return None
-        bary, fields = self._shifts(axis)
+        bary, fields = self._shifts(axis, step)
         return Points(self.n, bary, dict(self._fields, **fields), self._interpolate)
 
     def attribute(self, key, width: int):
@@ -540,15 +549,18 @@ def _op_normal_map(ev, op, pts):
 
 
 def _op_bump(ev, op, pts):
-    """Bump (Cycles ``svm_node_set_bump``) from the height's screen derivatives: param
-    (invert,); args (strength, distance, height, normal or None) -> (N, 3)."""
+    """Bump (Cycles ``svm_node_set_bump``) from the height's screen derivatives, measured
+    ``filter width`` pixels away as Blender 4.2+ does: param (invert,); args (strength,
+    distance, height, normal or None, filter width) -> (N, 3)."""
     strength = np.maximum(np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1)), 0.0)
     distance = np.broadcast_to(ev.arg(op, 1, pts), (pts.n, 1))
     if op.param[0]:
         distance = -distance
     n = ev.normal_arg(op, 3, pts)
     h = np.broadcast_to(ev.arg(op, 2, pts), (pts.n, 1))
-    shifted = [ev._moved(axis, pts) for axis in (0, 1)]
+    width = np.asarray(ev.arg(op, 4, pts), np.float64)
+    step = float(max(width.reshape(-1)[0] if width.size == 1 else width.mean(), 1e-3))
+    shifted = [ev._moved(axis, pts, step) for axis in (0, 1)]
     if shifted[0] is None or shifted[1] is None:
         return n
     hx, hy = (np.broadcast_to(ev.value(op.args[2], s), (pts.n, 1)) for s in shifted)
@@ -699,10 +711,10 @@ class _Evaluation:
         self.memo[key] = result
         return result
 
-    def _moved(self, axis: int, pts: Points):
-        key = ("moved", axis, id(pts))
+    def _moved(self, axis: int, pts: Points, step: float = 1.0):
+        key = ("moved", axis, step, id(pts))
         if key not in self.memo:
-            self.memo[key] = pts.shifted(axis) if pts is self.centre else None
+            self.memo[key] = pts.shifted(axis, step) if pts is self.centre else None
         return self.memo[key]
 
 

@@ -214,6 +214,9 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     mats = scene.materials or [Material()]
     if len(mat_index) and (mat_index.max() >= len(mats) or mat_index.min() < 0):
         raise ValueError("a triangle refers to a material index outside Scene.materials")
+    cut = np.array([m.program.holdout for m in mats], bool)
+    if cut.any():  # a material whose surface is a Holdout node cuts a hole like an object
+        holdout = holdout | cut[mat_index]
     keep, nonfinite, flat = _broken(positions)
     if not keep.all():
         if warn is not None:
@@ -331,13 +334,13 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> mater
     def window(x, y):
         return np.stack([x / cam.width, 1.0 - y / cam.height], 1).astype(np.float32)
 
-    def moved(axis):
-        x, y = sx() + (axis == 0), sy() + (axis == 1)
+    def moved(axis, step):
+        x, y = sx() + step * (axis == 0), sy() + step * (axis == 1)
         origin, direction = cam.rays(x, y)
         b, q = np.empty((len(tri), 3), np.float32), np.empty((len(tri), 3), np.float32)
+        # NaN where a ray runs along the plane: steps are then unknown, the coarsest mip level
+        # is read and a bump keeps the normal
         shading.plane_hits(tri, frame.positions, origin, direction, b, q)
-        bad = ~np.isfinite(b).all(axis=1)
-        b[bad], q[bad] = bary[bad], p()[bad]
         return b, {"position": q, "window": lambda: window(x, y)}
 
     def part(a):  # the points' rows of a (N, ...) array, gathered when first read

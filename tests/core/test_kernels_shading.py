@@ -184,3 +184,33 @@ def test_splat_and_compose_place_every_value():
     ref = np.zeros((40, SAMPLED_WIDTH))
     np.add.at(ref, pixel, weight[:, None].astype(np.float64) * out)
     np.testing.assert_allclose(acc, ref, rtol=1e-5)
+
+
+def test_plane_hits_give_the_ray_differentials_of_uv_derivatives():
+    """The barycentrics where the neighbouring pixels' rays meet the triangle's plane
+    (``plane_hits``, what the material programs' screen steps use) give the UV steps of
+    ``texture.uv_derivatives`` (the NumPy reference, Igehy 1999)."""
+    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.kernels import shading
+    from bo2_lighting.addon.core.scene import Camera
+
+    cam = Camera.look_at((0.3, -4.0, 2.5), (0.0, 0.0, 0.0), math.radians(40.0), 64, 48)
+    n = 300
+    tris = RNG.uniform(-2.0, 2.0, (n, 3, 3)).astype(np.float32)
+    uvs = RNG.uniform(0.0, 1.0, (n, 3, 2)).astype(np.float32)
+    bary = RNG.dirichlet((2.0, 2.0, 2.0), n).astype(np.float32)
+    points = np.einsum("nk,nkc->nc", bary, tris).astype(np.float32)
+    clip = np.c_[points, np.ones(n)] @ (cam.projection @ cam.world_to_camera).T
+    x = (clip[:, 0] / clip[:, 3] * 0.5 + 0.5) * cam.width
+    y = (0.5 - clip[:, 1] / clip[:, 3] * 0.5) * cam.height
+    index = np.arange(n, dtype=np.int32)
+    expected = texture.uv_derivatives(tris, uvs, points, *cam.rays(x + 1, y),
+                                      *cam.rays(x, y + 1))
+    for axis, reference in enumerate(expected):
+        origin, direction = cam.rays(x + (axis == 0), y + (axis == 1))
+        b, q = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
+        shading.plane_hits(index, tris, origin, direction, b, q)
+        step = np.einsum("nk,nkc->nc", b - bary, uvs)
+        ok = np.abs(reference).max(axis=1) < texture.DEGENERATE_DUV
+        assert ok.mean() > 0.9
+        np.testing.assert_allclose(step[ok], reference[ok], rtol=2e-3, atol=2e-5)
