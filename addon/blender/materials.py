@@ -26,7 +26,7 @@ from . import images
 from .node_groups import is_bo2_material_node
 
 _cache: dict[tuple, tuple] = {}  # image key -> (texture, digest of its pixels)
-RAMP_TABLE_SIZE = 256  # Cycles' RAMP_TABLE_SIZE
+RAMP_TABLE_SIZE = 257  # Cycles' RAMP_TABLE_SIZE + 1 entries, at i / 256
 _GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
 
 

@@ -883,3 +883,23 @@ def test_holdout_material_cuts_a_hole(addon):
     assert cycles[12, 12, 3] == pytest.approx(0.0, abs=1e-6)
     assert ours[12, 12, 3] == pytest.approx(0.0, abs=1e-6)
     assert d.mean() < 2e-3
+
+
+def test_constant_ramp_steps_where_cycles_steps(addon):
+    """A Constant Color Ramp over 1024 pixels: every pixel on the side Cycles puts it (its
+    table has 257 entries at i / 256)."""
+    mat, tree = bare_material("ramp steps")
+    _, u, v = uv_parts(tree)
+    node = _node(tree, "ShaderNodeValToRGB")
+    ramp = node.color_ramp
+    ramp.interpolation = "CONSTANT"
+    ramp.elements[0].color = (0.0, 0.0, 0.0, 1.0)
+    ramp.elements[1].position = 0.3
+    ramp.elements.new(0.6).color = (0.5, 0.5, 0.5, 1.0)
+    _link(tree, u, node.inputs["Fac"])
+    diffuse_with(tree, node.outputs[0])
+    scene, _ = plane_scene(mat)
+    scene.render.resolution_x, scene.render.resolution_y = 1024, 2
+    ours = render_passes(scene, "BO2_LIGHTING", ["Albedo"], samples=1)["Albedo"][1, :, 0]
+    cycles = render_passes(scene, "CYCLES", ["DiffCol"], samples=1)["DiffCol"][1, :, 0]
+    assert np.abs(ours - cycles).max() < 1e-4
