@@ -349,7 +349,7 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> mater
     p, n, geo, v, sx, sy = (part(a) for a in (p, n, geo, v, sx, sy))
     fields = {
         "position": p, "normal": n, "geo": geo, "view": v,
-        "backfacing": lambda: (np.einsum("nc,nc->n", geo(), frame_normals_raw(frame, tri))
+        "backfacing": lambda: (np.einsum("nc,nc->n", geo(), _face_normals(frame, tri))
                                < 0.0)[:, None].astype(np.float32),
         "world_to_object": lambda: frame.world_to_object[frame.obj[tri]],
         "texspace": lambda: frame.texspace[frame.obj[tri]],
@@ -359,7 +359,7 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> mater
     return material.Points(len(tri), bary, fields, interpolate, moved if shifts else None)
 
 
-def frame_normals_raw(frame: Frame, tri) -> np.ndarray:
+def _face_normals(frame: Frame, tri) -> np.ndarray:
     """(N, 3) unnormalized front-face normals of triangles ``tri`` (counter-clockwise)."""
     q = frame.positions[tri]
     return np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
