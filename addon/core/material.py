@@ -422,25 +422,21 @@ def _op_mix(ev, op, pts):
     return (a + (b - a) * f).astype(np.float32)
 
 
+_FROM_RGB = {"HSV": nm.rgb_to_hsv, "HSL": nm.rgb_to_hsl}  # Separate Color's models
+_TO_RGB = {"HSV": nm.hsv_to_rgb, "HSL": nm.hsl_to_rgb}  # Combine Color's
+
+
 def _op_separate(ev, op, pts):
     v = ev.arg(op, 0, pts)[:, :3]
-    mode = op.param[0]
-    if mode == "HSV":
-        return nm.rgb_to_hsv(v)
-    if mode == "HSL":
-        return nm.rgb_to_hsl(v)
-    return v
+    model = _FROM_RGB.get(op.param[0])
+    return model(v) if model else v
 
 
 def _op_combine(ev, op, pts):
     parts = np.broadcast_arrays(*(ev.arg(op, k, pts) for k in range(3)))
     v = np.concatenate(parts, 1).astype(np.float32)
-    mode = op.param[0]
-    if mode == "HSV":
-        return nm.hsv_to_rgb(v)
-    if mode == "HSL":
-        return nm.hsl_to_rgb(v)
-    return v
+    model = _TO_RGB.get(op.param[0])
+    return model(v) if model else v
 
 
 def _op_mapping(ev, op, pts):

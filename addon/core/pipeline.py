@@ -124,6 +124,7 @@ class Frame:
     obj: np.ndarray         # (T,) int32 index of the triangle's mesh batch
     world_to_object: np.ndarray  # (B, 4, 4) float64 per mesh batch
     texspace: np.ndarray    # (B, 2, 3) float32 per mesh batch
+    fades: np.ndarray       # (T,) bool: the triangle's material may be transparent
 
 
 def _constant_tables(materials: list[Material]) -> dict:
@@ -240,11 +241,12 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         if should_stop is not None and should_stop():
             raise Cancelled()
 
+    tables = _constant_tables(mats)
+    fades = tables["fades"][mat_index]
     frame = Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                   [None] * len(scene.lights) if shadow_maps is None else shadow_maps,
-                  _constant_tables(mats), attributes, obj, world_to_object, texspace)
+                  tables, attributes, obj, world_to_object, texspace, fades)
     if len(positions) and shadow_maps is None:  # every face and cascade of every light at once
-        fades = frame.tables["fades"][mat_index]
         cutout = (fades, lambda t, b: _caster_alpha(frame, t, b)) if fades.any() else None
         plans = [shadows.shadow_map_jobs(light, positions, cam if fit_shadows else None,
                                          resolution=scene.settings.shadow_resolution,
@@ -472,7 +474,7 @@ def _dither(frame: Frame, tile, margin, offset, sample: int, layer0):
         return raster.dither_thresholds(x0 + cols[pixels], y0 + rows[pixels], sample, layer)
 
     raster.dither((tri, bary, depth, keys), (rows + m) * (tw + 2 * m) + cols + m,
-                  frame.tables["fades"][frame.material], alpha, thresholds, next_layer)
+                  frame.fades, alpha, thresholds, next_layer)
     return tri, bary, depth, sx, sy
 
 
@@ -558,7 +560,7 @@ def _render_tile(frame: Frame, tile, offsets, tick):
     for k, offset in enumerate(offsets):
         tick()
         layer0 = _raster(frame, tile, margin, offset)
-        if frame.tables["fades"].any():
+        if frame.fades.any():
             tri, bary, depth, sx, sy = _dither(frame, tile, margin, offset, k, layer0)
         else:
             tri, bary, depth, sx, sy, _ = layer0

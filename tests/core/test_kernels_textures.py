@@ -220,3 +220,20 @@ def test_alpha_association():
         np.testing.assert_allclose(got[ok, :3], expected[ok, :3] / alpha[ok], rtol=1e-4,
                                    atol=1e-5)
         np.testing.assert_array_equal(got[:, 3], expected[:, 3])
+
+
+def test_footprint_lod_is_lod_from_uv_derivatives():
+    """The kernel's level of detail from a look-up's UV steps equals the NumPy reference
+    (OpenGL 4.6, 8.14.1), non-finite steps giving the coarsest level."""
+    from bo2_lighting.addon.core.kernels import textures as kernels
+
+    tex = texture.make_texture(RNG.random((64, 128, 3)).astype(np.float32), srgb=False)
+    dx = RNG.normal(0.0, 0.02, (500, 3)).astype(np.float32)
+    dy = RNG.normal(0.0, 0.02, (500, 3)).astype(np.float32)
+    dx[:3, 0] = [np.nan, np.inf, 0.0]
+    dy[2] = 0.0
+    lod = np.empty(500)
+    kernels.footprint_lod(dx, dy, 128.0, 64.0, lod)
+    expected = texture.lod_from_uv_derivatives(tex, dx[:, :2], dy[:, :2])
+    assert np.all(lod[:2] >= tex.levels - 1) and np.all(expected[:2] >= tex.levels - 1)
+    np.testing.assert_allclose(lod[3:], expected[3:], rtol=1e-5, atol=1e-5)
