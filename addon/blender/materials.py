@@ -126,16 +126,13 @@ class _Compiler:
     # -- following links
 
     def default(self, socket, kind: str) -> int:
+        """A socket's own value (0, or no light, when it has none) as ``kind``."""
         value = getattr(socket, "default_value", None)
-        if value is None:
-            if kind == "shader":
-                return self.constant(0.0, "shader")
-            return self.constant(0.0, kind)
-        return self.constant(value, kind)
+        return self.constant(0.0 if value is None else value, kind)
 
-    def socket(self, socket, kind: str, ctx: tuple = ()) -> int | None:
+    def socket(self, socket, kind: str, ctx: tuple = ()) -> int:
         """The value flowing into input ``socket`` as ``kind`` ("float", "color", "vector",
-        "shader"); None for an unlinked normal input (``normal``)."""
+        "shader")."""
         link = next((lk for lk in socket.links if not lk.is_muted), None) \
             if socket.is_linked else None
         if link is not None and not link.is_valid:
@@ -149,6 +146,7 @@ class _Compiler:
         return self.convert(reg, got, kind)
 
     def normal(self, node, name: str, ctx: tuple) -> int | None:
+        """A Normal input, or None when it is the surface normal (unlinked)."""
         sock = node.inputs.get(name)
         if sock is None or not sock.is_linked:
             return None
