@@ -276,6 +276,23 @@ def with_camera(frame: Frame, camera) -> Frame:
                                                    camera.projection @ camera.world_to_camera))
 
 
+def with_materials(frame: Frame, scene: Scene) -> Frame | None:
+    """``frame`` with ``scene``'s materials (same geometry, lights and camera): only the
+    material tables are built again. None when the shadow maps or the holdout triangles depend
+    on the materials (transparent or holdout surfaces, before or after): ``prepare`` instead."""
+    mats = scene.materials or [Material()]
+    old = frame.scene.materials or [Material()]
+    if len(mats) != len(old) or frame.fades.any() or any(
+            m.program.holdout or m.program.fades for m in (*mats, *old)):
+        return None
+    tables = _constant_tables(mats)
+    cull_t = np.array([m.backface_culling for m in mats], bool)
+    scene = dataclasses.replace(scene, camera=frame.scene.camera)
+    return dataclasses.replace(frame, scene=scene, tables=tables,
+                               fades=tables["fades"][frame.material],
+                               cull=cull_t[frame.material] if cull_t.any() else None)
+
+
 def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
     """(x0, y0, x1, y1) tiles covering the render border (or the frame), top-left origin."""
     cam, st = scene.camera, scene.settings
@@ -531,7 +548,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
 SHADE_BLOCK = 1 << 16  # points shaded at once (bounds the shading's temporaries)
 
 
-def _render_tile(frame: Frame, tile, offsets, tick):
+def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     """All samples of one tile, averaged: the passes of ``SAMPLED`` side by side
     (npx, SAMPLED_WIDTH), Depth (npx,) and IndexMA (npx,), float32.
 
@@ -561,7 +578,8 @@ def _render_tile(frame: Frame, tile, offsets, tick):
         tick()
         layer0 = _raster(frame, tile, margin, offset)
         if frame.fades.any():
-            tri, bary, depth, sx, sy = _dither(frame, tile, margin, offset, k, layer0)
+            tri, bary, depth, sx, sy = _dither(frame, tile, margin, offset, first_sample + k,
+                                               layer0)
         else:
             tri, bary, depth, sx, sy, _ = layer0
         covered = tri >= 0
@@ -611,14 +629,19 @@ def _render_tile(frame: Frame, tile, offsets, tick):
     return acc, depth_acc, index_acc
 
 
-def _tile_results(scene: Scene, progress, should_stop, warn, frame, cameras=None):
+def _tile_results(scene: Scene, progress, should_stop, warn, frame, cameras=None, offsets=None,
+                  first_sample=0):
     """``render_tiles``'s work: yields (view, tile, ``_render_tile``'s arrays) in order, the
     views being ``frame`` through each of ``cameras`` (all the same size), or through its own
     camera when ``cameras`` is None. Every view's tiles share the render's threads; a view's
-    projection is done once, on the thread of its first tile."""
+    projection is done once, on the thread of its first tile. ``offsets`` (S, 2) replaces the
+    settings' sample positions (a progressive render takes them a few at a time, the first
+    being sample ``first_sample`` of the whole)."""
     if frame is None:
         frame = prepare(scene, warn, should_stop)
-    offsets = sample_offsets(max(1, int(scene.settings.samples)), scene.settings.filter_width)
+    if offsets is None:
+        offsets = sample_offsets(max(1, int(scene.settings.samples)),
+                                 scene.settings.filter_width)
     views = [frame] if cameras is None else [None] * len(cameras)
     view_locks = [threading.Lock() for _ in views]
     todo = [(k, tile) for k in range(len(views)) for tile in tiles(scene)]
@@ -648,7 +671,7 @@ def _tile_results(scene: Scene, progress, should_stop, warn, frame, cameras=None
             return views[k]
 
     def job(k, tile):
-        return lambda: _render_tile(view(k), tile, offsets, tick)
+        return lambda: _render_tile(view(k), tile, offsets, tick, first_sample)
 
     results = _ordered([job(k, tile) for k, tile in todo], thread_count(scene.settings), poll,
                        stop)
@@ -686,28 +709,33 @@ def render_tiles(
         yield (x0, y0, x1, y1), out
 
 
-def render_frame(scene: Scene, progress=None, should_stop=None, warn=None, frame=None) -> dict:
+def render_frame(scene: Scene, progress=None, should_stop=None, warn=None, frame=None,
+                 offsets=None, first_sample: int = 0) -> dict:
     """Render the whole frame: {pass name: (H, W, C) float32}, row 0 at the top; the averaged
     passes are views of one (H, W, SAMPLED_WIDTH) film.
 
-    Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``.
+    Outside the render border the passes are 0 (Depth: 1e10). Arguments as ``render_tiles``;
+    ``offsets`` (S, 2): these sample positions (``sample_offsets``) instead of the settings',
+    the first being sample number ``first_sample`` of a progressive render (its dither).
     """
-    return render_views(scene, None, progress, should_stop, warn, frame)[0]
+    return render_views(scene, None, progress, should_stop, warn, frame, offsets,
+                        first_sample)[0]
 
 
 def render_views(scene: Scene, cameras, progress=None, should_stop=None, warn=None,
-                 frame=None) -> list[dict]:
+                 frame=None, offsets=None, first_sample: int = 0) -> list[dict]:
     """``render_frame`` of the scene through each of ``cameras`` (a list of ``Camera`` of the
     scene camera's size, or None for the scene camera alone), their tiles rendered side by
     side on the render's threads (probe captures: six small faces at once), the scene prepared
-    once: [{pass name: (H, W, C) float32}] in camera order. Arguments as ``render_tiles``."""
+    once: [{pass name: (H, W, C) float32}] in camera order. Arguments as ``render_frame``."""
     cam = scene.camera
     count = 1 if cameras is None else len(cameras)
     film = np.zeros((count, cam.height, cam.width, SAMPLED_WIDTH), np.float32)
     depth = np.full((count, cam.height, cam.width, 1), EMPTY_DEPTH, np.float32)
     index = np.zeros((count, cam.height, cam.width, 1), np.float32)
     for k, (x0, y0, x1, y1), (acc, d, i) in _tile_results(scene, progress, should_stop, warn,
-                                                          frame, cameras):
+                                                          frame, cameras, offsets,
+                                                          first_sample):
         shape = (y1 - y0, x1 - x0)
         film[k, y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
         depth[k, y0:y1, x0:x1, 0], index[k, y0:y1, x0:x1, 0] = d.reshape(shape), i.reshape(shape)

@@ -1,0 +1,346 @@
+"""Interactive rendering: a scene rendered progressively on a worker thread.
+
+The host (Blender's viewport) hands ``Session.update`` a new ``Scene`` and what changed in it;
+the worker renders a first image at reduced resolution, then the full resolution one sample at
+a time up to the viewport's sample count, and publishes each image. A newer update cancels the
+work in progress within one tile (the render's ``should_stop``). Work is kept where the change
+allows it: a camera move only projects again, a material tweak rebuilds the material tables,
+a light change the shadow maps; only geometry changes prepare the frame anew.
+
+Look-dev views (``VIEWS``) show one pass instead of the image, as game engines' buffer
+visualisations; switching the view re-derives the image from the last passes, no render.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+import traceback
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import pipeline
+from .passes import EMPTY_DEPTH
+from .scene import Camera, Scene
+
+# What ``Session.update`` may be told changed.
+CHANGES = frozenset({"geometry", "materials", "lights", "camera", "settings", "world", "probes"})
+PREVIEW_DIVIDER = 4  # the first image after a change: this many times smaller per axis
+
+
+@dataclass(frozen=True)
+class View:
+    """A look-dev view: ``source`` a pass name or one of the probe views; ``data`` True for
+    values shown as they are (no display transform)."""
+
+    label: str
+    source: str
+    data: bool
+    description: str
+
+
+VIEWS: dict[str, View] = {
+    "COMBINED": View("Combined", "Combined", False, "The rendered image"),
+    "ALBEDO": View("Albedo", "Albedo", False, "The talk's diffuse albedo"),
+    "SPECULAR_COLOR": View("Specular Color", "Specular Color", False,
+                           "The talk's rf0, the specular colour at normal incidence"),
+    "GLOSS": View("Gloss", "Gloss", True, "Gloss in [0, 1] (specular power 8192^gloss)"),
+    "NORMAL": View("Normal", "Normal", True, "World-space shading normal as 0.5 n + 0.5"),
+    "DIFFUSE_DIRECT": View("Diffuse Direct", "DiffDir", False, "Lambert from the lights"),
+    "GLOSSY_DIRECT": View("Glossy Direct", "GlossDir", False,
+                          "The microfacet specular from the lights"),
+    "DIFFUSE_INDIRECT": View("Diffuse Indirect", "DiffInd", False,
+                             "SH irradiance from the volumes and the world"),
+    "GLOSSY_INDIRECT": View("Glossy Indirect", "GlossInd", False,
+                            "Prefiltered cube maps times the environment BRDF"),
+    "REFLECTION_PROBES": View("Reflection Probe Influence", "reflection", True,
+                              "Which reflection probe lights each pixel (grey: the world)"),
+    "IRRADIANCE_VOLUMES": View("Irradiance Volume Influence", "volumes", True,
+                               "Which irradiance volume lights each pixel (grey: the world)"),
+}
+
+# Distinct colours for probes 0, 1, ... (repeating), and the world's grey.
+PALETTE = np.array([[0.90, 0.25, 0.20], [0.20, 0.65, 0.90], [0.30, 0.80, 0.30],
+                    [0.95, 0.75, 0.15], [0.70, 0.35, 0.85], [0.15, 0.80, 0.75],
+                    [0.95, 0.50, 0.65], [0.55, 0.45, 0.25]], np.float32)
+WORLD_GREY = np.float32(0.2)
+
+
+def view_pixels(passes: dict, view: str, scene: Scene) -> np.ndarray:
+    """(H, W, 4) float32 RGBA of look-dev view ``view`` (a key of ``VIEWS``) from a render's
+    passes (``pipeline.render_frame``, row 0 at the top); RGB of 0 where nothing is seen."""
+    source = VIEWS[view].source
+    depth = passes["Depth"][..., 0]
+    h, w = depth.shape
+    out = np.zeros((h, w, 4), np.float32)
+    out[..., 3] = 1.0
+    if source == "Combined":
+        return np.ascontiguousarray(passes["Combined"], np.float32)
+    if source in ("reflection", "volumes"):
+        seen = depth < EMPTY_DEPTH
+        out[seen, :3] = probe_influence(scene, passes["Position"][seen], source)
+        return out
+    value = passes[source]
+    if source == "Normal":
+        seen = depth < EMPTY_DEPTH
+        out[seen, :3] = 0.5 * value[seen] + 0.5
+    elif value.shape[-1] == 1:
+        out[..., :3] = value
+    else:
+        out[..., :3] = value[..., :3]
+    return out
+
+
+def probe_influence(scene: Scene, points: np.ndarray, kind: str) -> np.ndarray:
+    """(N, 3) colours of the probes that light world points (N, 3): each probe's ``PALETTE``
+    colour by its weight, the world's grey where the probes leave weight (``kind``
+    "reflection" or "volumes")."""
+    probes = scene.probes
+    items = [] if probes is None else getattr(probes, kind)
+    color = np.zeros((len(points), 3), np.float32)
+    total = np.zeros(len(points), np.float32)
+    for k, probe in enumerate(items):
+        wk = probe.weight(points)
+        color += wk[:, None] * PALETTE[k % len(PALETTE)]
+        total += wk
+    over = total > 1.0
+    color[over] /= total[over, None]
+    color += (np.maximum(1.0 - total, 0.0) * WORLD_GREY)[:, None]
+    return color
+
+
+@dataclass(frozen=True)
+class Image:
+    """One published image of a session.
+
+    pixels:  (H, W, 4) float32 RGBA, row 0 at the BOTTOM (as a GPU texture takes it)
+    data:    show the values as they are (no display transform)
+    samples: samples averaged (0 for the reduced-resolution preview)
+    final:   no refinement follows
+    update:  the number of the update it shows (``Session.update`` returns it)
+    """
+
+    pixels: np.ndarray
+    data: bool
+    samples: int
+    final: bool
+    update: int
+
+
+class Session:
+    """A progressive renderer on one worker thread.
+
+    samples:  samples per pixel of the finished image
+    threads:  threads of each render (``RenderSettings.threads``; 0 = one per core)
+    on_image: called on the worker thread after each new image (e.g. to ask for a redraw)
+    warn:     called on the worker thread with each distinct warning of the renders
+    """
+
+    def __init__(self, samples: int = 8, on_image: Callable[[], None] | None = None,
+                 warn: Callable[[str], None] | None = None):
+        self.samples = max(1, int(samples))
+        self.on_image = on_image
+        self.warn = warn
+        self.view = "COMBINED"
+        self.stats = {"prepares": 0, "material_tables": 0, "projections": 0, "renders": 0}
+        self._cond = threading.Condition()
+        self._updates = 0
+        self._pending: tuple | None = None  # (scene, changed) not taken by the worker yet
+        self._busy = False
+        self._closed = False
+        self._image: Image | None = None
+        self._passes: tuple | None = None  # (passes, scene, samples, final, update)
+        self._error: str | None = None
+        self._frame: pipeline.Frame | None = None
+        self._thread = threading.Thread(target=self._run, name="bo2-viewport", daemon=True)
+        self._thread.start()
+
+    # ---- the host's side (any thread) --------------------------------------------------
+
+    def update(self, scene: Scene, changed) -> int:
+        """Render ``scene`` anew; ``changed`` names what differs from the last update (a subset
+        of ``CHANGES``; anything on the first update). Returns the update's number."""
+        changed = frozenset(changed)
+        unknown = changed - CHANGES
+        if unknown:
+            raise ValueError(f"unknown changes {sorted(unknown)}; expected some of "
+                             f"{sorted(CHANGES)}")
+        with self._cond:
+            if self._pending is not None:  # not started yet: both changes apply
+                changed |= self._pending[1]
+            self._updates += 1
+            self._pending = (scene, changed)
+            self._error = None
+            self._cond.notify_all()
+            return self._updates
+
+    def set_view(self, view: str) -> None:
+        """Show look-dev view ``view`` (a key of ``VIEWS``): re-derived from the last passes."""
+        if view not in VIEWS:
+            raise ValueError(f"unknown view {view!r}; expected one of {sorted(VIEWS)}")
+        with self._cond:
+            if view == self.view:
+                return
+            self.view = view
+            kept = self._passes
+        if kept is not None:
+            self._publish(*kept)
+
+    def image(self) -> Image | None:
+        """The newest image, or None before the first one."""
+        with self._cond:
+            return self._image
+
+    @property
+    def error(self) -> str | None:
+        """The message of the last update's failure, or None."""
+        with self._cond:
+            return self._error
+
+    @property
+    def busy(self) -> bool:
+        """True while an update is waiting or being rendered."""
+        with self._cond:
+            return self._busy or self._pending is not None
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait until every update is rendered in full (or failed); False on timeout."""
+        with self._cond:
+            return self._cond.wait_for(lambda: not self._busy and self._pending is None,
+                                       timeout)
+
+    def wait_for(self, predicate: Callable[[Image], bool], timeout: float | None = None) -> bool:
+        """Wait until the newest image satisfies ``predicate``; False on timeout."""
+        with self._cond:
+            return self._cond.wait_for(
+                lambda: self._image is not None and predicate(self._image), timeout)
+
+    def close(self) -> None:
+        """Stop the worker (the render in progress stops within one tile) and wait for it."""
+        with self._cond:
+            self._closed = True
+            self._cond.notify_all()
+        if self._thread is not threading.current_thread():
+            self._thread.join()
+
+    # ---- the worker --------------------------------------------------------------------
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                self._cond.wait_for(lambda: self._closed or self._pending is not None)
+                if self._closed:
+                    return
+                (scene, changed), self._pending = self._pending, None
+                number, self._busy = self._updates, True
+            try:
+                self._render(scene, changed, number)
+            except pipeline.Cancelled:
+                pass
+            except Exception as exc:  # noqa: BLE001 - shown in the viewport, the trace logged
+                traceback.print_exc()
+                self._frame = None  # the next update starts afresh
+                with self._cond:
+                    if self._updates == number:
+                        self._error = f"{type(exc).__name__}: {exc}"
+                if self.on_image is not None:
+                    self.on_image()
+            finally:
+                with self._cond:
+                    self._busy = False
+                    self._cond.notify_all()
+
+    def _stale(self, number: int) -> bool:
+        return self._closed or self._updates != number
+
+    def _prepared(self, scene: Scene, changed: frozenset, should_stop) -> pipeline.Frame:
+        """The frame of ``scene``, keeping what ``changed`` leaves valid."""
+        old = self._frame
+        rebuild = old is None or bool(changed & {"geometry", "lights"})
+        if not rebuild and changed & {"materials", "settings"}:
+            if scene.settings.shadow_resolution != old.scene.settings.shadow_resolution:
+                rebuild = True
+        frame = None
+        if not rebuild and "materials" in changed:
+            frame = pipeline.with_materials(old, scene)
+            if frame is None:
+                rebuild = True
+            else:
+                self.stats["material_tables"] += 1
+        if rebuild:
+            self._frame = None
+            frame = pipeline.prepare(scene, self.warn, should_stop, fit_shadows=False)
+            self.stats["prepares"] += 1
+        elif frame is None:
+            frame = dataclasses.replace(old, scene=dataclasses.replace(
+                scene, camera=old.scene.camera))
+        if not rebuild and "camera" in changed:
+            frame = pipeline.with_camera(frame, scene.camera)
+            self.stats["projections"] += 1
+        self._frame = frame
+        return frame
+
+    def _render(self, scene: Scene, changed: frozenset, number: int) -> None:
+        def should_stop() -> bool:
+            return self._stale(number)
+
+        frame = self._prepared(scene, changed, should_stop)
+        cam = scene.camera
+        offsets = pipeline.sample_offsets(self.samples, scene.settings.filter_width)
+        if min(cam.width, cam.height) >= 2 * PREVIEW_DIVIDER and self.samples > 0:
+            small = dataclasses.replace(cam, width=cam.width // PREVIEW_DIVIDER,
+                                        height=cam.height // PREVIEW_DIVIDER)
+            preview = pipeline.with_camera(frame, small)
+            passes = pipeline.render_frame(preview.scene, should_stop=should_stop,
+                                           warn=self.warn, frame=preview,
+                                           offsets=offsets[:1])
+            self.stats["renders"] += 1
+            self._publish(passes, preview.scene, 0, False, number)
+        total = None
+        for k in range(self.samples):
+            passes = pipeline.render_frame(scene, should_stop=should_stop, warn=self.warn,
+                                           frame=frame, offsets=offsets[k:k + 1],
+                                           first_sample=k)
+            self.stats["renders"] += 1
+            if total is None:
+                total = passes
+            else:
+                for name, image in passes.items():
+                    if name not in ("Depth", "IndexMA"):  # from the first sample, as Cycles
+                        total[name] += image
+            mean = {name: image if name in ("Depth", "IndexMA") else image / (k + 1)
+                    for name, image in total.items()}
+            self._publish(mean, scene, k + 1, k + 1 == self.samples, number)
+
+    def _publish(self, passes: dict, scene: Scene, samples: int, final: bool,
+                 number: int) -> None:
+        with self._cond:
+            if self._stale(number):
+                return
+            view = self.view
+        pixels = np.ascontiguousarray(view_pixels(passes, view, scene)[::-1], np.float32)
+        image = Image(pixels, VIEWS[view].data, samples, final, number)
+        with self._cond:
+            if self._stale(number):
+                return
+            self._image = image
+            self._passes = (passes, scene, samples, final, number)
+            self._cond.notify_all()
+        if self.on_image is not None:
+            self.on_image()
+
+
+def view_camera(view_matrix, window_matrix, width: int, height: int,
+                perspective: bool = True) -> Camera:
+    """The camera of a 3D viewport from its view (world -> view) and window (OpenGL-style
+    projection) matrices, (4, 4) each, and its size in pixels."""
+    return Camera(world_to_camera=np.array(view_matrix, np.float64),
+                  projection=np.array(window_matrix, np.float64),
+                  width=max(1, int(width)), height=max(1, int(height)),
+                  orthographic=not perspective)
+
+
+__all__ = ["CHANGES", "PREVIEW_DIVIDER", "VIEWS", "Image", "Session", "View", "probe_influence",
+           "view_camera", "view_pixels"]

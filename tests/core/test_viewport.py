@@ -1,0 +1,193 @@
+"""The progressive viewport session: refinement, cancellation, kept work, look-dev views.
+
+Images are checked against the closed-form radiance of ``test_pipeline`` (a Lambert floor under
+a point light), not against another render path.
+"""
+
+import dataclasses
+import threading
+
+import numpy as np
+import pytest
+from test_pipeline import HALF_H, HALF_W, H, W, lambert_scene, pixel_centres
+
+from bo2_lighting.addon.core import material, pipeline, viewport
+from bo2_lighting.addon.core.probes import Probes, ReflectionProbe
+from bo2_lighting.addon.core.scene import Light, Material
+
+LIGHT = np.array([0.7, -0.4, 1.5])
+POWER = 80.0
+
+
+def expected(albedo=0.6, samples=4):
+    """(H, W) red radiance of the floor under the point light (row 0 at the top), averaged
+    over the viewport's sample positions in each pixel (``pipeline.sample_offsets``)."""
+    total = 0.0
+    for ox, oy in pipeline.sample_offsets(samples):
+        p = pixel_centres() + [(ox - 0.5) * 2 * HALF_W / W, -(oy - 0.5) * 2 * HALF_H / H, 0.0]
+        to_light = LIGHT - p
+        d2 = np.sum(to_light**2, -1)
+        total = total + POWER / (4 * np.pi * d2) * to_light[..., 2] / np.sqrt(d2)
+    return albedo / np.pi * total / samples
+
+
+def scene(albedo=0.6):
+    return lambert_scene(Light("POINT", color=np.full(3, POWER), position=LIGHT), albedo)
+
+
+@pytest.fixture
+def session():
+    s = viewport.Session(samples=4)
+    yield s
+    s.close()
+
+
+def test_preview_then_full_resolution_converges(session):
+    seen = []
+    session.on_image = lambda: seen.append(session.image())
+    number = session.update(scene(), viewport.CHANGES)
+    assert session.wait(60)
+    shapes = [(i.pixels.shape, i.samples, i.final) for i in seen if i is not None]
+    assert shapes[0] == ((H // 4, W // 4, 4), 0, False)  # the preview comes first
+    assert [s for _, s, _ in shapes[1:]] == [1, 2, 3, 4]
+    assert shapes[-1] == ((H, W, 4), 4, True)
+    final = session.image()
+    assert final.update == number and not final.data
+    # rows bottom to top, as a texture takes them; within the closed form's tolerance
+    np.testing.assert_allclose(final.pixels[::-1, :, 0], expected(), rtol=3e-3)
+
+
+def test_material_tweak_keeps_geometry_and_shadows(session):
+    session.update(scene(), viewport.CHANGES)
+    assert session.wait(60)
+    before = dict(session.stats)
+    session.update(scene(albedo=0.3), {"materials"})
+    assert session.wait(60)
+    assert session.stats["prepares"] == before["prepares"]
+    assert session.stats["material_tables"] == before["material_tables"] + 1
+    np.testing.assert_allclose(session.image().pixels[::-1, :, 0], expected(0.3), rtol=3e-3)
+
+
+def test_camera_move_projects_again_only(session):
+    first = scene()
+    session.update(first, viewport.CHANGES)
+    assert session.wait(60)
+    before = dict(session.stats)
+    moved = dataclasses.replace(first, camera=dataclasses.replace(first.camera))
+    moved.camera.world_to_camera = first.camera.world_to_camera.copy()
+    moved.camera.world_to_camera[0, 3] = -1.0  # 1 m to the right: the image shifts by W / 4
+    session.update(moved, {"camera"})
+    assert session.wait(60)
+    assert session.stats["prepares"] == before["prepares"]
+    assert session.stats["projections"] == before["projections"] + 1
+    shifted = np.roll(expected(), -W // 4, axis=1)[:, : W - W // 4]
+    np.testing.assert_allclose(session.image().pixels[::-1, : W - W // 4, 0], shifted, rtol=3e-3)
+
+
+def test_geometry_and_light_changes_prepare_again(session):
+    session.update(scene(), viewport.CHANGES)
+    assert session.wait(60)
+    for change in ("geometry", "lights"):
+        count = session.stats["prepares"]
+        session.update(scene(), {change})
+        assert session.wait(60)
+        assert session.stats["prepares"] == count + 1
+
+
+def test_new_update_cancels_stale_work_within_a_tile(monkeypatch):
+    started, release = threading.Event(), threading.Event()
+    tiles_after = []
+    real = pipeline._render_tile
+
+    def slow_tile(frame, tile, offsets, tick, first_sample=0):
+        if not started.is_set():
+            started.set()
+            release.wait(10)
+        elif release.is_set() and frame.scene.materials[1].name == "stale":
+            tiles_after.append(tile)
+        return real(frame, tile, offsets, tick, first_sample)
+
+    monkeypatch.setattr(pipeline, "_render_tile", slow_tile)
+    s = viewport.Session(samples=8)
+    try:
+        stale = scene()
+        stale.materials[1].name = "stale"
+        stale.settings.tile_size = 16  # several tiles per image
+        stale.settings.threads = 1
+        s.update(stale, viewport.CHANGES)
+        assert started.wait(60)
+        number = s.update(scene(albedo=0.3), viewport.CHANGES)
+        release.set()
+        assert s.wait(60)
+        image = s.image()
+        assert image.update == number and image.final
+        assert len(tiles_after) == 0  # the stale render stopped at its next tile
+        np.testing.assert_allclose(image.pixels[::-1, :, 0], expected(0.3, 8), rtol=3e-3)
+    finally:
+        s.close()
+
+
+def test_views_switch_without_rendering(session):
+    session.update(scene(), viewport.CHANGES)
+    assert session.wait(60)
+    renders = session.stats["renders"]
+    session.set_view("ALBEDO")
+    image = session.image()
+    assert session.stats["renders"] == renders
+    np.testing.assert_allclose(image.pixels[..., :3], 0.6, atol=1e-6)
+    session.set_view("NORMAL")
+    assert session.image().data
+    np.testing.assert_allclose(session.image().pixels[..., :3],
+                               np.broadcast_to([0.5, 0.5, 1.0], (H, W, 3)), atol=1e-5)
+    session.set_view("GLOSS")
+    np.testing.assert_allclose(session.image().pixels[..., :3], 0.0, atol=1e-6)
+    with pytest.raises(ValueError, match="unknown view"):
+        session.set_view("NOPE")
+
+
+def test_probe_influence_colours_each_probe(session):
+    s = scene()
+    chains = {"bo1": [np.zeros((6, 1, 1, 3), np.float32)],
+              "bo2": [np.zeros((6, 1, 1, 3), np.float32)]}
+    probe = ReflectionProbe("left", np.array([-1.5, 0.0, 0.0]), 1.0, 0.0, chains,
+                            np.zeros((9, 3), np.float32))
+    s.probes = Probes(np.zeros((9, 3), np.float32), chains, np.zeros(3, np.float32),
+                      reflection=[probe])
+    session.set_view("REFLECTION_PROBES")
+    session.update(s, viewport.CHANGES)
+    assert session.wait(60)
+    pixels = session.image().pixels[::-1]
+    p = pixel_centres()
+    inside = np.linalg.norm(p - probe.position, axis=-1) < 0.9
+    outside = np.linalg.norm(p - probe.position, axis=-1) > 1.1
+    np.testing.assert_allclose(pixels[inside, :3],
+                               np.broadcast_to(viewport.PALETTE[0], (inside.sum(), 3)), atol=1e-6)
+    np.testing.assert_allclose(pixels[outside, :3], viewport.WORLD_GREY, atol=1e-6)
+
+
+def test_a_failed_update_shows_its_error_and_the_next_renders(session):
+    broken = scene()
+    broken.meshes[0].material = np.array([7, 7], np.int32)  # no such material
+    session.update(broken, viewport.CHANGES)
+    assert session.wait(60)
+    assert "material index" in session.error
+    session.update(scene(), viewport.CHANGES)
+    assert session.wait(60)
+    assert session.error is None and session.image().final
+
+
+def test_unknown_change_is_refused(session):
+    with pytest.raises(ValueError, match="unknown changes"):
+        session.update(scene(), {"colour"})
+
+
+def test_with_materials_refuses_transparent_surfaces():
+    frame = pipeline.prepare(scene())
+    b = material.ProgramBuilder()
+    surface = b.add("bo2", b.const(0.5, 0.5, 0.5), b.const(0.0, 0.0, 0.0), b.const(0.0), None,
+                    b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(0.5))  # alpha 0.5
+    s = scene()
+    s.materials = [Material(), Material("glass", b.build(surface))]
+    assert pipeline.with_materials(frame, s) is None
+    s.materials = [Material(), Material.talk("opaque")]
+    assert pipeline.with_materials(frame, s) is not None
