@@ -62,10 +62,11 @@ def unregister() -> None:
     """Remove everything ``register()`` added, in reverse order."""
     import bpy
 
-    from .blender import node_groups, props, ui
+    from .blender import node_groups, props, ui, viewport
 
     if not _registered:
         return
+    viewport.close_all()
     ui.remove_menus()
     node_groups.remove_menus()
     ui.disable_panels()

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core import kernels, pipeline
 from ..core.passes import PASSES
-from . import extract, passes
+from . import extract, passes, viewport
 
 
 class BO2RenderEngine(bpy.types.RenderEngine):
@@ -24,6 +24,49 @@ class BO2RenderEngine(bpy.types.RenderEngine):
     bl_label = "BO2 Lighting"
     bl_use_preview = False
     bl_use_postprocess = True
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._viewport = None
+        self._drawing = None
+
+    def __del__(self):
+        view = getattr(self, "_viewport", None)
+        if view is not None:
+            view.close()
+
+    # ---- the viewport's Rendered shading (``blender/viewport.py``) ------------------------
+
+    def view_update(self, context, depsgraph):
+        try:
+            if self._viewport is None:
+                kernels.check()  # compiling, when needed, happens on the render thread
+                self._viewport = viewport.Viewport()
+                self._viewport.sync(depsgraph)
+            else:
+                self._viewport.sync(depsgraph, depsgraph.updates)
+        except kernels.KernelsUnavailable as exc:
+            self.update_stats("BO2 Lighting", str(exc))
+        except Exception as exc:  # noqa: BLE001 - the viewport shows one line, the console the trace
+            traceback.print_exc(file=sys.stderr)
+            if self._viewport is not None:
+                self._viewport.error = f"{type(exc).__name__}: {exc}"
+        self.tag_redraw()
+
+    def view_draw(self, context, depsgraph):
+        view = self._viewport
+        if view is None:
+            return
+        region = context.region
+        view.set_camera(viewport.region_camera(region, context.region_data))
+        self.update_stats("BO2 Lighting", view.status())
+        image = view.session.image()
+        if image is not None and not (view.error or view.session.error):
+            if self._drawing is None:
+                self._drawing = viewport.Drawing()
+            self._drawing.draw(self, depsgraph.scene, image, region.width, region.height)
+        if view.session.busy:
+            self.tag_redraw()  # poll until the refinement is done
 
     def render(self, depsgraph):
         scene = depsgraph.scene

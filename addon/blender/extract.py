@@ -8,6 +8,8 @@ ignored; panoramic cameras are refused with a clear error.
 
 from __future__ import annotations
 
+import collections
+
 import bpy
 import numpy as np
 
@@ -305,21 +307,15 @@ def _visible(obj) -> bool:
     return bool(getattr(obj, "visible_camera", True))
 
 
-def _object_data(obj, materials, mat_ids, warnings):
-    """Object-space triangles, global material indices, corner attributes and texture space of
-    an evaluated object, or None."""
+def _object_data(obj, cache: SceneCache, warnings):
+    """Object-space triangles, global material indices (``cache.materials``), corner
+    attributes and texture space of an evaluated object, or None."""
+    materials = cache.materials
     mesh = obj.to_mesh()
     try:
         if mesh is None or len(mesh.polygons) == 0:
             return None
-        slot_ids = []
-        for ms in obj.material_slots:
-            mat = ms.material
-            key = mat.name_full if mat is not None else ""
-            if key not in mat_ids:
-                mat_ids[key] = len(materials)
-                materials.append(convert_material(mat, warnings))
-            slot_ids.append(mat_ids[key])
+        slot_ids = [cache.material(ms.material, warnings) for ms in obj.material_slots]
         readers: dict[tuple, list[str]] = {}
         for k in slot_ids:
             for key in materials[k].program.requires():
@@ -376,26 +372,91 @@ def render_settings(scene) -> cs.RenderSettings:
     )
 
 
+class SceneCache:
+    """What an extraction read from Blender, kept for the next one (the viewport): each
+    object's object-space data, each instance's world-space batch (by matrix), each compiled
+    material. ``forget_*`` drops what a depsgraph update made stale; ``reads`` counts what was
+    read from Blender: ("mesh", object name) and ("material", material name)."""
+
+    def __init__(self) -> None:
+        self.objects: dict[tuple, tuple | None] = {}
+        self.batches: dict[tuple, cs.MeshBatch] = {}
+        self.materials: list[cs.Material] = [cs.Material(name="(no material)")]
+        self.keys: list[str | None] = [None]  # the Blender material of each entry
+        self.mat_ids: dict[str, int] = {}  # compiled and valid: key -> index
+        self.reads: collections.Counter = collections.Counter()
+
+    def forget_object(self, name: str) -> None:
+        """Read object ``name``'s geometry (and material slots) again."""
+        for table in (self.objects, self.batches):
+            for key in [k for k in table if k[0] == name]:
+                del table[key]
+
+    def forget_material(self, name: str) -> None:
+        """Compile material ``name`` again (it keeps its index)."""
+        self.mat_ids.pop(name, None)
+
+    def forget_materials(self) -> None:
+        """Compile every material again (an image or node group they may use changed)."""
+        self.mat_ids.clear()
+
+    def refresh(self, warnings: list[str]) -> None:
+        """Compile again the forgotten materials that objects in the cache use; an object whose
+        material now reads other mesh attributes is read again."""
+        stale = {key for key in self.keys[1:] if key not in self.mat_ids}
+        if not stale:
+            return
+        by_name = {m.name_full: m for m in bpy.data.materials if m.name_full in stale}
+        for key in stale:
+            index = self.keys.index(key)
+            before = self.materials[index].program.requires()
+            self.material(by_name.get(key), warnings, key)
+            if self.materials[index].program.requires() != before:
+                for okey, data in list(self.objects.items()):
+                    if data is not None and (data[3] == index).any():
+                        self.forget_object(okey[0])
+
+    def material(self, mat, warnings: list[str], key: str | None = None) -> int:
+        """The index of ``mat`` (a Blender material or None) in ``materials``, compiled when
+        not valid; ``key`` names a material that may have been deleted (``mat`` None)."""
+        if key is None:
+            key = mat.name_full if mat is not None else ""
+        if key not in self.mat_ids:
+            converted = convert_material(mat, warnings)
+            self.reads["material", key] += 1
+            if key in self.keys:
+                index = self.keys.index(key)
+                self.materials[index] = converted
+            else:
+                index = len(self.materials)
+                self.materials.append(converted)
+                self.keys.append(key)
+            self.mat_ids[key] = index
+        return self.mat_ids[key]
+
+
 def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
-                  indirect: bool = False):
+                  indirect: bool = False, cache: SceneCache | None = None):
     """Translate the evaluated depsgraph into plain data.
 
     settings: the engine's settings (``render_settings(scene)`` when None)
-    camera:   False for work that brings its own cameras (probe captures): the scene camera is
-              neither read nor required, and a 1 x 1 placeholder stands in
+    camera:   False for work that brings its own cameras (probe captures, the viewport): the
+              scene camera is neither read nor required, and a 1 x 1 placeholder stands in
     indirect: light the scene with its baked probes and the world (``probes.load_probes``);
               False renders direct light only
+    cache:    what an earlier extraction read and is still valid (``SceneCache``), updated
     returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
     """
     warnings: list[str] = []
     scene = depsgraph.scene
     camera = (extract_camera(depsgraph) if camera else
               cs.Camera(world_to_camera=np.eye(4), projection=np.eye(4), width=1, height=1))
-    materials: list[cs.Material] = [cs.Material(name="(no material)")]
-    mat_ids: dict[str, int] = {}
+    cache = SceneCache() if cache is None else cache
+    cache.refresh(warnings)
     meshes: list[cs.MeshBatch] = []
     lights: list[cs.Light] = []
-    cache: dict[tuple, tuple | None] = {}  # object-space data shared by instances
+    objects: dict[tuple, tuple | None] = {}  # object-space data shared by instances
+    batches: dict[tuple, cs.MeshBatch] = {}
     for inst in depsgraph.object_instances:
         if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
             continue
@@ -406,26 +467,35 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         if obj.type not in _GEOMETRY_TYPES or not _visible(obj):
             continue
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
-        if key not in cache:
-            cache[key] = _object_data(obj, materials, mat_ids, warnings)
-        data = cache[key]
+        if key not in objects:
+            if key not in cache.objects:
+                cache.objects[key] = _object_data(obj, cache, warnings)
+                cache.reads["mesh", obj.name_full] += 1
+            objects[key] = cache.objects[key]
+        data = objects[key]
         if data is None:
             continue
-        pos, nrm, uvs, mat_index, attributes, texspace = data
         matrix = _matrix(inst.matrix_world)
-        wpos, wn, wuv, wattr = _to_world(pos, nrm, uvs, attributes, matrix)
-        holdout = obj.is_holdout or obj.original.holdout_get(view_layer=depsgraph.view_layer)
-        inverse = np.linalg.inv(matrix) if abs(np.linalg.det(matrix)) > 1e-30 else np.eye(4)
-        meshes.append(cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
-                                   holdout=bool(holdout), attributes=wattr,
-                                   world_to_object=inverse, texspace=texspace))
+        holdout = bool(obj.is_holdout
+                       or obj.original.holdout_get(view_layer=depsgraph.view_layer))
+        bkey = (*key, matrix.tobytes(), holdout)
+        batch = batches.get(bkey) or cache.batches.get(bkey)
+        if batch is None:
+            pos, nrm, uvs, mat_index, attributes, texspace = data
+            wpos, wn, wuv, wattr = _to_world(pos, nrm, uvs, attributes, matrix)
+            inverse = np.linalg.inv(matrix) if abs(np.linalg.det(matrix)) > 1e-30 else np.eye(4)
+            batch = cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name, holdout=holdout,
+                                 attributes=wattr, world_to_object=inverse, texspace=texspace)
+        batches[bkey] = batch
+        meshes.append(batch)
+    cache.objects, cache.batches = objects, batches  # what is gone from the scene is dropped
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
     world = extract_world(scene, warnings)
     return cs.Scene(
         camera=camera,
         meshes=meshes,
-        materials=materials,
+        materials=list(cache.materials),
         lights=lights,
         world=world,
         settings=settings or render_settings(scene),

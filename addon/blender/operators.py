@@ -55,7 +55,7 @@ class BO2_OT_bake_probes(bpy.types.Operator):
             self.report({"ERROR"}, str(exc))
             return False
         depsgraph = context.evaluated_depsgraph_get()
-        self._steps = bake.bake_steps(scene, depsgraph, objs, scene.bo2.bake_backend,
+        self._steps = bake.bake_steps(scene, depsgraph, objs, probes.capture_backend(scene),
                                       report=lambda m: self.report({"WARNING"}, m))
         self._start, self._count = time.perf_counter(), len(objs)
         return True

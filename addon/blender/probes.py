@@ -10,7 +10,9 @@ around it); the World is the fallback of both. Each probe object's bake is one O
 
 from __future__ import annotations
 
+import dataclasses
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import bpy
@@ -19,6 +21,7 @@ import numpy as np
 from ..core import bake, probe_file
 from ..core import probes as cp
 from ..core.scene import World
+from . import props
 
 KINDS = {"SPHERE": "reflection", "VOLUME": "irradiance"}
 
@@ -28,12 +31,19 @@ class BakeError(Exception):
 
 
 def bake_folder(scene) -> Path:
-    """Absolute bake folder of ``scene`` (``scene.bo2.bake_folder``, relative to the .blend)."""
-    folder = scene.bo2.bake_folder or "//bo2_bake/"
+    """Absolute bake folder of ``scene``: ``scene.bo2.bake_folder``, else the preferences'
+    default (relative to the .blend)."""
+    folder = scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
     if folder.startswith("//") and not bpy.data.filepath:
         raise BakeError("Save the .blend file first (the bake folder is relative to it), "
                         "or set an absolute Bake Folder")
     return Path(bpy.path.abspath(folder))
+
+
+def capture_backend(scene) -> str:
+    """"BO2" or "CYCLES": ``scene.bo2.bake_backend``, else the preferences' default."""
+    backend = scene.bo2.bake_backend
+    return props.preferences().bake_backend if backend == "DEFAULT" else backend
 
 
 def probe_path(folder: Path, name: str) -> Path:
@@ -82,26 +92,59 @@ def _read(path: Path) -> tuple:
     return cached[1]
 
 
-def _probe_from_file(obj, path: Path, warnings: list[str]):
-    """The core probe of ``obj`` from its file, or None with one warning."""
-    where = f"Light probe '{obj.name}'"
+STATES = ("BAKED", "STALE", "MISSING", "DAMAGED")
+
+
+@dataclass
+class BakeState:
+    """A probe object's bake: ``state`` one of ``STATES``; ``path`` its file; ``meta`` the
+    file's metadata (empty unless read); ``message`` why it is not BAKED ("" when it is)."""
+
+    state: str
+    path: Path
+    meta: dict
+    message: str = ""
+
+
+def bake_state(obj, folder: Path) -> BakeState:
+    """The state of ``obj``'s bake in ``folder``: STALE when the probe moved or changed since
+    (kind, matrix or volume resolution), MISSING without a file, DAMAGED when unreadable."""
+    path = probe_path(folder, obj.name)
+    if not path.exists():
+        return BakeState("MISSING", path, {}, f"{path.name}: no baked file (bake the probes)")
     try:
-        meta, coeffs, chains = _read(path)
+        meta = _read(path)[0]
     except probe_file.ProbeFileError as exc:
-        warnings.append(f"{where}: {exc}; the world lights it instead")
-        return None
-    current = spec(obj)
-    described = current.describe()
-    if meta.get("kind") != current.kind or (
-            not np.allclose(meta.get("matrix", 0), described["matrix"], atol=1e-4)
+        return BakeState("DAMAGED", path, {}, str(exc))
+    described = spec(obj).describe()
+    if meta.get("kind") != described["kind"]:
+        return BakeState("DAMAGED", path, meta, f"{path.name}: the bake is of a "
+                         f"{meta.get('kind', 'other')} probe; re-bake")
+    if (not np.allclose(meta.get("matrix", 0), described["matrix"], atol=1e-4)
             or meta.get("resolution") != described.get("resolution")):
-        warnings.append(f"{where}: the bake is stale (the probe moved or changed since "
-                        f"{meta.get('bake_time', 'it was baked')}); re-bake. The world lights "
-                        "it instead")
+        return BakeState("STALE", path, meta, "the bake is stale (the probe moved or changed "
+                         f"since {meta.get('bake_time', 'it was baked')}); re-bake")
+    if described["kind"] == "reflection" and set(_read(path)[2]) != set(cp.PREFILTERS):
+        return BakeState("DAMAGED", path, meta, "the bake has no prefiltered cube maps; re-bake")
+    return BakeState("BAKED", path, meta)
+
+
+def _probe_from_file(obj, state: BakeState, warnings: list[str]):
+    """The core probe of ``obj`` from its bake, or None with one warning. A stale bake is used
+    where and as it was baked (its own matrix and resolution), with a warning."""
+    where = f"Light probe '{obj.name}'"
+    if state.state in ("MISSING", "DAMAGED"):
+        warnings.append(f"{where}: {state.message}; the world lights it instead")
         return None
-    if current.kind == "reflection" and set(chains) != set(cp.PREFILTERS):
-        warnings.append(f"{where}: the bake has no prefiltered cube maps; re-bake")
-        return None
+    _, coeffs, chains = _read(state.path)
+    current = spec(obj)
+    if state.state == "STALE":
+        warnings.append(f"{where}: {state.message}. Until then the old bake is used where it "
+                        "was baked")
+        resolution = state.meta.get("resolution")
+        current = dataclasses.replace(
+            current, local_to_world=np.array(state.meta["matrix"], np.float64),
+            resolution=tuple(resolution) if resolution else current.resolution)
     return current.probe(coeffs, chains if current.kind == "reflection" else None)
 
 
@@ -118,7 +161,7 @@ def load_probes(scene, world: World, warnings: list[str]) -> cp.Probes:
         warnings.append(f"Light probes not loaded: {exc}")
         return result
     for obj in objs:
-        probe = _probe_from_file(obj, probe_path(folder, obj.name), warnings)
+        probe = _probe_from_file(obj, bake_state(obj, folder), warnings)
         if isinstance(probe, cp.ReflectionProbe):
             result.reflection.append(probe)
         elif probe is not None:

@@ -2,14 +2,20 @@
 
 import bpy
 
-from ..core import brdf
+from ..core import brdf, viewport
 
 _SPECULAR_DESCRIPTIONS = {
-    "reference": ("Reference", "The talk's terms: Blinn-Phong NDF, Schlick Fresnel, Schlick-Smith"),
-    "bo2": ("BO2 optimized", "Black Ops II bonus slides: 2^(-10 l.h) Fresnel, fast visibility"),
-    "none": ("No visibility", "Visibility term V = 1"),
-    "cook_torrance": ("Cook-Torrance", "Cook-Torrance geometry term"),
-    "kelemen": ("Kelemen/Szirmay-Kalos", "Kelemen and Szirmay-Kalos visibility approximation"),
+    "reference": ("Reference", "The talk's terms (slides 'Black Ops: normal distribution "
+                  "function', 'reflectance function', 'visibility function'): Blinn-Phong NDF, "
+                  "Schlick Fresnel, Schlick-Smith"),
+    "bo2": ("BO2 optimized", "Bonus slides 'Black Ops II: new Fresnel approximation' and 'new "
+            "visibility function approximation': 2^(-10 l.h) Fresnel, fast visibility"),
+    "none": ("No visibility", "Visibility term V = 1 (slide 'Black Ops: visibility function', "
+             "its comparison)"),
+    "cook_torrance": ("Cook-Torrance", "Cook-Torrance geometry term (slide 'Black Ops: "
+                      "visibility function', its comparison)"),
+    "kelemen": ("Kelemen/Szirmay-Kalos", "Kelemen and Szirmay-Kalos visibility approximation "
+                "(slide 'Black Ops: visibility function', its comparison)"),
 }
 
 
@@ -18,8 +24,23 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
 
     samples: bpy.props.IntProperty(
         name="Samples",
-        description="Anti-aliasing samples per pixel",
+        description="Anti-aliasing samples per pixel of a final render",
         default=4, min=1, max=1024, soft_max=64,
+    )
+    viewport_samples: bpy.props.IntProperty(
+        name="Viewport Samples",
+        description="Anti-aliasing samples per pixel of the viewport's Rendered shading, "
+        "added one at a time after a first image at a quarter of the resolution",
+        default=8, min=1, max=1024, soft_max=64,
+    )
+    lookdev_view: bpy.props.EnumProperty(
+        name="Look-Dev View",
+        description="What the viewport's Rendered shading shows: the image or one of its "
+        "passes (the talk's material parameters, the light by kind, which probe lights a "
+        "pixel)",
+        items=[(key, view.label, view.description, k)
+               for k, (key, view) in enumerate(viewport.VIEWS.items())],
+        default="COMBINED",
     )
     shade_every_sample: bpy.props.BoolProperty(
         name="Shade Every Sample",
@@ -35,17 +56,21 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     )
     specular_model: bpy.props.EnumProperty(
         name="Direct Specular",
-        description="Terms of the direct specular BRDF",
+        description="Terms of the direct specular BRDF (slide 'Black Ops: Microfacet BRDF' and "
+        "the bonus slides)",
         items=[(m, *_SPECULAR_DESCRIPTIONS[m]) for m in brdf.MODELS],
         default="reference",
     )
 
     env_brdf: bpy.props.EnumProperty(
         name="Environment BRDF",
-        description="Environment BRDF that scales indirect specular (reflections)",
+        description="Environment BRDF that scales indirect specular (reflections); slides "
+        "'Environment BRDF: old method' and 'new method'",
         items=[
-            ("bo1", "BO1", "Black Ops: rf0 + (1 - rf0)(1 - n.v)^5 / (4 - 3 gloss)"),
-            ("bo2", "BO2", "Black Ops II: the analytic EnvironmentBRDF of the talk"),
+            ("bo1", "BO1", "Slide 'Black Ops: environment map \u201cFresnel\u201d': "
+             "rf0 + (1 - rf0)(1 - n.v)^5 / (4 - 3 gloss)"),
+            ("bo2", "BO2", "Slide 'Final approximation': the analytic EnvironmentBRDF of the "
+             "talk"),
             ("fit", "Fit", "Our fit to the ground truth, at the cost of BO2's"),
             ("table", "Ground Truth (Table)",
              "The numerically integrated environment BRDF, looked up in a 64 x 64 table"),
@@ -55,21 +80,23 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     use_indirect: bpy.props.BoolProperty(
         name="Indirect Light",
         description="Light surfaces by the world and the baked light probes (indirect diffuse "
-        "from SH irradiance, indirect specular from prefiltered cube maps)",
+        "from SH irradiance, indirect specular from prefiltered cube maps; slide 'Getting More "
+        "Physical in Call of Duty: Black Ops II', Indirect Specular)",
         default=True,
     )
     normalization: bpy.props.EnumProperty(
         name="Normalization",
         description="Environment map normalization: how a reflection probe's cube map is "
-        "fitted to the lighting at each pixel",
+        "fitted to the lighting at each pixel (slides 'Black Ops: environment map "
+        "normalization', 'Improved normalization algorithm')",
         items=[
             ("none", "None", "The cube map as captured"),
             ("bo1", "BO1 Average Irradiance",
-             "Black Ops: divide by the probe's average irradiance (SH constant term), multiply "
-             "by the pixel's"),
+             "Slide 'Black Ops: normalization algorithm': divide by the probe's average "
+             "irradiance (SH constant term), multiply by the pixel's"),
             ("bo2", "BO2 Directional Irradiance",
-             "Black Ops II: divide by the probe's irradiance at the normal (tinted scalar SH), "
-             "multiply by the pixel's irradiance"),
+             "Slide 'Improved normalization algorithm': divide by the probe's irradiance at "
+             "the normal (tinted scalar SH), multiply by the pixel's irradiance"),
         ],
         default="bo2",
     )
@@ -77,40 +104,44 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         name="Prefilter",
         description="Filter of the reflection probes' mip chains (both are baked)",
         items=[
-            ("bo1", "BO1 Angular Gaussian", "Black Ops: CubeMapGen's angular Gaussian filter"),
+            ("bo1", "BO1 Angular Gaussian", "Slide 'Black Ops: environment map pre-filtering': "
+             "CubeMapGen's angular Gaussian filter"),
             ("bo2", "BO2 Cosine Power",
-             "Black Ops II: each mip filtered with the Phong power of the gloss that reads it"),
+             "Slide 'Improved environment map pre-filtering': each mip filtered with the Phong "
+             "power of the gloss that reads it"),
         ],
         default="bo2",
     )
     bake_folder: bpy.props.StringProperty(
         name="Bake Folder",
         description="Folder of the baked probes, one OpenEXR file per probe ('//' is the "
-        ".blend's folder)",
-        default="//bo2_bake/",
+        ".blend's folder; empty: the Default Bake Folder of the add-on's preferences)",
+        default="",
         subtype="DIR_PATH",
     )
     bake_backend: bpy.props.EnumProperty(
         name="Bake With",
         description="Renderer of the probes' captures",
         items=[
+            ("DEFAULT", "Default", "The Default Capture Backend of the add-on's preferences"),
             ("BO2", "BO2 Lighting", "The engine's own pipeline: direct light, shadows, the "
              "world and the previous bounce's probes (fast)"),
             ("CYCLES", "Cycles", "Cycles path tracing: full global illumination (slow)"),
         ],
-        default="BO2",
+        default="DEFAULT",
     )
     bake_face_size: bpy.props.EnumProperty(
         name="Cube Size",
-        description="Face size of the reflection probes' cube maps (the talk: 128, tied to the "
-        "largest specular power)",
+        description="Face size of the reflection probes' cube maps (slide 'Improved environment "
+        "map pre-filtering': 128, the top mip tied to the largest specular power)",
         items=[(str(n), f"{n} px", "") for n in (32, 64, 128, 256, 512)],
         default="128",
     )
     bake_volume_face_size: bpy.props.EnumProperty(
         name="Irradiance Cube Size",
         description="Face size of the captures at each irradiance volume sample (only their "
-        "SH is kept, so small sizes suffice)",
+        "SH is kept, so small sizes suffice; slide 'Improved normalization algorithm', "
+        "Offline)",
         items=[(str(n), f"{n} px", "") for n in (8, 16, 32, 64, 128)],
         default="32",
     )
@@ -151,7 +182,76 @@ class BO2ViewLayerSettings(bpy.types.PropertyGroup):
         name="Gloss", description="Gloss after texture lookups (specular power 8192^gloss)")
 
 
-CLASSES = [BO2SceneSettings, BO2ViewLayerSettings]
+def _tag_scene(self, context) -> None:
+    """A setting changed: tag the scene, so the viewport's depsgraph update sees it."""
+    self.id_data.update_tag()
+
+
+def _tagging(cls):
+    """``cls`` with every property calling ``_tag_scene`` on change."""
+    for name, prop in cls.__annotations__.items():
+        cls.__annotations__[name] = prop.function(**{**prop.keywords, "update": _tag_scene})
+    return cls
+
+
+_tagging(BO2SceneSettings)
+
+_PACKAGE = __package__.rpartition(".")[0].rpartition(".")[0]  # the extension's module name
+
+
+class BO2Preferences(bpy.types.AddonPreferences):
+    """The add-on's preferences: defaults of new scenes and the viewport's resolution."""
+
+    bl_idname = _PACKAGE
+
+    bake_folder: bpy.props.StringProperty(
+        name="Default Bake Folder",
+        description="Bake folder of scenes whose own Bake Folder is empty ('//' is the "
+        ".blend's folder)",
+        default="//bo2_bake/",
+        subtype="DIR_PATH",
+    )
+    bake_backend: bpy.props.EnumProperty(
+        name="Default Capture Backend",
+        description="Renderer of the probes' captures in scenes whose Bake With is Default",
+        items=[("BO2", "BO2 Lighting", "The engine's own pipeline (fast)"),
+               ("CYCLES", "Cycles", "Cycles path tracing: full global illumination (slow)")],
+        default="BO2",
+    )
+    viewport_scale: bpy.props.EnumProperty(
+        name="Viewport Resolution",
+        description="Resolution of the viewport's Rendered shading relative to the viewport "
+        "(lower is faster; the image is stretched to the viewport)",
+        items=[("100", "100%", "Every viewport pixel"), ("50", "50%", "Half on each axis"),
+               ("25", "25%", "A quarter on each axis")],
+        default="100",
+    )
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(self, "bake_folder")
+        layout.prop(self, "bake_backend")
+        layout.prop(self, "viewport_scale")
+
+
+class _Defaults:
+    """The preferences' defaults, when the add-on is not enabled through Preferences (a
+    script that calls ``register()`` itself)."""
+
+    bake_folder = "//bo2_bake/"
+    bake_backend = "BO2"
+    viewport_scale = "100"
+
+
+def preferences():
+    """The add-on's preferences (``BO2Preferences``), or their defaults."""
+    addon = bpy.context.preferences.addons.get(_PACKAGE)
+    return addon.preferences if addon is not None and addon.preferences is not None \
+        else _Defaults
+
+
+CLASSES = [BO2SceneSettings, BO2ViewLayerSettings, BO2Preferences]
 
 
 def attach() -> None:

@@ -8,7 +8,7 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import passes
+from . import passes, probes
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -107,12 +107,13 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         layout.prop(settings, "bake_backend")
         layout.prop(settings, "bake_face_size")
         layout.prop(settings, "bake_volume_face_size")
+        backend = probes.capture_backend(context.scene)
         col = layout.column()
-        col.active = settings.bake_backend == "BO2"
+        col.active = backend == "BO2"
         col.prop(settings, "bake_bounces")
         col.prop(settings, "bake_samples")
         col = layout.column()
-        col.active = settings.bake_backend == "CYCLES"
+        col.active = backend == "CYCLES"
         col.prop(settings, "bake_cycles_samples")
 
 

@@ -1,0 +1,233 @@
+"""The 3D viewport's Rendered shading: depsgraph updates -> ``core.viewport.Session``.
+
+``changes()`` turns the depsgraph's updates into what changed for the core and forgets exactly
+that in the extraction cache (a moved object keeps its mesh, an edited mesh is read again, a
+material tweak compiles that material); ``Viewport`` keeps one viewport's cache, camera and
+session; ``draw()`` is the only code that needs a GPU, and the only code not run headless.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import bpy
+import numpy as np
+
+from ..core import viewport
+from ..core.scene import Camera
+from . import extract, probes, props
+
+_GEOMETRY = extract._GEOMETRY_TYPES
+
+
+def changes(updates, cache: extract.SceneCache) -> set[str]:
+    """What the depsgraph ``updates`` (``Depsgraph.updates``, or records with the same ``id``
+    and ``is_updated_*`` fields) changed, as ``core.viewport.CHANGES``; the extraction
+    ``cache`` forgets what they made stale."""
+    changed: set[str] = set()
+    for update in updates:
+        idb = update.id
+        if isinstance(idb, bpy.types.Material):
+            cache.forget_material(idb.name_full)
+            changed.add("materials")
+        elif isinstance(idb, bpy.types.NodeTree):
+            if not idb.is_embedded_data:  # a node group: any material may use it
+                cache.forget_materials()
+                changed.add("materials")
+        elif isinstance(idb, (bpy.types.Image, bpy.types.Texture)):
+            cache.forget_materials()
+            changed |= {"materials", "world"}
+        elif isinstance(idb, bpy.types.Object):
+            # shading alone: the scene was tagged, or a material changed (updated on its own)
+            if not (update.is_updated_geometry or update.is_updated_transform):
+                continue
+            kind = idb.type
+            if kind == "LIGHT":
+                changed.add("lights")
+            elif kind == "LIGHT_PROBE":
+                changed.add("probes")
+            elif kind in _GEOMETRY:
+                if update.is_updated_geometry:  # its mesh, modifiers or material slots
+                    cache.forget_object(idb.name_full)
+                changed.add("geometry")
+        elif isinstance(idb, bpy.types.Light):
+            changed.add("lights")
+        elif isinstance(idb, bpy.types.LightProbe):
+            changed.add("probes")
+        elif isinstance(idb, bpy.types.World):
+            changed |= {"world", "probes"}
+        elif isinstance(idb, bpy.types.Collection):
+            changed.add("geometry")  # visibility or contents: the instances are listed again
+        elif isinstance(idb, bpy.types.Scene):
+            changed.add("settings")
+    return changed
+
+
+@dataclasses.dataclass
+class Update:
+    """A depsgraph update copied out of its callback (``Depsgraph.updates`` is valid only
+    during one): the evaluated ID and its flags."""
+
+    id: object
+    is_updated_geometry: bool = False
+    is_updated_transform: bool = False
+    is_updated_shading: bool = False
+
+    @classmethod
+    def copy(cls, update) -> Update:
+        return cls(update.id.original, update.is_updated_geometry,
+                   update.is_updated_transform, update.is_updated_shading)
+
+
+def probe_hint(scene) -> str:
+    """One line for the status text when light probes need a (re-)bake, else ""."""
+    objs = probes.probe_objects(scene)
+    if not objs or not scene.bo2.use_indirect:
+        return ""
+    try:
+        folder = probes.bake_folder(scene)
+    except probes.BakeError:
+        return "Light probes: save the .blend file to bake them"
+    counts: dict[str, int] = {}
+    for obj in objs:
+        state = probes.bake_state(obj, folder).state
+        counts[state] = counts.get(state, 0) + 1
+    parts = [f"{counts[s]} {s.lower()}" for s in ("STALE", "MISSING", "DAMAGED") if s in counts]
+    if not parts:
+        return ""
+    return (f"Light probes: {', '.join(parts)}: re-bake (Render Properties > BO2 Lighting > "
+            "Light Probes > Bake All)")
+
+
+_live: set = set()  # every open Viewport, closed by ``close_all`` (unregister)
+
+
+def close_all() -> None:
+    """Stop every viewport's render thread."""
+    for view in list(_live):
+        view.close()
+
+
+class Viewport:
+    """One viewport's rendering: the extraction cache, the view's camera and the session.
+
+    on_image: called on the render thread after each new image (ask for a redraw)
+    """
+
+    def __init__(self, on_image=None):
+        _live.add(self)
+        self.cache = extract.SceneCache()
+        self.session = viewport.Session(on_image=on_image, warn=self._warn)
+        self.scene = None  # the last extraction, with a placeholder camera
+        self.camera = None
+        self.error: str | None = None  # an extraction's failure, until the next update
+        self.warnings: list[str] = []
+        self.hint = ""
+
+    def _warn(self, message: str) -> None:
+        if message not in self.warnings:
+            self.warnings.append(message)
+
+    def sync(self, depsgraph, updates=None) -> set[str]:
+        """Read what ``updates`` changed (None: everything) and render anew; returns the
+        changes sent to the session (empty when nothing that renders changed)."""
+        if updates is None or self.scene is None:
+            changed = set(viewport.CHANGES)
+            if updates is None:
+                self.cache = extract.SceneCache()
+        else:
+            changed = changes(updates, self.cache)
+        blender_scene = depsgraph.scene
+        settings = blender_scene.bo2
+        self.session.samples = int(settings.viewport_samples)
+        self.session.set_view(settings.lookdev_view)
+        if not changed:
+            return changed
+        render = dataclasses.replace(extract.render_settings(blender_scene), border=None)
+        try:
+            scene, warnings = extract.extract_scene(
+                depsgraph, render, camera=False, indirect=settings.use_indirect,
+                cache=self.cache)
+        except extract.SceneError as exc:
+            self.error = str(exc)
+            return set()
+        self.error = None
+        for message in warnings:
+            self._warn(message)
+        self.hint = probe_hint(blender_scene) if changed & {"probes", "settings"} or \
+            self.scene is None else self.hint
+        self.scene = scene
+        self._submit(changed)
+        return changed
+
+    def set_camera(self, camera) -> bool:
+        """Render through ``camera`` (``core.viewport.view_camera``) when it differs from the
+        last one; True when it did."""
+        old = self.camera
+        if old is not None and (old.width, old.height, old.orthographic) == (
+                camera.width, camera.height, camera.orthographic) and np.array_equal(
+                old.world_to_camera, camera.world_to_camera) and np.array_equal(
+                old.projection, camera.projection):
+            return False
+        self.camera = camera
+        self._submit({"camera"})
+        return True
+
+    def _submit(self, changed) -> None:
+        if self.scene is not None and self.camera is not None:
+            self.session.update(dataclasses.replace(self.scene, camera=self.camera), changed)
+
+    def status(self) -> str:
+        """The viewport's status text: the error, the samples done, the probe hint."""
+        error = self.error or self.session.error
+        if error:
+            return f"Error: {error}"
+        image = self.session.image()
+        if image is None:
+            text = "Preparing"
+        elif image.samples == 0:
+            text = "Preview"
+        else:
+            text = f"Sample {image.samples}/{self.session.samples}"
+        return f"{text}  |  {self.hint}" if self.hint else text
+
+    def close(self) -> None:
+        """Stop the render thread."""
+        self.session.close()
+        _live.discard(self)
+
+
+def region_camera(region, region_data) -> Camera:
+    """The camera of a 3D viewport region (its view and window matrices), at the
+    preferences' Viewport Resolution."""
+    scale = int(props.preferences().viewport_scale) / 100.0
+    return viewport.view_camera(region_data.view_matrix, region_data.window_matrix,
+                                max(1, round(region.width * scale)),
+                                max(1, round(region.height * scale)),
+                                perspective=region_data.is_perspective)
+
+
+class Drawing:
+    """The GPU side: one texture upload per new image, drawn over the region through Blender's
+    display transform (data views drawn as they are)."""
+
+    def __init__(self):
+        self._image = None
+        self._texture = None
+
+    def draw(self, engine, scene, image: viewport.Image, width: int, height: int) -> None:
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+
+        if image is not self._image:
+            h, w = image.pixels.shape[:2]
+            buffer = gpu.types.Buffer("FLOAT", w * h * 4, image.pixels.ravel())
+            self._texture = gpu.types.GPUTexture((w, h), format="RGBA16F", data=buffer)
+            self._image = image
+        gpu.state.blend_set("ALPHA_PREMULT")
+        if not image.data:
+            engine.bind_display_space_shader(scene)
+        draw_texture_2d(self._texture, (0, 0), width, height)
+        if not image.data:
+            engine.unbind_display_space_shader()
+        gpu.state.blend_set("NONE")
