@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 
 import bpy
-import numpy as np
 
 from ..core import viewport
 from ..core.scene import Camera
@@ -143,7 +142,8 @@ class Viewport:
         self.session.set_view(settings.lookdev_view)
         if not changed:
             return changed
-        render = dataclasses.replace(extract.render_settings(blender_scene), border=None)
+        render = dataclasses.replace(extract.render_settings(blender_scene), border=None,
+                                     tile_size=viewport.TILE_SIZE)
         try:
             scene, warnings = extract.extract_scene(
                 depsgraph, render, camera=False, indirect=settings.use_indirect,
@@ -163,11 +163,7 @@ class Viewport:
     def set_camera(self, camera) -> bool:
         """Render through ``camera`` (``core.viewport.view_camera``) when it differs from the
         last one; True when it did."""
-        old = self.camera
-        if old is not None and (old.width, old.height, old.orthographic) == (
-                camera.width, camera.height, camera.orthographic) and np.array_equal(
-                old.world_to_camera, camera.world_to_camera) and np.array_equal(
-                old.projection, camera.projection):
+        if self.camera is not None and viewport.same_camera(self.camera, camera):
             return False
         self.camera = camera
         self._submit({"camera"})

@@ -125,6 +125,9 @@ class Frame:
     world_to_object: np.ndarray  # (B, 4, 4) float64 per mesh batch
     texspace: np.ndarray    # (B, 2, 3) float32 per mesh batch
     fades: np.ndarray       # (T,) bool: the triangle's material may be transparent
+    # Per-tile raster set-ups kept across renders of this very frame (the viewport), or None:
+    # (tile, margin) -> (``_margin``'s tuple, ``raster.rasterize``'s ``keep`` dict)
+    tiles: dict | None = None
 
 
 def _constant_tables(materials: list[Material]) -> dict:
@@ -237,25 +240,38 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     cull_t = np.array([m.backface_culling for m in mats], bool)
     cull = cull_t[mat_index] if cull_t.any() else None
 
-    def poll() -> None:
-        if should_stop is not None and should_stop():
-            raise Cancelled()
-
     tables = _constant_tables(mats)
     fades = tables["fades"][mat_index]
     frame = Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                   [None] * len(scene.lights) if shadow_maps is None else shadow_maps,
                   tables, attributes, obj, world_to_object, texspace, fades)
-    if len(positions) and shadow_maps is None:  # every face and cascade of every light at once
-        cutout = (fades, lambda t, b: _caster_alpha(frame, t, b)) if fades.any() else None
-        plans = [shadows.shadow_map_jobs(light, positions, cam if fit_shadows else None,
-                                         resolution=scene.settings.shadow_resolution,
-                                         cutout=cutout)
-                 for light in scene.lights]
-        done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
-                                  thread_count(scene.settings), poll, threading.Event())))
-        frame.shadow_maps = [finish([next(done) for _ in jobs]) for jobs, finish in plans]
+    if shadow_maps is None:
+        frame.shadow_maps = build_shadow_maps(frame, should_stop, fit_shadows)
     return frame
+
+
+def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
+                      fit_shadows: bool = True) -> list:
+    """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
+    every face and cascade of every light rendered at once on the render's threads.
+    Arguments as ``prepare``."""
+    scene = frame.scene
+    if not len(frame.positions):
+        return [None] * len(scene.lights)
+
+    def poll() -> None:
+        if should_stop is not None and should_stop():
+            raise Cancelled()
+
+    cutout = ((frame.fades, lambda t, b: _caster_alpha(frame, t, b)) if frame.fades.any()
+              else None)
+    plans = [shadows.shadow_map_jobs(light, frame.positions,
+                                     scene.camera if fit_shadows else None,
+                                     resolution=scene.settings.shadow_resolution, cutout=cutout)
+             for light in scene.lights]
+    done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
+                              thread_count(scene.settings), poll, threading.Event())))
+    return [finish([next(done) for _ in jobs]) for jobs, finish in plans]
 
 
 def _caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
@@ -273,7 +289,8 @@ def with_camera(frame: Frame, camera) -> Frame:
     materials and shadow maps)."""
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
                                clip=raster.project(frame.positions,
-                                                   camera.projection @ camera.world_to_camera))
+                                                   camera.projection @ camera.world_to_camera),
+                               tiles=None if frame.tiles is None else {})
 
 
 def with_materials(frame: Frame, scene: Scene) -> Frame | None:
@@ -288,9 +305,12 @@ def with_materials(frame: Frame, scene: Scene) -> Frame | None:
     tables = _constant_tables(mats)
     cull_t = np.array([m.backface_culling for m in mats], bool)
     scene = dataclasses.replace(scene, camera=frame.scene.camera)
+    cull = cull_t[frame.material] if cull_t.any() else None
+    same_cull = (cull is None and frame.cull is None) or (
+        cull is not None and frame.cull is not None and np.array_equal(cull, frame.cull))
     return dataclasses.replace(frame, scene=scene, tables=tables,
-                               fades=tables["fades"][frame.material],
-                               cull=cull_t[frame.material] if cull_t.any() else None)
+                               fades=tables["fades"][frame.material], cull=cull,
+                               tiles=frame.tiles if same_cull or frame.tiles is None else {})
 
 
 def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
@@ -423,12 +443,20 @@ def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
 def _margin(frame: Frame, tile):
     """The tile grown by the filter's reach (samples drawn from the pixel filter land up to its
     width beyond their pixel, so triangles next to the tile must not be rejected): the margin
-    m, pixels, and ``tile_clip`` of the grown tile with the culling flags of its triangles."""
+    m, pixels, ``tile_clip`` of the grown tile with the culling flags of its triangles, and the
+    raster's ``keep`` dict (None unless the frame keeps its tiles: ``Frame.tiles``)."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     m = int(np.ceil(frame.scene.settings.filter_width))
+    key = (tuple(tile), m)
+    if frame.tiles is not None and key in frame.tiles:
+        return frame.tiles[key]
     clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
-    return m, clip, index, None if frame.cull is None else frame.cull[index]
+    margin = (m, clip, index, None if frame.cull is None else frame.cull[index],
+              None if frame.tiles is None else {})
+    if frame.tiles is not None:
+        frame.tiles[key] = margin
+    return margin
 
 
 def _raster(frame: Frame, tile, margin, offset, behind=None):
@@ -438,9 +466,9 @@ def _raster(frame: Frame, tile, margin, offset, behind=None):
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
-    m, clip, index, cull = margin
+    m, clip, index, cull, keep = margin
     frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=cull,
-                             sample_offset=tuple(offset), behind=behind)
+                             sample_offset=tuple(offset), behind=behind, keep=keep)
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     if len(index):  # the subset's triangles -> the frame's

@@ -397,6 +397,7 @@ def rasterize(
     sample_offset=(0.5, 0.5),
     weights: bool = True,
     behind=None,
+    keep: dict | None = None,
 ) -> Fragments:
     """Rasterize triangles into the nearest fragment per pixel (one sample per pixel).
 
@@ -413,6 +414,9 @@ def rasterize(
                    clip, size, cull and offset: each pixel then gets the next fragment behind
                    that one (depth peeling; ties in depth go by triangle), and pixels whose
                    key is 0 get the nearest
+    keep:          None, or a dict the caller keeps with this very clip, size and cull (not
+                   checked): the set-up is stored in it and reused by later calls (a viewport
+                   renders each tile again and again, on any thread)
     returns:       Fragments; triangles with NaN/inf corners or zero window-space area are skipped
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
@@ -439,7 +443,12 @@ def rasterize(
     ox, oy = (float(o) for o in sample_offset)
     oxi, oyi = round(ox * unit), round(oy * unit)
 
-    s = _cached_setup(clip, width, height, cull, guard_bits)
+    if keep is None:
+        s = _cached_setup(clip, width, height, cull, guard_bits)
+    else:
+        if "setup" not in keep:
+            keep["setup"] = _setup(clip, width, height, cull, guard_bits)
+        s = keep["setup"]
     if s.n_sub == 0:
         return _empty_fragments(height, width, s.n_degenerate, s.n_nan, weights)
     keybuf = np.full(height * width, kernels.EMPTY, np.uint64)

@@ -28,6 +28,9 @@ from .scene import Camera, Scene
 # What ``Session.update`` may be told changed.
 CHANGES = frozenset({"geometry", "materials", "lights", "camera", "settings", "world", "probes"})
 PREVIEW_DIVIDER = 4  # the first image after a change: this many times smaller per axis
+# Tile size of viewport renders: small tiles keep both cores busy on a small image, and their
+# raster set-ups are kept across renders (``Frame.tiles``), so their count costs little.
+TILE_SIZE = 128
 
 
 @dataclass(frozen=True)
@@ -154,6 +157,7 @@ class Session:
         self._passes: tuple | None = None  # (passes, scene, samples, final, update)
         self._error: str | None = None
         self._frame: pipeline.Frame | None = None
+        self._preview: pipeline.Frame | None = None
         self._thread = threading.Thread(target=self._run, name="bo2-viewport", daemon=True)
         self._thread.start()
 
@@ -187,6 +191,12 @@ class Session:
             kept = self._passes
         if kept is not None:
             self._publish(*kept)
+
+    @property
+    def updates(self) -> int:
+        """The number of the last update."""
+        with self._cond:
+            return self._updates
 
     def image(self) -> Image | None:
         """The newest image, or None before the first one."""
@@ -255,8 +265,11 @@ class Session:
     def _stale(self, number: int) -> bool:
         return self._closed or self._updates != number
 
-    def _prepared(self, scene: Scene, changed: frozenset, should_stop) -> pipeline.Frame:
-        """The frame of ``scene``, keeping what ``changed`` leaves valid."""
+    def _prepared(self, scene: Scene, changed: frozenset, should_stop,
+                  preview: Callable[[pipeline.Frame], None]) -> pipeline.Frame:
+        """The frame of ``scene``, keeping what ``changed`` leaves valid. When the shadow maps
+        must be built again, ``preview`` is first called with a frame that has the previous
+        ones (the first image after a change comes before the slow part)."""
         old = self._frame
         rebuild = old is None or bool(changed & {"geometry", "lights"})
         if not rebuild and changed & {"materials", "settings"}:
@@ -271,33 +284,65 @@ class Session:
                 self.stats["material_tables"] += 1
         if rebuild:
             self._frame = None
-            frame = pipeline.prepare(scene, self.warn, should_stop, fit_shadows=False)
+            maps = [None] * len(scene.lights)
+            if old is not None and len(old.shadow_maps) == len(scene.lights):
+                maps = old.shadow_maps
+            quick = pipeline.prepare(scene, self.warn, should_stop, shadow_maps=maps,
+                                     fit_shadows=False)
+            quick.tiles = {}  # the raster set-ups of each tile, kept for the next renders
+            if old is not None:  # the previous shadow maps, or none, for the first image
+                preview(quick)
+            frame = dataclasses.replace(quick, shadow_maps=pipeline.build_shadow_maps(
+                quick, should_stop, fit_shadows=False))
             self.stats["prepares"] += 1
-        elif frame is None:
-            frame = dataclasses.replace(old, scene=dataclasses.replace(
-                scene, camera=old.scene.camera))
-        if not rebuild and "camera" in changed:
-            frame = pipeline.with_camera(frame, scene.camera)
-            self.stats["projections"] += 1
+            if old is None:
+                preview(frame)
+        else:
+            if frame is None:
+                frame = dataclasses.replace(old, scene=dataclasses.replace(
+                    scene, camera=old.scene.camera))
+            if "camera" in changed:
+                frame = pipeline.with_camera(frame, scene.camera)
+                self.stats["projections"] += 1
+            preview(frame)
         self._frame = frame
         return frame
+
+    def _preview_of(self, frame: pipeline.Frame) -> pipeline.Frame:
+        """``frame`` through its camera at ``1 / PREVIEW_DIVIDER`` of the resolution; the last
+        preview's projection and raster set-ups are kept while the geometry, the camera and
+        the culled faces are the same."""
+        cam = frame.scene.camera
+        small = dataclasses.replace(cam, width=cam.width // PREVIEW_DIVIDER,
+                                    height=cam.height // PREVIEW_DIVIDER)
+        old = self._preview
+        if old is not None and old.positions is frame.positions and same_camera(
+                old.scene.camera, small) and _same_cull(old.cull, frame.cull):
+            preview = dataclasses.replace(frame, scene=dataclasses.replace(frame.scene,
+                                                                           camera=small),
+                                          clip=old.clip, tiles=old.tiles)
+        else:
+            preview = pipeline.with_camera(frame, small)
+        self._preview = preview
+        return preview
 
     def _render(self, scene: Scene, changed: frozenset, number: int) -> None:
         def should_stop() -> bool:
             return self._stale(number)
 
-        frame = self._prepared(scene, changed, should_stop)
-        cam = scene.camera
         offsets = pipeline.sample_offsets(self.samples, scene.settings.filter_width)
-        if min(cam.width, cam.height) >= 2 * PREVIEW_DIVIDER and self.samples > 0:
-            small = dataclasses.replace(cam, width=cam.width // PREVIEW_DIVIDER,
-                                        height=cam.height // PREVIEW_DIVIDER)
-            preview = pipeline.with_camera(frame, small)
-            passes = pipeline.render_frame(preview.scene, should_stop=should_stop,
-                                           warn=self.warn, frame=preview,
-                                           offsets=offsets[:1])
+
+        def preview(frame: pipeline.Frame) -> None:
+            cam = frame.scene.camera
+            if min(cam.width, cam.height) < 2 * PREVIEW_DIVIDER:
+                return
+            small = self._preview_of(frame)
+            passes = pipeline.render_frame(small.scene, should_stop=should_stop,
+                                           warn=self.warn, frame=small, offsets=offsets[:1])
             self.stats["renders"] += 1
-            self._publish(passes, preview.scene, 0, False, number)
+            self._publish(passes, small.scene, 0, False, number)
+
+        frame = self._prepared(scene, changed, should_stop, preview)
         total = None
         for k in range(self.samples):
             passes = pipeline.render_frame(scene, should_stop=should_stop, warn=self.warn,
@@ -305,13 +350,12 @@ class Session:
                                            first_sample=k)
             self.stats["renders"] += 1
             if total is None:
-                total = passes
-            else:
-                for name, image in passes.items():
-                    if name not in ("Depth", "IndexMA"):  # from the first sample, as Cycles
-                        total[name] += image
-            mean = {name: image if name in ("Depth", "IndexMA") else image / (k + 1)
-                    for name, image in total.items()}
+                total = mean = passes
+            else:  # new arrays: the published ones stay as they are
+                total = {name: image if name in ("Depth", "IndexMA")  # the first sample's
+                         else image + passes[name] for name, image in total.items()}
+                mean = {name: image if name in ("Depth", "IndexMA") else image / (k + 1)
+                        for name, image in total.items()}
             self._publish(mean, scene, k + 1, k + 1 == self.samples, number)
 
     def _publish(self, passes: dict, scene: Scene, samples: int, final: bool,
@@ -332,6 +376,18 @@ class Session:
             self.on_image()
 
 
+def same_camera(a: Camera, b: Camera) -> bool:
+    """True when cameras ``a`` and ``b`` see the same image (matrices bit for bit, size)."""
+    return (a.width, a.height, a.orthographic) == (b.width, b.height, b.orthographic) and (
+        np.array_equal(a.world_to_camera, b.world_to_camera)
+        and np.array_equal(a.projection, b.projection))
+
+
+def _same_cull(a, b) -> bool:
+    return (a is None and b is None) or (a is not None and b is not None
+                                         and np.array_equal(a, b))
+
+
 def view_camera(view_matrix, window_matrix, width: int, height: int,
                 perspective: bool = True) -> Camera:
     """The camera of a 3D viewport from its view (world -> view) and window (OpenGL-style
@@ -342,5 +398,5 @@ def view_camera(view_matrix, window_matrix, width: int, height: int,
                   orthographic=not perspective)
 
 
-__all__ = ["CHANGES", "PREVIEW_DIVIDER", "VIEWS", "Image", "Session", "View", "probe_influence",
-           "view_camera", "view_pixels"]
+__all__ = ["CHANGES", "PREVIEW_DIVIDER", "TILE_SIZE", "VIEWS", "Image", "Session", "View",
+           "probe_influence", "same_camera", "view_camera", "view_pixels"]
