@@ -44,7 +44,7 @@ def register() -> None:
     """Register every class of the add-on, in order; safe to call after ``unregister()``."""
     import bpy
 
-    from .blender import node_groups, props, ui
+    from .blender import library, node_groups, props, ui
 
     if _registered:
         return
@@ -56,17 +56,19 @@ def register() -> None:
     ui.enable_panels()
     node_groups.append_menus()
     ui.append_menus()
+    library.register_library()
 
 
 def unregister() -> None:
     """Remove everything ``register()`` added, in reverse order."""
     import bpy
 
-    from .blender import node_groups, props, ui, viewport
+    from .blender import library, node_groups, props, ui, viewport
 
     if not _registered:
         return
     viewport.close_all()
+    library.unregister_library()
     ui.remove_menus()
     node_groups.remove_menus()
     ui.disable_panels()

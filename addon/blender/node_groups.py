@@ -36,11 +36,12 @@ SPEC_DIR = Path(__file__).resolve().parents[2] / "node_groups"
 
 GLOSS_GROUP = "BO2 Gloss to Roughness"
 MATERIAL_GROUP = "BO2 Material"
+PRINCIPLED_GROUP = "BO2 Principled to Talk"
 ENV_BRDF_GROUPS = {"bo2": "BO2 Environment BRDF", "bo1": "BO2 Environment BRDF (BO1)",
                    "fit": "BO2 Environment BRDF (Fit)"}
 """Environment BRDF group of each analytic model of ``core.env_brdf`` (specs written by
 ``tools/make_env_brdf_groups.py``)."""
-GROUP_NAMES = (GLOSS_GROUP, MATERIAL_GROUP, *ENV_BRDF_GROUPS.values())
+GROUP_NAMES = (GLOSS_GROUP, MATERIAL_GROUP, *ENV_BRDF_GROUPS.values(), PRINCIPLED_GROUP)
 """Names of the groups, dependencies first."""
 
 _SPEC_FILES = {
@@ -49,6 +50,7 @@ _SPEC_FILES = {
     ENV_BRDF_GROUPS["bo2"]: "bo2_env_brdf.json",
     ENV_BRDF_GROUPS["bo1"]: "bo2_env_brdf_bo1.json",
     ENV_BRDF_GROUPS["fit"]: "bo2_env_brdf_fit.json",
+    PRINCIPLED_GROUP: "bo2_principled_to_talk.json",
 }
 _TAG = "bo2_node_group"  # ID property that marks a tree built here; its value is the group name
 SHADER_TREE = "ShaderNodeTree"

@@ -14,14 +14,37 @@ import time
 import bpy
 
 from ..core import compare as core_compare
-from . import bake, compare, node_groups, probes
+from . import bake, compare, convert, node_groups, probes
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
-          ("SELECTED", "Selected", "The selected light probes")]
+          ("SELECTED", "Selected", "The selected light probes"),
+          ("ACTIVE", "Active", "The active object, a light probe")]
 
 
 def _objects(context, mode: str) -> list:
-    return probes.probe_objects(context.scene, selected_only=mode == "SELECTED")
+    """The light probes of ``mode``; raises BakeError when there are none."""
+    if mode == "ACTIVE":
+        obj = context.object
+        if obj is None or obj.type != "LIGHT_PROBE":
+            raise probes.BakeError("The active object is not a light probe")
+        if obj.data.type not in probes.KINDS:
+            raise probes.BakeError(f"Light probe '{obj.name}' is a {obj.data.type.title()} "
+                                   "probe: BO2 Lighting bakes Sphere and Volume probes")
+        return [obj]
+    objs = probes.probe_objects(context.scene, selected_only=mode == "SELECTED")
+    if not objs:
+        raise probes.BakeError("No Sphere or Volume light probes"
+                               + (" among the selected objects" if mode == "SELECTED" else ""))
+    return objs
+
+
+def _busy() -> str | None:
+    """Why a bake cannot start now (a render or another bake is running), or None."""
+    if bpy.app.is_job_running("RENDER"):
+        return "A render is running: wait for it, or cancel it, before baking"
+    if BO2_OT_bake_probes.running:
+        return "A bake is running: wait for it, or press Esc to cancel it"
+    return None
 
 
 class BO2_OT_bake_probes(bpy.types.Operator):
@@ -38,19 +61,20 @@ class BO2_OT_bake_probes(bpy.types.Operator):
     _start = 0.0
     _count = 0
 
+    running = False  # a modal bake is in progress (one at a time)
+
     @classmethod
     def poll(cls, context):
         return context.scene is not None
 
     def _begin(self, context) -> bool:
-        objs = _objects(context, self.mode)
         scene = context.scene
         try:
-            if not objs:
-                raise probes.BakeError("No Sphere or Volume light probes to bake"
-                                       + (" among the selected objects"
-                                          if self.mode == "SELECTED" else ""))
-            probes.bake_folder(scene)  # fail early on an unsaved file
+            busy = _busy()
+            if busy:
+                raise probes.BakeError(busy)
+            objs = _objects(context, self.mode)
+            probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return False
@@ -91,9 +115,11 @@ class BO2_OT_bake_probes(bpy.types.Operator):
         self._timer = wm.event_timer_add(0.01, window=context.window)
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
+        type(self).running = True
         return {"RUNNING_MODAL"}
 
     def _end(self, context) -> None:
+        type(self).running = False
         wm = context.window_manager
         if self._timer is not None:
             wm.event_timer_remove(self._timer)
@@ -143,6 +169,9 @@ class BO2_OT_clear_probes(bpy.types.Operator):
 
     def execute(self, context):
         try:
+            busy = _busy()
+            if busy:
+                raise probes.BakeError(busy.replace("baking", "clearing bakes"))
             count = bake.clear(context.scene, _objects(context, self.mode))
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
@@ -348,5 +377,42 @@ class MATERIAL_OT_bo2_new(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class MATERIAL_OT_bo2_convert(bpy.types.Operator):
+    """Convert the material's Principled BSDF to a BO2 Material, or a BO2 Material back to a
+    Principled BSDF, with the mapping of docs/engine.md"""
+
+    bl_idname = "material.bo2_convert"
+    bl_label = "Convert Material"
+    bl_options = {"REGISTER", "UNDO"}
+
+    direction: bpy.props.EnumProperty(
+        name="Direction",
+        items=[("TO_BO2", "To BO2 Material", "Principled BSDF -> BO2 Material (through BO2 "
+                "Principled to Talk: textures stay connected)"),
+               ("TO_PRINCIPLED", "To Principled BSDF", "BO2 Material -> Principled BSDF")],
+        default="TO_BO2",
+    )
+
+    @classmethod
+    def poll(cls, context):
+        return getattr(context, "material", None) is not None
+
+    def execute(self, context):
+        mat = getattr(context, "material", None)
+        if mat is None:
+            self.report({"ERROR"}, "Convert Material: no active material")
+            return {"CANCELLED"}
+        try:
+            if self.direction == "TO_BO2":
+                for message in convert.to_bo2(mat):
+                    self.report({"WARNING"}, message)
+            else:
+                convert.to_principled(mat)
+        except (convert.ConvertError, ValueError) as exc:
+            self.report({"ERROR"}, f"Convert Material: {exc}")
+            return {"CANCELLED"}
+        return {"FINISHED"}
+
+
 CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_compare_cycles,
-           NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new]
+           NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new, MATERIAL_OT_bo2_convert]

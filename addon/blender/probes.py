@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,6 +39,25 @@ def bake_folder(scene) -> Path:
         raise BakeError("Save the .blend file first (the bake folder is relative to it), "
                         "or set an absolute Bake Folder")
     return Path(bpy.path.abspath(folder))
+
+
+def writable_folder(scene) -> Path:
+    """``bake_folder(scene)``, checked before any work: a folder (or a path one can be made
+    at) where a file can be written. Nothing is created. Raises BakeError."""
+    folder = bake_folder(scene)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise BakeError(f"Bake folder {folder}: {existing} is a file, not a folder; choose "
+                        "another Bake Folder")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise BakeError(f"Bake folder {folder} is not writable ({exc.strerror}); choose "
+                        "another Bake Folder") from None
+    return folder
 
 
 def capture_backend(scene) -> str:

@@ -8,7 +8,7 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import passes, probes
+from . import convert, node_groups, passes, probes
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -24,7 +24,14 @@ _STOCK_PANELS = (
     "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_viewport",
     "WORLD_PT_context_world", "VIEWLAYER_PT_layer",
     "DATA_PT_context_lightprobe", "DATA_PT_lightprobe", "DATA_PT_lightprobe_display",
+    "DATA_PT_lightprobe_eevee", "DATA_PT_lightprobe_eevee_next", "DATA_PT_lightprobe_capture",
+    "DATA_PT_lightprobe_display_eevee", "DATA_PT_lightprobe_display_eevee_next",
+    "EEVEE_WORLD_PT_surface", "WORLD_PT_custom_props", "WORLD_PT_animation",
+    "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",
 )
+# Leak controls of a Volume light probe that the bake honours (Blender's own settings).
+_VOLUME_LEAK = ("dilation_threshold", "dilation_radius", "escape_bias", "normal_bias",
+                "view_bias", "facing_bias")
 _enabled: list[type] = []
 
 
@@ -117,6 +124,17 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         col.prop(settings, "bake_cycles_samples")
 
 
+class RENDER_PT_bo2_viewport(_BO2Panel, bpy.types.Panel):
+    bl_label = "Viewport"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_bo2_settings"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        layout.prop(context.scene.bo2, "viewport_samples")
+        layout.prop(context.scene.bo2, "lookdev_view")
+
+
 class RENDER_PT_bo2_lookdev(_BO2Panel, bpy.types.Panel):
     bl_label = "Look-Dev"
     bl_context = "render"
@@ -151,23 +169,89 @@ class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
         return context.engine in cls.COMPAT_ENGINES and context.object is not None
 
     def draw(self, context):
+        layout = self.layout
         mat = context.material
-        self.layout.operator("material.bo2_new", icon="ADD")
+        layout.operator("material.bo2_new", icon="ADD")
         if mat is None:
             return
-        tree = mat.node_tree
-        output = None
-        if tree is not None:
-            output = next((n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"
-                           and n.is_active_output), None)
-        if output is None:
-            self.layout.label(text="No material output node")
+        try:
+            tree, output, node = convert.surface_node(mat)
+        except convert.ConvertError as exc:
+            layout.label(text=str(exc)[0].upper() + str(exc)[1:], icon="INFO")
             return
-        self.layout.template_node_view(tree, output, output.inputs["Surface"])
+        if node.type == "BSDF_PRINCIPLED":
+            self.draw_talk_values(layout, node)
+            layout.operator("material.bo2_convert", text="Convert to BO2 Material",
+                            icon="SHADING_RENDERED").direction = "TO_BO2"
+        elif node_groups.is_bo2_material_node(node):
+            layout.operator("material.bo2_convert", text="Convert to Principled BSDF",
+                            icon="NODE_MATERIAL").direction = "TO_PRINCIPLED"
+        layout.template_node_view(tree, output, output.inputs["Surface"])
+
+    @staticmethod
+    def draw_talk_values(layout, node) -> None:
+        """The Principled BSDF in the talk's parameters, read-only."""
+        box = layout.box()
+        box.label(text="In the talk's parameters (as rendered)")
+        values = convert.talk_values(node)
+        if values is None:
+            box.label(text="Textured: they vary over the surface")
+            return
+        col = box.column(align=True)
+        for label, key in (("Albedo", "albedo"), ("Specular Color (rf0)", "rf0")):
+            r, g, b = values[key]
+            col.label(text=f"{label}: {r:.3f}, {g:.3f}, {b:.3f}")
+        col.label(text=f"Gloss: {values['gloss']:.3f}  (power {8192 ** values['gloss']:.0f})")
+
+
+class DATA_PT_bo2_lightprobe(_BO2Panel, bpy.types.Panel):
+    bl_label = "BO2 Bake"
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return (context.engine in cls.COMPAT_ENGINES and context.object is not None
+                and context.object.type == "LIGHT_PROBE")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        obj = context.object
+        probe = obj.data
+        if probe.type not in probes.KINDS:
+            layout.label(text=f"{probe.type.title()} probes are not baked by BO2 Lighting",
+                         icon="INFO")
+            return
+        try:
+            state = probes.bake_state(obj, probes.bake_folder(context.scene))
+        except probes.BakeError as exc:
+            layout.label(text=str(exc), icon="ERROR")
+            state = None
+        if state is not None:
+            col = layout.column(align=True)
+            icon = {"BAKED": "CHECKMARK", "STALE": "ERROR", "MISSING": "X",
+                    "DAMAGED": "CANCEL"}[state.state]
+            col.label(text=f"State: {state.state.title()}", icon=icon)
+            if state.meta:
+                col.label(text=f"Baked: {state.meta.get('bake_time', '?')}")
+                col.label(text=f"Face size: {state.meta.get('face_size', '?')} px")
+            col.label(text=f"File: {state.path.name}")
+            if state.message:
+                col.label(text=state.message)
+        row = layout.row(align=True)
+        row.operator("bo2.bake_probes", text="Bake", icon="RENDER_STILL").mode = "ACTIVE"
+        row.operator("bo2.clear_probes", text="Clear", icon="TRASH").mode = "ACTIVE"
+        if probe.type == "VOLUME":
+            col = layout.column(heading="Leaks")
+            for name in _VOLUME_LEAK:
+                if hasattr(probe, name):
+                    col.prop(probe, name)
+        else:
+            layout.prop(probe, "clip_start", text="Capture Clip Start")
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
-           RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes, MATERIAL_PT_bo2_surface]
+           RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes,
+           MATERIAL_PT_bo2_surface, DATA_PT_bo2_lightprobe]
 
 
 def draw_render_menu(self, context):
@@ -177,18 +261,31 @@ def draw_render_menu(self, context):
         self.layout.operator("bo2.compare_cycles", icon="IMAGE_REFERENCE")
 
 
+def draw_view3d_header(self, context):
+    """3D viewport header: the look-dev view, in Rendered shading with BO2 Lighting."""
+    space = context.space_data
+    if context.engine == ENGINE_ID and space is not None and space.type == "VIEW_3D" \
+            and space.shading.type == "RENDERED":
+        self.layout.prop(context.scene.bo2, "lookdev_view", text="")
+
+
+_MENUS = (("TOPBAR_MT_render", draw_render_menu), ("VIEW3D_HT_header", draw_view3d_header))
+
+
 def append_menus() -> None:
-    """Append ``draw_render_menu`` to the Render menu of the top bar."""
-    menu = getattr(bpy.types, "TOPBAR_MT_render", None)
-    if menu is not None:
-        menu.append(draw_render_menu)
+    """Add the Render menu entry and the viewport header's look-dev view selector."""
+    for name, draw in _MENUS:
+        menu = getattr(bpy.types, name, None)
+        if menu is not None:
+            menu.append(draw)
 
 
 def remove_menus() -> None:
     """Undo ``append_menus()``."""
-    menu = getattr(bpy.types, "TOPBAR_MT_render", None)
-    if menu is not None:
-        menu.remove(draw_render_menu)
+    for name, draw in _MENUS:
+        menu = getattr(bpy.types, name, None)
+        if menu is not None:
+            menu.remove(draw)
 
 
 def enable_panels() -> None:
