@@ -124,7 +124,7 @@ def to_principled(material) -> None:
     feeds = {name: node.inputs[name].links[0].from_node if node.inputs[name].is_linked else None
              for name in ("Albedo", "Specular Color", "Gloss")}
     params = next(iter(feeds.values()))
-    exact = params is not None and all(f is params for f in feeds.values()) and (
+    exact = params is not None and all(f == params for f in feeds.values()) and (
         params.type == "GROUP" and params.node_tree is not None
         and params.node_tree.name.startswith(node_groups.PRINCIPLED_GROUP))
     linked = [name for name, f in feeds.items() if f is not None]

@@ -38,7 +38,10 @@ def register_library() -> None:
     if any(_same(lib.path, LIBRARY_DIR) for lib in libraries):
         return
     lib = libraries.new(name=LIBRARY_NAME, directory=str(LIBRARY_DIR))
-    lib.import_method = "APPEND_REUSE"
+    try:
+        lib.import_method = "APPEND_REUSE"  # a group added twice is not duplicated
+    except TypeError:  # Blender 5 offers Link, Append and Pack
+        lib.import_method = "APPEND"
     _added.append(lib.path)
 
 
