@@ -8,7 +8,7 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import convert, node_groups, passes, probes
+from . import convert, node_groups, passes, probes, viewport
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -269,19 +269,47 @@ def draw_view3d_header(self, context):
         self.layout.prop(context.scene.bo2, "lookdev_view", text="")
 
 
+def draw_probe_states() -> None:
+    """3D viewport overlay (POST_PIXEL): each light probe's bake state beside it, when BO2
+    Lighting is the render engine (``viewport.probe_labels``)."""
+    import blf
+    from bpy_extras.view3d_utils import location_3d_to_region_2d
+
+    context = bpy.context
+    if context.engine != ENGINE_ID or context.region_data is None:
+        return
+    for obj, text, color in viewport.probe_labels(context.scene):
+        if not obj.visible_get():
+            continue
+        xy = location_3d_to_region_2d(context.region, context.region_data,
+                                      obj.matrix_world.translation)
+        if xy is not None:
+            blf.size(0, 12)
+            blf.color(0, *color)
+            blf.position(0, xy.x + 14.0, xy.y - 14.0, 0.0)
+            blf.draw(0, text)
+
+
 _MENUS = (("TOPBAR_MT_render", draw_render_menu), ("VIEW3D_HT_header", draw_view3d_header))
+_handlers: list = []
 
 
 def append_menus() -> None:
-    """Add the Render menu entry and the viewport header's look-dev view selector."""
+    """Add the Render menu entry, the viewport header's look-dev view selector and the
+    viewport's probe state overlay."""
     for name, draw in _MENUS:
         menu = getattr(bpy.types, name, None)
         if menu is not None:
             menu.append(draw)
+    _handlers.append(bpy.types.SpaceView3D.draw_handler_add(draw_probe_states, (), "WINDOW",
+                                                            "POST_PIXEL"))
 
 
 def remove_menus() -> None:
     """Undo ``append_menus()``."""
+    for handle in _handlers:
+        bpy.types.SpaceView3D.draw_handler_remove(handle, "WINDOW")
+    _handlers.clear()
     for name, draw in _MENUS:
         menu = getattr(bpy.types, name, None)
         if menu is not None:

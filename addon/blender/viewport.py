@@ -78,6 +78,24 @@ class Update:
                    update.is_updated_transform, update.is_updated_shading)
 
 
+STATE_COLORS = {"BAKED": (0.55, 0.85, 0.55, 1.0), "STALE": (0.95, 0.75, 0.3, 1.0),
+                "MISSING": (0.95, 0.45, 0.4, 1.0), "DAMAGED": (0.95, 0.3, 0.3, 1.0)}
+
+
+def probe_labels(scene) -> list[tuple]:
+    """(object, text, RGBA) of every Sphere and Volume light probe: its bake state, as the
+    viewport shows it beside the object; [] when the bake folder is unknown."""
+    try:
+        folder = probes.bake_folder(scene)
+    except probes.BakeError:
+        return []
+    labels = []
+    for obj in probes.probe_objects(scene):
+        state = probes.bake_state(obj, folder).state
+        labels.append((obj, f"BO2 bake: {state.lower()}", STATE_COLORS[state]))
+    return labels
+
+
 def probe_hint(scene) -> str:
     """One line for the status text when light probes need a (re-)bake, else ""."""
     objs = probes.probe_objects(scene)
@@ -122,6 +140,7 @@ class Viewport:
         self.error: str | None = None  # an extraction's failure, until the next update
         self.warnings: list[str] = []
         self.hint = ""
+        self._state = None  # the settings of the last render
 
     def _warn(self, message: str) -> None:
         if message not in self.warnings:
@@ -138,12 +157,16 @@ class Viewport:
             changed = changes(updates, self.cache)
         blender_scene = depsgraph.scene
         settings = blender_scene.bo2
-        self.session.samples = int(settings.viewport_samples)
         self.session.set_view(settings.lookdev_view)
-        if not changed:
-            return changed
         render = dataclasses.replace(extract.render_settings(blender_scene), border=None,
                                      tile_size=viewport.TILE_SIZE)
+        state = (render, int(settings.viewport_samples), bool(settings.use_indirect))
+        if changed == {"settings"} and state == self._state:
+            return set()  # e.g. the look-dev view alone: shown from the last passes
+        self._state = state
+        self.session.samples = int(settings.viewport_samples)
+        if not changed:
+            return changed
         try:
             scene, warnings = extract.extract_scene(
                 depsgraph, render, camera=False, indirect=settings.use_indirect,

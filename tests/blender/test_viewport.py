@@ -145,15 +145,19 @@ def test_lookdev_view_and_viewport_samples_follow_the_scene(view, updates):
     view.set_camera(camera_of(scene))
     assert view.session.wait(120)
     renders = view.session.stats["renders"]
+    updates.clear()
     scene.bo2.lookdev_view = "ALBEDO"
-    settle(view, updates)
+    assert settle(view, updates) == set()  # shown from the last passes: no render
     assert view.session.view == "ALBEDO"
+    assert view.session.stats["renders"] == renders
     pixels = view.session.image().pixels
     # the left cube's red albedo somewhere, the right's blue elsewhere, as the materials say
     red = np.all(np.abs(pixels[..., :3] - [0.8, 0.2, 0.2]) < 0.01, axis=-1)
     blue = np.all(np.abs(pixels[..., :3] - [0.2, 0.2, 0.8]) < 0.01, axis=-1)
     assert red.sum() > 50 and blue.sum() > 50
-    assert view.session.stats["renders"] > renders  # the settings change rendered again
+    scene.bo2.viewport_samples = 3  # a setting that changes the image renders again
+    assert settle(view, updates) == {"settings"}
+    assert view.session.image().samples == 3
     for key in core_viewport.VIEWS:
         scene.bo2.lookdev_view = key
         settle(view, updates)
@@ -194,3 +198,15 @@ def test_probe_state_hint(view, tmp_path):
     view.set_camera(camera_of(scene))
     assert view.session.wait(120)
     assert "Light probes: 1 missing: re-bake" in view.status()
+    [(obj, text, _)] = viewport.probe_labels(scene)
+    assert obj == probe and text == "BO2 bake: missing"
+    bpy.context.view_layer.objects.active = probe
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
+    scene.bo2.bake_face_size, scene.bo2.bake_samples = "32", 1
+    assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
+    assert viewport.probe_labels(scene)[0][1] == "BO2 bake: baked"
+    assert viewport.probe_hint(scene) == ""
+    probe.location.x += 1.0  # moved after its bake: stale, still used
+    bpy.context.view_layer.update()
+    assert viewport.probe_labels(scene)[0][1] == "BO2 bake: stale"
+    assert viewport.probe_hint(scene).startswith("Light probes: 1 stale: re-bake")
