@@ -25,6 +25,9 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
+# The viewport's targets, seconds: the first image after any change, and a full image at one
+# sample (the sample that follows the first image).
+TARGETS = {": first image": 0.1, ": then one sample": 0.3}
 
 
 def main() -> int:
@@ -125,11 +128,13 @@ def main() -> int:
         record("nothing kept: full image", time.perf_counter() - start)
         view.close()
 
-    print(f"{'':52s} {'median s':>9s}   runs")
+    print(f"{'':52s} {'median s':>9s} {'target':>7s}   runs")
     for key, values in figures.items():
         if key == "redone":
             continue
-        print(f"{key:52s} {statistics.median(values):9.3f}   "
+        target = next((t for suffix, t in TARGETS.items() if key.endswith(suffix)), None)
+        mark = "" if target is None else f"{target:7.2f}"
+        print(f"{key:52s} {statistics.median(values):9.3f} {mark:>7s}   "
               + " ".join(f"{v:.3f}" for v in values))
     for line in figures.get("redone", []):
         print("redone after", line)

@@ -24,6 +24,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
     bl_label = "BO2 Lighting"
     bl_use_preview = False
     bl_use_postprocess = True
+    bl_use_eevee_viewport = True  # Material Preview shading: EEVEE renders the BO2 groups
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)

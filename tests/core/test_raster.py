@@ -159,7 +159,8 @@ def test_covered_count_matches_analytic_area():
     # a single large triangle: area by the shoelace formula
     tri = np.array([[20.2, 370.1], [500.7, 300.4], [130.9, 10.6]])
     cov = raster.coverage(raster.rasterize(win_to_clip(tri[None], w, h), w, h))
-    area = 0.5 * abs(np.cross(tri[1] - tri[0], tri[2] - tri[0]))
+    (ax, ay), (bx, by) = tri[1] - tri[0], tri[2] - tri[0]
+    area = 0.5 * abs(ax * by - ay * bx)
     perimeter = np.sum(np.linalg.norm(tri - np.roll(tri, 1, axis=0), axis=1))
     assert abs(int(cov.sum()) - area) <= perimeter
 
