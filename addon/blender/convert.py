@@ -27,6 +27,7 @@ _TALK_INPUTS = ("Base Color", "Metallic", "Roughness", "IOR", "Specular IOR Leve
 _ACROSS = {"Normal": "Normal", "Emission Color": "Emission",
            "Emission Strength": "Emission Strength", "Alpha": "Alpha"}  # Principled -> BO2
 _NOT_TALK = ("Coat Weight", "Sheen Weight", "Subsurface Weight")
+_PARAMS = ("Albedo", "Specular Color", "Gloss")  # BO2 Principled to Talk -> BO2 Material
 
 
 class ConvertError(Exception):
@@ -80,21 +81,43 @@ def to_bo2(material) -> list[str]:
     warnings = [f"'{name}' of '{node.name}' is not part of the talk's model and is dropped"
                 for name in _NOT_TALK if name in node.inputs and (
                     node.inputs[name].is_linked or node.inputs[name].default_value > 0.0)]
+    _check_sockets(node_groups.ensure_group(node_groups.PRINCIPLED_GROUP), _TALK_INPUTS, _PARAMS)
+    _check_sockets(node_groups.ensure_group(node_groups.MATERIAL_GROUP),
+                   (*_PARAMS, *_ACROSS.values()), ("BSDF",))
     x, y = node.location
-    params = tree.nodes.new("ShaderNodeGroup")
-    params.node_tree = node_groups.ensure_group(node_groups.PRINCIPLED_GROUP)
-    params.location = (x - 220.0, y)
-    bo2 = node_groups.add_material_node(tree, (x + 60.0, y))
-    for name in _TALK_INPUTS:
-        _carry(tree, node.inputs[name], params.inputs[name])
-    for out_name, in_name in (("Albedo", "Albedo"), ("Specular Color", "Specular Color"),
-                              ("Gloss", "Gloss")):
-        tree.links.new(params.outputs[out_name], bo2.inputs[in_name])
-    for src, dst in _ACROSS.items():
-        _carry(tree, node.inputs[src], bo2.inputs[dst])
-    tree.links.new(bo2.outputs["BSDF"], output.inputs["Surface"])
+    added = []
+    try:
+        params = tree.nodes.new("ShaderNodeGroup")
+        added.append(params)
+        params.node_tree = node_groups.ensure_group(node_groups.PRINCIPLED_GROUP)
+        params.location = (x - 220.0, y)
+        bo2 = node_groups.add_material_node(tree, (x + 60.0, y))
+        added.append(bo2)
+        for name in _TALK_INPUTS:
+            _carry(tree, node.inputs[name], params.inputs[name])
+        for name in _PARAMS:
+            tree.links.new(params.outputs[name], bo2.inputs[name])
+        for src, dst in _ACROSS.items():
+            _carry(tree, node.inputs[src], bo2.inputs[dst])
+        tree.links.new(bo2.outputs["BSDF"], output.inputs["Surface"])
+    except Exception:
+        for new in added:  # the tree as it was
+            tree.nodes.remove(new)
+        raise
     tree.nodes.remove(node)
     return warnings
+
+
+def _check_sockets(tree, inputs, outputs) -> None:
+    """Raise ConvertError unless node group ``tree`` (as the file has it: the user may have
+    edited it) has these input and output sockets."""
+    have = {(item.in_out, item.name) for item in tree.interface.items_tree
+            if item.item_type == "SOCKET"}
+    missing = [name for kind, names in (("INPUT", inputs), ("OUTPUT", outputs))
+               for name in names if (kind, name) not in have]
+    if missing:
+        raise ConvertError(f"node group '{tree.name}' has no socket {', '.join(missing)} "
+                           "(edited?); rename it so that the add-on builds it again")
 
 
 def invert(albedo, rf0, gloss) -> dict:
@@ -121,8 +144,9 @@ def to_principled(material) -> None:
     if not node_groups.is_bo2_material_node(node):
         raise ConvertError(f"the surface of '{material.name}' is '{node.name}', not a BO2 "
                            "Material")
+    _check_sockets(node.node_tree, (*_PARAMS, *_ACROSS.values()), ("BSDF",))
     feeds = {name: node.inputs[name].links[0].from_node if node.inputs[name].is_linked else None
-             for name in ("Albedo", "Specular Color", "Gloss")}
+             for name in _PARAMS}
     params = next(iter(feeds.values()))
     exact = params is not None and all(f == params for f in feeds.values()) and (
         params.type == "GROUP" and params.node_tree is not None
@@ -132,21 +156,27 @@ def to_principled(material) -> None:
         raise ConvertError(f"'{node.name}' has {', '.join(linked)} linked to other nodes: "
                            "only constant values (or BO2 Principled to Talk) can be converted "
                            "back")
-    principled = tree.nodes.new("ShaderNodeBsdfPrincipled")
-    principled.location = node.location
     if exact:
-        for name in _TALK_INPUTS:
-            _carry(tree, params.inputs[name], principled.inputs[name])
-    else:
-        values = invert(node.inputs["Albedo"].default_value[:3],
-                        node.inputs["Specular Color"].default_value[:3],
-                        node.inputs["Gloss"].default_value)
-        principled.inputs["IOR"].default_value = 1.5
-        for name, value in values.items():
-            principled.inputs[name].default_value = value
-    for src, dst in _ACROSS.items():
-        _carry(tree, node.inputs[dst], principled.inputs[src])
-    tree.links.new(principled.outputs["BSDF"], output.inputs["Surface"])
+        _check_sockets(params.node_tree, _TALK_INPUTS, _PARAMS)
+    principled = tree.nodes.new("ShaderNodeBsdfPrincipled")
+    try:
+        principled.location = node.location
+        if exact:
+            for name in _TALK_INPUTS:
+                _carry(tree, params.inputs[name], principled.inputs[name])
+        else:
+            values = invert(node.inputs["Albedo"].default_value[:3],
+                            node.inputs["Specular Color"].default_value[:3],
+                            node.inputs["Gloss"].default_value)
+            principled.inputs["IOR"].default_value = 1.5
+            for name, value in values.items():
+                principled.inputs[name].default_value = value
+        for src, dst in _ACROSS.items():
+            _carry(tree, node.inputs[dst], principled.inputs[src])
+        tree.links.new(principled.outputs["BSDF"], output.inputs["Surface"])
+    except Exception:
+        tree.nodes.remove(principled)  # the tree as it was
+        raise
     tree.nodes.remove(node)
     if exact and not any(link.from_node == params for link in tree.links):
         tree.nodes.remove(params)

@@ -32,7 +32,10 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         self._drawing = None
 
     def __del__(self):
-        view = getattr(self, "_viewport", None)
+        try:
+            view = self._viewport
+        except (AttributeError, ReferenceError):  # 4.5 may free the struct first
+            return
         if view is not None:
             view.close()
 
@@ -60,13 +63,14 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             return
         region = context.region
         view.set_camera(viewport.region_camera(region, context.region_data))
-        self.update_stats("BO2 Lighting", view.status())
+        busy = view.session.busy  # before the image: a last sample landing now is redrawn
         image = view.session.image()
+        self.update_stats("BO2 Lighting", view.status())
         if image is not None and not (view.error or view.session.error):
             if self._drawing is None:
                 self._drawing = viewport.Drawing()
             self._drawing.draw(self, depsgraph.scene, image, region.width, region.height)
-        if view.session.busy:
+        if busy:
             self.tag_redraw()  # poll until the refinement is done
 
     def render(self, depsgraph):

@@ -375,15 +375,18 @@ def render_settings(scene) -> cs.RenderSettings:
 class SceneCache:
     """What an extraction read from Blender, kept for the next one (the viewport): each
     object's object-space data, each instance's world-space batch (by matrix), each compiled
-    material. ``forget_*`` drops what a depsgraph update made stale; ``reads`` counts what was
-    read from Blender: ("mesh", object name) and ("material", material name)."""
+    material (by the material's ``session_uid``, so a rename keeps it). ``forget_*`` drops what
+    a depsgraph update made stale; ``reads`` counts what was read from Blender: ("mesh",
+    object name) and ("material", material name)."""
+
+    EMPTY_SLOT = -1  # the key of an empty material slot
 
     def __init__(self) -> None:
         self.objects: dict[tuple, tuple | None] = {}
         self.batches: dict[tuple, cs.MeshBatch] = {}
         self.materials: list[cs.Material] = [cs.Material(name="(no material)")]
-        self.keys: list[str | None] = [None]  # the Blender material of each entry
-        self.mat_ids: dict[str, int] = {}  # compiled and valid: key -> index
+        self.keys: list[int | None] = [None]  # the Blender material of each entry
+        self.mat_ids: dict[int, int] = {}  # compiled and valid: key -> index
         self.reads: collections.Counter = collections.Counter()
 
     def forget_object(self, name: str) -> None:
@@ -392,9 +395,10 @@ class SceneCache:
             for key in [k for k in table if k[0] == name]:
                 del table[key]
 
-    def forget_material(self, name: str) -> None:
-        """Compile material ``name`` again (it keeps its index)."""
-        self.mat_ids.pop(name, None)
+    def forget_material(self, material) -> None:
+        """Compile ``material`` (a Blender material, original or evaluated) again; it keeps
+        its index."""
+        self.mat_ids.pop(material.original.session_uid, None)
 
     def forget_materials(self) -> None:
         """Compile every material again (an image or node group they may use changed)."""
@@ -406,24 +410,24 @@ class SceneCache:
         stale = {key for key in self.keys[1:] if key not in self.mat_ids}
         if not stale:
             return
-        by_name = {m.name_full: m for m in bpy.data.materials if m.name_full in stale}
+        by_uid = {m.session_uid: m for m in bpy.data.materials if m.session_uid in stale}
         for key in stale:
             index = self.keys.index(key)
             before = self.materials[index].program.requires()
-            self.material(by_name.get(key), warnings, key)
+            self.material(by_uid.get(key), warnings, key)
             if self.materials[index].program.requires() != before:
                 for okey, data in list(self.objects.items()):
                     if data is not None and (data[3] == index).any():
                         self.forget_object(okey[0])
 
-    def material(self, mat, warnings: list[str], key: str | None = None) -> int:
+    def material(self, mat, warnings: list[str], key: int | None = None) -> int:
         """The index of ``mat`` (a Blender material or None) in ``materials``, compiled when
         not valid; ``key`` names a material that may have been deleted (``mat`` None)."""
         if key is None:
-            key = mat.name_full if mat is not None else ""
+            key = mat.original.session_uid if mat is not None else self.EMPTY_SLOT
         if key not in self.mat_ids:
             converted = convert_material(mat, warnings)
-            self.reads["material", key] += 1
+            self.reads["material", mat.name_full if mat is not None else ""] += 1
             if key in self.keys:
                 index = self.keys.index(key)
                 self.materials[index] = converted

@@ -33,9 +33,12 @@ def _same(a: str, b: Path) -> bool:
 
 
 def register_library() -> None:
-    """Add ``node_groups/`` as the asset library "BO2 Lighting", unless one points there."""
+    """Add ``node_groups/`` as the asset library "BO2 Lighting", unless one points there
+    (one of that name, left by saved preferences, is then taken as this one)."""
     libraries = bpy.context.preferences.filepaths.asset_libraries
-    if any(_same(lib.path, LIBRARY_DIR) for lib in libraries):
+    existing = [lib for lib in libraries if _same(lib.path, LIBRARY_DIR)]
+    if existing:  # ours from an earlier session's saved preferences is ours to remove
+        _added.extend(lib.path for lib in existing if lib.name == LIBRARY_NAME)
         return
     lib = libraries.new(name=LIBRARY_NAME, directory=str(LIBRARY_DIR))
     try:

@@ -91,7 +91,8 @@ class BO2_OT_bake_probes(bpy.types.Operator):
         except StopIteration:
             return None
 
-    def _finished(self) -> None:
+    def _finished(self, context) -> None:
+        context.scene.update_tag()  # viewports read the new bakes
         seconds = time.perf_counter() - self._start
         self.report({"INFO"}, f"Baked {self._count} light probe{'s' * (self._count != 1)} "
                     f"in {seconds:.1f} s")
@@ -105,7 +106,7 @@ class BO2_OT_bake_probes(bpy.types.Operator):
         except Exception as exc:  # noqa: BLE001 - one line in the UI
             self.report({"ERROR"}, f"Bake failed: {exc}; previous bakes kept")
             return {"CANCELLED"}
-        self._finished()
+        self._finished(context)
         return {"FINISHED"}
 
     def invoke(self, context, event):
@@ -130,6 +131,11 @@ class BO2_OT_bake_probes(bpy.types.Operator):
         if context.workspace is not None:
             context.workspace.status_text_set(None)
 
+    def cancel(self, context):
+        """Blender ends the bake (a file loaded, the window closed): nothing is written."""
+        self._steps.close()
+        self._end(context)
+
     def modal(self, context, event):
         if event.type in {"ESC", "RIGHTMOUSE"}:
             self._steps.close()  # nothing is written
@@ -146,7 +152,7 @@ class BO2_OT_bake_probes(bpy.types.Operator):
             return {"CANCELLED"}
         if fraction is None:
             self._end(context)
-            self._finished()
+            self._finished(context)
             return {"FINISHED"}
         context.window_manager.progress_update(int(fraction * 1000))
         if context.workspace is not None:
@@ -176,6 +182,7 @@ class BO2_OT_clear_probes(bpy.types.Operator):
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
+        context.scene.update_tag()  # viewports fall back to the world
         self.report({"INFO"}, f"Deleted {count} bake file{'s' * (count != 1)}")
         return {"FINISHED"}
 

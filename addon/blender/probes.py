@@ -99,7 +99,8 @@ _files: dict[Path, tuple] = {}  # path -> ((mtime_ns, size), probe_file.read(pat
 
 
 def _read(path: Path) -> tuple:
-    """``probe_file.read(path)``, cached while the file's modification time and size stay."""
+    """``probe_file.read(path)``, cached while the file's modification time and size stay
+    (its error too)."""
     try:
         st = path.stat()
     except OSError:
@@ -108,7 +109,13 @@ def _read(path: Path) -> tuple:
     stamp = (st.st_mtime_ns, st.st_size)
     cached = _files.get(path)
     if cached is None or cached[0] != stamp:
-        _files[path] = cached = (stamp, probe_file.read(path))
+        try:
+            result = probe_file.read(path)
+        except probe_file.ProbeFileError as exc:
+            result = exc  # a damaged file is read once, not at every redraw
+        _files[path] = cached = (stamp, result)
+    if isinstance(cached[1], probe_file.ProbeFileError):
+        raise cached[1]
     return cached[1]
 
 

@@ -11,12 +11,11 @@ from __future__ import annotations
 import dataclasses
 
 import bpy
+import numpy as np
 
 from ..core import viewport
 from ..core.scene import Camera
 from . import extract, probes, props
-
-_GEOMETRY = extract._GEOMETRY_TYPES
 
 
 def changes(updates, cache: extract.SceneCache) -> set[str]:
@@ -27,7 +26,7 @@ def changes(updates, cache: extract.SceneCache) -> set[str]:
     for update in updates:
         idb = update.id
         if isinstance(idb, bpy.types.Material):
-            cache.forget_material(idb.name_full)
+            cache.forget_material(idb)
             changed.add("materials")
         elif isinstance(idb, bpy.types.NodeTree):
             if not idb.is_embedded_data:  # a node group: any material may use it
@@ -45,7 +44,7 @@ def changes(updates, cache: extract.SceneCache) -> set[str]:
                 changed.add("lights")
             elif kind == "LIGHT_PROBE":
                 changed.add("probes")
-            elif kind in _GEOMETRY:
+            elif kind != "CAMERA":  # meshes and the like, empties that instance them
                 if update.is_updated_geometry:  # its mesh, modifiers or material slots
                     cache.forget_object(idb.name_full)
                 changed.add("geometry")
@@ -59,6 +58,50 @@ def changes(updates, cache: extract.SceneCache) -> set[str]:
             changed.add("geometry")  # visibility or contents: the instances are listed again
         elif isinstance(idb, bpy.types.Scene):
             changed.add("settings")
+    return changed
+
+
+def _key(value) -> tuple:
+    """A comparable form of a core light or world (arrays by their bytes, textures by
+    identity: the image cache hands out one texture per image and settings)."""
+    if value is None:
+        return ()
+    out = []
+    for f in dataclasses.fields(value):
+        v = getattr(value, f.name)
+        if isinstance(v, np.ndarray):
+            out.append(v.tobytes())
+        elif isinstance(v, (int, float, str, bool, tuple, type(None))):
+            out.append(v)
+        else:
+            out.append(id(v))
+    return tuple(out)
+
+
+def _probes_key(probes) -> tuple:
+    if probes is None:
+        return ()
+    return (probes.world_sh.tobytes(),
+            tuple((p.name, p.position.tobytes(), p.sh.tobytes()) for p in probes.reflection),
+            tuple((v.name, np.asarray(v.local_to_world).tobytes(), v.sh.tobytes())
+                  for v in probes.volumes))
+
+
+def _differences(old, new) -> set[str]:
+    """What differs between two extractions that depsgraph updates may not name: instances
+    shown or hidden (the cache hands back the very batches that did not change), the world,
+    the lights, the probes (a bake written since)."""
+    if old is None:
+        return set(viewport.CHANGES)
+    changed = set()
+    if [id(m) for m in old.meshes] != [id(m) for m in new.meshes]:
+        changed.add("geometry")
+    if [_key(light) for light in old.lights] != [_key(light) for light in new.lights]:
+        changed.add("lights")
+    if _key(old.world) != _key(new.world):
+        changed |= {"world", "probes"}
+    if _probes_key(old.probes) != _probes_key(new.probes):
+        changed.add("probes")
     return changed
 
 
@@ -141,6 +184,7 @@ class Viewport:
         self.warnings: list[str] = []
         self.hint = ""
         self._state = None  # the settings of the last render
+        self._unsent: set[str] = set()  # changes of a failed extraction
 
     def _warn(self, message: str) -> None:
         if message not in self.warnings:
@@ -154,31 +198,33 @@ class Viewport:
             if updates is None:
                 self.cache = extract.SceneCache()
         else:
-            changed = changes(updates, self.cache)
+            changed = changes(updates, self.cache) | self._unsent
         blender_scene = depsgraph.scene
         settings = blender_scene.bo2
         self.session.set_view(settings.lookdev_view)
+        if not changed:
+            return set()
         render = dataclasses.replace(extract.render_settings(blender_scene), border=None,
                                      tile_size=viewport.TILE_SIZE)
-        state = (render, int(settings.viewport_samples), bool(settings.use_indirect))
-        if changed == {"settings"} and state == self._state:
-            return set()  # e.g. the look-dev view alone: shown from the last passes
-        self._state = state
-        self.session.samples = int(settings.viewport_samples)
-        if not changed:
-            return changed
         try:
             scene, warnings = extract.extract_scene(
                 depsgraph, render, camera=False, indirect=settings.use_indirect,
                 cache=self.cache)
         except extract.SceneError as exc:
-            self.error = str(exc)
+            self.error, self._unsent = str(exc), changed  # sent with the next update
             return set()
-        self.error = None
+        self.error, self._unsent = None, set()
         for message in warnings:
             self._warn(message)
-        self.hint = probe_hint(blender_scene) if changed & {"probes", "settings"} or \
-            self.scene is None else self.hint
+        changed |= _differences(self.scene, scene)
+        state = (render, int(settings.viewport_samples), bool(settings.use_indirect))
+        if changed == {"settings"} and state == self._state:
+            self.scene = scene
+            return set()  # e.g. the look-dev view alone: shown from the last passes
+        self._state = state
+        self.session.samples = int(settings.viewport_samples)
+        if changed & {"probes", "settings", "world"} or self.scene is None:
+            self.hint = probe_hint(blender_scene)
         self.scene = scene
         self._submit(changed)
         return changed

@@ -149,6 +149,7 @@ class Session:
         self.view = "COMBINED"
         self.stats = {"prepares": 0, "material_tables": 0, "projections": 0, "renders": 0}
         self._cond = threading.Condition()
+        self._publishing = threading.Lock()  # one image derived and stored at a time
         self._updates = 0
         self._pending: tuple | None = None  # (scene, changed) not taken by the worker yet
         self._busy = False
@@ -184,13 +185,14 @@ class Session:
         """Show look-dev view ``view`` (a key of ``VIEWS``): re-derived from the last passes."""
         if view not in VIEWS:
             raise ValueError(f"unknown view {view!r}; expected one of {sorted(VIEWS)}")
-        with self._cond:
-            if view == self.view:
-                return
-            self.view = view
-            kept = self._passes
-        if kept is not None:
-            self._publish(*kept)
+        with self._publishing:
+            with self._cond:
+                if view == self.view:
+                    return
+                self.view = view
+                kept = self._passes
+            if kept is not None:
+                self._store(*kept)
 
     @property
     def updates(self) -> int:
@@ -218,14 +220,15 @@ class Session:
     def wait(self, timeout: float | None = None) -> bool:
         """Wait until every update is rendered in full (or failed); False on timeout."""
         with self._cond:
-            return self._cond.wait_for(lambda: not self._busy and self._pending is None,
-                                       timeout)
+            return self._cond.wait_for(
+                lambda: self._closed or not self._busy and self._pending is None, timeout)
 
     def wait_for(self, predicate: Callable[[Image], bool], timeout: float | None = None) -> bool:
         """Wait until the newest image satisfies ``predicate``; False on timeout."""
         with self._cond:
             return self._cond.wait_for(
-                lambda: self._image is not None and predicate(self._image), timeout)
+                lambda: self._image is not None and predicate(self._image) or self._closed,
+                timeout)
 
     def close(self) -> None:
         """Stop the worker (the render in progress stops within one tile) and wait for it."""
@@ -248,7 +251,9 @@ class Session:
             try:
                 self._render(scene, changed, number)
             except pipeline.Cancelled:
-                pass
+                with self._cond:  # what this update changed still waits to be applied
+                    if self._pending is not None:
+                        self._pending = (self._pending[0], self._pending[1] | changed)
             except Exception as exc:  # noqa: BLE001 - shown in the viewport, the trace logged
                 traceback.print_exc()
                 self._frame = None  # the next update starts afresh
@@ -330,7 +335,8 @@ class Session:
         def should_stop() -> bool:
             return self._stale(number)
 
-        offsets = pipeline.sample_offsets(self.samples, scene.settings.filter_width)
+        samples = self.samples
+        offsets = pipeline.sample_offsets(samples, scene.settings.filter_width)
 
         def preview(frame: pipeline.Frame) -> None:
             cam = frame.scene.camera
@@ -344,7 +350,7 @@ class Session:
 
         frame = self._prepared(scene, changed, should_stop, preview)
         total = None
-        for k in range(self.samples):
+        for k in range(samples):
             passes = pipeline.render_frame(scene, should_stop=should_stop, warn=self.warn,
                                            frame=frame, offsets=offsets[k:k + 1],
                                            first_sample=k)
@@ -356,10 +362,19 @@ class Session:
                          else image + passes[name] for name, image in total.items()}
                 mean = {name: image if name in ("Depth", "IndexMA") else image / (k + 1)
                         for name, image in total.items()}
-            self._publish(mean, scene, k + 1, k + 1 == self.samples, number)
+            self._publish(mean, scene, k + 1, k + 1 == samples, number)
 
     def _publish(self, passes: dict, scene: Scene, samples: int, final: bool,
                  number: int) -> None:
+        with self._publishing:
+            self._store(passes, scene, samples, final, number)
+        if self.on_image is not None:
+            self.on_image()
+
+    def _store(self, passes: dict, scene: Scene, samples: int, final: bool,
+               number: int) -> None:
+        """The image of the current view from ``passes``, stored unless stale; with the
+        ``_publishing`` lock held, so a view switch and a new sample never interleave."""
         with self._cond:
             if self._stale(number):
                 return
@@ -372,8 +387,6 @@ class Session:
             self._image = image
             self._passes = (passes, scene, samples, final, number)
             self._cond.notify_all()
-        if self.on_image is not None:
-            self.on_image()
 
 
 def same_camera(a: Camera, b: Camera) -> bool:

@@ -347,3 +347,15 @@ def test_convert_bad_input(scene_with_everything):
         with pytest.raises(RuntimeError, match="Albedo linked"):
             bpy.ops.material.bo2_convert(direction="TO_PRINCIPLED")
     assert node_groups.is_bo2_material_node(node)  # unchanged
+
+
+def test_convert_with_an_edited_group_changes_nothing(scene_with_everything):
+    scene, cube, mat, bo2, probes = scene_with_everything
+    group = node_groups.ensure_group(node_groups.MATERIAL_GROUP)
+    group.interface.remove(next(i for i in group.interface.items_tree
+                                if i.item_type == "SOCKET" and i.name == "Alpha"))
+    names = sorted(n.name for n in mat.node_tree.nodes)
+    with bpy.context.temp_override(material=mat):
+        with pytest.raises(RuntimeError, match="has no socket Alpha"):
+            bpy.ops.material.bo2_convert(direction="TO_BO2")
+    assert sorted(n.name for n in mat.node_tree.nodes) == names

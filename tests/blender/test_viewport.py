@@ -210,3 +210,70 @@ def test_probe_state_hint(view, tmp_path):
     bpy.context.view_layer.update()
     assert viewport.probe_labels(scene)[0][1] == "BO2 bake: stale"
     assert viewport.probe_hint(scene).startswith("Light probes: 1 stale: re-bake")
+
+
+def test_hiding_instancing_and_renaming_reach_the_viewport(view, updates):
+    scene = bpy.context.scene
+    build(scene)
+    scene.bo2.viewport_samples = 1
+    view.sync(bpy.context.evaluated_depsgraph_get())
+    view.set_camera(camera_of(scene))
+    assert view.session.wait(120)
+    updates.clear()
+    shown = view.session.image().pixels.copy()
+
+    bpy.data.objects["Left"].hide_set(True)  # hidden in the viewport: gone from the image
+    assert "geometry" in settle(view, updates)
+    hidden = view.session.image().pixels.copy()
+    assert np.abs(hidden - shown).max() > 0.05
+    bpy.data.objects["Left"].hide_set(False)
+    settle(view, updates)
+    np.testing.assert_allclose(view.session.image().pixels, shown, atol=1e-6)
+
+    # an empty instancing a collection: moving the empty moves the instance
+    group = bpy.data.collections.new("Kit")
+    bpy.ops.mesh.primitive_ico_sphere_add(radius=0.4, location=(0.0, 0.0, 0.0))
+    ball = bpy.context.object
+    for c in ball.users_collection:
+        c.objects.unlink(ball)
+    group.objects.link(ball)
+    empty = bpy.data.objects.new("Instancer", None)
+    empty.instance_type, empty.instance_collection = "COLLECTION", group
+    empty.location = (0.0, -1.5, 0.0)
+    scene.collection.objects.link(empty)
+    settle(view, updates)
+    before = view.session.image().pixels.copy()
+    empty.location.x += 0.6
+    assert "geometry" in settle(view, updates)
+    assert np.abs(view.session.image().pixels - before).max() > 0.05
+
+    # a renamed material keeps its compiled program, and an edit after the rename is seen
+    mat = bpy.data.materials["Right"]
+    mat.name = "Renamed"
+    settle(view, updates)
+    mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (1, 1, 0, 1)
+    scene.bo2.lookdev_view = "ALBEDO"
+    settle(view, updates)
+    pixels = view.session.image().pixels
+    assert np.all(np.abs(pixels[..., :3] - [1.0, 1.0, 0.0]) < 0.01, axis=-1).sum() > 50
+
+
+def test_a_new_bake_reaches_the_viewport(view, updates, tmp_path):
+    scene = bpy.context.scene
+    build(scene)
+    scene.bo2.use_indirect = True
+    scene.bo2.viewport_samples = 1
+    scene.bo2.bake_folder = str(tmp_path)
+    probe = bpy.data.objects.new("Probe", bpy.data.lightprobes.new("Probe", "SPHERE"))
+    probe.location = (0.0, 0.0, 1.0)
+    scene.collection.objects.link(probe)
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
+    view.sync(bpy.context.evaluated_depsgraph_get())
+    view.set_camera(camera_of(scene))
+    assert view.session.wait(120)
+    updates.clear()
+    bpy.context.view_layer.objects.active = probe
+    scene.bo2.bake_face_size, scene.bo2.bake_samples = "32", 1
+    assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
+    assert "probes" in settle(view, updates)  # the operator tags the scene; the file is new
+    assert "missing" not in view.status()

@@ -191,3 +191,48 @@ def test_with_materials_refuses_transparent_surfaces():
     assert pipeline.with_materials(frame, s) is None
     s.materials = [Material(), Material.talk("opaque")]
     assert pipeline.with_materials(frame, s) is not None
+
+
+def test_a_cancelled_update_still_applies_its_changes(monkeypatch):
+    """A camera move cancelled by a material tweak: the tweak's render has the new camera."""
+    started, release = threading.Event(), threading.Event()
+    real = pipeline._render_tile
+    calls = []
+
+    def gate(frame, tile, offsets, tick, first_sample=0):
+        calls.append(frame.scene.camera.width)
+        if len(calls) > 1 and not started.is_set():  # the second update's first tile
+            started.set()
+            release.wait(10)
+        return real(frame, tile, offsets, tick, first_sample)
+
+    s = viewport.Session(samples=2)
+    try:
+        first = scene()
+        first.settings.threads = 1
+        s.update(first, viewport.CHANGES)
+        assert s.wait(60)
+        monkeypatch.setattr(pipeline, "_render_tile", gate)
+        calls.clear()
+        calls.append(0)
+        moved = dataclasses.replace(first, camera=dataclasses.replace(first.camera))
+        moved.camera.world_to_camera = first.camera.world_to_camera.copy()
+        moved.camera.world_to_camera[0, 3] = -1.0
+        s.update(moved, {"camera"})
+        assert started.wait(60)
+        tweaked = dataclasses.replace(moved, materials=scene(albedo=0.3).materials)
+        s.update(tweaked, {"materials"})  # names the material only
+        release.set()
+        assert s.wait(60)
+        shifted = np.roll(expected(0.3, 2), -W // 4, axis=1)[:, : W - W // 4]
+        np.testing.assert_allclose(s.image().pixels[::-1, : W - W // 4, 0], shifted, rtol=3e-3)
+    finally:
+        release.set()
+        s.close()
+
+
+def test_wait_returns_after_close():
+    s = viewport.Session(samples=1)
+    s.close()
+    s.update(scene(), viewport.CHANGES)
+    assert s.wait(5) and s.wait_for(lambda image: image.final, 5)
