@@ -3,7 +3,7 @@
 ``changes()`` turns the depsgraph's updates into what changed for the core and forgets exactly
 that in the extraction cache (a moved object keeps its mesh, an edited mesh is read again, a
 material tweak compiles that material); ``Viewport`` keeps one viewport's cache, camera and
-session; ``draw()`` is the only code that needs a GPU, and the only code not run headless.
+session; ``Drawing`` is the only code that needs a GPU, and the only code not run headless.
 """
 
 from __future__ import annotations
@@ -243,18 +243,24 @@ class Viewport:
             self.session.update(dataclasses.replace(self.scene, camera=self.camera), changed)
 
     def status(self) -> str:
-        """The viewport's status text: the error, the samples done, the probe hint."""
+        """The viewport's status text: the error, or the samples done, the probe hint and
+        the newest of the warnings (each warning once since the viewport opened)."""
         error = self.error or self.session.error
         if error:
             return f"Error: {error}"
         image = self.session.image()
         if image is None:
-            text = "Preparing"
+            parts = ["Preparing"]
         elif image.samples == 0:
-            text = "Preview"
+            parts = ["Preview"]
         else:
-            text = f"Sample {image.samples}/{self.session.samples}"
-        return f"{text}  |  {self.hint}" if self.hint else text
+            parts = [f"Sample {image.samples}/{self.session.samples}"]
+        if self.hint:
+            parts.append(self.hint)
+        if self.warnings:
+            count = len(self.warnings)
+            parts.append(f"{count} warning{'s' * (count > 1)}: {self.warnings[-1]}")
+        return "  |  ".join(parts)
 
     def close(self) -> None:
         """Stop the render thread."""

@@ -135,8 +135,7 @@ class Image:
 class Session:
     """A progressive renderer on one worker thread.
 
-    samples:  samples per pixel of the finished image
-    threads:  threads of each render (``RenderSettings.threads``; 0 = one per core)
+    samples:  samples per pixel of the finished image (the scene's settings give the threads)
     on_image: called on the worker thread after each new image (e.g. to ask for a redraw)
     warn:     called on the worker thread with each distinct warning of the renders
     """
@@ -295,13 +294,10 @@ class Session:
             quick = pipeline.prepare(scene, self.warn, should_stop, shadow_maps=maps,
                                      fit_shadows=False)
             quick.tiles = {}  # the raster set-ups of each tile, kept for the next renders
-            if old is not None:  # the previous shadow maps, or none, for the first image
-                preview(quick)
+            preview(quick)  # with the previous shadow maps (none at first): the slow part next
             frame = dataclasses.replace(quick, shadow_maps=pipeline.build_shadow_maps(
                 quick, should_stop, fit_shadows=False))
             self.stats["prepares"] += 1
-            if old is None:
-                preview(frame)
         else:
             if frame is None:
                 frame = dataclasses.replace(old, scene=dataclasses.replace(

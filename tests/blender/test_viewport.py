@@ -277,3 +277,16 @@ def test_a_new_bake_reaches_the_viewport(view, updates, tmp_path):
     assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
     assert "probes" in settle(view, updates)  # the operator tags the scene; the file is new
     assert "missing" not in view.status()
+
+
+def test_warnings_show_in_the_status(view):
+    scene = bpy.context.scene
+    build(scene)
+    mat = bpy.data.materials["Left"]
+    checker = mat.node_tree.nodes.new("ShaderNodeTexChecker")  # not read by the engine
+    mat.node_tree.links.new(checker.outputs["Color"],
+                            mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+    view.sync(bpy.context.evaluated_depsgraph_get())
+    view.set_camera(camera_of(scene))
+    assert view.session.wait(120)
+    assert "1 warning: Material 'Left': node 'Checker Texture'" in view.status()
