@@ -84,6 +84,8 @@ def main() -> int:
         view.sync(bpy.context.evaluated_depsgraph_get())
         view.set_camera(camera())
         record("open: extraction (UI thread)", time.perf_counter() - start)
+        view.session.wait_for(lambda image: True, 600)
+        record("open: first image (no shadows yet)", time.perf_counter() - start)
         view.session.wait(600)
         record("open: full image", time.perf_counter() - start)
 
