@@ -2,40 +2,37 @@
 
 Usage: python tools/fit_env_brdf.py [--check | --no-fit]
 
-The model (docs/env_brdf.md): one capped exponential m serves both parts,
+The model (docs/env_brdf.md) is BO2's own curve with free coefficients, a free offset in its
+exponent, and a metal part that follows the same capped exponential:
 
-    y  = y1 g + y0,   q = q1 g + q0
-    m  = min(y, 2^(k n.v + b))
-    a0 = y m
-    a1 = min(s m + q, 1)
+    t  = c g + d                      (float4: t.x, t.y, t.z, t.w)
+    m  = min(t.y, 2^(k n.v + b))
+    a0 = t.x m + t.z
+    a1 = min(s m + t.w, 1)
     E  = saturate(a0 + rf0 (a1 - a0))
 
 Cost, counted per scalar operation: MAD/FMA 1, add/sub/mul 1, min/max 1, exp2/log2/rcp/sqrt 1,
 saturate 1; a vector operation counts once per component. Black Ops II's ``EnvironmentBRDF``
 (slide "Final approximation"): t = g c + d (4 MAD), -9.28 n.v (1), exp2 (1), min (1),
 a0 = t.x min + t.z (1), a1 - a0 (1), a0 + rf0 (a1 - a0) (3 MAD for RGB), saturate (3) = 15.
-Both models share the last 7 (the RGB interpolation and saturate); the parts get the other 8:
-ours take y and q (2 MAD), k n.v + b (1 MAD), exp2 (1), min (1), a0 (1 mul), s m + q (1 MAD)
-and min(., 1) (1) = 8, with one exp2. With the fitted coefficients 0 <= a0 and 0 <= a1 <= 1
-everywhere, so the saturate never clamps.
+Ours: the same 15 with a MAD for k n.v + b in place of the multiply, plus s m + t.w (1 MAD) and
+min(., 1) (1) = 17, two more than BO2, one exp2 as BO2.
 
 Fit: the ground truth ``env_brdf.ground_truth`` (Schlick-Smith visibility) on the 201 x 201
-grid g = 0, 0.005, ..., 1 by n.v = linspace(1e-4, 1, 201), about half a minute. The error of
-E is taken at rf0 = 0, 0.04 and 1, and the fit minimises
-
-    J = sum over the three rf0 of  max|error| / BO2's max|error| + 2 mean|error| / BO2's mean
-
-(every figure of the error table counted relative to BO2's on the same grid; the mean weighs
-twice, since it is what a surface shows on average, while the maximum sits in a thin rim of
-grazing views at high gloss, a peak of a0 that no monotone curve in n.v follows). The
-minimiser is Nelder-Mead (written here, NumPy only): first on the root-mean-square error from
-a fixed start, then on J, restarted from the best point and from perturbations of it drawn
-with a fixed seed. The coefficients are rounded to 4 decimals.
+grid g = 0, 0.005, ..., 1 by n.v = linspace(1e-4, 1, 201), about ten seconds. The error of E
+is taken at rf0 = 0, 0.04 and 1 under three weightings of the grid: uniform over (g, n.v); n.v
+weighted as it appears on screen (density 2 n.v: a sphere's pixels); n.v >= 0.05 alone. Each
+of the 18 figures (3 weightings x 3 rf0 x max and mean |error|) is divided by BO2's on the same
+grid and weighting, and the fit minimises the largest of these ratios (a soft maximum, made
+sharper in four rounds); the dielectrics bind that maximum, so a last round then lowers the
+metals' (rf0 = 1) errors with the largest ratio held. The minimiser is Nelder-Mead (written
+here, NumPy only), started from BO2's own coefficients (every ratio 1), restarted from the best
+point with smaller steps. The coefficients are rounded to 4 decimals.
 
 Prints the coefficients (as the ``FIT_A0``, ``FIT_A1`` lines of ``addon/core/env_brdf.py``),
 the operation counts and the error tables. ``--check`` refits and exits 1 unless every
-unrounded coefficient lies within 1e-4 (the printed precision) of the committed one.
-``--no-fit`` prints the tables of the committed coefficients only.
+unrounded coefficient lies within 1e-3 of the committed one. ``--no-fit`` prints the tables of
+the committed coefficients only.
 """
 
 from __future__ import annotations
@@ -50,17 +47,20 @@ from bo2_lighting.addon.core import env_brdf
 GLOSS = np.linspace(0.0, 1.0, 201)
 N_DOT_V = np.linspace(env_brdf.N_DOT_V_MIN, 1.0, 201)
 RF0 = (0.0, 0.04, 1.0)
-MEAN_WEIGHT = 2.0
+WEIGHTINGS = ("uniform", "screen (2 n.v)", "n.v >= 0.05")
 DECIMALS = 4
-START = (0.6, 0.03, 1.1, 0.4, -10.0, 1.0, -1.5)  # y1, y0, q1, q0, k, b, s
-SEED = 2013
+CHECK_TOLERANCE = 1e-3
+SHARPNESS = (10.0, 30.0, 100.0, 300.0)  # the soft maximum's rounds
+# BO2's EnvironmentBRDF in this model's terms: (cx, dx, cy, dy, cz, dz, cw, dw, k, b, s)
+START = (1 / 0.96, 0.0, 0.475, 0.0, (0.0275 - 0.25 * 0.04) / 0.96,
+         (0.015 - 0.75 * 0.04) / 0.96, 0.25, 0.75, -9.28, 0.0, 0.0)
 
 # (operation, count) of each model, counted as in the module docstring
 OPS_BO2 = (("t = g c + d, float4 MAD", 4), ("-9.28 n.v", 1), ("exp2", 1), ("min", 1),
            ("a0 = t.x min + t.z", 1), ("a1 - a0", 1), ("a0 + rf0 (a1 - a0), RGB MAD", 3),
            ("saturate, RGB", 3))
-OPS_FIT = (("(y, q) = g c + d, float2 MAD", 2), ("k n.v + b", 1), ("exp2", 1), ("min", 1),
-           ("a0 = y m", 1), ("s m + q", 1), ("a1 = min(., 1)", 1), ("a1 - a0", 1),
+OPS_FIT = (("t = g c + d, float4 MAD", 4), ("k n.v + b", 1), ("exp2", 1), ("min", 1),
+           ("a0 = t.x m + t.z", 1), ("s m + t.w", 1), ("a1 = min(., 1)", 1), ("a1 - a0", 1),
            ("a0 + rf0 (a1 - a0), RGB MAD", 3), ("saturate, RGB", 3))
 
 
@@ -76,9 +76,10 @@ def truth_parts(visibility: str = "reference"):
 
 
 def split(params):
-    """Coefficient tuples (FIT_A0, FIT_A1) from the flat vector (y1, y0, q1, q0, k, b, s)."""
-    y1, y0, q1, q0, k, b, s = (float(p) for p in params)
-    return (y1, y0, k, b), (q1, q0, s)
+    """Coefficient tuples (FIT_A0, FIT_A1) from the flat vector
+    (cx, dx, cy, dy, cz, dz, cw, dw, k, b, s)."""
+    cx, dx, cy, dy, cz, dz, cw, dw, k, b, s = (float(p) for p in params)
+    return (cx, dx, cy, dy, cz, dz, k, b), (cw, dw, s)
 
 
 def shader(a0, a1, rf0):
@@ -86,12 +87,21 @@ def shader(a0, a1, rf0):
     return np.clip(a0 + rf0 * (a1 - a0), 0.0, 1.0)
 
 
-def errors(values, truth):
-    """(max, mean, rms) absolute error of values (R, G, N) per rf0 of RF0 against truth."""
+def weights(nv):
+    """The weights of each of ``WEIGHTINGS`` on the grid's n.v, (3, ...) float64."""
+    return np.array([np.ones_like(nv), 2.0 * nv, (nv >= 0.05).astype(np.float64)])
+
+
+def errors(values, truth, weight=None):
+    """(max, mean, rms) absolute error of values (R, G, N) per rf0 of RF0 against truth, over
+    the grid points of non-zero ``weight`` (the mean and RMS weighted by it)."""
+    w = np.ones_like(truth[0]) if weight is None else weight
+    sel = w > 0
     out = []
     for v, rf0 in zip(values, RF0, strict=True):
         d = np.abs(np.asarray(v, np.float64) - (truth[0] + rf0 * (truth[1] - truth[0])))
-        out.append((float(d.max()), float(d.mean()), float(np.sqrt((d * d).mean()))))
+        out.append((float(d[sel].max()), float((d * w).sum() / w.sum()),
+                    float(np.sqrt((d * d * w).sum() / w.sum()))))
     return out
 
 
@@ -110,26 +120,28 @@ def model_values(name: str, g, nv):
 
 
 class Objective:
-    """J of the module docstring (and the RMS start) for flat parameter vectors."""
+    """The ratios of the module docstring, and their soft maximum, for flat parameter vectors."""
 
     def __init__(self, truth):
         self.truth = truth
         self.g, self.nv = grid()
+        self.w = weights(self.nv)
         self.target = [truth[0] + r * (truth[1] - truth[0]) for r in RF0]
-        self.bo2 = errors(model_values("bo2", self.g, self.nv), truth)
+        bo2 = model_values("bo2", self.g, self.nv)
+        self.bo2 = [errors(bo2, truth, w) for w in self.w]
 
-    def _diffs(self, params):
+    def ratios(self, params) -> np.ndarray:
+        """(3 weightings, 3 rf0, 2) max and mean |error| divided by BO2's."""
         a0, a1 = env_brdf.fit_parts(self.g, self.nv, *split(params))
-        return [np.abs(shader(a0, a1, r) - t) for r, t in zip(RF0, self.target, strict=True)]
+        values = [shader(a0, a1, r) for r in RF0]
+        return np.array([[(m / b[0], a / b[1]) for (m, a, _), b in
+                          zip(errors(values, self.truth, w), bo2, strict=True)]
+                         for w, bo2 in zip(self.w, self.bo2, strict=True)])
 
-    def rms(self, params):
-        return sum(float(np.sqrt((d * d).mean())) for d in self._diffs(params))
-
-    def __call__(self, params):
-        total = 0.0
-        for d, (bo2_max, bo2_mean, _) in zip(self._diffs(params), self.bo2, strict=True):
-            total += float(d.max()) / bo2_max + MEAN_WEIGHT * float(d.mean()) / bo2_mean
-        return total
+    def soft_max(self, params, sharpness) -> float:
+        r = self.ratios(params).ravel()
+        top = r.max()
+        return float(top + np.log(np.exp(sharpness * (r - top)).sum()) / sharpness)
 
 
 def nelder_mead(f, x0, step, iterations=3000, tol=1e-12):
@@ -162,28 +174,35 @@ def nelder_mead(f, x0, step, iterations=3000, tol=1e-12):
     return pts[best], float(vals[best])
 
 
-def _restarted(f, x, rounds=3):
-    val = f(x)
-    for _ in range(rounds):
-        x, val = nelder_mead(f, x, 0.1 * np.maximum(np.abs(x), 0.05))
-    return x, val
-
-
 def fit(truth, verbose=True):
-    """The fitted flat vector (y1, y0, q1, q0, k, b, s), unrounded, and its J."""
+    """The fitted flat vector (cx, dx, cy, dy, cz, dz, cw, dw, k, b, s), unrounded, and its
+    largest ratio to BO2's errors."""
     objective = Objective(truth)
-    x, _ = _restarted(objective.rms, np.array(START, np.float64))
-    x, val = _restarted(objective, x)
-    if verbose:
-        print(f"  from the root-mean-square fit: J = {val:.5f}")
-    rng = np.random.default_rng(SEED)
-    for trial in range(4):
-        xs, vs = _restarted(objective, x * (1.0 + 0.2 * rng.standard_normal(x.size)))
+    x = np.array(START, np.float64)
+    step = 0.1 * np.abs(x) + 0.02
+    for sharpness in SHARPNESS:
+        for _ in range(3):
+            x, _ = nelder_mead(lambda p, k=sharpness: objective.soft_max(p, k), x, step,
+                               iterations=4000)
+            step = 0.5 * step
         if verbose:
-            print(f"  restart {trial + 1}: J = {vs:.5f}")
-        if vs < val:
-            x, val = xs, vs
-    return x, val
+            print(f"  sharpness {sharpness:g}: largest ratio to BO2 "
+                  f"{objective.ratios(x).max():.4f}", flush=True)
+    cap = float(objective.ratios(x).max())
+
+    def metals(p):  # the metals' errors, the largest ratio held (the dielectrics bind it)
+        r = objective.ratios(p)
+        return (1000.0 * max(float(r.max()) - cap, 0.0) + r[:, 2, 1].mean()
+                + 0.3 * r[:, 2, 0].mean() + 0.1 * r[:, 1, 1].mean())
+
+    step = 0.05 * np.abs(x) + 0.01
+    for _ in range(4):
+        x, _ = nelder_mead(metals, x, step, iterations=4000)
+        step = 0.5 * step
+    if verbose:
+        r = objective.ratios(x)
+        print(f"  metals: mean ratio {r[:, 2, 1].mean():.4f}, largest ratio {r.max():.4f}")
+    return x, float(objective.ratios(x).max())
 
 
 def op_count_lines():
@@ -197,16 +216,22 @@ def op_count_lines():
 
 
 def error_table(truth):
-    """Markdown table of max / mean / RMS errors of BO1, BO2, the fit and the table."""
+    """Markdown tables of max / mean / RMS errors of BO1, BO2, the fit and the table, one per
+    weighting of ``WEIGHTINGS``."""
     g, nv = grid()
-    rows = ["| model | " + " | ".join(f"rf0 = {r:g}: max / mean / RMS" for r in RF0) + " |",
-            "|---|" + "---|" * len(RF0)]
     names = {"bo1": "BO1 environment \"Fresnel\"", "bo2": "BO2 EnvironmentBRDF",
              "fit": "our fit", "table": "table (64 x 64, bilinear)"}
-    for key, label in names.items():
-        errs = errors(model_values(key, g, nv), truth)
-        cells = [f"{m:.4f} / {a:.5f} / {s:.5f}" for m, a, s in errs]
-        rows.append(f"| {label} | " + " | ".join(cells) + " |")
+    values = {key: model_values(key, g, nv) for key in names}
+    rows = []
+    for title, w in zip(WEIGHTINGS, weights(nv), strict=True):
+        rows += [f"{title}:", "",
+                 "| model | " + " | ".join(f"rf0 = {r:g}: max / mean / RMS" for r in RF0)
+                 + " |", "|---|" + "---|" * len(RF0)]
+        for key, label in names.items():
+            cells = [f"{m:.4f} / {a:.5f} / {s:.5f}" for m, a, s in
+                     errors(values[key], truth, w)]
+            rows.append(f"| {label} | " + " | ".join(cells) + " |")
+        rows.append("")
     return rows
 
 
@@ -237,30 +262,27 @@ def main(argv=None) -> int:
     truth = truth_parts()
     if not args.no_fit:
         print("fitting ...", flush=True)
-        x, val = fit(truth)
+        x, worst = fit(truth)
         a0c, a1c = split(np.round(x, DECIMALS))
-        print(f"J = {val:.5f} (unrounded), {Objective(truth)(np.round(x, DECIMALS)):.5f} "
-              "(rounded)")
-        print(f"FIT_A0 = ({', '.join(f'{c:.{DECIMALS}f}' for c in a0c)})  # y1, y0, k, b")
-        print(f"FIT_A1 = ({', '.join(f'{c:.{DECIMALS}f}' for c in a1c)})  # q1, q0, s")
+        rounded = Objective(truth).ratios(np.round(x, DECIMALS)).max()
+        print(f"largest ratio to BO2's errors: {worst:.4f} (unrounded), {rounded:.4f} (rounded)")
+        print(f"FIT_A0 = ({', '.join(f'{c:.{DECIMALS}f}' for c in a0c)})"
+              "  # cx, dx, cy, dy, cz, dz, k, b")
+        print(f"FIT_A1 = ({', '.join(f'{c:.{DECIMALS}f}' for c in a1c)})  # cw, dw, s")
         if args.check:
             refit = np.concatenate(split(x))  # unrounded
             committed = np.array(env_brdf.FIT_A0 + env_brdf.FIT_A1, np.float64)
-            worst = float(np.abs(committed - refit).max())
-            print(f"largest difference from the committed coefficients: {worst:.3g} "
-                  f"(allowed: {10.0 ** -DECIMALS:g})")
-            return 0 if worst <= 10.0 ** -DECIMALS else 1
+            diff = float(np.abs(committed - refit).max())
+            print(f"largest difference from the committed coefficients: {diff:.3g} "
+                  f"(allowed: {CHECK_TOLERANCE:g})")
+            return 0 if diff <= CHECK_TOLERANCE else 1
     print()
     for line in op_count_lines():
         print(line)
-    y1, y0, _, _ = env_brdf.FIT_A0
-    q1, q0, s = env_brdf.FIT_A1
-    # 0 < y <= 1 gives 0 < m <= y, so 0 < a0 = y m <= 1 and a1 >= q + min(s, 0) y (both
-    # bounds linear in g, so checked at g = 0 and 1); a1 <= 1 by its min
-    never = 0 < min(y0, y1 + y0) and max(y0, y1 + y0) <= 1 and min(q0 + min(s, 0.0) * y0,
-                                         q1 + q0 + min(s, 0.0) * (y1 + y0)) >= 0
-    print(f"committed coefficients: 0 <= a0 and 0 <= a1 <= 1 on the whole domain "
-          f"(saturate never clamps): {never}")
+    ratios = Objective(truth).ratios(np.concatenate([env_brdf.FIT_A0[:6], env_brdf.FIT_A1[:2],
+                                                     env_brdf.FIT_A0[6:], env_brdf.FIT_A1[2:]]))
+    print(f"committed coefficients: largest ratio to BO2's max or mean |error| over the three "
+          f"weightings and three rf0: {ratios.max():.4f}")
     print()
     print("Errors of E against the ground truth (Schlick-Smith visibility), 201 x 201 grid:")
     print("\n".join(error_table(truth)))

@@ -77,9 +77,10 @@ TABLE_PATH = Path(__file__).with_name("env_brdf_table.npz")
 (2, G, N) float32 with the parts a0 (index 0) and a1 (index 1) of each visibility."""
 
 # Our fit (tools/fit_env_brdf.py prints these numbers; docs/env_brdf.md shows its error).
-# y = y1 g + y0,  m = min(y, 2^(k n.v + b)),  a0 = y m,  a1 = min(s m + q1 g + q0, 1):
-FIT_A0 = (0.6170, 0.0341, -10.5192, 1.1437)  # y1, y0, k, b
-FIT_A1 = (1.1035, 0.4009, -1.4545)  # q1, q0, s
+# t = c g + d,  m = min(t.y, 2^(k n.v + b)),  a0 = t.x m + t.z,  a1 = min(s m + t.w, 1):
+FIT_A0 = (0.6130, -0.0093, 0.5706, 0.2062, -0.0090, 0.0007,  # cx, dx, cy, dy, cz, dz
+          -8.7972, 0.7959)  # k, b
+FIT_A1 = (1.0301, 0.4278, -1.0853)  # cw, dw, s
 
 
 def _clamped(gloss, n_dot_v):
@@ -340,26 +341,26 @@ def environment_brdf_bo2(gloss, n_dot_v, rf0):
 
 
 def fit_parts(gloss, n_dot_v, a0_coeffs=FIT_A0, a1_coeffs=FIT_A1):
-    """Parts (a0, a1) of our fit: one capped exponential m serves both (docs/env_brdf.md)::
+    """Parts (a0, a1) of our fit, BO2's curve with free coefficients and a metal part on the
+    same capped exponential (docs/env_brdf.md)::
 
-        y  = y1 g + y0;   q = q1 g + q0
-        m  = min(y, 2^(k n.v + b))
-        a0 = y m
-        a1 = min(s m + q, 1)
+        t  = c g + d                       (t.x, t.y, t.z, t.w)
+        m  = min(t.y, 2^(k n.v + b))
+        a0 = t.x m + t.z
+        a1 = min(s m + t.w, 1)
 
-    with (y1, y0, k, b) = ``a0_coeffs`` and (q1, q0, s) = ``a1_coeffs``, fitted by
-    ``tools/fit_env_brdf.py``. 8 operations (2 MAD for y and q, a MAD, exp2, min, mul, MAD,
-    min), as many as BO2's parts; the shader then shares BO2's saturate(a0 + rf0 (a1 - a0)),
-    which never clamps with the fitted coefficients (0 <= a0, 0 <= a1 <= 1).
+    with (cx, dx, cy, dy, cz, dz, k, b) = ``a0_coeffs`` and (cw, dw, s) = ``a1_coeffs``,
+    fitted by ``tools/fit_env_brdf.py``. 10 operations (a float4 MAD, a MAD, exp2, min, MAD,
+    MAD, min), two more than BO2's parts; the shader then shares BO2's
+    saturate(a0 + rf0 (a1 - a0)).
 
     gloss, n_dot_v: broadcast together, shape S (clamped);  returns: float64 (a0, a1) of S
     """
     g, nv = _clamped(gloss, n_dot_v)
-    y1, y0, k, b = a0_coeffs
-    q1, q0, s = a1_coeffs
-    y = y1 * g + y0
-    m = np.minimum(y, np.exp2(k * nv + b))
-    return y * m, np.minimum(s * m + (q1 * g + q0), 1.0)
+    cx, dx, cy, dy, cz, dz, k, b = a0_coeffs
+    cw, dw, s = a1_coeffs
+    m = np.minimum(cy * g + dy, np.exp2(k * nv + b))
+    return (cx * g + dx) * m + (cz * g + dz), np.minimum(s * m + (cw * g + dw), 1.0)
 
 
 # --------------------------------------------------------------------------------------------
@@ -389,5 +390,7 @@ def environment_brdf(gloss, n_dot_v, rf0, model: str = "bo2"):
     else:
         raise ValueError(f"unknown model {model!r}; expected one of: {', '.join(MODELS)}")
     f0 = np.clip(np.asarray(rf0, np.float64), 0.0, 1.0)
-    return (np.asarray(a0, np.float64) * (1.0 - f0) + np.asarray(a1, np.float64) * f0).astype(
-        np.float32)
+    e = np.asarray(a0, np.float64) * (1.0 - f0) + np.asarray(a1, np.float64) * f0
+    if model == "fit":  # the shader's saturate (its a0 dips below 0 by 0.006 at most)
+        e = np.clip(e, 0.0, 1.0)
+    return e.astype(np.float32)

@@ -160,7 +160,7 @@ def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_
     rf0 (3,), n.v clamped to [nv_min, 1], in float64 (slides "Black Ops: environment map
     'Fresnel'", "Final approximation"; docs/env_brdf.md for the fit): float32 E into ``out``.
     ``table`` (2, G, N) holds the parts a0, a1 over ``table_gloss`` (G,) x ``table_nv`` (N,);
-    ``fit`` (7,) is (y1, y0, k, b, q1, q0, s)."""
+    ``fit`` (11,) is (cx, dx, cy, dy, cz, dz, k, b, cw, dw, s), ``env_brdf.FIT_A0 + FIT_A1``."""
     g = _clamp(np.float64(gloss), 0.0, 1.0)
     nv = _clamp(np.float64(n_dot_v), nv_min, 1.0)
     a0 = a1 = 0.0
@@ -175,19 +175,18 @@ def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_
         a0 = tx * min(ty, np.exp2(-9.28 * nv)) + tz
         a1 = g * 0.25 + 0.75
     elif model == FIT:
-        y = fit[0] * g + fit[1]
-        m = min(y, np.exp2(fit[2] * nv + fit[3]))
-        a0 = y * m
-        a1 = min(fit[6] * m + (fit[4] * g + fit[5]), 1.0)
+        m = min(fit[2] * g + fit[3], np.exp2(fit[6] * nv + fit[7]))
+        a0 = (fit[0] * g + fit[1]) * m + (fit[4] * g + fit[5])
+        a1 = min(fit[10] * m + (fit[8] * g + fit[9]), 1.0)
     for c in range(3):
         f0 = _clamp(np.float64(rf0[c]), 0.0, 1.0)
         if model == ENV_BO1:
             t = 1.0 - nv
             e = f0 + (1.0 - f0) * (t * t) * (t * t) * t / (4.0 - 3.0 * g)
-        elif model == ENV_BO2:
-            e = _clamp(a0 + f0 * (a1 - a0), 0.0, 1.0)
-        else:
+        elif model == TABLE:
             e = a0 * (1.0 - f0) + a1 * f0
+        else:  # BO2 and the fit: the shader's saturate (the fit's a0 dips below 0 by 0.006)
+            e = _clamp(a0 + f0 * (a1 - a0), 0.0, 1.0)
         out[c] = np.float32(e)
 
 
@@ -203,7 +202,7 @@ _INDIRECT = nb.void(
     nb.boolean, nb.float32[::1], nb.int64,  # scalar SH, tint; world colour?, colour, normalization
     nb.float64[::1],  # eps, largest normalization ratio, smallest n.v of the environment BRDF
     nb.int64, nb.float64[:, :, ::1], nb.float64[::1], nb.float64[::1],  # environment BRDF,
-    nb.float64[::1],  # its table (2, G, N) over gloss (G,) and n.v (N,); its fit (7,)
+    nb.float64[::1],  # its table (2, G, N) over gloss (G,) and n.v (N,); its fit (11,)
     nb.float32[:, ::1], nb.float32[:, ::1],  # out: diffuse, specular (N, 3)
 )
 
