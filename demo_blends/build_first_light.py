@@ -58,7 +58,8 @@ def build(out: Path) -> None:
               size=0.5, color=(0.7, 0.8, 1.0))
 
     # in front of the spheres, not between them
-    probe("SPHERE", "Reflection", (0.0, -1.6, 0.9), influence_distance=6.0)
+    probe("SPHERE", "Reflection", (0.0, -1.6, 0.9), influence_distance=6.0,
+          use_custom_parallax=True, parallax_distance=1.0e4)  # the sky: no room to correct to
     probe("VOLUME", "Irradiance", (0.0, 0.0, 1.0), scale=(3.5, 2.0, 1.0), resolution_x=6,
           resolution_y=4, resolution_z=2, influence_distance=2.0)
 

@@ -95,7 +95,8 @@ def build(out: Path) -> None:
     tree.links.new(env.outputs["Color"], tree.nodes["Background"].inputs["Color"])
     scene.world = world
 
-    probe("SPHERE", "Reflection", (0.0, -2.0, 2.1), influence_distance=12.0)
+    probe("SPHERE", "Reflection", (0.0, -2.0, 2.1), influence_distance=12.0,
+          use_custom_parallax=True, parallax_distance=1.0e4)  # the sky: no room to correct to
     scene.bo2.bake_face_size = "128"
 
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))

@@ -65,7 +65,8 @@ def build(out: Path) -> None:
     light("SUN", "Sun", (0, 0, 5), (math.radians(50), 0, math.radians(200)),  # behind the wall
           energy=3.0, angle=math.radians(1.5))
     sky((0.3, 0.4, 0.6))
-    probe("SPHERE", "Reflection", (-1.4, 0.6, 1.0), influence_distance=10.0)
+    probe("SPHERE", "Reflection", (-1.4, 0.6, 1.0), influence_distance=10.0,
+          use_custom_parallax=True, parallax_distance=1.0e4)  # the sky: no room to correct to
     probe("VOLUME", "Irradiance", (0.0, 0.7, 1.0), scale=(3.5, 2.0, 1.0), resolution_x=8,
           resolution_y=4, resolution_z=2, influence_distance=1.0)
     scene.bo2.bake_volume_face_size = "16"

@@ -61,6 +61,24 @@ def cycles_cube(scene, position, size: int, near: float, far: float) -> np.ndarr
     return out
 
 
+_AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
+         (0.0, 0.0, 1.0), (0.0, 0.0, -1.0))
+
+
+def enclosing_objects(scene, depsgraph, position) -> list[str]:
+    """The names of the objects ``position`` is inside of: every ray along the six axes meets
+    the back of a surface first (nested objects: each one met), or []."""
+    from mathutils import Vector
+
+    names = set()
+    for axis in _AXES:
+        hit, _, normal, _, obj, _ = scene.ray_cast(depsgraph, Vector(position), Vector(axis))
+        if not hit or normal.dot(Vector(axis)) <= 0.0:  # nothing, or a front face
+            return []
+        names.add(obj.name)
+    return sorted(names)
+
+
 def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1].
 
@@ -77,6 +95,13 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False, samples=int(settings.bake_samples))
     core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False)
+    for obj in objs:
+        inside = enclosing_objects(scene, depsgraph, obj.matrix_world.translation)
+        if inside:
+            warnings.append(f"Light probe '{obj.name}' is inside object "
+                            f"{', '.join(repr(n) for n in inside)}: its captures see the "
+                            "inside; move the probe out, or raise its Clip Start past the "
+                            "surface")
     for w in warnings:
         if report is not None:
             report(w)

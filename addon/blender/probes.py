@@ -82,6 +82,10 @@ def spec(obj) -> bake.ProbeSpec:
     """The core's description of light probe object ``obj`` (Sphere or Volume)."""
     data = obj.data
     volume = data.type == "VOLUME"
+    # the parallax proxy: the probe's own (custom parallax) or its influence shape and distance
+    custom = not volume and bool(getattr(data, "use_custom_parallax", False))
+    shape = getattr(data, "parallax_type" if custom else "influence_type", "ELIPSOID")
+    distance = getattr(data, "parallax_distance" if custom else "influence_distance", 0.0)
     return bake.ProbeSpec(
         name=obj.name, kind=KINDS[data.type],
         local_to_world=np.array(obj.matrix_world, np.float64),
@@ -89,7 +93,9 @@ def spec(obj) -> bake.ProbeSpec:
         falloff=0.0 if volume else float(data.falloff),
         resolution=((int(data.resolution_x), int(data.resolution_y), int(data.resolution_z))
                     if volume else None),
-        clip_start=float(data.clip_start), clip_end=float(getattr(data, "clip_end", 1e4)))
+        clip_start=float(data.clip_start), clip_end=float(getattr(data, "clip_end", 1e4)),
+        proxy="none" if volume else ("box" if shape == "BOX" else "sphere"),
+        proxy_distance=0.0 if volume else float(distance))
 
 
 # --------------------------------------------------------------------------------------------

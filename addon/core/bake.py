@@ -51,6 +51,9 @@ class ProbeSpec:
     falloff:        reflection: fraction of the radius over which the influence fades
     resolution:     irradiance: samples along local x, y, z
     clip_start, clip_end: clip distances of the captures, metres
+    proxy:          reflection: the parallax proxy, "none", "sphere" or "box"
+                    (``ReflectionProbe.proxy``), of ``proxy_distance`` local units around the
+                    centre in the object's frame (its rotation and scale apply)
     """
 
     name: str
@@ -61,6 +64,8 @@ class ProbeSpec:
     resolution: tuple[int, int, int] | None = None
     clip_start: float = 0.05
     clip_end: float = 1e4
+    proxy: str = "none"
+    proxy_distance: float = 0.0
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -89,8 +94,10 @@ class ProbeSpec:
         its prefiltered ``chains`` ({"bo2": [...], "bo1": [...]})."""
         m = np.asarray(self.local_to_world, np.float64)
         if self.kind == "reflection":
+            proxy = self.proxy if self.proxy_distance > 0.0 else "none"
             return ReflectionProbe(self.name, m[:3, 3], float(self.influence),
-                                   float(self.falloff), chains, coeffs[0])
+                                   float(self.falloff), chains, coeffs[0], proxy,
+                                   m @ np.diag([self.proxy_distance] * 3 + [1.0]))
         res = tuple(int(r) for r in self.resolution)
         return IrradianceVolume(self.name, m, res, coeffs.reshape(*res, 9, 3),
                                 float(self.influence))

@@ -68,6 +68,11 @@ class ReflectionProbe:
     mips:      {"bo2": cosine-power chain, "bo1": angular Gaussian chain}, each a list of
                float32 (6, S_m, S_m, 3) cube maps of radiance, S_m = S >> m
     sh:        (9, 3) float32 SH of the captured radiance (``sh.project`` of the cube)
+    proxy:     "none", "sphere" or "box": the shape the reflections are corrected to
+               (parallax-corrected cube maps, Lagarde and Zanuttini, "Local image-based
+               lighting with parallax-corrected cubemaps", SIGGRAPH 2012): the unit sphere or
+               the cube [-1, 1]^3 of ``proxy_to_world``
+    proxy_to_world: (4, 4) float64, or None with proxy "none"
     """
 
     name: str
@@ -76,6 +81,8 @@ class ReflectionProbe:
     falloff: float
     mips: dict[str, list[np.ndarray]]
     sh: np.ndarray
+    proxy: str = "none"
+    proxy_to_world: np.ndarray | None = None
 
     def weight(self, points: np.ndarray) -> np.ndarray:
         """(N,) influence in [0, 1] at world points (N, 3)."""
@@ -258,6 +265,14 @@ def indirect(
     tinted = [sh.to_tinted(np.asarray(c, np.float64)) for c in shs]
     radius_fade = np.array([[p.radius, max(max(p.falloff, 1e-4) * p.radius, 1e-6)]
                             for p in probes.reflection], np.float32).reshape(-1, 2)
+    proxies = np.zeros((len(probes.reflection), 12), np.float32)
+    proxy_kinds = np.zeros(len(probes.reflection), np.int64)
+    for k, p in enumerate(probes.reflection):
+        if p.proxy != "none" and p.proxy_to_world is not None:
+            m = np.asarray(p.proxy_to_world, np.float64)
+            if abs(np.linalg.det(m[:3, :3])) > 1e-12:
+                proxies[k] = affine.inverse(m)[:3].reshape(-1)
+                proxy_kinds[k] = kernels.PROXIES[p.proxy]
 
     def f32(a, shape):
         return np.require(np.broadcast_to(np.asarray(a, np.float32), shape), np.float32,
@@ -271,7 +286,8 @@ def indirect(
         f32(rf0, (n, 3)), f32(gloss, (n,)), pixel_sh, sh.BAND_FACTORS.astype(np.float32), chains,
         offsets, sides, levels, np.array(cubemap.FACES),
         np.array([p.position for p in probes.reflection], np.float32).reshape(-1, 3),
-        radius_fade, np.array([np.asarray(c, np.float64)[0] + _EPS for c in shs]),
+        radius_fade, proxies, proxy_kinds,
+        np.array([np.asarray(c, np.float64)[0] + _EPS for c in shs]),
         np.array([t[0] for t in tinted], np.float32), np.array([t[1] for t in tinted], np.float32),
         probes.world_color is not None,
         np.asarray(probes.world_color if probes.world_color is not None else np.zeros(3),

@@ -178,3 +178,42 @@ def test_clear_deletes_the_bakes(addon, tmp_path):
     folder = bake(scene)
     assert bpy.ops.bo2.clear_probes() == {"FINISHED"}
     assert list(Path(folder).iterdir()) == []
+
+
+def test_sphere_probe_parallax_follows_its_influence_or_custom_parallax(addon):
+    data = bpy.data.lightprobes.new("P", "SPHERE")
+    obj = bpy.data.objects.new("P", data)
+    bpy.context.scene.collection.objects.link(obj)
+    obj.location, obj.scale = (1.0, 2.0, 0.5), (2.0, 1.0, 1.0)
+    bpy.context.view_layer.update()
+    data.influence_distance = 3.0
+    s = probes.spec(obj)
+    assert (s.proxy, s.proxy_distance) == ("sphere", 3.0)
+    data.influence_type = "BOX"
+    assert probes.spec(obj).proxy == "box"
+    data.use_custom_parallax = True
+    data.parallax_type, data.parallax_distance = "ELIPSOID", 1.5
+    s = probes.spec(obj)
+    assert (s.proxy, s.proxy_distance) == ("sphere", 1.5)
+    probe = s.probe(np.zeros((1, 9, 3), np.float32), {"bo2": [], "bo1": []})
+    # the proxy is the object's frame scaled by the distance: x half-extent 2 * 1.5 = 3 m
+    np.testing.assert_allclose(probe.proxy_to_world[:3, :3], np.diag([3.0, 1.5, 1.5]))
+    np.testing.assert_allclose(probe.proxy_to_world[:3, 3], [1.0, 2.0, 0.5])
+    volume = bpy.data.objects.new("V", bpy.data.lightprobes.new("V", "VOLUME"))
+    assert probes.spec(volume).proxy == "none"
+
+
+def test_a_probe_inside_an_object_is_named(addon, tmp_path):
+    scene = room(tmp_path)
+    bpy.ops.mesh.primitive_cube_add(size=0.6, location=scene.objects["Reflection"].location)
+    bpy.context.object.name = "Crate"
+    warnings = []
+    bpy.context.view_layer.update()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    steps = blender_bake.bake_steps(scene, depsgraph, [scene.objects["Reflection"]],
+                                    report=warnings.append)
+    next(steps)
+    steps.close()
+    # the room's probe sits inside the chrome sphere too
+    assert "Light probe 'Reflection' is inside object 'Crate', 'Sphere'" in " ".join(warnings)
+    assert blender_bake.enclosing_objects(scene, depsgraph, (0.0, 0.0, 3.0)) == []

@@ -148,3 +148,59 @@ def test_world_cube_follows_the_equirect_mapping():
     world.rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     turned = capture.world_cube(world, 16)
     assert turned[0, 8, 8].min() > 1.9 and turned[plus_y, 8, 8].max() == 0.0
+
+
+def _direction_coded_probes(proxy, proxy_to_world, size=64):
+    """One reflection probe at the origin whose radiance along d is 0.5 d + 0.5 (so a look-up
+    tells the direction it read), reaching every test point, and a black world."""
+    cube = (0.5 * cubemap.texel_directions(size) + 0.5).astype(np.float32)
+    chains = {"bo2": [cube], "bo1": [cube]}
+    probe = cp.ReflectionProbe("P", np.zeros(3), radius=50.0, falloff=0.1, mips=chains,
+                               sh=np.zeros((9, 3), np.float32), proxy=proxy,
+                               proxy_to_world=proxy_to_world)
+    black = [np.zeros((6, 4, 4, 3), np.float32)]
+    return cp.Probes(world_sh=np.zeros((9, 3), np.float32),
+                     world_mips={"bo2": black, "bo1": black}, reflection=[probe])
+
+
+def _march(p, r, inside, step=1e-4):
+    """Where the ray p + t r leaves the region ``inside`` (a predicate), by small steps: the
+    reference the closed-form parallax correction is held to."""
+    x = np.array(p, np.float64)
+    r = np.asarray(r, np.float64)
+    while inside(x):
+        x = x + step * r
+    return x
+
+
+@pytest.mark.parametrize("proxy", ["sphere", "box"])
+def test_parallax_proxy_reads_where_the_reflection_leaves_the_room(proxy):
+    half = np.array([2.0, 1.5, 1.0])
+    m = np.diag([*half, 1.0])
+    if proxy == "sphere":
+        def inside(x):
+            return np.sum((x / half) ** 2) < 1.0
+    else:
+        def inside(x):
+            return np.max(np.abs(x) / half) < 1.0
+    probes = _direction_coded_probes(proxy, m)
+    n = np.array([[0.0, 0.0, 1.0]] * 3, np.float32)
+    v = np.array([[0.3, 0.5, 0.8], [-0.6, 0.2, 0.77], [0.1, -0.9, 0.42]], np.float32)
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    p = np.array([[0.5, -0.6, 0.3], [-1.2, 0.4, -0.5], [1.0, 0.9, 0.0]], np.float32)
+    rf0, gloss = np.ones((3, 3), np.float32), np.ones(3, np.float32)
+    _, spec = cp.indirect(probes, p, n, v, rf0 * 0, rf0, gloss, normalization="none",
+                          env_model="table")
+    nv = np.sum(n * v, axis=1)
+    r = 2 * nv[:, None] * n - v
+    e = env_brdf.environment_brdf(1.0, nv, 1.0, "table")
+    for i in range(3):
+        hit = _march(p[i], r[i], inside)
+        d = hit / np.linalg.norm(hit)
+        np.testing.assert_allclose(spec[i] / e[i], 0.5 * d + 0.5, atol=4e-3)
+        assert np.abs(spec[i] / e[i] - (0.5 * r[i] + 0.5)).max() > 0.05  # not the plain lookup
+    # a point outside its proxy reads along the reflection, as without one
+    far = np.array([[0.0, 0.0, 3.0]], np.float32)
+    _, spec = cp.indirect(probes, far, n[:1], v[:1], rf0[:1] * 0, rf0[:1], gloss[:1],
+                          normalization="none", env_model="table")
+    np.testing.assert_allclose(spec[0] / e[0], 0.5 * r[0] + 0.5, atol=4e-3)

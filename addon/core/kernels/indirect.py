@@ -26,6 +26,7 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 NONE, BO1, BO2 = 0, 1, 2  # normalizations
 NORMALIZATIONS = {"none": NONE, "bo1": BO1, "bo2": BO2}
 TABLE, ENV_BO1, ENV_BO2, FIT = 0, 1, 2, 3  # environment BRDFs
+PROXIES = {"none": 0, "sphere": 1, "box": 2}  # reflection probes' parallax proxies
 ENV_MODELS = {"table": TABLE, "bo1": ENV_BO1, "bo2": ENV_BO2, "fit": FIT}
 
 _C0 = 0.5 / math.sqrt(math.pi)  # sh._C0 ...
@@ -121,6 +122,39 @@ def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, 
 
 
 @nb.njit(**_OPTIONS)
+def _parallax(proxy, kind, k, x, y, z, rx, ry, rz):
+    """Distance t along the ray x + t r at which it leaves probe k's proxy, the unit sphere
+    (kind 1) or the cube [-1, 1]^3 (kind 2) of the affine map ``proxy[k]`` (world -> proxy,
+    3 x 4 row-major): the probe's cube map is then read towards x + t r, the point the
+    reflection sees if the room were that shape (Lagarde and Zanuttini 2012). Affine maps keep
+    the ray's parameter, so t is solved in the proxy's space. 0 (no correction) for a point
+    outside the proxy."""
+    m = proxy[k]
+    qx = m[0] * x + m[1] * y + m[2] * z + m[3]
+    qy = m[4] * x + m[5] * y + m[6] * z + m[7]
+    qz = m[8] * x + m[9] * y + m[10] * z + m[11]
+    dx = m[0] * rx + m[1] * ry + m[2] * rz
+    dy = m[4] * rx + m[5] * ry + m[6] * rz
+    dz = m[8] * rx + m[9] * ry + m[10] * rz
+    if kind == 1:
+        a = dx * dx + dy * dy + dz * dz
+        b = qx * dx + qy * dy + qz * dz
+        c = qx * qx + qy * qy + qz * qz - np.float32(1.0)
+        if c >= 0.0 or not a > 0.0:
+            return np.float32(0.0)
+        return (-b + np.sqrt(b * b - a * c)) / a
+    if max(abs(qx), max(abs(qy), abs(qz))) >= 1.0:
+        return np.float32(0.0)
+    t = np.float32(np.inf)
+    for q, d in ((qx, dx), (qy, dy), (qz, dz)):
+        if d > 0.0:
+            t = min(t, (np.float32(1.0) - q) / d)
+        elif d < 0.0:
+            t = min(t, (np.float32(-1.0) - q) / d)
+    return t if t < np.inf else np.float32(0.0)
+
+
+@nb.njit(**_OPTIONS)
 def _clamp(x, lo, hi):
     """x clamped to [lo, hi]; NaN stays NaN (``np.clip``)."""
     if x != x:
@@ -198,6 +232,7 @@ _INDIRECT = nb.void(
     nb.float32[::1], nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[::1],  # chains, level offsets,
     nb.float64[:, :, ::1],  # sides and counts; cube faces (6, 3, 3)
     nb.float32[:, ::1], nb.float32[:, ::1],  # probe positions (R, 3), radius and fade (R, 2)
+    nb.float32[:, ::1], nb.int64[::1],  # parallax proxies: world -> unit shape (R, 12), kind (R,)
     nb.float64[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # SH constant term + eps,
     nb.boolean, nb.float32[::1], nb.int64,  # scalar SH, tint; world colour?, colour, normalization
     nb.float64[::1],  # eps, largest normalization ratio, smallest n.v of the environment BRDF
@@ -209,7 +244,8 @@ _INDIRECT = nb.void(
 
 @nb.njit(_INDIRECT, **_OPTIONS)
 def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, level_offset,
-             level_size, levels, faces, position, radius_fade, dc_eps, scalar, tint,
+             level_size, levels, faces, position, radius_fade, proxy, proxy_kind, dc_eps,
+             scalar, tint,
              has_world_color, world_color, normalization, limits, env_model, table, table_gloss,
              table_nv, fit, diffuse, specular):
     """Indirect diffuse ``diffuse`` (N, 3) (albedo / pi times the SH irradiance at the normal)
@@ -217,7 +253,9 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
     vector times the environment BRDF (slide "Environment lighting: split approximation"). The
     radiance is the reflection probes' chains 0 .. R - 1 weighted by their influence (divided
     by the sum where it exceeds 1), and the world's (chain R, or ``world_color``) with the
-    weight they leave. ``pixel_sh`` is (N, 9, 3), or (1, 9, 3) shared by every point."""
+    weight they leave. ``pixel_sh`` is (N, 9, 3), or (1, 9, 3) shared by every point.
+    A probe with a parallax proxy (``_parallax``) is looked up towards the point where the
+    reflected ray leaves its proxy rather than along the ray's direction."""
     n_probes = position.shape[0]
     y = np.empty(9, np.float32)
     e = np.empty(3, np.float32)
@@ -265,8 +303,16 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
                 for c in range(3):
                     s[c] = world_color[c]
             else:
-                _sample(chains, level_offset, level_size, levels, chain, faces, rx, ry, rz,
-                        gloss[i], s)
+                t = np.float32(0.0)
+                if chain < n_probes and proxy_kind[chain] != 0:
+                    t = _parallax(proxy, proxy_kind[chain], chain, points[i, 0], points[i, 1],
+                                  points[i, 2], rx, ry, rz)
+                if t > 0.0:  # towards where the reflection leaves the proxy
+                    _sample(chains, level_offset, level_size, levels, chain, faces,
+                            px + t * rx, py + t * ry, pz + t * rz, gloss[i], s)
+                else:
+                    _sample(chains, level_offset, level_size, levels, chain, faces, rx, ry,
+                            rz, gloss[i], s)
             if normalization != NONE:
                 if normalization == BO2:
                     probe_e = np.float32(0.0)
