@@ -66,8 +66,9 @@ _AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
 
 
 def enclosing_objects(scene, depsgraph, position) -> list[str]:
-    """The names of the objects ``position`` is inside of: every ray along the six axes meets
-    the back of a surface first (nested objects: each one met), or []."""
+    """The names of the objects ``position`` may be inside of: every ray along the six axes
+    meets the back of a surface first (the first surface met along each axis), or []. Rays
+    see what the viewport shows."""
     from mathutils import Vector
 
     names = set()
@@ -96,9 +97,16 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                              film_transparent=False, samples=int(settings.bake_samples))
     core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False)
     for obj in objs:
-        inside = enclosing_objects(scene, depsgraph, obj.matrix_world.translation)
+        if obj.data.type != "SPHERE":
+            continue
+        # an enclosing object smaller than the probe's reach is a prop it sits in; a larger one
+        # is the room around it (walls modelled with outward normals)
+        reach = 2.0 * float(obj.data.influence_distance)
+        inside = [name for name in enclosing_objects(scene, depsgraph,
+                                                     obj.matrix_world.translation)
+                  if scene.objects[name].dimensions.length < reach]
         if inside:
-            warnings.append(f"Light probe '{obj.name}' is inside object "
+            warnings.append(f"Light probe '{obj.name}' seems to be inside object "
                             f"{', '.join(repr(n) for n in inside)}: its captures see the "
                             "inside; move the probe out, or raise its Clip Start past the "
                             "surface")

@@ -215,5 +215,17 @@ def test_a_probe_inside_an_object_is_named(addon, tmp_path):
     next(steps)
     steps.close()
     # the room's probe sits inside the chrome sphere too
-    assert "Light probe 'Reflection' is inside object 'Crate', 'Sphere'" in " ".join(warnings)
+    assert "Light probe 'Reflection' seems to be inside object 'Crate', 'Sphere'" in " ".join(
+        warnings)
     assert blender_bake.enclosing_objects(scene, depsgraph, (0.0, 0.0, 3.0)) == []
+    # a room modelled as a closed box with outward normals around the probe is not a prop
+    for name in ("Crate", "Sphere"):
+        bpy.data.objects.remove(bpy.data.objects[name])
+    bpy.ops.mesh.primitive_cube_add(size=12.0, location=(0.0, 0.0, 1.0))
+    bpy.context.view_layer.update()
+    warnings.clear()
+    steps = blender_bake.bake_steps(scene, bpy.context.evaluated_depsgraph_get(),
+                                    [scene.objects["Reflection"]], report=warnings.append)
+    next(steps)
+    steps.close()
+    assert not any("inside object" in w for w in warnings)

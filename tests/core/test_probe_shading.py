@@ -199,7 +199,15 @@ def test_parallax_proxy_reads_where_the_reflection_leaves_the_room(proxy):
         d = hit / np.linalg.norm(hit)
         np.testing.assert_allclose(spec[i] / e[i], 0.5 * d + 0.5, atol=4e-3)
         assert np.abs(spec[i] / e[i] - (0.5 * r[i] + 0.5)).max() > 0.05  # not the plain lookup
-    # a point outside its proxy reads along the reflection, as without one
+    # a point on the proxy's surface (a floor on its bottom face) is corrected like one inside
+    floor = np.array([[0.4, -0.3, -1.0]], np.float32)
+    if proxy == "sphere":
+        floor = np.array([[0.0, 0.0, -1.0]], np.float32)
+    _, spec = cp.indirect(probes, floor, n[:1], v[:1], rf0[:1] * 0, rf0[:1], gloss[:1],
+                          normalization="none", env_model="table")
+    hit = _march(floor[0] + 1e-4 * r[0], r[0], inside)
+    np.testing.assert_allclose(spec[0] / e[0], 0.5 * hit / np.linalg.norm(hit) + 0.5, atol=4e-3)
+    # a point outside its proxy, the reflection leaving it behind, reads along the reflection
     far = np.array([[0.0, 0.0, 3.0]], np.float32)
     _, spec = cp.indirect(probes, far, n[:1], v[:1], rf0[:1] * 0, rf0[:1], gloss[:1],
                           normalization="none", env_model="table")

@@ -127,8 +127,9 @@ def _parallax(proxy, kind, k, x, y, z, rx, ry, rz):
     (kind 1) or the cube [-1, 1]^3 (kind 2) of the affine map ``proxy[k]`` (world -> proxy,
     3 x 4 row-major): the probe's cube map is then read towards x + t r, the point the
     reflection sees if the room were that shape (Lagarde and Zanuttini 2012). Affine maps keep
-    the ray's parameter, so t is solved in the proxy's space. 0 (no correction) for a point
-    outside the proxy."""
+    the ray's parameter, so t is solved in the proxy's space. Points on the proxy (a floor on
+    its bottom face) and outside it are corrected alike, so there is no seam at its surface;
+    0 (no correction) when the ray leaves the proxy behind it or misses it."""
     m = proxy[k]
     qx = m[0] * x + m[1] * y + m[2] * z + m[3]
     qy = m[4] * x + m[5] * y + m[6] * z + m[7]
@@ -140,18 +141,20 @@ def _parallax(proxy, kind, k, x, y, z, rx, ry, rz):
         a = dx * dx + dy * dy + dz * dz
         b = qx * dx + qy * dy + qz * dz
         c = qx * qx + qy * qy + qz * qz - np.float32(1.0)
-        if c >= 0.0 or not a > 0.0:
+        disc = b * b - a * c
+        if not (a > 0.0 and disc >= 0.0):
             return np.float32(0.0)
-        return (-b + np.sqrt(b * b - a * c)) / a
-    if max(abs(qx), max(abs(qy), abs(qz))) >= 1.0:
-        return np.float32(0.0)
+        t = (-b + np.sqrt(disc)) / a
+        return t if t > 0.0 else np.float32(0.0)
     t = np.float32(np.inf)
     for q, d in ((qx, dx), (qy, dy), (qz, dz)):
         if d > 0.0:
             t = min(t, (np.float32(1.0) - q) / d)
         elif d < 0.0:
             t = min(t, (np.float32(-1.0) - q) / d)
-    return t if t < np.inf else np.float32(0.0)
+        elif abs(q) > 1.0:  # parallel to this slab, outside it: the ray never meets the box
+            return np.float32(0.0)
+    return t if 0.0 < t < np.inf else np.float32(0.0)
 
 
 @nb.njit(**_OPTIONS)
