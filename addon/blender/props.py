@@ -19,6 +19,14 @@ _SPECULAR_DESCRIPTIONS = {
 }
 
 
+# Renderers of the probes' captures (``scene.bo2.bake_backend``, the preferences' default)
+_BACKENDS = [
+    ("BO2", "BO2 Lighting", "The engine's own pipeline: direct light, shadows, the world and "
+     "the previous bounce's probes (fast)"),
+    ("CYCLES", "Cycles", "Cycles path tracing: full global illumination (slow)"),
+]
+
+
 class BO2SceneSettings(bpy.types.PropertyGroup):
     """Render settings of the BO2 Lighting engine (``scene.bo2``)."""
 
@@ -123,12 +131,8 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     bake_backend: bpy.props.EnumProperty(
         name="Bake With",
         description="Renderer of the probes' captures",
-        items=[
-            ("DEFAULT", "Default", "The Default Capture Backend of the add-on's preferences"),
-            ("BO2", "BO2 Lighting", "The engine's own pipeline: direct light, shadows, the "
-             "world and the previous bounce's probes (fast)"),
-            ("CYCLES", "Cycles", "Cycles path tracing: full global illumination (slow)"),
-        ],
+        items=[("DEFAULT", "Default", "The Default Capture Backend of the add-on's "
+                "preferences"), *_BACKENDS],
         default="DEFAULT",
     )
     bake_face_size: bpy.props.EnumProperty(
@@ -215,8 +219,7 @@ class BO2Preferences(bpy.types.AddonPreferences):
     bake_backend: bpy.props.EnumProperty(
         name="Default Capture Backend",
         description="Renderer of the probes' captures in scenes whose Bake With is Default",
-        items=[("BO2", "BO2 Lighting", "The engine's own pipeline (fast)"),
-               ("CYCLES", "Cycles", "Cycles path tracing: full global illumination (slow)")],
+        items=_BACKENDS,
         default="BO2",
     )
     viewport_scale: bpy.props.EnumProperty(

@@ -5,6 +5,7 @@ import types
 
 import bpy
 import pytest
+from util import bare_material
 
 import bo2_lighting
 from bo2_lighting.addon.blender import library, node_groups, props, ui
@@ -327,11 +328,7 @@ def test_bake_bad_input_is_one_clear_message(scene_with_everything, tmp_path, ca
 
 def test_convert_bad_input(scene_with_everything):
     scene, cube, mat, bo2, probes = scene_with_everything
-    emission = bpy.data.materials.new("Glow")
-    if bpy.app.version < (5, 0, 0):
-        emission.use_nodes = True
-    tree = emission.node_tree
-    tree.nodes.remove(tree.nodes["Principled BSDF"])
+    emission, tree = bare_material("Glow")
     node = tree.nodes.new("ShaderNodeEmission")
     tree.links.new(node.outputs[0], tree.nodes["Material Output"].inputs["Surface"])
     with bpy.context.temp_override(material=emission):

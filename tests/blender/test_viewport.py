@@ -75,6 +75,13 @@ def view(addon):
     v.close()
 
 
+def open_view(view, scene):
+    """``view`` opened on ``scene`` through its camera, rendered to the end."""
+    view.sync(bpy.context.evaluated_depsgraph_get())
+    view.set_camera(camera_of(scene))
+    assert view.session.wait(120)
+
+
 def settle(view, updates):
     """Apply the collected updates to ``view``; returns the changes."""
     bpy.context.view_layer.update()
@@ -88,9 +95,7 @@ def test_only_what_changed_is_read_again(view, updates):
     scene = bpy.context.scene
     build(scene)
     scene.bo2.viewport_samples = 2
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     first = view.session.image().pixels.copy()
     reads = dict(view.cache.reads)
     assert reads[("mesh", "Left")] == reads[("mesh", "Right")] == 1
@@ -128,9 +133,7 @@ def test_viewport_through_the_scene_camera_matches_f12(view):
     scene = bpy.context.scene
     build(scene)
     scene.bo2.viewport_samples = 4
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     image = view.session.image()
     assert image.final and image.samples == 4 and image.pixels.shape == (H, W, 4)
     f12 = render_pixels(scene, "BO2_LIGHTING", samples=4)
@@ -141,9 +144,7 @@ def test_viewport_through_the_scene_camera_matches_f12(view):
 def test_lookdev_view_and_viewport_samples_follow_the_scene(view, updates):
     scene = bpy.context.scene
     build(scene)
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     renders = view.session.stats["renders"]
     updates.clear()
     scene.bo2.lookdev_view = "ALBEDO"
@@ -174,9 +175,7 @@ def test_a_failed_render_shows_its_error_and_the_next_change_renders(view, updat
         raise MemoryError("out of memory")
 
     monkeypatch.setattr(pipeline, "prepare", broken)
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     assert view.status() == "Error: MemoryError: out of memory"
     monkeypatch.setattr(pipeline, "prepare", real)
     updates.clear()
@@ -194,9 +193,7 @@ def test_probe_state_hint(view, tmp_path):
     probe = bpy.data.objects.new("Probe", bpy.data.lightprobes.new("Probe", "SPHERE"))
     scene.collection.objects.link(probe)
     bpy.context.view_layer.update()
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     assert "Light probes: 1 missing: re-bake" in view.status()
     [(obj, text, _)] = viewport.probe_labels(scene)
     assert obj == probe and text == "BO2 bake: missing"
@@ -216,9 +213,7 @@ def test_hiding_instancing_and_renaming_reach_the_viewport(view, updates):
     scene = bpy.context.scene
     build(scene)
     scene.bo2.viewport_samples = 1
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     updates.clear()
     shown = view.session.image().pixels.copy()
 
@@ -268,9 +263,7 @@ def test_a_new_bake_reaches_the_viewport(view, updates, tmp_path):
     probe.location = (0.0, 0.0, 1.0)
     scene.collection.objects.link(probe)
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     updates.clear()
     bpy.context.view_layer.objects.active = probe
     scene.bo2.bake_face_size, scene.bo2.bake_samples = "32", 1
@@ -286,7 +279,5 @@ def test_warnings_show_in_the_status(view):
     checker = mat.node_tree.nodes.new("ShaderNodeTexChecker")  # not read by the engine
     mat.node_tree.links.new(checker.outputs["Color"],
                             mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
-    view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
-    assert view.session.wait(120)
+    open_view(view, scene)
     assert "1 warning: Material 'Left': node 'Checker Texture'" in view.status()
