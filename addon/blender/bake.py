@@ -80,6 +80,11 @@ def enclosing_objects(scene, depsgraph, position) -> list[str]:
     return sorted(names)
 
 
+def _warn(report, message: str) -> None:
+    if report is not None:
+        report(message)
+
+
 def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1].
 
@@ -111,18 +116,25 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                             "inside; move the probe out, or raise its Clip Start past the "
                             "surface")
     for w in warnings:
-        if report is not None:
-            report(w)
+        _warn(report, w)
+    captures = capture.Capture(core_scene)  # the volumes' surroundings, with either backend
     if backend == "BO2":
-        grab = capture.Capture(core_scene).cube
+        grab = captures.cube
     else:
         def grab(position, size, near, far, _probes):
             return cycles_cube(scene, position, size, near, far)
     job = bake.Bake([probes.spec(o) for o in objs], core_scene.world, grab,
                     bounces=1 if backend == "CYCLES" else max(1, int(settings.bake_bounces)),
                     face_size=int(settings.bake_face_size),
-                    volume_face_size=int(settings.bake_volume_face_size))
+                    volume_face_size=int(settings.bake_volume_face_size),
+                    surfaces=captures.surfaces)
     yield from job.steps()
+    for baked in job.results:
+        if baked.validity is not None and not baked.validity.all():
+            count = int((baked.validity == 0).sum())
+            _warn(report, f"Light probe '{baked.spec.name}': {count} of {len(baked.validity)} "
+                  "samples are inside geometry with no valid neighbour; they are left out "
+                  "(raise Dilation Radius or Escape Bias, or move the volume)")
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
     for baked in job.results:
         meta = bake.metadata(baked, backend, job.bounces, stamp, time.perf_counter() - start,

@@ -95,7 +95,10 @@ def spec(obj) -> bake.ProbeSpec:
                     if volume else None),
         clip_start=float(data.clip_start), clip_end=float(getattr(data, "clip_end", 1e4)),
         proxy="none" if volume else ("box" if shape == "BOX" else "sphere"),
-        proxy_distance=0.0 if volume else float(distance))
+        proxy_distance=0.0 if volume else float(distance),
+        volume=bake.VolumeSettings(*(float(getattr(data, name, default)) for name, default in
+                                     dataclasses.asdict(bake.VolumeSettings()).items()))
+        if volume else bake.VolumeSettings())
 
 
 # --------------------------------------------------------------------------------------------
@@ -178,7 +181,11 @@ def _probe_from_file(obj, state: BakeState, warnings: list[str]):
         current = dataclasses.replace(
             current, local_to_world=np.array(state.meta["matrix"], np.float64),
             resolution=tuple(resolution) if resolution else current.resolution)
-    return current.probe(coeffs, chains if current.kind == "reflection" else None)
+    validity = None
+    if state.meta.get("invalid_samples"):
+        validity = np.ones(len(coeffs), np.float32)
+        validity[np.asarray(state.meta["invalid_samples"], np.int64)] = 0.0
+    return current.probe(coeffs, chains if current.kind == "reflection" else None, validity)
 
 
 def load_probes(scene, world: World, warnings: list[str]) -> cp.Probes:

@@ -10,7 +10,15 @@ chains (``capture.filtered``; slides "Black Ops: environment map pre-filtering")
 Bounces: the first bounce's captures see direct light, emission and the world, which lights
 surfaces outside the probes' regions (an open scene's ground) but nothing inside them (a closed
 room must not be lit by a sky it cannot see): ``first_bounce``. Each further bounce captures the
-scene lit by the previous bounce's probes.
+scene lit by the previous bounce's probes, diffuse and specular (a metal in a capture reflects
+the previous bounce's reflection probes), so bounce n adds light that has bounced n times and
+the sum converges (a closed box: the geometric series of its albedo).
+
+Irradiance volumes without leaks, as EEVEE's (``VolumeSettings``): before the first bounce,
+each sample's surroundings are looked at (``SurfacesFn``); a sample that sees mostly back faces
+is in geometry: it escapes through the nearest back face when that is within its escape
+distance, and a sample still invalid takes the light of its valid neighbours (``dilate``), or
+is left out of the look-up's blend (``IrradianceVolume.validity``).
 
 The host writes the results (``BakedProbe``) with ``probe_file.write`` and ``metadata``; nothing
 here touches the disk, so a bake that is stopped early leaves the previous files as they were.
@@ -27,8 +35,8 @@ from . import capture, cubemap, sh
 from .probes import IrradianceVolume, Probes, ReflectionProbe, volume_sample_positions
 from .scene import World
 
-__all__ = ["Bake", "BakedProbe", "ProbeSpec", "first_bounce", "metadata", "world_key",
-           "world_probes"]
+__all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "dilate", "escape",
+           "first_bounce", "metadata", "world_key", "world_probes"]
 
 KINDS = ("reflection", "irradiance")
 FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
@@ -36,6 +44,29 @@ FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
 # capture(position (3,) metres, face size, near, far, probes lighting the view) ->
 # (6, size, size, 3) float32 radiance (faces of ``cubemap.FACES``)
 CaptureFn = Callable[[np.ndarray, int, float, float, Probes], np.ndarray]
+# surfaces(position (3,) metres, face size, near, far) -> ``capture.Surfaces``
+SurfacesFn = Callable[[np.ndarray, int, float, float], "capture.Surfaces"]
+
+
+@dataclass(frozen=True)
+class VolumeSettings:
+    """An irradiance volume's leak settings (Blender's ``LightProbeVolume``, same defaults).
+
+    dilation_threshold: a sample whose front-facing ratio (``capture.Surfaces``) is below this
+                        is invalid
+    dilation_radius:    an invalid sample takes the light of the valid ones within this many
+                        sample spacings
+    escape_bias:        an invalid sample moves out through the nearest back face within this
+                        many sample spacings before it is captured
+    normal_bias, view_bias, facing_bias: the look-up's (``IrradianceVolume``)
+    """
+
+    dilation_threshold: float = 0.5
+    dilation_radius: float = 1.0
+    escape_bias: float = 0.1
+    normal_bias: float = 0.3
+    view_bias: float = 0.0
+    facing_bias: float = 0.5
 
 
 @dataclass(frozen=True, eq=False)
@@ -54,6 +85,7 @@ class ProbeSpec:
     proxy:          reflection: the parallax proxy, "none", "sphere" or "box"
                     (``ReflectionProbe.proxy``), of ``proxy_distance`` local units around the
                     centre in the object's frame (its rotation and scale apply)
+    volume:         irradiance: the leak settings
     """
 
     name: str
@@ -66,6 +98,7 @@ class ProbeSpec:
     clip_end: float = 1e4
     proxy: str = "none"
     proxy_distance: float = 0.0
+    volume: VolumeSettings = VolumeSettings()
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
@@ -89,9 +122,11 @@ class ProbeSpec:
             meta["resolution"] = [int(r) for r in self.resolution]
         return meta
 
-    def probe(self, coeffs: np.ndarray, chains: dict | None) -> ReflectionProbe | IrradianceVolume:
+    def probe(self, coeffs: np.ndarray, chains: dict | None,
+              validity: np.ndarray | None = None) -> ReflectionProbe | IrradianceVolume:
         """The renderer's probe from baked SH ``coeffs`` (K, 9, 3) and, for a reflection probe,
-        its prefiltered ``chains`` ({"bo2": [...], "bo1": [...]})."""
+        its prefiltered ``chains`` ({"bo2": [...], "bo1": [...]}); for a volume, the samples'
+        ``validity`` (K,) (None: all valid)."""
         m = np.asarray(self.local_to_world, np.float64)
         if self.kind == "reflection":
             proxy = self.proxy if self.proxy_distance > 0.0 else "none"
@@ -99,19 +134,26 @@ class ProbeSpec:
                                    float(self.falloff), chains, coeffs[0], proxy,
                                    m @ np.diag([self.proxy_distance] * 3 + [1.0]))
         res = tuple(int(r) for r in self.resolution)
-        return IrradianceVolume(self.name, m, res, coeffs.reshape(*res, 9, 3),
-                                float(self.influence))
+        v = self.volume
+        return IrradianceVolume(
+            self.name, m, res, coeffs.reshape(*res, 9, 3), float(self.influence),
+            None if validity is None else np.asarray(validity, np.float32).reshape(res),
+            float(v.normal_bias), float(v.view_bias), float(v.facing_bias))
 
 
 @dataclass
 class BakedProbe:
     """One probe's bake: SH ``coeffs`` (K, 9, 3) float32 per capture point and, for a
-    reflection probe, the prefiltered ``chains`` of its centre; ``face_size`` of the captures."""
+    reflection probe, the prefiltered ``chains`` of its centre; ``face_size`` of the captures;
+    for a volume, ``validity`` (K,) float32, 1 or 0 (``dilate``), and ``escaped``, the samples
+    moved out of geometry."""
 
     spec: ProbeSpec
     coeffs: np.ndarray
     chains: dict[str, list[np.ndarray]] | None
     face_size: int
+    validity: np.ndarray | None = None
+    escaped: int = 0
 
 
 def world_key(world: World, size: int) -> tuple:
@@ -161,6 +203,64 @@ def _sh_of_cube(cube: np.ndarray) -> np.ndarray:
                       weights)
 
 
+def dilate(coeffs: np.ndarray, valid: np.ndarray, radius: float) -> tuple[np.ndarray,
+                                                                          np.ndarray]:
+    """Invalid samples take the light of the valid ones within ``radius`` sample spacings,
+    weighted by inverse squared distance (EEVEE's dilation).
+
+    coeffs: (X, Y, Z, 9, 3) SH;  valid: (X, Y, Z) bool
+    returns: (coeffs (X, Y, Z, 9, 3), validity (X, Y, Z) float32: 1 where valid or dilated, 0
+             where no valid sample lies within the radius)
+    """
+    out = np.array(coeffs, np.float32)
+    validity = valid.astype(np.float32)
+    r = int(np.floor(radius))
+    offsets = [(i, j, k) for i in range(-r, r + 1) for j in range(-r, r + 1)
+               for k in range(-r, r + 1) if 0 < i * i + j * j + k * k <= radius * radius]
+    shape = np.array(valid.shape)
+    for cell in np.argwhere(~valid):
+        acc, total = np.zeros((9, 3), np.float64), 0.0
+        for off in offsets:
+            q = cell + off
+            if (q >= 0).all() and (q < shape).all() and valid[tuple(q)]:
+                w = 1.0 / float(np.dot(off, off))
+                acc += w * coeffs[tuple(q)]
+                total += w
+        if total > 0.0:
+            out[tuple(cell)] = acc / total
+            validity[tuple(cell)] = 1.0
+    return out, validity
+
+
+def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
+           far: float) -> tuple[np.ndarray, np.ndarray, int]:
+    """A volume's capture positions and validity (``VolumeSettings``): each invalid sample moves
+    through the nearest back face it sees when that face is within ``escape_bias`` sample
+    spacings (to a point a tenth of that beyond it), if it is valid there.
+
+    returns: (positions (K, 3) float64, valid (K,) bool, how many samples moved)
+    """
+    settings = spec.volume
+    res = np.asarray(spec.resolution)
+    scale = np.linalg.norm(np.asarray(spec.local_to_world, np.float64)[:3, :3], axis=0)
+    spacing = float(np.min(2.0 * scale / res))
+    reach = settings.escape_bias * spacing
+    points = spec.points.copy()
+    valid = np.ones(len(points), bool)
+    moved = 0
+    for k, p in enumerate(points):
+        seen = surfaces(p, size, near, far)
+        if seen.front_ratio >= settings.dilation_threshold:
+            continue
+        valid[k] = False
+        if seen.back_direction is not None and seen.back_distance <= reach:
+            out = p + seen.back_direction * (seen.back_distance + 0.1 * reach)
+            if surfaces(out, size, near, far).front_ratio >= settings.dilation_threshold:
+                points[k], valid[k] = out, True
+                moved += 1
+    return points, valid, moved
+
+
 @dataclass
 class Bake:
     """A bake of ``specs`` in the scene whose ``world`` is given, through ``capture``.
@@ -177,26 +277,37 @@ class Bake:
     bounces: int = 1
     face_size: int = 128
     volume_face_size: int = 16
+    surfaces: SurfacesFn | None = None
     results: list[BakedProbe] = field(default_factory=list)
 
+    def _clip(self, spec: ProbeSpec) -> tuple[float, float]:
+        near = max(float(spec.clip_start), 1e-3)
+        return near, max(float(spec.clip_end), 2.0 * near)
+
     def steps(self) -> Iterator[float]:
-        """Run the bake, yielding the finished fraction in (0, 1] after every capture; closing
-        the generator early (cancel) leaves ``results`` empty."""
-        points = [spec.points for spec in self.specs]
-        total = max(1, self.bounces) * sum(len(p) for p in points)
+        """Run the bake, yielding the finished fraction in (0, 1] after every capture (and
+        every volume's look at its surroundings); closing the generator early (cancel) leaves
+        ``results`` empty."""
+        volumes = [s for s in self.specs if s.kind == "irradiance"] if self.surfaces else []
+        total = max(1, self.bounces) * sum(len(s.points) for s in self.specs) + len(volumes)
         done = 0
+        placed = {}  # volume name -> (positions, valid, moved)
+        for spec in volumes:
+            placed[spec.name] = escape(spec, self.surfaces, self.volume_face_size,
+                                       *self._clip(spec))
+            done += 1
+            yield done / total
         lighting = first_bounce(self.world, self.specs)
         results: list[BakedProbe] = []
         for _ in range(max(1, self.bounces)):
             results = []
             baked = world_probes(self.world)
-            for spec, pos in zip(self.specs, points, strict=True):
+            for spec in self.specs:
                 size = self.face_size if spec.kind == "reflection" else self.volume_face_size
-                near = max(float(spec.clip_start), 1e-3)
-                far = max(float(spec.clip_end), 2.0 * near)
+                pos, valid, moved = placed.get(spec.name, (spec.points, None, 0))
                 coeffs, chains = [], None
                 for p in pos:
-                    cube = self.capture(p, size, near, far, lighting)
+                    cube = self.capture(p, size, *self._clip(spec), lighting)
                     if spec.kind == "reflection":
                         c, chains = capture.filtered(cube)
                     else:
@@ -204,9 +315,15 @@ class Bake:
                     coeffs.append(np.asarray(c, np.float32))
                     done += 1
                     yield done / total
-                result = BakedProbe(spec, np.stack(coeffs), chains, size)
+                coeffs, validity = np.stack(coeffs), None
+                if valid is not None:
+                    res = tuple(spec.resolution)
+                    dilated, validity = dilate(coeffs.reshape(*res, 9, 3),
+                                               valid.reshape(res), spec.volume.dilation_radius)
+                    coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
+                result = BakedProbe(spec, coeffs, chains, size, validity, moved)
                 results.append(result)
-                probe = spec.probe(result.coeffs, chains)
+                probe = spec.probe(result.coeffs, chains, validity)
                 (baked.reflection if spec.kind == "reflection" else baked.volumes).append(probe)
             lighting = baked
         self.results = results
@@ -216,7 +333,11 @@ def metadata(baked: BakedProbe, backend: str, bounces: int, bake_time: str, seco
              version: str) -> dict:
     """The metadata of a probe file (``probe_file.write``): what the bake depends on
     (``ProbeSpec.describe``), how it was made and when."""
-    return {**baked.spec.describe(), "face_size": baked.face_size,
+    meta = {**baked.spec.describe(), "face_size": baked.face_size,
             "filters": dict(FILTERS) if baked.chains else {}, "backend": backend,
             "bounces": bounces, "bake_time": bake_time, "bake_seconds": round(seconds, 3),
             "version": version}
+    if baked.validity is not None:
+        meta["invalid_samples"] = np.flatnonzero(baked.validity < 0.5).tolist()
+        meta["escaped_samples"] = int(baked.escaped)
+    return meta

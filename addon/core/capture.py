@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,7 +19,7 @@ from . import cubemap, pipeline, prefilter, sh
 from .probes import Probes
 from .scene import Camera, Scene, World
 
-__all__ = ["Capture", "face_camera", "filtered", "world_cube"]
+__all__ = ["Capture", "Surfaces", "face_camera", "filtered", "world_cube"]
 
 
 def face_camera(position, face: int, size: int, near: float, far: float) -> Camera:
@@ -52,16 +53,65 @@ class Capture:
              probes: Probes | None = None) -> np.ndarray:
         """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres, between
         the clip distances ``near`` and ``far`` (metres), lit indirectly by ``probes``."""
-        far = max(far, 2.0 * near)
-        cams = [face_camera(position, face, size, near, far) for face in range(6)]
-        if self._frame is None:
-            scene = dataclasses.replace(self.scene, camera=cams[0])
-            self._frame = pipeline.prepare(scene, self.warn, self.should_stop, fit_shadows=False)
+        cams = self._cameras(position, size, near, far)
         frame = dataclasses.replace(self._frame, scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
         faces = pipeline.render_views(frame.scene, cams, should_stop=self.should_stop,
                                       frame=frame)
         return np.stack([face["Combined"][..., :3] for face in faces])
+
+    def surfaces(self, position, size: int, near: float, far: float) -> Surfaces:
+        """What surrounds ``position`` (3,), metres: the surfaces seen in a ``size`` cube
+        between the clip distances, and whether they show their fronts (one ray per texel
+        centre, weighted by its solid angle)."""
+        cams = self._cameras(position, size, near, far)
+        directions = cubemap.texel_directions(size).reshape(6, -1, 3)
+        weight = cubemap.texel_solid_angles(size).reshape(-1)
+        front = back = 0.0
+        nearest = (np.inf, None)
+        for face, cam in enumerate(cams):
+            view = pipeline.with_camera(self._frame, cam)
+            tile = (0, 0, size, size)
+            tri, _, depth, *_ = pipeline._raster(view, tile, pipeline._margin(view, tile),
+                                                 (0.5, 0.5))
+            hit = np.flatnonzero(tri >= 0)
+            d = directions[face, hit]
+            normals = pipeline._face_normals(view, tri[hit])
+            behind = np.einsum("nk,nk->n", normals, d) > 0.0  # the ray meets a back face
+            front += float(weight[hit[~behind]].sum())
+            back += float(weight[hit[behind]].sum())
+            if behind.any():
+                forward = np.asarray(cubemap.FACES[face][0], np.float32)
+                dist = depth[hit[behind]] / (d[behind] @ forward)  # view depth -> ray length
+                k = int(np.argmin(dist))
+                if dist[k] < nearest[0]:
+                    nearest = (float(dist[k]), d[behind][k].astype(np.float64))
+        ratio = front / (front + back) if front + back > 0.0 else 1.0
+        return Surfaces(ratio, nearest[1], nearest[0])
+
+    def _cameras(self, position, size: int, near: float, far: float) -> list[Camera]:
+        """The six face cameras at ``position``; the geometry prepared on first use."""
+        far = max(far, 2.0 * near)
+        cams = [face_camera(position, face, size, near, far) for face in range(6)]
+        if self._frame is None:
+            scene = dataclasses.replace(self.scene, camera=cams[0])
+            self._frame = pipeline.prepare(scene, self.warn, self.should_stop, fit_shadows=False)
+        return cams
+
+
+@dataclass(frozen=True)
+class Surfaces:
+    """The surfaces around a point (``Capture.surfaces``).
+
+    front_ratio:  the front-facing fraction of the solid angle that meets a surface, in
+                  [0, 1]; 1 when nothing is met (EEVEE's validity of a volume sample)
+    back_direction, back_distance: unit direction (3,) and distance (metres) of the nearest
+                  back face met (the way out of the object around the point), or None, inf
+    """
+
+    front_ratio: float
+    back_direction: np.ndarray | None
+    back_distance: float
 
 
 def world_cube(world: World, size: int) -> np.ndarray:

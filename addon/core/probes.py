@@ -99,6 +99,15 @@ class IrradianceVolume:
     resolution:     (3,) samples along local x, y, z
     sh:             float32 (X, Y, Z, 9, 3) radiance SH at the samples
     influence:      distance outside the box, metres, over which the volume's weight fades to 0
+    validity:       float32 (X, Y, Z) in [0, 1], or None (all valid): a sample of validity 0 (in
+                    geometry, and no valid neighbour to take its light from:
+                    ``core.bake.dilate``) is left out of the blend
+    normal_bias, view_bias: the look-up point moves this many sample spacings along the
+                    shading normal and towards the eye (EEVEE's Normal and View Bias)
+    facing_bias:    samples behind the surface are left out of the blend: each of the eight
+                    weighs max(0, dot(unit(sample - point), normal) + facing_bias), so a larger
+                    bias blends more smoothly and leaks more (EEVEE's Facing Bias); None: plain
+                    trilinear
     """
 
     name: str
@@ -106,6 +115,10 @@ class IrradianceVolume:
     resolution: tuple[int, int, int]
     sh: np.ndarray
     influence: float = 0.0
+    validity: np.ndarray | None = None
+    normal_bias: float = 0.0
+    view_bias: float = 0.0
+    facing_bias: float | None = None
 
     def _local(self, points: np.ndarray) -> np.ndarray:
         inv = affine.inverse(self.local_to_world)
@@ -121,24 +134,60 @@ class IrradianceVolume:
             return (dist <= 0.0).astype(np.float32)
         return np.clip(1.0 - dist / self.influence, 0.0, 1.0).astype(np.float32)
 
-    def sample_sh(self, points: np.ndarray) -> np.ndarray:
-        """(N, 9, 3) SH at world points, trilinear between the samples (clamped at the box)."""
+    def spacing(self) -> float:
+        """The smallest distance between neighbouring samples, metres."""
+        scale = np.linalg.norm(np.asarray(self.local_to_world, np.float64)[:3, :3], axis=0)
+        return float(np.min(2.0 * scale / np.asarray(self.resolution)))
+
+    def sample_sh(self, points: np.ndarray, normals: np.ndarray | None = None,
+                  view: np.ndarray | None = None) -> np.ndarray:
+        """(N, 9, 3) SH at world points (N, 3): the blend of the eight samples around each
+        (clamped at the box), trilinear, times each sample's validity and, given the unit
+        shading ``normals`` and directions to the eye ``view`` (N, 3), its facing weight, at
+        the point moved by the normal and view biases. Where every weight is 0, plain
+        trilinear."""
         res = np.asarray(self.resolution)
-        q = self._local(points)
+        pts = np.asarray(points, np.float32)
+        if normals is not None:
+            step = np.float32(self.spacing())
+            pts = pts + np.float32(self.normal_bias) * step * normals
+            if view is not None:
+                pts = pts + np.float32(self.view_bias) * step * view
+        q = self._local(pts)
         # sample i sits at local (i + 0.5) / res * 2 - 1 (volume_sample_positions)
         f = (q + 1.0) * 0.5 * res - 0.5
         f = np.clip(f, 0.0, res - 1.0)
         i0 = np.minimum(np.floor(f).astype(np.int64), res - 2).clip(0)
         t = (f - i0).astype(np.float32)
         i1 = np.minimum(i0 + 1, res - 1)
-        out = np.zeros((len(points), 9, 3), np.float32)
+        facing = normals is not None and self.facing_bias is not None
+        if facing:
+            m = np.asarray(self.local_to_world, np.float64)
+        weights, corners = [], []
         for corner in range(8):
             bits = [(corner >> k) & 1 for k in range(3)]
-            idx = [np.where(b, i1[:, k], i0[:, k]) for k, b in enumerate(bits)]
-            w = np.ones(len(points), np.float32)
+            idx = tuple(np.where(b, i1[:, k], i0[:, k]) for k, b in enumerate(bits))
+            w = np.ones(len(pts), np.float32)
             for k, b in enumerate(bits):
                 w *= t[:, k] if b else 1.0 - t[:, k]
-            out += w[:, None, None] * self.sh[idx[0], idx[1], idx[2]]
+            weights.append(w)
+            corners.append(idx)
+        plain = np.stack(weights)  # (8, N)
+        kept = plain.copy()
+        for c, idx in enumerate(corners):
+            if self.validity is not None:
+                kept[c] *= self.validity[idx]
+            if facing:
+                local = (np.stack(idx, -1) + 0.5) / res * 2.0 - 1.0
+                to = (local @ m[:3, :3].T + m[:3, 3]).astype(np.float32) - pts
+                to /= np.maximum(np.linalg.norm(to, axis=-1, keepdims=True), 1e-6)
+                kept[c] *= np.maximum(np.einsum("nk,nk->n", to, normals)
+                                      + np.float32(self.facing_bias), 0.0)
+        total = kept.sum(0)
+        blend = np.where(total > 1e-6, kept / np.maximum(total, 1e-30), plain)
+        out = np.zeros((len(pts), 9, 3), np.float32)
+        for c, idx in enumerate(corners):
+            out += blend[c][:, None, None] * self.sh[idx]
         return out
 
 
@@ -170,9 +219,11 @@ class Probes:
     packed: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
 
-def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
-    """SH at each point, (N, 9, 3): the volumes' blend, the world where they leave weight;
-    (9, 3), the world's, when no volume reaches any point."""
+def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = None,
+              view: np.ndarray | None = None) -> np.ndarray:
+    """SH at each point (N, 3), (N, 9, 3): the volumes' blend (``sample_sh``, with the unit
+    shading ``normals`` and directions to the eye ``view`` (N, 3)), the world where they leave
+    weight; (9, 3), the world's, when no volume reaches any point."""
     n = len(points)
     total = np.zeros(n, np.float32)
     acc = None
@@ -182,7 +233,9 @@ def _pixel_sh(probes: Probes, points: np.ndarray) -> np.ndarray:
         if k.size:
             if acc is None:
                 acc = np.zeros((n, 9, 3), np.float32)
-            acc[k] += w[k, None, None] * vol.sample_sh(points[k])
+            acc[k] += w[k, None, None] * vol.sample_sh(
+                points[k], None if normals is None else normals[k],
+                None if view is None else view[k])
             total[k] += w[k]
     world_sh = np.asarray(probes.world_sh, np.float32)
     if acc is None:
@@ -257,7 +310,9 @@ def indirect(
         raise ValueError(f"unknown environment BRDF {env_model!r} for shading; expected one of: "
                          f"{', '.join(kernels.ENV_MODELS)}")
     n = len(points)
-    pixel_sh = np.asarray(_pixel_sh(probes, points), np.float32)
+    pixel_sh = np.asarray(_pixel_sh(
+        probes, points, np.broadcast_to(np.asarray(normals, np.float32), (n, 3)),
+        np.broadcast_to(np.asarray(view, np.float32), (n, 3))), np.float32)
     pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
                                     else pixel_sh[None])
     chains, offsets, sides, levels = _packed_chains(probes, prefilter)

@@ -1,0 +1,144 @@
+"""Indirect light beside Cycles: bake, render both engines, print the figures of docs/probes.md.
+
+Usage: python tools/measure_indirect.py OUT_DIR [BLEND ...] [--bounces N] [--cycles-samples N]
+                                        [--reuse-cycles] [--no-leak-fixes]
+
+For each .blend (default: the demo room and the closed room of ``demo_blends``): bakes its
+probes with BO2 Lighting into OUT_DIR/<name>/bake, renders BO2 Lighting and Cycles (full global
+illumination, the scene's Cycles samples or ``--cycles-samples``) through ``bo2 compare``'s
+comparison, and prints
+
+- PSNR of the whole image (display-referred, as ``bo2 compare``);
+- the Diffuse Indirect pass's mean relative error (Cycles' times its Diffuse Color);
+- the metal surfaces' Combined mean relative error: the pixels whose material has a Pass Index
+  of 1 in Cycles' Material Index pass;
+
+the relative errors over blocks of ``BLOCK`` x ``BLOCK`` pixels averaged (both engines alike),
+so that Cycles' noise, which averaging divides by ``BLOCK``, stays well below the figures (the
+block mean of the metals: over their pixels in the block);
+
+and writes OUT_DIR/<name>/ the comparison's files plus ``indirect.png``: BO2's and Cycles'
+Diffuse Indirect side by side. ``--reuse-cycles`` keeps a Cycles render already in the folder.
+``--no-leak-fixes`` bakes the volumes without validity, escape and dilation and looks them up
+without biases (the behaviour before them), for the before/after figures.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+import time
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+import bo2_lighting
+from bo2_lighting.addon.blender import compare as blender_compare
+from bo2_lighting.addon.blender import images as blender_images
+from bo2_lighting.addon.core import compare, imaging
+
+ROOT = Path(__file__).resolve().parents[1]
+BLENDS = [ROOT / "demo_blends" / "room.blend", ROOT / "demo_blends" / "closed_room.blend"]
+METAL_INDEX = 1
+BLOCK = 4
+
+
+def blocks(image: np.ndarray, mask: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Means of ``image`` (H, W, C) over BLOCK x BLOCK blocks (over the ``mask`` (H, W) pixels
+    of each): (H / BLOCK, W / BLOCK, C) and the blocks that hold any pixel (bool)."""
+    h, w = (s - s % BLOCK for s in image.shape[:2])
+    m = np.ones((h, w), np.float64) if mask is None else mask[:h, :w].astype(np.float64)
+    shape = (h // BLOCK, BLOCK, w // BLOCK, BLOCK)
+    count = m.reshape(shape).sum((1, 3))
+    total = (image[:h, :w].astype(np.float64) * m[..., None]).reshape(*shape, -1).sum((1, 3))
+    return total / np.maximum(count, 1.0)[..., None], count > 0
+
+
+def no_leak_fixes(scene) -> None:
+    """Volume probes as before validity: nothing invalid, no look-up biases."""
+    for obj in scene.objects:
+        if obj.type == "LIGHT_PROBE" and obj.data.type == "VOLUME":
+            d = obj.data
+            d.dilation_threshold, d.escape_bias = 0.0, 0.0
+            d.normal_bias = d.view_bias = 0.0
+            d.facing_bias = 1e6  # every sample weighs alike: plain trilinear
+
+
+def measure(blend: Path, out: Path, args) -> dict:
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    scene = bpy.context.scene
+    scene.render.engine = "BO2_LIGHTING"
+    scene.bo2.bake_folder = str(out / "bake")
+    if args.bounces:
+        scene.bo2.bake_bounces = args.bounces
+    if args.cycles_samples:
+        scene.cycles.samples = args.cycles_samples
+    if args.no_leak_fixes:
+        no_leak_fixes(scene)
+    start = time.perf_counter()
+    assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
+    bake_seconds = time.perf_counter() - start
+    layer = bpy.context.view_layer
+    job = blender_compare.Comparison(scene, layer, out)
+    cycles_info = out / "cycles_info.json"
+    try:
+        job.finish("bo2", blender_compare.render_sync(job, "bo2"))
+        if args.reuse_cycles and cycles_info.exists() and (out / "cycles.exr").exists():
+            job.info["cycles"] = json.loads(cycles_info.read_text())
+        else:
+            job.finish("cycles", blender_compare.render_sync(job, "cycles"))
+            cycles_info.write_text(json.dumps(job.info["cycles"]))
+        result = job.analyse()
+    finally:
+        job.restore()
+    bo2 = blender_compare.read_exr(out / "bo2.exr", layer.name)
+    cyc = blender_compare.read_exr(out / "cycles.exr", layer.name)
+    metal = np.rint(cyc["IndexMA"][..., 0]) == METAL_INDEX
+    (a, kept), (b, _) = (blocks(x["Combined"][..., :3], metal) for x in (bo2, cyc))
+    metal_error = compare.mean_relative_error(a[kept], b[kept]) if kept.any() else float("nan")
+    pair = compare.light_pairs(bo2, cyc)["DiffInd"]
+    left, right = blender_images.to_display(scene, list(pair))
+    imaging.write_png(out / "indirect.png", imaging.side_by_side(
+        left, right, (("BO2 Diffuse Indirect",) * 3, ("Cycles Diffuse Indirect",) * 3)))
+    figures = {
+        "psnr_db": result["image"]["psnr_db"],
+        "diffuse_indirect_mre": compare.mean_relative_error(*(blocks(x)[0] for x in pair)),
+        "metal_combined_mre": metal_error,
+        "metal_pixels": int(metal.sum()),
+        "bake_seconds": bake_seconds,
+        "bo2_seconds": job.info["bo2"]["render_seconds"],
+        "cycles_seconds": job.info["cycles"]["render_seconds"],
+        "cycles_samples": job.info["cycles"]["samples"],
+    }
+    return figures
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("out", type=Path)
+    parser.add_argument("blends", type=Path, nargs="*")
+    parser.add_argument("--bounces", type=int, default=0)
+    parser.add_argument("--cycles-samples", type=int, default=0)
+    parser.add_argument("--reuse-cycles", action="store_true")
+    parser.add_argument("--no-leak-fixes", action="store_true")
+    args = parser.parse_args()
+    bo2_lighting.register()
+    for blend in args.blends or BLENDS:
+        out = args.out / blend.stem
+        if not args.reuse_cycles and out.exists():
+            shutil.rmtree(out)
+        out.mkdir(parents=True, exist_ok=True)
+        f = measure(blend.resolve(), out, args)
+        print(f"{blend.stem}: PSNR {f['psnr_db']:.2f} dB, Diffuse Indirect mean relative error "
+              f"{f['diffuse_indirect_mre']:.3f}, metals' Combined {f['metal_combined_mre']:.3f} "
+              f"({f['metal_pixels']} px); bake {f['bake_seconds']:.1f} s, BO2 "
+              f"{f['bo2_seconds']:.2f} s, Cycles {f['cycles_seconds']:.1f} s "
+              f"({f['cycles_samples']} samples)", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
