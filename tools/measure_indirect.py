@@ -1,17 +1,18 @@
 """Indirect light beside Cycles: bake, render both engines, print the figures of docs/probes.md.
 
 Usage: python tools/measure_indirect.py OUT_DIR [BLEND ...] [--bounces N] [--cycles-samples N]
-                                        [--reuse-cycles] [--no-leak-fixes]
+                                        [--cycles-bounces N] [--reuse-cycles] [--no-leak-fixes]
 
 For each .blend (default: the demo room and the closed room of ``demo_blends``): bakes its
 probes with BO2 Lighting into OUT_DIR/<name>/bake, renders BO2 Lighting and Cycles (full global
-illumination, the scene's Cycles samples or ``--cycles-samples``) through ``bo2 compare``'s
-comparison, and prints
+illumination, the scene's Cycles samples or ``--cycles-samples``; ``--cycles-bounces`` sets its
+total, diffuse and glossy bounces) through ``bo2 compare``'s comparison, and prints
 
 - PSNR of the whole image (display-referred, as ``bo2 compare``);
 - the Diffuse Indirect pass's mean relative error (Cycles' times its Diffuse Color);
 - the metal surfaces' Combined mean relative error: the pixels whose material has a Pass Index
-  of 1 in Cycles' Material Index pass;
+  of 1 in Cycles' Material Index pass (given here to every material whose Principled BSDF has
+  a Metallic of 0.5 or more);
 
 the relative errors over blocks of ``BLOCK`` x ``BLOCK`` pixels averaged (both engines alike),
 so that Cycles' noise, which averaging divides by ``BLOCK``, stays well below the figures (the
@@ -76,8 +77,16 @@ def measure(blend: Path, out: Path, args) -> dict:
         scene.bo2.bake_bounces = args.bounces
     if args.cycles_samples:
         scene.cycles.samples = args.cycles_samples
+    if args.cycles_bounces:
+        c = scene.cycles
+        c.max_bounces = c.diffuse_bounces = c.glossy_bounces = args.cycles_bounces
     if args.no_leak_fixes:
         no_leak_fixes(scene)
+    for mat in bpy.data.materials:
+        nodes = mat.node_tree.nodes if mat.node_tree else []
+        if any(n.type == "BSDF_PRINCIPLED" and n.inputs["Metallic"].default_value >= 0.5
+               for n in nodes):
+            mat.pass_index = METAL_INDEX
     start = time.perf_counter()
     assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
     bake_seconds = time.perf_counter() - start
@@ -122,6 +131,7 @@ def main() -> int:
     parser.add_argument("blends", type=Path, nargs="*")
     parser.add_argument("--bounces", type=int, default=0)
     parser.add_argument("--cycles-samples", type=int, default=0)
+    parser.add_argument("--cycles-bounces", type=int, default=0)
     parser.add_argument("--reuse-cycles", action="store_true")
     parser.add_argument("--no-leak-fixes", action="store_true")
     args = parser.parse_args()

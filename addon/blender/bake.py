@@ -115,15 +115,18 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                             f"{', '.join(repr(n) for n in inside)}: its captures see the "
                             "inside; move the probe out, or raise its Clip Start past the "
                             "surface")
-    for w in warnings:
+    specs, odd = bake.check([probes.spec(o) for o in objs])
+    for w in warnings + odd:
         _warn(report, w)
+    if not specs:
+        raise BakeError("No light probe can be baked (see the warnings)")
     captures = capture.Capture(core_scene)  # the volumes' surroundings, with either backend
     if backend == "BO2":
         grab = captures.cube
     else:
         def grab(position, size, near, far, _probes):
             return cycles_cube(scene, position, size, near, far)
-    job = bake.Bake([probes.spec(o) for o in objs], core_scene.world, grab,
+    job = bake.Bake(specs, core_scene.world, grab,
                     bounces=1 if backend == "CYCLES" else max(1, int(settings.bake_bounces)),
                     face_size=int(settings.bake_face_size),
                     volume_face_size=int(settings.bake_volume_face_size),

@@ -35,7 +35,7 @@ from . import capture, cubemap, sh
 from .probes import IrradianceVolume, Probes, ReflectionProbe, volume_sample_positions
 from .scene import World
 
-__all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "dilate", "escape",
+__all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate", "escape",
            "first_bounce", "metadata", "world_key", "world_probes"]
 
 KINDS = ("reflection", "irradiance")
@@ -194,6 +194,35 @@ def first_bounce(world: World, specs: list[ProbeSpec]) -> Probes:
                               resolution=(1, 1, 1))
             probes.volumes.append(black.probe(np.zeros((1, 9, 3), np.float32), None))
     return probes
+
+
+def check(specs: list[ProbeSpec]) -> tuple[list[ProbeSpec], list[str]]:
+    """The probes a bake can use, and one warning for each that is odd: a volume with one
+    sample along an axis (constant along it), a probe of no size (skipped), a reflection probe
+    of no influence (it lights nothing), two probes of the same kind in exactly the same place
+    (their light is averaged)."""
+    kept, warnings, seen = [], [], {}
+    for spec in specs:
+        m = np.asarray(spec.local_to_world, np.float64)
+        where = f"Light probe '{spec.name}'"
+        if not np.isfinite(m).all() or abs(np.linalg.det(m[:3, :3])) < 1e-12:
+            warnings.append(f"{where} has no size (a zero or non-finite scale); it is skipped")
+            continue
+        if spec.kind == "irradiance":
+            flat = [axis for axis, r in zip("xyz", spec.resolution, strict=True) if r < 2]
+            if flat:
+                warnings.append(f"{where} has one sample along {', '.join(flat)}: its light is "
+                                "the same all along that axis")
+        elif spec.influence <= 0.0:
+            warnings.append(f"{where} has no influence (Influence Distance 0): it lights "
+                            "nothing")
+        key = (spec.kind, np.round(m, 6).tobytes(), spec.resolution)
+        if key in seen:
+            warnings.append(f"{where} is exactly where '{seen[key]}' is: their light is "
+                            "averaged; delete one")
+        seen.setdefault(key, spec.name)
+        kept.append(spec)
+    return kept, warnings
 
 
 def _sh_of_cube(cube: np.ndarray) -> np.ndarray:

@@ -1,0 +1,165 @@
+"""Irradiance volumes without leaks, and bounces that converge, through the real captures.
+
+Independent values:
+- the surroundings of a point in a solid cube [-1, 1]^3 (outward faces): only back faces, the
+  nearest one straight along an axis at the distance from the point to that face (to the
+  texel centre's direction: 1 / cos of its angle to the axis); outside it, only front faces;
+- dilation: the inverse-squared-distance mean of the valid neighbours, written out by hand;
+- look-ups: the trilinear weights of a two-sample grid written out by hand; the facing weight
+  max(0, dot(unit(sample - point), normal) + bias) of a sample straight behind the surface is 0;
+- bounces in a closed box of albedo rho and emission E (every wall sees the same radiance, and
+  no reflection probe or world gives specular light): after n bounces the captured radiance is
+  E (1 + rho + ... + rho^(n-1)), whose limit is E / (1 - rho).
+"""
+
+import math
+
+import numpy as np
+
+from bo2_lighting.addon.core import bake, capture
+from bo2_lighting.addon.core import probes as cp
+from bo2_lighting.addon.core.scene import Camera, Material, MeshBatch, RenderSettings, Scene, World
+
+C00 = 2.0 * math.sqrt(math.pi)
+
+
+def cube(lo=(-1.0, -1.0, -1.0), hi=(1.0, 1.0, 1.0), inward=False) -> np.ndarray:
+    """(12, 3, 3) float32 triangles of an axis-aligned box, counter-clockwise seen from
+    outside (from inside with ``inward``)."""
+    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
+    c, h, e = (lo + hi) / 2, (hi - lo) / 2, np.eye(3)
+    tris = []
+    for ax in range(3):
+        u, v = e[(ax + 1) % 3] * h[(ax + 1) % 3], e[(ax + 2) % 3] * h[(ax + 2) % 3]
+        for s in (1.0, -1.0):
+            f = c + s * e[ax] * h[ax]
+            q = [f - u - v, f + u - v, f + u + v, f - u + v]  # normal u x v = +axis
+            if (s < 0) != inward:
+                q = q[::-1]
+            tris += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+    return np.array(tris, np.float32)
+
+
+def scene_of(triangles, material: Material) -> Scene:
+    n = np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0])
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    normals = np.repeat(n[:, None], 3, 1).astype(np.float32)
+    mesh = MeshBatch(triangles, normals, np.zeros(len(triangles), np.int32), name="box")
+    cam = Camera.look_at((0, -5, 0), (0, 0, 0), 1.0, 16, 16, 0.1, 100.0)
+    return Scene(camera=cam, meshes=[mesh], materials=[material],
+                 settings=RenderSettings(samples=1, shadow_resolution=64))
+
+
+def grey() -> Material:
+    return Material.talk(albedo=(0.5, 0.5, 0.5), rf0=(0.0, 0.0, 0.0), gloss=0.0)
+
+
+def test_surfaces_of_a_solid_cube():
+    grab = capture.Capture(scene_of(cube(), grey()))
+    inside = grab.surfaces(np.array([0.0, 0.0, 0.0]), 16, 0.01, 100.0)
+    assert inside.front_ratio == 0.0
+    centre = 1.0 / 16  # the texel centres nearest an axis are at a = b = 1/16
+    np.testing.assert_allclose(inside.back_distance, math.sqrt(1 + 2 * centre**2), rtol=1e-4)
+    near_face = grab.surfaces(np.array([0.0, 0.0, 0.9]), 16, 0.01, 100.0)
+    np.testing.assert_allclose(near_face.back_distance, 0.1 * math.sqrt(1 + 2 * centre**2),
+                               rtol=1e-3)
+    assert near_face.back_direction[2] > 0.99  # out through the top face
+    outside = grab.surfaces(np.array([3.0, 0.5, 0.0]), 16, 0.01, 100.0)
+    assert outside.front_ratio == 1.0 and outside.back_direction is None
+    empty = grab.surfaces(np.array([50.0, 0.0, 0.0]), 16, 0.01, 10.0)  # nothing within 10 m
+    assert empty.front_ratio == 1.0
+
+
+def test_escape_moves_samples_just_inside_geometry_out():
+    grab = capture.Capture(scene_of(cube(), grey()))
+    # a 4 x 1 x 1 volume over x in [-4, 4]: samples at x = -3, -1, 1, 3, spacing 2; the samples
+    # at -1 and 1 are 1 inside the cube's faces at +-1 only along x, but y and z faces are 1 away
+    # too: all four are 1 m deep, beyond an escape of 0.1 spacings (0.2 m)
+    m = np.diag([4.0, 1.0, 1.0, 1.0])
+    spec = bake.ProbeSpec("V", "irradiance", m, 0.0, resolution=(4, 1, 1))
+    points, valid, moved = bake.escape(spec, grab.surfaces, 16, 0.01, 100.0)
+    np.testing.assert_array_equal(valid, [True, False, False, True])
+    assert moved == 0
+    # the same cube shrunk to x in [-1.1, 1.1], y and z in [-0.9, 0.9]: the middle samples are
+    # 0.1 m inside the x faces (within 0.1 spacings) and escape through them
+    grab = capture.Capture(scene_of(cube((-1.1, -0.9, -0.9), (1.1, 0.9, 0.9)), grey()))
+    points, valid, moved = bake.escape(spec, grab.surfaces, 16, 0.01, 100.0)
+    assert valid.all() and moved == 2
+    assert points[1, 0] < -1.1 and points[2, 0] > 1.1  # through the faces nearest to them
+    np.testing.assert_allclose(points[[0, 3]], [[-3, 0, 0], [3, 0, 0]])
+
+
+def test_dilation_takes_the_valid_neighbours_light():
+    coeffs = np.zeros((4, 1, 1, 9, 3), np.float32)
+    coeffs[:, 0, 0, 0, 0] = [1.0, 99.0, 3.0, 99.0]
+    valid = np.array([True, False, True, False]).reshape(4, 1, 1)
+    out, validity = bake.dilate(coeffs, valid, radius=1.0)
+    assert out[1, 0, 0, 0, 0] == 2.0  # (1 + 3) / 2: both one spacing away
+    assert out[3, 0, 0, 0, 0] == 3.0  # its one valid neighbour
+    np.testing.assert_array_equal(validity.reshape(-1), [1, 1, 1, 1])
+    out, validity = bake.dilate(coeffs, np.array([True, False, False, False]).reshape(4, 1, 1),
+                                radius=2.0)
+    # sample 2 has sample 0 at distance 2 (weight 1/4); sample 3 has none within 2
+    assert out[2, 0, 0, 0, 0] == 1.0 and out[1, 0, 0, 0, 0] == 1.0
+    np.testing.assert_array_equal(validity.reshape(-1), [1, 1, 1, 0])
+    assert out[3, 0, 0, 0, 0] == 99.0
+
+
+def two_samples(left=10.0, right=0.0, **settings) -> cp.IrradianceVolume:
+    """Samples at x = -1 (``left``) and x = +1 (``right``): the box x in [-2, 2]."""
+    coeffs = np.zeros((2, 1, 1, 9, 3), np.float32)
+    coeffs[0, 0, 0, 0], coeffs[1, 0, 0, 0] = left, right
+    return cp.IrradianceVolume("V", np.diag([2.0, 1.0, 1.0, 1.0]), (2, 1, 1), coeffs,
+                               **settings)
+
+
+def test_look_up_does_not_pull_light_through_a_wall():
+    """A wall at x = 0 between a bright sample (left) and a dark one: a point just right of
+    the wall, facing right, gets the dark side's light alone."""
+    point, normal = np.array([[0.05, 0.0, 0.0]]), np.array([[1.0, 0.0, 0.0]], np.float32)
+    plain = two_samples().sample_sh(point)[0, 0, 0]
+    np.testing.assert_allclose(plain, 10.0 * 0.475, rtol=1e-5)  # trilinear: t = 0.525
+    facing = two_samples(facing_bias=0.5).sample_sh(point, normal)[0, 0, 0]
+    assert facing == 0.0  # the left sample is straight behind: max(0, -1 + 0.5)
+    # a sample left out (validity 0) is not blended either
+    invalid = two_samples(validity=np.array([0.0, 1.0], np.float32).reshape(2, 1, 1))
+    assert invalid.sample_sh(point)[0, 0, 0] == 0.0
+    # and where every weight is 0, the plain blend stands in
+    none = two_samples(validity=np.zeros((2, 1, 1), np.float32))
+    np.testing.assert_allclose(none.sample_sh(point)[0, 0, 0], plain, rtol=1e-6)
+
+
+def test_normal_and_view_bias_move_the_look_up():
+    point = np.array([[-1.0, 0.0, 0.0]])
+    normal = np.array([[1.0, 0.0, 0.0]], np.float32)
+    view = np.array([[0.0, 1.0, 0.0]], np.float32)
+    vol = two_samples(left=0.0, right=1.0, normal_bias=0.25, view_bias=0.5)
+    # half a spacing (2 m) along the normal: x = -0.5, a quarter of the way to the right one
+    np.testing.assert_allclose(vol.sample_sh(point, normal, view)[0, 0, 0], 0.25, rtol=1e-6)
+    view = np.array([[1.0, 0.0, 0.0]], np.float32)  # the view bias adds a full spacing more
+    np.testing.assert_allclose(vol.sample_sh(point, normal, view)[0, 0, 0], 0.75, rtol=1e-6)
+
+
+def test_bounces_in_a_closed_white_box_converge_to_the_geometric_series():
+    emission, rho = 1.0, 0.5
+    box = Material.talk(albedo=(rho,) * 3, rf0=(0.0, 0.0, 0.0), gloss=0.0,
+                        emission=(emission,) * 3)
+    grab = capture.Capture(scene_of(cube(inward=True), box))
+    spec = bake.ProbeSpec("Box", "irradiance", np.eye(4), 0.0, resolution=(1, 1, 1),
+                          clip_start=0.01, clip_end=10.0)
+    values = []
+    for bounces in range(1, 6):
+        job = bake.Bake([spec], World(color=np.zeros(3, np.float32)), grab.cube,
+                        bounces=bounces, volume_face_size=8, surfaces=grab.surfaces)
+        for _ in job.steps():
+            pass
+        (result,) = job.results
+        assert result.validity.all()  # inside a room: front faces only
+        values.append(float(result.coeffs[0, 0, 0]) / C00)
+    expected = [emission * sum(rho**k for k in range(n)) for n in range(1, 6)]
+    np.testing.assert_allclose(values, expected, rtol=2e-3)
+    added = np.diff(values)
+    assert (added[1:] < added[:-1]).all()  # each bounce adds less than the one before
+    limit = emission / (1 - rho)
+    gaps = limit - np.array(values)
+    assert (gaps > 0).all() and (gaps[1:] < gaps[:-1]).all()
