@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import bpy
-from scene_kit import light, principled, probe, sky
+from scene_kit import ball, closed_room, light, principled, probe, sky, slab
 
 import bo2_lighting
 
@@ -23,26 +23,6 @@ HERE = Path(__file__).resolve().parent
 WALL = 0.2  # thickness, metres
 ROOM = (6.0, 5.0, 3.0)  # inside, metres: x from -3 to 3, y from -2.5 to 2.5, z from 0 to 3
 WINDOW = (-1.0, 1.0, 1.0, 2.2)  # in the left wall: y0, y1, z0, z1
-
-
-def box(name, lo, hi, material):
-    """An axis-aligned box from corner ``lo`` to ``hi`` (3,), metres."""
-    bpy.ops.mesh.primitive_cube_add(size=1.0, location=[(a + b) / 2 for a, b in zip(lo, hi)])
-    obj = bpy.context.object
-    obj.name = name
-    obj.scale = [b - a for a, b in zip(lo, hi)]
-    obj.data.materials.append(material)
-    return obj
-
-
-def sphere(name, radius, location, material):
-    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=radius,
-                                         location=location)
-    obj = bpy.context.object
-    obj.name = name
-    bpy.ops.object.shade_smooth()
-    obj.data.materials.append(material)
-    return obj
 
 
 def build(out: Path) -> None:
@@ -53,8 +33,8 @@ def build(out: Path) -> None:
     scene.render.resolution_percentage = 100
     scene.render.engine = "BO2_LIGHTING"
     scene.view_settings.view_transform = "Standard"
-    scene.cycles.samples = 512
-    scene.cycles.max_bounces = 8
+    c = scene.cycles  # full global illumination
+    c.samples, c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 256, 32, 32, 32
 
     wall = principled("Wall", (0.75, 0.75, 0.72), roughness=0.8)
     floor = principled("Floor", (0.45, 0.32, 0.22), roughness=0.6)
@@ -64,20 +44,11 @@ def build(out: Path) -> None:
     red = principled("Red", (0.7, 0.05, 0.04), roughness=0.4)
 
     x, y, z = ROOM[0] / 2, ROOM[1] / 2, ROOM[2]
-    t = WALL
-    box("Floor", (-x - t, -y - t, -t), (x + t, y + t, 0.0), floor)
-    box("Ceiling", (-x - t, -y - t, z), (x + t, y + t, z + t), wall)
-    box("Wall back", (-x - t, y, 0.0), (x + t, y + t, z), wall)
-    box("Wall front", (-x - t, -y - t, 0.0), (x + t, -y, z), wall)
-    box("Wall right", (x, -y, 0.0), (x + t, y, z), wall)
-    y0, y1, z0, z1 = WINDOW  # the left wall around the window
-    box("Wall left 1", (-x - t, -y, 0.0), (-x, y0, z), wall)
-    box("Wall left 2", (-x - t, y1, 0.0), (-x, y, z), wall)
-    box("Wall left 3", (-x - t, y0, 0.0), (-x, y1, z0), wall)
-    box("Wall left 4", (-x - t, y0, z1), (-x, y1, z), wall)
-    box("Pillar", (1.2, 0.7, 0.0), (1.8, 1.3, z), pillar)  # holds the samples at x 1.5, y 1
-    sphere("Gold sphere", 0.45, (0.2, -0.9, 0.45), gold)
-    sphere("Red sphere", 0.4, (-1.2, 0.6, 0.4), red)
+    closed_room((-x, -y, 0.0), (x, y, z), wall, WALL, WINDOW)
+    bpy.data.objects["Floor"].data.materials[0] = floor
+    slab("Pillar", (1.2, 0.7, 0.0), (1.8, 1.3, z), pillar)  # holds the samples at x 1.5, y 1
+    ball("Gold sphere", 0.45, (0.2, -0.9, 0.45), gold)
+    ball("Red sphere", 0.4, (-1.2, 0.6, 0.4), red)
 
     light("SUN", "Sun", (-6, 0, 5), (math.radians(55), 0, math.radians(-90)), energy=5.0,
           angle=math.radians(1.0), color=(1.0, 0.93, 0.82))

@@ -52,3 +52,67 @@ def sky(color, name="Sky"):
     world.node_tree.nodes["Background"].inputs["Color"].default_value = (*color, 1.0)
     bpy.context.scene.world = world
     return world
+
+
+def slab(name, lo, hi, material):
+    """An axis-aligned box mesh from corner ``lo`` to ``hi`` (3,), metres."""
+    centre = [(a + b) / 2 for a, b in zip(lo, hi, strict=True)]
+    bpy.ops.mesh.primitive_cube_add(size=1.0, location=centre)
+    obj = bpy.context.object
+    obj.name = name
+    obj.scale = [b - a for a, b in zip(lo, hi, strict=True)]
+    obj.data.materials.append(material)
+    return obj
+
+
+def ball(name, radius, location, material):
+    """A smooth UV sphere mesh."""
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=64, ring_count=32, radius=radius,
+                                         location=location)
+    obj = bpy.context.object
+    obj.name = name
+    bpy.ops.object.shade_smooth()
+    obj.data.materials.append(material)
+    return obj
+
+
+def bo2_material(name, albedo, rf0, gloss, emission=(0.0, 0.0, 0.0), strength=0.0):
+    """A material made of the BO2 Material node group (the talk's parameters); an emission
+    of ``strength`` is added through an Emission shader when it is above 0."""
+    from bo2_lighting.addon.blender import node_groups
+
+    mat = node_groups.new_material(name)
+    group = next(n for n in mat.node_tree.nodes if node_groups.is_bo2_material_node(n))
+    group.inputs["Albedo"].default_value = (*albedo, 1.0)
+    group.inputs["Specular Color"].default_value = (*rf0, 1.0)
+    group.inputs["Gloss"].default_value = gloss
+    if strength > 0.0:
+        nodes, links = mat.node_tree.nodes, mat.node_tree.links
+        output = next(n for n in nodes if n.type == "OUTPUT_MATERIAL")
+        glow = nodes.new("ShaderNodeEmission")
+        glow.inputs["Color"].default_value = (*emission, 1.0)
+        glow.inputs["Strength"].default_value = strength
+        add = nodes.new("ShaderNodeAddShader")
+        links.new(group.outputs[0], add.inputs[0])
+        links.new(glow.outputs[0], add.inputs[1])
+        links.new(add.outputs[0], output.inputs["Surface"])
+    return mat
+
+
+def closed_room(lo, hi, material, thickness=0.2, window=None, window_material=None):
+    """Floor, ceiling and four walls of ``thickness`` around the inside box ``lo``-``hi``;
+    ``window`` (y0, y1, z0, z1) opens the wall at x = lo[0]."""
+    (x0, y0, z0), (x1, y1, z1), t = lo, hi, thickness
+    slab("Floor", (x0 - t, y0 - t, z0 - t), (x1 + t, y1 + t, z0), material)
+    slab("Ceiling", (x0 - t, y0 - t, z1), (x1 + t, y1 + t, z1 + t), material)
+    slab("Wall back", (x0 - t, y1, z0), (x1 + t, y1 + t, z1), material)
+    slab("Wall front", (x0 - t, y0 - t, z0), (x1 + t, y0, z1), material)
+    slab("Wall right", (x1, y0, z0), (x1 + t, y1, z1), material)
+    if window is None:
+        slab("Wall left", (x0 - t, y0, z0), (x0, y1, z1), material)
+        return
+    wy0, wy1, wz0, wz1 = window
+    slab("Wall left 1", (x0 - t, y0, z0), (x0, wy0, z1), material)
+    slab("Wall left 2", (x0 - t, wy1, z0), (x0, y1, z1), material)
+    slab("Wall left 3", (x0 - t, wy0, z0), (x0, wy1, wz0), material)
+    slab("Wall left 4", (x0 - t, wy0, wz1), (x0, wy1, z1), material)

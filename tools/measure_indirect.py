@@ -5,8 +5,9 @@ Usage: python tools/measure_indirect.py OUT_DIR [BLEND ...] [--bounces N] [--cyc
 
 For each .blend (default: the demo room and the closed room of ``demo_blends``): bakes its
 probes with BO2 Lighting into OUT_DIR/<name>/bake, renders BO2 Lighting and Cycles (full global
-illumination, the scene's Cycles samples or ``--cycles-samples``; ``--cycles-bounces`` sets its
-total, diffuse and glossy bounces) through ``bo2 compare``'s comparison, and prints
+illumination: ``--cycles-bounces`` total, diffuse and glossy bounces, 32 by default, 0 for the
+scene's own; the scene's Cycles samples or ``--cycles-samples``) through ``bo2 compare``'s
+comparison, and prints
 
 - PSNR of the whole image (display-referred, as ``bo2 compare``);
 - the Diffuse Indirect pass's mean relative error (Cycles' times its Diffuse Color);
@@ -21,7 +22,12 @@ block mean of the metals: over their pixels in the block);
 and writes OUT_DIR/<name>/ the comparison's files plus ``indirect.png``: BO2's and Cycles'
 Diffuse Indirect side by side. ``--reuse-cycles`` keeps a Cycles render already in the folder.
 ``--no-leak-fixes`` bakes the volumes without validity, escape and dilation and looks them up
-without biases (the behaviour before them), for the before/after figures.
+without biases (the behaviour before them).
+
+``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
+and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
+former default), and writes ``before_after.png``: the Combined and the Diffuse Indirect passes
+of before | after | Cycles; ``--docs`` copies it to ``docs/images/indirect_<scene>.png``.
 """
 
 from __future__ import annotations
@@ -68,19 +74,22 @@ def no_leak_fixes(scene) -> None:
             d.facing_bias = 1e6  # every sample weighs alike: plain trilinear
 
 
-def measure(blend: Path, out: Path, args) -> dict:
+def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = True,
+            reuse_cycles: bool = False) -> dict:
+    """Bake, render both engines into ``out`` and measure (the module docstring); the figures,
+    and the passes of both engines under "bo2" and "cycles"."""
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
     scene.render.engine = "BO2_LIGHTING"
     scene.bo2.bake_folder = str(out / "bake")
-    if args.bounces:
-        scene.bo2.bake_bounces = args.bounces
+    if bounces:
+        scene.bo2.bake_bounces = bounces
     if args.cycles_samples:
         scene.cycles.samples = args.cycles_samples
     if args.cycles_bounces:
         c = scene.cycles
         c.max_bounces = c.diffuse_bounces = c.glossy_bounces = args.cycles_bounces
-    if args.no_leak_fixes:
+    if not leak_fixes:
         no_leak_fixes(scene)
     for mat in bpy.data.materials:
         nodes = mat.node_tree.nodes if mat.node_tree else []
@@ -95,7 +104,7 @@ def measure(blend: Path, out: Path, args) -> dict:
     cycles_info = out / "cycles_info.json"
     try:
         job.finish("bo2", blender_compare.render_sync(job, "bo2"))
-        if args.reuse_cycles and cycles_info.exists() and (out / "cycles.exr").exists():
+        if reuse_cycles and cycles_info.exists() and (out / "cycles.exr").exists():
             job.info["cycles"] = json.loads(cycles_info.read_text())
         else:
             job.finish("cycles", blender_compare.render_sync(job, "cycles"))
@@ -121,8 +130,41 @@ def measure(blend: Path, out: Path, args) -> dict:
         "bo2_seconds": job.info["bo2"]["render_seconds"],
         "cycles_seconds": job.info["cycles"]["render_seconds"],
         "cycles_samples": job.info["cycles"]["samples"],
+        "bo2": bo2, "cycles": cyc, "display": lambda images: blender_images.to_display(
+            scene, images),
     }
     return figures
+
+
+def line(name: str, f: dict) -> str:
+    return (f"{name}: PSNR {f['psnr_db']:.2f} dB, Diffuse Indirect mean relative error "
+            f"{f['diffuse_indirect_mre']:.3f}, metals' Combined {f['metal_combined_mre']:.3f} "
+            f"({f['metal_pixels']} px); bake {f['bake_seconds']:.1f} s, BO2 "
+            f"{f['bo2_seconds']:.2f} s, Cycles {f['cycles_seconds']:.1f} s "
+            f"({f['cycles_samples']} samples)")
+
+
+def before_after(blend: Path, out: Path, args) -> None:
+    after = measure(blend, out / "after", args, args.bounces)
+    (out / "before").mkdir(parents=True, exist_ok=True)
+    for name in ("cycles.exr", "cycles_info.json"):
+        shutil.copyfile(out / "after" / name, out / "before" / name)
+    before = measure(blend, out / "before", args, args.before_bounces, leak_fixes=False,
+                     reuse_cycles=True)
+    print(line(f"{blend.stem} before", before), flush=True)
+    print(line(f"{blend.stem} after", after), flush=True)
+    rows = []
+    for name, color in (("Combined", None), ("DiffInd", "DiffCol")):
+        images = [before["bo2"][name][..., :3], after["bo2"][name][..., :3],
+                  after["cycles"][name][..., :3] * (after["cycles"][color] if color else 1.0)]
+        what = "" if name == "Combined" else " Diffuse Indirect"
+        rows.append(imaging.panels(after["display"](images), (
+            (f"before{what}: {args.before_bounces} bounce, no leak fixes", f"before{what}"),
+            (f"after{what}", "after"), (f"Cycles{what}", "Cycles"))))
+    picture = np.concatenate(rows, 0)
+    imaging.write_png(out / "before_after.png", picture)
+    if args.docs:
+        imaging.write_png(ROOT / "docs" / "images" / f"indirect_{blend.stem}.png", picture)
 
 
 def main() -> int:
@@ -131,9 +173,12 @@ def main() -> int:
     parser.add_argument("blends", type=Path, nargs="*")
     parser.add_argument("--bounces", type=int, default=0)
     parser.add_argument("--cycles-samples", type=int, default=0)
-    parser.add_argument("--cycles-bounces", type=int, default=0)
+    parser.add_argument("--cycles-bounces", type=int, default=32)
     parser.add_argument("--reuse-cycles", action="store_true")
     parser.add_argument("--no-leak-fixes", action="store_true")
+    parser.add_argument("--before-after", action="store_true")
+    parser.add_argument("--before-bounces", type=int, default=1)
+    parser.add_argument("--docs", action="store_true")
     args = parser.parse_args()
     bo2_lighting.register()
     for blend in args.blends or BLENDS:
@@ -141,12 +186,12 @@ def main() -> int:
         if not args.reuse_cycles and out.exists():
             shutil.rmtree(out)
         out.mkdir(parents=True, exist_ok=True)
-        f = measure(blend.resolve(), out, args)
-        print(f"{blend.stem}: PSNR {f['psnr_db']:.2f} dB, Diffuse Indirect mean relative error "
-              f"{f['diffuse_indirect_mre']:.3f}, metals' Combined {f['metal_combined_mre']:.3f} "
-              f"({f['metal_pixels']} px); bake {f['bake_seconds']:.1f} s, BO2 "
-              f"{f['bo2_seconds']:.2f} s, Cycles {f['cycles_seconds']:.1f} s "
-              f"({f['cycles_samples']} samples)", flush=True)
+        if args.before_after:
+            before_after(blend.resolve(), out, args)
+            continue
+        f = measure(blend.resolve(), out, args, args.bounces, not args.no_leak_fixes,
+                    args.reuse_cycles)
+        print(line(blend.stem, f), flush=True)
     return 0
 
 

@@ -1,10 +1,14 @@
-"""Render the talk's old-versus-new comparisons on ``demo_blends/old_vs_new.blend``.
+"""Render the talk's old-versus-new comparisons, each on a scene made to show it.
 
 Usage: python tools/render_old_vs_new.py OUT_DIR [--samples N]
 
-Bakes the scene's probes if they are missing, then renders each pair with BO2 Lighting and
-writes ``OUT_DIR/<pair>.png``: the old method on the left, the new on the right, labelled,
-through the scene's view transform, and prints the mean absolute difference of each pair:
+For each pair: opens its scene (``demo_blends/pair_<name>.blend``, built by
+``demo_blends/build_talk_pairs.py`` when missing; the direct terms: ``old_vs_new.blend``),
+bakes its probes (their files are checked: a stale bake is baked again), renders the old and
+the new method with BO2 Lighting and writes ``OUT_DIR/<pair>.png``: the old method on the left,
+the new on the right, labelled, through the scene's view transform, and
+``OUT_DIR/<pair>_difference.png``, |old - new| in a colour map. Prints the mean and the 99th
+percentile of |old - new| (scene-linear RGB) of each pair:
 
 - normalization: BO1 average irradiance | BO2 directional irradiance
   (slides "Environment map normalization: old method / new method");
@@ -19,6 +23,7 @@ through the scene's view transform, and prints the mean absolute difference of e
 from __future__ import annotations
 
 import argparse
+import subprocess
 import sys
 from pathlib import Path
 
@@ -29,19 +34,34 @@ import bo2_lighting
 from bo2_lighting.addon.blender import compare as blender_compare
 from bo2_lighting.addon.blender import images as blender_images
 from bo2_lighting.addon.blender import probes
-from bo2_lighting.addon.core import imaging
+from bo2_lighting.addon.core import compare, imaging
 
 ROOT = Path(__file__).resolve().parents[1]
-BLEND = ROOT / "demo_blends" / "old_vs_new.blend"
+BLENDS = ROOT / "demo_blends"
 PAIRS = {
-    "normalization": ("normalization", ("bo1", "BO1 normalization"),
+    "normalization": ("pair_normalization", "normalization", ("bo1", "BO1 normalization"),
                       ("bo2", "BO2 normalization")),
-    "prefilter": ("prefilter", ("bo1", "BO1 angular Gaussian"), ("bo2", "BO2 cosine power")),
-    "env_brdf": ("env_brdf", ("bo1", "BO1 environment Fresnel"),
+    "prefilter": ("pair_prefilter", "prefilter", ("bo1", "BO1 angular Gaussian"),
+                  ("bo2", "BO2 cosine power")),
+    "env_brdf": ("pair_env_brdf", "env_brdf", ("bo1", "BO1 environment Fresnel"),
                  ("bo2", "BO2 environment BRDF")),
-    "direct": ("specular_model", ("reference", "exact direct terms"),
+    "direct": ("old_vs_new", "specular_model", ("reference", "exact direct terms"),
                ("bo2", "BO2 optimized terms")),
 }
+
+
+def open_scene(stem: str):
+    blend = BLENDS / f"{stem}.blend"
+    if not blend.exists():
+        script = "build_talk_pairs.py" if stem.startswith("pair_") else f"build_{stem}.py"
+        subprocess.run([sys.executable, str(BLENDS / script)], check=True,
+                       capture_output=True)
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+    scene = bpy.context.scene
+    folder = probes.bake_folder(scene)
+    if any(probes.bake_state(o, folder).state != "BAKED" for o in probes.probe_objects(scene)):
+        assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
+    return scene
 
 
 def main() -> int:
@@ -51,15 +71,11 @@ def main() -> int:
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     bo2_lighting.register()
-    bpy.ops.wm.open_mainfile(filepath=str(BLEND))
-    scene = bpy.context.scene
-    scene.render.engine = "BO2_LIGHTING"
-    scene.bo2.samples = args.samples
-    folder = probes.bake_folder(scene)
-    if any(not probes.probe_path(folder, o.name).exists() for o in probes.probe_objects(scene)):
-        assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
-    layer = bpy.context.view_layer.name
-    for name, (prop, (old, old_label), (new, new_label)) in PAIRS.items():
+    for name, (stem, prop, (old, old_label), (new, new_label)) in PAIRS.items():
+        scene = open_scene(stem)
+        scene.render.engine = "BO2_LIGHTING"
+        scene.bo2.samples = args.samples
+        layer = bpy.context.view_layer.name
         images = []
         for value in (old, new):
             setattr(scene.bo2, prop, value)
@@ -68,13 +84,19 @@ def main() -> int:
             blender_compare.save_result(scene, path)
             images.append(blender_compare.read_exr(path, layer)["Combined"][..., :3])
             path.unlink()
-        setattr(scene.bo2, prop, scene.bo2.bl_rna.properties[prop].default)
-        diff = float(np.abs(images[0] - images[1]).mean())
+        diff = np.abs(images[0] - images[1])
+        mean, p99 = float(diff.mean()), float(np.percentile(diff, 99))
         left, right = blender_images.to_display(scene, images)
         picture = imaging.side_by_side(left, right, ((f"old: {old_label}", "old"),
                                                      (f"new: {new_label}", "new")))
         imaging.write_png(args.out / f"{name}.png", picture)
-        print(f"{name:14s} mean |old - new| = {diff:.4f}  -> {args.out / (name + '.png')}")
+        y = compare.luminance(diff)
+        top = compare.nice_ceil(float(np.percentile(y, 99.5)) or 1.0)
+        imaging.write_png(args.out / f"{name}_difference.png", imaging.heat_map(
+            y, top, f"|Y old - Y new|, {old_label} vs {new_label}",
+            f"mean {mean:.4f}  99th percentile {p99:.4f} (RGB)"))
+        print(f"{name:14s} |old - new|: mean {mean:.4f}, 99th percentile {p99:.4f}  -> "
+              f"{args.out / (name + '.png')}", flush=True)
     return 0
 
 

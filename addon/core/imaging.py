@@ -252,22 +252,28 @@ _TEXT = (0.95, 0.95, 0.95)
 
 def side_by_side(left: np.ndarray, right: np.ndarray, labels: tuple, scale: int | None = None
                  ) -> np.ndarray:
-    """Two images next to each other under a caption strip.
+    """Two images next to each other under a caption strip (``panels``).
 
     left, right: (H, W, 3) display images of one shape (BO2 Lighting, Cycles)
     labels:      (left labels, right labels), each a tuple of texts from longest to shortest;
                  the longest that fits above its image is drawn
     returns:     (H + strip, 2 W + gap, 3) float32, strip = 8 scale + 2 pad, gap = 2 scale
     """
-    h, w = left.shape[:2]
+    return panels([left, right], labels, scale)
+
+
+def panels(images: list[np.ndarray], labels, scale: int | None = None) -> np.ndarray:
+    """K images of one shape (H, W, 3) in a row, each under its caption (labels: K tuples of
+    texts, longest first): (H + strip, K W + (K - 1) gap, 3) float32, as ``side_by_side``."""
+    h, w = images[0].shape[:2]
     s = scale or label_scale(h)
     pad, gap = 2 * s, 2 * s
     strip = CELL_H * s + 2 * pad
-    out = np.empty((h + strip, 2 * w + gap, 3), np.float32)
+    out = np.empty((h + strip, len(images) * (w + gap) - gap, 3), np.float32)
     out[:] = _BACKGROUND
-    out[strip:, :w] = left[..., :3]
-    out[strip:, w + gap:] = right[..., :3]
-    for x0, texts in ((0, labels[0]), (w + gap, labels[1])):
+    for k, (image, texts) in enumerate(zip(images, labels, strict=True)):
+        x0 = k * (w + gap)
+        out[strip:, x0:x0 + w] = image[..., :3]
         draw_text(out, _fit_label(texts, w - 2 * pad, s), x0 + pad, pad + s // 2, s, _TEXT)
     return out
 
