@@ -27,7 +27,8 @@ without biases (the behaviour before them).
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
 and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
 former default), and writes ``before_after.png``: the Combined and the Diffuse Indirect passes
-of before | after | Cycles; ``--docs`` copies it to ``docs/images/indirect_<scene>.png``.
+of before | after | Cycles, and ``metals.png``, the metals' part of the Combined pass enlarged;
+``--docs`` copies them to ``docs/images/indirect_<scene>.png`` and ``metals_<scene>.png``.
 """
 
 from __future__ import annotations
@@ -130,8 +131,7 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         "bo2_seconds": job.info["bo2"]["render_seconds"],
         "cycles_seconds": job.info["cycles"]["render_seconds"],
         "cycles_samples": job.info["cycles"]["samples"],
-        "bo2": bo2, "cycles": cyc, "display": lambda images: blender_images.to_display(
-            scene, images),
+        "bo2": bo2, "cycles": cyc,
     }
     return figures
 
@@ -158,13 +158,28 @@ def before_after(blend: Path, out: Path, args) -> None:
         images = [before["bo2"][name][..., :3], after["bo2"][name][..., :3],
                   after["cycles"][name][..., :3] * (after["cycles"][color] if color else 1.0)]
         what = "" if name == "Combined" else " Diffuse Indirect"
-        rows.append(imaging.panels(after["display"](images), (
-            (f"before{what}: {args.before_bounces} bounce, no leak fixes", f"before{what}"),
+        rows.append(imaging.panels(blender_images.to_display(bpy.context.scene, images), (
+            (f"before{what}: {args.before_bounces} "
+             f"bounce{'s' if args.before_bounces != 1 else ''}, no leak fixes", f"before{what}"),
             (f"after{what}", "after"), (f"Cycles{what}", "Cycles"))))
     picture = np.concatenate(rows, 0)
     imaging.write_png(out / "before_after.png", picture)
+    metal = np.rint(after["cycles"]["IndexMA"][..., 0]) == METAL_INDEX
+    ys, xs = np.nonzero(metal)
+    crops = None
+    if len(ys):
+        box = (slice(max(ys.min() - 4, 0), ys.max() + 5), slice(max(xs.min() - 4, 0), xs.max() + 5))
+        images = [before["bo2"]["Combined"][box][..., :3], after["bo2"]["Combined"][box][..., :3],
+                  after["cycles"]["Combined"][box][..., :3]]
+        zoom = max(1, 240 // images[0].shape[0])
+        crops = imaging.panels([np.kron(d, np.ones((zoom, zoom, 1), np.float32))
+                                for d in blender_images.to_display(bpy.context.scene, images)],
+                               (("before",), ("after",), ("Cycles",)))
+        imaging.write_png(out / "metals.png", crops)
     if args.docs:
         imaging.write_png(ROOT / "docs" / "images" / f"indirect_{blend.stem}.png", picture)
+        if crops is not None:
+            imaging.write_png(ROOT / "docs" / "images" / f"metals_{blend.stem}.png", crops)
 
 
 def main() -> int:

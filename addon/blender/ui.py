@@ -29,7 +29,7 @@ _STOCK_PANELS = (
     "EEVEE_WORLD_PT_surface", "WORLD_PT_custom_props", "WORLD_PT_animation",
     "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",
 )
-# Leak controls of a Volume light probe that the bake honours (Blender's own settings).
+# Leak controls of a Volume light probe that the bake and the look-up honour (Blender's own).
 _VOLUME_LEAK = ("dilation_threshold", "dilation_radius", "escape_bias", "normal_bias",
                 "view_bias", "facing_bias")
 _enabled: list[type] = []
@@ -234,6 +234,9 @@ class DATA_PT_bo2_lightprobe(_BO2Panel, bpy.types.Panel):
             if state.meta:
                 col.label(text=f"Baked: {state.meta.get('bake_time', '?')}")
                 col.label(text=f"Face size: {state.meta.get('face_size', '?')} px")
+                if "invalid_samples" in state.meta:
+                    col.label(text=f"Samples left out: {len(state.meta['invalid_samples'])}, "
+                                   f"escaped: {state.meta.get('escaped_samples', 0)}")
             col.label(text=f"File: {state.path.name}")
             if state.message:
                 col.label(text=state.message)

@@ -113,6 +113,11 @@ def test_side_by_side_and_split_shapes():
     assert split[-1, 2, 0] == pytest.approx(0.2) and split[-1, -3, 0] == pytest.approx(0.7)
     assert split[-1, w // 2, 0] > 0.9  # the divider
     assert (split[:12] != split[-1]).any()  # labels drawn at the top
+    row = imaging.panels([a, b, a * 2], [*labels, ("third",)])
+    assert row.shape == (h + imaging.CELL_H * s + 4 * s, 3 * w + 4 * s, 3)
+    np.testing.assert_allclose(row[-1, w + 2 * s:2 * w + 2 * s], 0.7)
+    np.testing.assert_allclose(row[-1, -w:], 0.4)
+    np.testing.assert_allclose(row[-1, w:w + 2 * s], 0.11)  # the gaps
 
 
 def test_heat_map_layout():
