@@ -99,7 +99,7 @@ def bo2_material(name, albedo, rf0, gloss, emission=(0.0, 0.0, 0.0), strength=0.
     return mat
 
 
-def closed_room(lo, hi, material, thickness=0.2, window=None, window_material=None):
+def closed_room(lo, hi, material, thickness=0.2, window=None):
     """Floor, ceiling and four walls of ``thickness`` around the inside box ``lo``-``hi``;
     ``window`` (y0, y1, z0, z1) opens the wall at x = lo[0]."""
     (x0, y0, z0), (x1, y1, z1), t = lo, hi, thickness

@@ -90,7 +90,7 @@ def main() -> int:
         picture = imaging.side_by_side(left, right, ((f"old: {old_label}", "old"),
                                                      (f"new: {new_label}", "new")))
         imaging.write_png(args.out / f"{name}.png", picture)
-        y = compare.luminance(diff)
+        y = np.abs(compare.luminance(images[0]) - compare.luminance(images[1]))
         top = compare.nice_ceil(float(np.percentile(y, 99.5)) or 1.0)
         imaging.write_png(args.out / f"{name}_difference.png", imaging.heat_map(
             y, top, f"|Y old - Y new|, {old_label} vs {new_label}",

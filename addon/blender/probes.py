@@ -96,8 +96,8 @@ def spec(obj) -> bake.ProbeSpec:
         clip_start=float(data.clip_start), clip_end=float(getattr(data, "clip_end", 1e4)),
         proxy="none" if volume else ("box" if shape == "BOX" else "sphere"),
         proxy_distance=0.0 if volume else float(distance),
-        volume=bake.VolumeSettings(*(float(getattr(data, name, default)) for name, default in
-                                     dataclasses.asdict(bake.VolumeSettings()).items()))
+        volume=bake.VolumeSettings(**{f.name: float(getattr(data, f.name, f.default))
+                                      for f in dataclasses.fields(bake.VolumeSettings)})
         if volume else bake.VolumeSettings())
 
 
@@ -144,7 +144,8 @@ class BakeState:
 
 def bake_state(obj, folder: Path) -> BakeState:
     """The state of ``obj``'s bake in ``folder``: STALE when the probe moved or changed since
-    (kind, matrix or volume resolution), MISSING without a file, DAMAGED when unreadable."""
+    (kind, matrix, volume resolution or the leak settings a bake uses), MISSING without a file,
+    DAMAGED when unreadable."""
     path = probe_path(folder, obj.name)
     if not path.exists():
         return BakeState("MISSING", path, {}, f"{path.name}: no baked file (bake the probes)")
@@ -157,7 +158,8 @@ def bake_state(obj, folder: Path) -> BakeState:
         return BakeState("DAMAGED", path, meta, f"{path.name}: the bake is of a "
                          f"{meta.get('kind', 'other')} probe; re-bake")
     if (not np.allclose(meta.get("matrix", 0), described["matrix"], atol=1e-4)
-            or meta.get("resolution") != described.get("resolution")):
+            or meta.get("resolution") != described.get("resolution")
+            or meta.get("leaks", described.get("leaks")) != described.get("leaks")):
         return BakeState("STALE", path, meta, "the bake is stale (the probe moved or changed "
                          f"since {meta.get('bake_time', 'it was baked')}); re-bake")
     if described["kind"] == "reflection" and set(_read(path)[2]) != set(cp.PREFILTERS):

@@ -30,8 +30,8 @@ _STOCK_PANELS = (
     "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",
 )
 # Leak controls of a Volume light probe that the bake and the look-up honour (Blender's own).
-_VOLUME_LEAK = ("dilation_threshold", "dilation_radius", "escape_bias", "normal_bias",
-                "view_bias", "facing_bias")
+_VOLUME_LEAK = ("dilation_threshold", "validity_threshold", "dilation_radius", "escape_bias",
+                "normal_bias", "view_bias", "facing_bias")
 _enabled: list[type] = []
 
 

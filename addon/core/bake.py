@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from . import capture, cubemap, sh
-from .probes import IrradianceVolume, Probes, ReflectionProbe, volume_sample_positions
+from .probes import IrradianceVolume, Probes, ReflectionProbe, grid_spacing, volume_sample_positions
 from .scene import World
 
 __all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate", "escape",
@@ -48,20 +48,26 @@ CaptureFn = Callable[[np.ndarray, int, float, float, Probes], np.ndarray]
 SurfacesFn = Callable[[np.ndarray, int, float, float], "capture.Surfaces"]
 
 
+BAKED_LEAK_SETTINGS = ("dilation_threshold", "validity_threshold", "dilation_radius",
+                       "escape_bias")  # what a bake depends on (the others: the look-up)
+
+
 @dataclass(frozen=True)
 class VolumeSettings:
     """An irradiance volume's leak settings (Blender's ``LightProbeVolume``, same defaults).
 
     dilation_threshold: a sample whose front-facing ratio (``capture.Surfaces``) is below this
-                        is invalid
-    dilation_radius:    an invalid sample takes the light of the valid ones within this many
-                        sample spacings
+                        is invalid: it takes its neighbours' light (``dilate``)
+    validity_threshold: an invalid sample with no valid neighbour, its ratio below this too,
+                        is left out of the look-up
+    dilation_radius:    how far ``dilate`` looks, in grid steps
     escape_bias:        an invalid sample moves out through the nearest back face within this
-                        many sample spacings before it is captured
+                        many sample spacings before it is captured (``escape``)
     normal_bias, view_bias, facing_bias: the look-up's (``IrradianceVolume``)
     """
 
     dilation_threshold: float = 0.5
+    validity_threshold: float = 0.4
     dilation_radius: float = 1.0
     escape_bias: float = 0.1
     normal_bias: float = 0.3
@@ -120,6 +126,8 @@ class ProbeSpec:
                 "clip_start": float(self.clip_start)}
         if self.kind == "irradiance":
             meta["resolution"] = [int(r) for r in self.resolution]
+            v = self.volume
+            meta["leaks"] = {name: float(getattr(v, name)) for name in BAKED_LEAK_SETTINGS}
         return meta
 
     def probe(self, coeffs: np.ndarray, chains: dict | None,
@@ -232,17 +240,20 @@ def _sh_of_cube(cube: np.ndarray) -> np.ndarray:
                       weights)
 
 
-def dilate(coeffs: np.ndarray, valid: np.ndarray, radius: float) -> tuple[np.ndarray,
-                                                                          np.ndarray]:
-    """Invalid samples take the light of the valid ones within ``radius`` sample spacings,
-    weighted by inverse squared distance (EEVEE's dilation).
+def dilate(coeffs: np.ndarray, ratio: np.ndarray, settings: VolumeSettings) -> tuple[
+        np.ndarray, np.ndarray]:
+    """EEVEE's dilation: a sample whose front-facing ratio is below ``dilation_threshold`` takes
+    the light of the samples at or above it within ``dilation_radius`` grid steps, weighted by
+    inverse squared distance in grid steps; with none there, it keeps its own light, and is
+    left out of the look-up (validity 0) when its ratio is below ``validity_threshold`` too.
 
-    coeffs: (X, Y, Z, 9, 3) SH;  valid: (X, Y, Z) bool
-    returns: (coeffs (X, Y, Z, 9, 3), validity (X, Y, Z) float32: 1 where valid or dilated, 0
-             where no valid sample lies within the radius)
+    coeffs: (X, Y, Z, 9, 3) SH;  ratio: (X, Y, Z) front-facing ratios (``capture.Surfaces``)
+    returns: (coeffs (X, Y, Z, 9, 3), validity (X, Y, Z) float32, 1 or 0)
     """
     out = np.array(coeffs, np.float32)
-    validity = valid.astype(np.float32)
+    valid = ratio >= settings.dilation_threshold
+    validity = np.ones(ratio.shape, np.float32)
+    radius = float(settings.dilation_radius)
     r = int(np.floor(radius))
     offsets = [(i, j, k) for i in range(-r, r + 1) for j in range(-r, r + 1)
                for k in range(-r, r + 1) if 0 < i * i + j * j + k * k <= radius * radius]
@@ -257,37 +268,38 @@ def dilate(coeffs: np.ndarray, valid: np.ndarray, radius: float) -> tuple[np.nda
                 total += w
         if total > 0.0:
             out[tuple(cell)] = acc / total
-            validity[tuple(cell)] = 1.0
+        elif ratio[tuple(cell)] < settings.validity_threshold:
+            validity[tuple(cell)] = 0.0
     return out, validity
 
 
 def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
-           far: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """A volume's capture positions and validity (``VolumeSettings``): each invalid sample moves
-    through the nearest back face it sees when that face is within ``escape_bias`` sample
-    spacings (to a point a tenth of that beyond it), if it is valid there.
+           far: float) -> Iterator[None]:
+    """A volume's capture positions (``VolumeSettings``), one sample per step: a sample whose
+    front-facing ratio is below ``dilation_threshold`` moves through the nearest back face it
+    sees when that face is within ``escape_bias`` sample spacings (to a point a tenth of that
+    beyond it), if its ratio is at or above the threshold there.
 
-    returns: (positions (K, 3) float64, valid (K,) bool, how many samples moved)
+    Yields once per sample; returns (positions (K, 3) float64, ratios (K,) float64, how many
+    samples moved).
     """
     settings = spec.volume
-    res = np.asarray(spec.resolution)
-    scale = np.linalg.norm(np.asarray(spec.local_to_world, np.float64)[:3, :3], axis=0)
-    spacing = float(np.min(2.0 * scale / res))
-    reach = settings.escape_bias * spacing
+    reach = settings.escape_bias * grid_spacing(spec.local_to_world, spec.resolution)
     points = spec.points.copy()
-    valid = np.ones(len(points), bool)
+    ratios = np.ones(len(points))
     moved = 0
     for k, p in enumerate(points):
         seen = surfaces(p, size, near, far)
-        if seen.front_ratio >= settings.dilation_threshold:
-            continue
-        valid[k] = False
-        if seen.back_direction is not None and seen.back_distance <= reach:
+        ratios[k] = seen.front_ratio
+        if seen.front_ratio < settings.dilation_threshold and seen.back_direction is not None \
+                and seen.back_distance <= reach:
             out = p + seen.back_direction * (seen.back_distance + 0.1 * reach)
-            if surfaces(out, size, near, far).front_ratio >= settings.dilation_threshold:
-                points[k], valid[k] = out, True
+            there = surfaces(out, size, near, far).front_ratio
+            if there >= settings.dilation_threshold:
+                points[k], ratios[k] = out, there
                 moved += 1
-    return points, valid, moved
+        yield
+    return points, ratios, moved
 
 
 @dataclass
@@ -317,23 +329,31 @@ class Bake:
         """Run the bake, yielding the finished fraction in (0, 1] after every capture (and
         every volume's look at its surroundings); closing the generator early (cancel) leaves
         ``results`` empty."""
-        volumes = [s for s in self.specs if s.kind == "irradiance"] if self.surfaces else []
-        total = max(1, self.bounces) * sum(len(s.points) for s in self.specs) + len(volumes)
+        volumes = ([k for k, s in enumerate(self.specs) if s.kind == "irradiance"]
+                   if self.surfaces else [])
+        total = (max(1, self.bounces) * sum(len(s.points) for s in self.specs)
+                 + sum(len(self.specs[k].points) for k in volumes))
         done = 0
-        placed = {}  # volume name -> (positions, valid, moved)
-        for spec in volumes:
-            placed[spec.name] = escape(spec, self.surfaces, self.volume_face_size,
-                                       *self._clip(spec))
-            done += 1
-            yield done / total
+        placed = {}  # spec index -> (positions, ratios, moved)
+        for k in volumes:
+            steps = escape(self.specs[k], self.surfaces, self.volume_face_size,
+                           *self._clip(self.specs[k]))
+            while True:
+                try:
+                    next(steps)
+                except StopIteration as end:
+                    placed[k] = end.value
+                    break
+                done += 1
+                yield done / total
         lighting = first_bounce(self.world, self.specs)
         results: list[BakedProbe] = []
         for _ in range(max(1, self.bounces)):
             results = []
             baked = world_probes(self.world)
-            for spec in self.specs:
+            for k, spec in enumerate(self.specs):
                 size = self.face_size if spec.kind == "reflection" else self.volume_face_size
-                pos, valid, moved = placed.get(spec.name, (spec.points, None, 0))
+                pos, ratios, moved = placed.get(k, (spec.points, None, 0))
                 coeffs, chains = [], None
                 for p in pos:
                     cube = self.capture(p, size, *self._clip(spec), lighting)
@@ -345,10 +365,10 @@ class Bake:
                     done += 1
                     yield done / total
                 coeffs, validity = np.stack(coeffs), None
-                if valid is not None:
+                if ratios is not None:
                     res = tuple(spec.resolution)
-                    dilated, validity = dilate(coeffs.reshape(*res, 9, 3),
-                                               valid.reshape(res), spec.volume.dilation_radius)
+                    dilated, validity = dilate(coeffs.reshape(*res, 9, 3), ratios.reshape(res),
+                                               spec.volume)
                     coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
                 result = BakedProbe(spec, coeffs, chains, size, validity, moved)
                 results.append(result)

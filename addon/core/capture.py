@@ -63,20 +63,17 @@ class Capture:
     def surfaces(self, position, size: int, near: float, far: float) -> Surfaces:
         """What surrounds ``position`` (3,), metres: the surfaces seen in a ``size`` cube
         between the clip distances, and whether they show their fronts (one ray per texel
-        centre, weighted by its solid angle)."""
+        centre, weighted by its solid angle). Faces of backface-culled materials are seen
+        from the front only, as in a render."""
         cams = self._cameras(position, size, near, far)
         directions = cubemap.texel_directions(size).reshape(6, -1, 3)
         weight = cubemap.texel_solid_angles(size).reshape(-1)
         front = back = 0.0
         nearest = (np.inf, None)
         for face, cam in enumerate(cams):
-            view = pipeline.with_camera(self._frame, cam)
-            tile = (0, 0, size, size)
-            tri, _, depth, *_ = pipeline._raster(view, tile, pipeline._margin(view, tile),
-                                                 (0.5, 0.5))
+            tri, depth, normals = pipeline.nearest_faces(pipeline.with_camera(self._frame, cam))
             hit = np.flatnonzero(tri >= 0)
             d = directions[face, hit]
-            normals = pipeline._face_normals(view, tri[hit])
             behind = np.einsum("nk,nk->n", normals, d) > 0.0  # the ray meets a back face
             front += float(weight[hit[~behind]].sum())
             back += float(weight[hit[behind]].sum())

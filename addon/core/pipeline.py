@@ -404,6 +404,16 @@ def _face_normals(frame: Frame, tri) -> np.ndarray:
     return np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
 
 
+def nearest_faces(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """What the camera of ``frame`` sees first at each pixel centre (no shading): the
+    triangle (H W,) int32, -1 where none, its view depth (H W,) float32 (``raster``), and the
+    unnormalized front-face normals (M, 3) of the M pixels that see one, row-major."""
+    cam = frame.scene.camera
+    tile = (0, 0, cam.width, cam.height)
+    tri, _, depth, *_ = _raster(frame, tile, _margin(frame, tile), (0.5, 0.5))
+    return tri, depth, _face_normals(frame, tri[tri >= 0])
+
+
 def _materials(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
                shifts=True) -> material.SurfaceParams:
     """The talk's parameters at the points on triangles ``tri`` (N,): constants from the

@@ -48,6 +48,7 @@ __all__ = [
     "IrradianceVolume",
     "Probes",
     "ReflectionProbe",
+    "grid_spacing",
     "indirect",
     "volume_sample_positions",
 ]
@@ -134,22 +135,17 @@ class IrradianceVolume:
             return (dist <= 0.0).astype(np.float32)
         return np.clip(1.0 - dist / self.influence, 0.0, 1.0).astype(np.float32)
 
-    def spacing(self) -> float:
-        """The smallest distance between neighbouring samples, metres."""
-        scale = np.linalg.norm(np.asarray(self.local_to_world, np.float64)[:3, :3], axis=0)
-        return float(np.min(2.0 * scale / np.asarray(self.resolution)))
-
     def sample_sh(self, points: np.ndarray, normals: np.ndarray | None = None,
                   view: np.ndarray | None = None) -> np.ndarray:
         """(N, 9, 3) SH at world points (N, 3): the blend of the eight samples around each
         (clamped at the box), trilinear, times each sample's validity and, given the unit
         shading ``normals`` and directions to the eye ``view`` (N, 3), its facing weight, at
-        the point moved by the normal and view biases. Where every weight is 0, plain
-        trilinear."""
+        the point moved by the normal and view biases. Where every weight is 0: trilinear over
+        the valid samples, or over all when none is."""
         res = np.asarray(self.resolution)
         pts = np.asarray(points, np.float32)
         if normals is not None:
-            step = np.float32(self.spacing())
+            step = np.float32(grid_spacing(self.local_to_world, self.resolution))
             pts = pts + np.float32(self.normal_bias) * step * normals
             if view is not None:
                 pts = pts + np.float32(self.view_bias) * step * view
@@ -183,12 +179,25 @@ class IrradianceVolume:
                 to /= np.maximum(np.linalg.norm(to, axis=-1, keepdims=True), 1e-6)
                 kept[c] *= np.maximum(np.einsum("nk,nk->n", to, normals)
                                       + np.float32(self.facing_bias), 0.0)
+        if self.validity is not None:  # where facing leaves nothing, the valid samples
+            valid = plain * np.stack([self.validity[idx] for idx in corners])
+            plain = np.where(valid.sum(0) > 1e-6, valid, plain)
         total = kept.sum(0)
-        blend = np.where(total > 1e-6, kept / np.maximum(total, 1e-30), plain)
+        blend = np.where(total > 1e-6, kept / np.maximum(total, 1e-30),
+                         plain / np.maximum(plain.sum(0), 1e-30))
         out = np.zeros((len(pts), 9, 3), np.float32)
         for c, idx in enumerate(corners):
             out += blend[c][:, None, None] * self.sh[idx]
         return out
+
+
+def grid_spacing(local_to_world: np.ndarray, resolution) -> float:
+    """The distance between neighbouring samples of a volume, metres: the smallest over the
+    axes with two samples or more (over all axes when none has)."""
+    scale = np.linalg.norm(np.asarray(local_to_world, np.float64)[:3, :3], axis=0)
+    res = np.asarray(resolution)
+    steps = 2.0 * scale / res
+    return float(np.min(steps[res > 1]) if (res > 1).any() else np.min(steps))
 
 
 def volume_sample_positions(local_to_world: np.ndarray, resolution) -> np.ndarray:

@@ -42,6 +42,12 @@ def test_volume_leak_settings_reach_the_bake(addon, tmp_path):
     neighbours = grid[1, 0, 1], grid[2, 1, 1], grid[2, 0, 0]  # one spacing away, all valid
     np.testing.assert_allclose(grid[2, 0, 1], np.mean(neighbours, axis=0), rtol=1e-5,
                                atol=1e-6)
+    folder = probes.bake_folder(scene)
+    volume.data.normal_bias = 0.6  # a look-up setting: the bake stays
+    assert probes.bake_state(volume, folder).state == "BAKED"
+    volume.data.dilation_radius = 2.0  # a bake setting: the bake is stale
+    assert probes.bake_state(volume, folder).state == "STALE"
+    volume.data.dilation_radius = 1.0
 
     volume.data.dilation_threshold = 0.0  # nothing is invalid: the sample keeps its capture
     run_bake(scene, [volume])

@@ -70,21 +70,32 @@ def test_surfaces_of_a_solid_cube():
     assert empty.front_ratio == 1.0
 
 
+def run_escape(spec, grab):
+    steps, count = bake.escape(spec, grab.surfaces, 16, 0.01, 100.0), 0
+    while True:
+        try:
+            next(steps)
+            count += 1
+        except StopIteration as end:
+            assert count == len(spec.points)  # one step per sample
+            return end.value
+
+
 def test_escape_moves_samples_just_inside_geometry_out():
-    grab = capture.Capture(scene_of(cube(), grey()))
-    # a 4 x 1 x 1 volume over x in [-4, 4]: samples at x = -3, -1, 1, 3, spacing 2; the samples
-    # at -1 and 1 are 1 inside the cube's faces at +-1 only along x, but y and z faces are 1 away
-    # too: all four are 1 m deep, beyond an escape of 0.1 spacings (0.2 m)
+    # a 4 x 1 x 1 volume over x in [-4, 4]: samples at x = -3, -1, 1, 3, spacing 2, in a solid
+    # box x in [-2, 2], y and z in [-1, 1]: the middle two are 1 m deep, beyond an escape of
+    # 0.1 spacings (0.2 m)
     m = np.diag([4.0, 1.0, 1.0, 1.0])
     spec = bake.ProbeSpec("V", "irradiance", m, 0.0, resolution=(4, 1, 1))
-    points, valid, moved = bake.escape(spec, grab.surfaces, 16, 0.01, 100.0)
-    np.testing.assert_array_equal(valid, [True, False, False, True])
+    grab = capture.Capture(scene_of(cube((-2.0, -1.0, -1.0), (2.0, 1.0, 1.0)), grey()))
+    points, ratios, moved = run_escape(spec, grab)
+    np.testing.assert_array_equal(ratios, [1.0, 0.0, 0.0, 1.0])
     assert moved == 0
-    # the same cube shrunk to x in [-1.1, 1.1], y and z in [-0.9, 0.9]: the middle samples are
-    # 0.1 m inside the x faces (within 0.1 spacings) and escape through them
-    grab = capture.Capture(scene_of(cube((-1.1, -0.9, -0.9), (1.1, 0.9, 0.9)), grey()))
-    points, valid, moved = bake.escape(spec, grab.surfaces, 16, 0.01, 100.0)
-    assert valid.all() and moved == 2
+    # a box x in [-1.1, 1.1], y and z in [-1.5, 1.5]: the middle samples are 0.1 m inside the x
+    # faces (within 0.1 spacings) and escape through them
+    grab = capture.Capture(scene_of(cube((-1.1, -1.5, -1.5), (1.1, 1.5, 1.5)), grey()))
+    points, ratios, moved = run_escape(spec, grab)
+    assert (ratios >= 0.5).all() and moved == 2
     assert points[1, 0] < -1.1 and points[2, 0] > 1.1  # through the faces nearest to them
     np.testing.assert_allclose(points[[0, 3]], [[-3, 0, 0], [3, 0, 0]])
 
@@ -92,17 +103,22 @@ def test_escape_moves_samples_just_inside_geometry_out():
 def test_dilation_takes_the_valid_neighbours_light():
     coeffs = np.zeros((4, 1, 1, 9, 3), np.float32)
     coeffs[:, 0, 0, 0, 0] = [1.0, 99.0, 3.0, 99.0]
-    valid = np.array([True, False, True, False]).reshape(4, 1, 1)
-    out, validity = bake.dilate(coeffs, valid, radius=1.0)
-    assert out[1, 0, 0, 0, 0] == 2.0  # (1 + 3) / 2: both one spacing away
+    settings = bake.VolumeSettings(dilation_radius=1.0)  # thresholds 0.5 and 0.4
+    ratios = np.array([1.0, 0.0, 0.8, 0.0]).reshape(4, 1, 1)
+    out, validity = bake.dilate(coeffs, ratios, settings)
+    assert out[1, 0, 0, 0, 0] == 2.0  # (1 + 3) / 2: both one step away
     assert out[3, 0, 0, 0, 0] == 3.0  # its one valid neighbour
     np.testing.assert_array_equal(validity.reshape(-1), [1, 1, 1, 1])
-    out, validity = bake.dilate(coeffs, np.array([True, False, False, False]).reshape(4, 1, 1),
-                                radius=2.0)
-    # sample 2 has sample 0 at distance 2 (weight 1/4); sample 3 has none within 2
+    ratios = np.array([1.0, 0.0, 0.3, 0.45]).reshape(4, 1, 1)
+    out, validity = bake.dilate(coeffs, ratios, bake.VolumeSettings(dilation_radius=2.0))
+    # sample 2 has sample 0 two steps away (weight 1/4); sample 3 has no valid one within 2:
+    # its ratio 0.45 is above the validity threshold, so it keeps its own light
     assert out[2, 0, 0, 0, 0] == 1.0 and out[1, 0, 0, 0, 0] == 1.0
-    np.testing.assert_array_equal(validity.reshape(-1), [1, 1, 1, 0])
+    np.testing.assert_array_equal(validity.reshape(-1), [1, 1, 1, 1])
     assert out[3, 0, 0, 0, 0] == 99.0
+    ratios[3] = 0.2  # below it: left out
+    _, validity = bake.dilate(coeffs, ratios, bake.VolumeSettings(dilation_radius=2.0))
+    np.testing.assert_array_equal(validity.reshape(-1), [1, 1, 1, 0])
 
 
 def two_samples(left=10.0, right=0.0, **settings) -> cp.IrradianceVolume:
@@ -124,9 +140,17 @@ def test_look_up_does_not_pull_light_through_a_wall():
     # a sample left out (validity 0) is not blended either
     invalid = two_samples(validity=np.array([0.0, 1.0], np.float32).reshape(2, 1, 1))
     assert invalid.sample_sh(point)[0, 0, 0] == 0.0
-    # and where every weight is 0, the plain blend stands in
+    # where every weight is 0, the plain blend stands in
     none = two_samples(validity=np.zeros((2, 1, 1), np.float32))
     np.testing.assert_allclose(none.sample_sh(point)[0, 0, 0], plain, rtol=1e-6)
+    # and where facing leaves nothing (a point facing away from both), the valid samples alone
+    away = np.array([[0.0, 0.0, 1.0]], np.float32)
+    only_right = two_samples(facing_bias=-0.5, validity=np.array([0.0, 1.0], np.float32)
+                             .reshape(2, 1, 1))
+    assert only_right.sample_sh(point, away)[0, 0, 0] == 0.0
+    only_left = two_samples(facing_bias=-0.5, validity=np.array([1.0, 0.0], np.float32)
+                            .reshape(2, 1, 1))
+    assert only_left.sample_sh(point, away)[0, 0, 0] == 10.0
 
 
 def test_normal_and_view_bias_move_the_look_up():
@@ -134,9 +158,10 @@ def test_normal_and_view_bias_move_the_look_up():
     normal = np.array([[1.0, 0.0, 0.0]], np.float32)
     view = np.array([[0.0, 1.0, 0.0]], np.float32)
     vol = two_samples(left=0.0, right=1.0, normal_bias=0.25, view_bias=0.5)
-    # half a spacing (2 m) along the normal: x = -0.5, a quarter of the way to the right one
+    # a quarter spacing (0.5 m of 2) along the normal: x = -0.5, a quarter of the way to the
+    # right one; the view bias is across the grid (y), which it does not vary along
     np.testing.assert_allclose(vol.sample_sh(point, normal, view)[0, 0, 0], 0.25, rtol=1e-6)
-    view = np.array([[1.0, 0.0, 0.0]], np.float32)  # the view bias adds a full spacing more
+    view = np.array([[1.0, 0.0, 0.0]], np.float32)  # half a spacing (1 m) more along x
     np.testing.assert_allclose(vol.sample_sh(point, normal, view)[0, 0, 0], 0.75, rtol=1e-6)
 
 
@@ -154,7 +179,7 @@ def test_bounces_in_a_closed_white_box_converge_to_the_geometric_series():
         for _ in job.steps():
             pass
         (result,) = job.results
-        assert result.validity.all()  # inside a room: front faces only
+        assert result.validity.all() and result.escaped == 0  # a room: front faces
         values.append(float(result.coeffs[0, 0, 0]) / C00)
     expected = [emission * sum(rho**k for k in range(n)) for n in range(1, 6)]
     np.testing.assert_allclose(values, expected, rtol=2e-3)
