@@ -25,6 +25,8 @@ class HeadlessError(Exception):
 
 def check_blend(path: Path) -> None:
     """Fail clearly on a missing, unreadable or non-.blend file before Blender sees it."""
+    if path.is_dir():
+        raise HeadlessError(f"{path}: is a folder, not a .blend file")
     if not path.is_file():
         raise HeadlessError(f"{path}: no such .blend file")
     try:

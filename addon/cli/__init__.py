@@ -58,10 +58,18 @@ def load_blend(path: Path):
     return scene
 
 
+MAX_RESOLUTION = 65536  # Blender's largest resolution_x and resolution_y
+MAX_SAMPLES = {"bo2": 1024, "cycles": 1 << 24}  # the engines' sample settings' maxima
+MAX_FRAMES = 100_000  # frames one command renders
+
+
 def _resolution(text: str) -> tuple[int, int]:
     m = re.fullmatch(r"(\d+)[xX](\d+)", text)
     if not m or int(m[1]) < 1 or int(m[2]) < 1:
         raise argparse.ArgumentTypeError(f"invalid resolution {text!r}, expected WxH like 640x360")
+    if max(int(m[1]), int(m[2])) > MAX_RESOLUTION:
+        raise argparse.ArgumentTypeError(f"resolution {text!r} is too large: at most "
+                                         f"{MAX_RESOLUTION} pixels a side (Blender's limit)")
     return int(m[1]), int(m[2])
 
 
@@ -75,11 +83,36 @@ def _positive(text: str) -> int:
     return value
 
 
+def _samples(engine: str):
+    def parse(text: str) -> int:
+        value = _positive(text)
+        if value > MAX_SAMPLES[engine]:
+            raise argparse.ArgumentTypeError(f"{value} samples is more than "
+                                             f"{'BO2 Lighting' if engine == 'bo2' else 'Cycles'}"
+                                             f" takes ({MAX_SAMPLES[engine]})")
+        return value
+    return parse
+
+
+def _frame(text: str) -> int:
+    from .patterns import MAX_FRAME
+
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"invalid frame {text!r}, expected a whole number") \
+            from None
+    if abs(value) > MAX_FRAME:
+        raise argparse.ArgumentTypeError(f"frame {value} is outside Blender's frames "
+                                         f"(+-{MAX_FRAME})")
+    return value
+
+
 def _frames(text: str) -> list[int]:
     from .patterns import frame_list
 
     try:
-        return frame_list(text)
+        return frame_list(text, MAX_FRAMES)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
@@ -115,14 +148,17 @@ def build_parser() -> argparse.ArgumentParser:
                             "frame padded to its length; with several images every path must "
                             "differ")
     which = render_cmd.add_mutually_exclusive_group()
-    which.add_argument("--frame", type=int, help="frame number (default: the file's current)")
+    which.add_argument("--frame", type=_frame,
+                       help="frame number (default: the file's current)")
     which.add_argument("--frames", type=_frames, metavar="LIST",
-                       help="frames to render: 1-10, 1,3,5-7 or 1-10x2 (every second)")
+                       help="frames to render: 1-10, 1,3,5-7 or 1-10x2 (every second); "
+                       f"at most {MAX_FRAMES:,}")
     render_cmd.add_argument("--summary", metavar="PATH.json",
                             help="write a JSON report: per image the file, scene, frame, output, "
                             "status (ok or failed), seconds and error; totals")
     render_cmd.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
-    render_cmd.add_argument("--samples", type=_positive, help="samples per pixel")
+    render_cmd.add_argument("--samples", type=_positive,
+                            help=f"samples per pixel (BO2 Lighting: at most {MAX_SAMPLES['bo2']})")
     render_cmd.add_argument("--resolution", type=_resolution, help="output size WxH in pixels")
     render_cmd.add_argument("--all-passes", action="store_true",
                             help="write every render pass to the EXR (default: the view "
@@ -173,11 +209,11 @@ def build_parser() -> argparse.ArgumentParser:
     compare_cmd.add_argument("scene", help=".blend file")
     compare_cmd.add_argument("-o", "--output", required=True, metavar="DIR",
                              help="output folder (created if missing)")
-    compare_cmd.add_argument("--frame", type=int,
+    compare_cmd.add_argument("--frame", type=_frame,
                              help="frame number (default: the file's current)")
-    compare_cmd.add_argument("--samples", type=_positive,
+    compare_cmd.add_argument("--samples", type=_samples("bo2"),
                              help="BO2 Lighting samples per pixel (default: the file's)")
-    compare_cmd.add_argument("--cycles-samples", type=_positive,
+    compare_cmd.add_argument("--cycles-samples", type=_samples("cycles"),
                              help="Cycles samples per pixel (default: the file's)")
     compare_cmd.add_argument("--resolution", type=_resolution,
                              help="size WxH in pixels of both")

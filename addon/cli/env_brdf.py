@@ -19,10 +19,11 @@ def run(args) -> int:
     values = [float(x) for x in np.atleast_1d(values)]
     if args.json:
         def num(x):
-            return None if x != x else x  # NaN is not JSON: null
+            return x if np.isfinite(x) else None  # NaN and infinities are not JSON: null
 
         print(json.dumps({"model": args.model, "gloss": num(args.gloss), "nov": num(args.nov),
-                          "rf0": [num(x) for x in args.rf0], "value": [num(x) for x in values]}))
+                          "rf0": [num(x) for x in args.rf0], "value": [num(x) for x in values]},
+                         allow_nan=False))
     else:
         print(" ".join(f"{x:.6f}" for x in values))
     return 0

@@ -18,9 +18,11 @@ MAX_FRAME = 1048574  # Blender's MAXFRAME
 _FRAME_ITEM = re.compile(r"(-?\d+)(?:-(-?\d+)(?:x(\d+))?)?")
 
 
-def frame_list(text: str) -> list[int]:
-    """The frames of a ``--frames`` list, in order, each once; ValueError for bad input."""
+def frame_list(text: str, most: int | None = None) -> list[int]:
+    """The frames of a ``--frames`` list, in order, each once; ValueError for bad input or,
+    before any is listed, for more than ``most`` frames."""
     frames: dict[int, None] = {}
+    count = 0
     for item in text.split(","):
         m = _FRAME_ITEM.fullmatch(item.strip())
         if not m:
@@ -31,6 +33,9 @@ def frame_list(text: str) -> list[int]:
             raise ValueError(
                 f"invalid frame range {item.strip()!r}: A-BxSTEP needs A <= B, STEP >= 1 and "
                 f"frames within +-{MAX_FRAME}")
+        count += len(range(first, last + 1, step))
+        if most is not None and count > most:
+            raise ValueError(f"too many frames in {text!r}: at most {most:,} at once")
         frames.update(dict.fromkeys(range(first, last + 1, step)))
     return list(frames)
 

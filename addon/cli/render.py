@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from ..blender import headless
-from . import CommandError, load_blend, patterns, usage_error
+from . import MAX_SAMPLES, CommandError, load_blend, patterns, usage_error
 from .terminal import BatchProgress, quiet_blender
 
 
@@ -22,6 +22,10 @@ def check_output(out: Path, create: bool = True) -> str:
     if fmt is None:
         raise CommandError(f"{out}: unknown image type, use one of "
                            f"{', '.join(headless.IMAGE_FORMATS)}")
+    if out.is_dir():
+        raise CommandError(f"{out}: is a folder; give an image file name")
+    if len(os.fsencode(out.name)) > 255 or len(os.fsencode(out.absolute())) > 4095:
+        raise CommandError(f"{out.name[:40]}...: the output path is too long")
     folder = out.parent
     if create:
         folder.mkdir(parents=True, exist_ok=True)
@@ -52,12 +56,20 @@ def _write_summary(path: Path, args, images: list[dict], seconds: float) -> None
     summary = {"engine": args.engine, "output": args.output, "total": len(images), "ok": ok,
                "failed": len(images) - ok, "seconds": round(seconds, 3), "images": images}
     temporary = path.with_name(path.name + ".part")
-    temporary.write_text(json.dumps(summary, indent=2) + "\n")
-    os.replace(temporary, path)  # a farm polling the file never reads half of it
+    try:
+        temporary.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+        os.replace(temporary, path)  # a farm polling the file never reads half of it
+    except OSError as exc:
+        temporary.unlink(missing_ok=True)
+        raise CommandError(f"{path}: cannot write the summary ({exc.strerror})") from None
 
 
 def run(args) -> int:
     """Render frames of .blend files, one image each; the others go on when one fails."""
+    most = MAX_SAMPLES[args.engine]
+    if args.samples and args.samples > most:
+        usage_error(f"argument --samples: {args.samples} samples is more than "
+                    f"{'BO2 Lighting' if args.engine == 'bo2' else 'Cycles'} takes ({most})")
     try:
         patterns.check_pattern(args.output)
     except ValueError as exc:
@@ -78,6 +90,8 @@ def run(args) -> int:
             check_output(out, create=False)  # e.g. an unknown image type: before loading
     summary = Path(args.summary) if args.summary else None
     if summary is not None:
+        if summary.is_dir():
+            raise CommandError(f"{summary}: --summary is a folder; give a .json file name")
         summary.parent.mkdir(parents=True, exist_ok=True)
         if not os.access(summary.parent, os.W_OK):
             raise CommandError(f"{summary.parent}: summary folder is not writable")

@@ -37,10 +37,10 @@ def quiet_blender():
             os.dup2(saved[1], 2)
             log.seek(0)
             lines = [s.strip() for s in log.read().decode(errors="replace").splitlines()]
-            detail = next((s for s in reversed(lines) if s), "")
+            detail = next((s for s in reversed(lines) if s), "").removeprefix("Error: ")
             text = str(exc).strip()
             message = text.splitlines()[-1].removeprefix("Error: ") if text else type(exc).__name__
-            if detail and detail not in message:
+            if detail and detail not in message and message not in detail:
                 message = f"{message} ({detail})"
             raise CommandError(message) from exc
         finally:
