@@ -97,6 +97,12 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     folder = probes.bake_folder(scene)
     if not objs:
         raise BakeError("No Sphere or Volume light probes to bake")
+    files: dict[str, str] = {}
+    for obj in probes.probe_objects(scene):  # case-insensitive file systems too
+        other = files.setdefault(probes.probe_path(folder, obj.name).name.lower(), obj.name)
+        if other != obj.name:
+            raise BakeError(f"Light probes '{other}' and '{obj.name}' would share a bake file "
+                            "(their names differ only in case); rename one")
     start = time.perf_counter()
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False, samples=int(settings.bake_samples))

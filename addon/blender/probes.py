@@ -11,6 +11,7 @@ around it); the World is the fallback of both. Each probe object's bake is one O
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import re
 import tempfile
 from dataclasses import dataclass
@@ -67,8 +68,13 @@ def capture_backend(scene) -> str:
 
 
 def probe_path(folder: Path, name: str) -> Path:
-    """The bake file of probe object ``name``: unsafe file name characters become '_'."""
-    return folder / (re.sub(r"[^\w\-. ]", "_", name).strip() + ".exr")
+    """The bake file of probe object ``name``: ``<name>.exr``; a name with characters unsafe in
+    file names has them replaced by '_' and a digest of the whole name added, so that every
+    name has its own file, whatever the other probes are called."""
+    safe = re.sub(r"[^\w\-. ]", "_", name).strip()
+    if safe != name or not safe:
+        safe = f"{safe}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
+    return folder / f"{safe}.exr"
 
 
 def probe_objects(scene, selected_only: bool = False) -> list:

@@ -6,6 +6,7 @@ mean of its valid neighbours one spacing away (equal weights).
 """
 
 import bpy
+import pytest
 import numpy as np
 from test_probes import room
 from util import render_pixels
@@ -98,3 +99,25 @@ def test_odd_probes_bake_with_one_warning_each(addon, tmp_path):
         "Irradiance.exr", "Reflection.exr", "Reflection twin.exr", "No influence.exr",
         "Boxed.exr"}
     assert np.isfinite(render_pixels(scene, "BO2_LIGHTING", samples=1)).all()
+
+
+def test_every_probe_name_has_its_own_file(addon, tmp_path):
+    scene = room(tmp_path)
+    for name in ("a/b", "a?b", "a_b"):
+        obj = scene.objects["Reflection"].copy()
+        obj.name = name
+        obj.location.x += 0.1 * len(scene.objects)
+        scene.collection.objects.link(obj)
+    run_bake(scene)
+    folder = probes.bake_folder(scene)
+    paths = {name: probes.probe_path(folder, name) for name in ("a/b", "a?b", "a_b")}
+    assert len(set(paths.values())) == 3 and paths["a_b"].name == "a_b.exr"
+    assert all(p.parent == folder and p.exists() for p in paths.values())
+    for name in paths:
+        assert probes.bake_state(scene.objects[name], folder).state == "BAKED"
+    scene.objects["a?b"].name = "renamed"  # the others keep their files
+    assert probes.probe_path(folder, "a/b") == paths["a/b"]
+    assert probes.bake_state(scene.objects["a/b"], folder).state == "BAKED"
+    scene.objects["renamed"].name = "A_B"  # beside a_b
+    with pytest.raises(probes.BakeError, match="differ only in case"):
+        run_bake(scene)
