@@ -109,6 +109,10 @@ def read(path: str | os.PathLike) -> tuple[dict, np.ndarray, dict[str, list[np.n
                              "checksum; re-bake)")
     if "sh" not in images or images["sh"].shape[1:] != (9, 3):
         raise ProbeFileError(f"{path.name}: no SH coefficients")
+    bad = [n for n in order if n in images and not np.isfinite(images[n]).all()]
+    if bad:  # light is finite: such a file was written wrong, whatever its checksum says
+        raise ProbeFileError(f"{path.name}: part {bad[0]} holds NaN or infinite values "
+                             "(re-bake)")
     mips: dict[str, list[np.ndarray]] = {}
     for name in sorted(images, key=lambda n: (n.split(".mip")[0], int(n.split(".mip")[-1])
                                               if ".mip" in n else -1)):

@@ -121,3 +121,22 @@ def test_every_probe_name_has_its_own_file(addon, tmp_path):
     scene.objects["renamed"].name = "A_B"  # beside a_b
     with pytest.raises(probes.BakeError, match="differ only in case"):
         run_bake(scene)
+
+
+def test_a_probe_file_of_nan_light_falls_back_to_the_world(addon, tmp_path, capfd):
+    scene = room(tmp_path)
+    world_only = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    run_bake(scene)
+    folder = probes.bake_folder(scene)
+    for name in ("Reflection", "Irradiance"):  # rewritten with NaN, checksums and all
+        meta, sh, mips = probe_file.read(folder / f"{name}.exr")
+        sh[:, 0] = np.nan
+        probe_file.write(folder / f"{name}.exr", meta, sh, mips or None)
+    capfd.readouterr()
+    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert np.isfinite(px).all()
+    np.testing.assert_allclose(px, world_only, atol=1e-6)
+    captured = capfd.readouterr()
+    err = captured.out + captured.err
+    for name in ("Reflection", "Irradiance"):
+        assert err.count(f"{name}.exr: part sh holds NaN or infinite values") == 1, err

@@ -67,3 +67,20 @@ def test_truncated_file_is_an_error(tmp_path):
     path.write_bytes(data[: len(data) // 2])
     with pytest.raises(probe_file.ProbeFileError):
         probe_file.read(path)
+
+
+@pytest.mark.parametrize("where, value", [("sh", np.nan), ("sh", np.inf), ("mip", -np.inf),
+                                          ("mip", np.nan)])
+def test_non_finite_light_is_refused_though_the_checksum_holds(tmp_path, where, value):
+    """A writer that put NaN or inf in the file also checksummed them: the reader refuses."""
+    sh = np.ones((1, 9, 3), np.float32)
+    mips = chains()
+    if where == "sh":
+        sh[0, 4, 1] = value
+    else:
+        mips["bo1"][2][3, 0, 1, 2] = value
+    path = tmp_path / "Bad name.exr"
+    probe_file.write(path, {"kind": "reflection"}, sh, mips)
+    with pytest.raises(probe_file.ProbeFileError,
+                       match=r"^Bad name\.exr: part (sh|bo1\.mip2) holds NaN or infinite"):
+        probe_file.read(path)
