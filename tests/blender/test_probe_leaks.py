@@ -6,8 +6,8 @@ mean of its valid neighbours one spacing away (equal weights).
 """
 
 import bpy
-import pytest
 import numpy as np
+import pytest
 from test_probes import room
 from util import render_pixels
 
