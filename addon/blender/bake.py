@@ -10,6 +10,7 @@ previous files untouched, and each file is replaced atomically.
 from __future__ import annotations
 
 import dataclasses
+import shutil
 import tempfile
 import time
 from pathlib import Path
@@ -94,9 +95,9 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     Closing the generator early (cancel) writes nothing.
     """
     settings = scene.bo2
-    folder = probes.bake_folder(scene)
     if not objs:
         raise BakeError("No Sphere or Volume light probes to bake")
+    folder = probes.writable_folder(scene)
     files: dict[str, str] = {}
     for obj in probes.probe_objects(scene):  # case-insensitive file systems too
         other = files.setdefault(probes.probe_path(folder, obj.name).name.lower(), obj.name)
@@ -126,6 +127,9 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
         _warn(report, w)
     if not specs:
         raise BakeError("No light probe can be baked (see the warnings)")
+    face_size = int(settings.bake_face_size)
+    _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
+                                                  "reflection" else None) for s in specs))
     captures = capture.Capture(core_scene)  # the volumes' surroundings, with either backend
     if backend == "BO2":
         grab = captures.cube
@@ -134,7 +138,7 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
             return cycles_cube(scene, position, size, near, far)
     job = bake.Bake(specs, core_scene.world, grab,
                     bounces=1 if backend == "CYCLES" else max(1, int(settings.bake_bounces)),
-                    face_size=int(settings.bake_face_size),
+                    face_size=face_size,
                     volume_face_size=int(settings.bake_volume_face_size),
                     surfaces=captures.surfaces)
     yield from job.steps()
@@ -145,12 +149,28 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                   "samples are inside geometry with no valid neighbour; they are left out "
                   "(raise Dilation Radius or Escape Bias, or move the volume)")
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
-    for baked in job.results:
-        meta = bake.metadata(baked, backend, job.bounces, stamp, time.perf_counter() - start,
-                             version())
-        probe_file.write(probes.probe_path(folder, baked.spec.name), meta, baked.coeffs,
-                         baked.chains)
+    try:
+        probe_file.write_all([
+            (probes.probe_path(folder, b.spec.name),
+             bake.metadata(b, backend, job.bounces, stamp, time.perf_counter() - start,
+                           version()), b.coeffs, b.chains) for b in job.results])
+    except (OSError, probe_file.ProbeFileError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise BakeError(f"Could not write the bake into {folder} ({reason}); the previous "
+                        "bake files are as they were") from None
     yield 1.0
+
+
+def _check_room(folder: Path, size: int) -> None:
+    """BakeError unless the disk of ``folder`` (or of its nearest existing parent) has room
+    for ``size`` bytes of new files beside the old ones."""
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    free = shutil.disk_usage(existing).free
+    if free < size:
+        raise BakeError(f"Bake folder {folder}: {free / 2**20:.1f} MiB free, the bake needs up "
+                        f"to {size / 2**20:.1f} MiB; free some space or choose another folder")
 
 
 def clear(scene, objs) -> int:

@@ -11,9 +11,12 @@ Parts (all float32 RGB, ZIP compressed):
 The first part carries the metadata as a JSON string attribute ``bo2.meta``: probe name and
 kind, position or matrix, face size, filters, bake time, add-on version and what the shading
 needs (radius, falloff, resolution, influence), and a SHA-256 of the pixels, so that a
-truncated or damaged file is refused rather than read as zeros. A write goes to a temporary
-file in the same folder which is then renamed over the old one (``os.replace``), so a failed or
-cancelled bake leaves the previous file as it was.
+truncated or damaged file is refused rather than read as zeros.
+
+Writes are all or nothing (``write_all``): every new file is written to a temporary file beside
+its place first, then the old files are moved aside and the new ones renamed in (``os.replace``);
+if any step fails, what was moved is moved back. A failed or cancelled bake leaves every previous
+file as it was.
 """
 
 from __future__ import annotations
@@ -25,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "ProbeFileError", "read", "write"]
+__all__ = ["FORMAT", "ProbeFileError", "read", "size_bound", "write", "write_all"]
 
 FORMAT = 1
 """Layout version stored in the metadata; files of another version are refused."""
@@ -44,15 +47,54 @@ def _part(name: str, rgb: np.ndarray, header: dict, window) -> object:
 
 def write(path: str | os.PathLike, meta: dict, sh: np.ndarray,
           mips: dict[str, list[np.ndarray]] | None = None) -> None:
-    """Write one probe atomically.
+    """Write one probe atomically (``write_all`` of one).
 
     meta: JSON-serializable metadata (``FORMAT`` is added)
     sh:   (K, 9, 3) radiance SH of the K capture points
     mips: {"bo2": [...], "bo1": [...]} lists of (6, S_m, S_m, 3) cube maps, or None
     """
+    write_all([(path, meta, sh, mips)])
+
+
+def write_all(files: list[tuple]) -> None:
+    """Write several probes, all or nothing: ``files`` is a list of (path, meta, sh, mips) as
+    ``write`` takes them. On any failure every old file is back in place, no new file is, no
+    temporary file stays, and the error is raised."""
+    paths = [Path(f[0]) for f in files]
+    for path in paths:
+        if path.is_dir():
+            raise ProbeFileError(f"{path}: a folder stands where the probe file goes")
+    pid = os.getpid()
+    temporary = [p.with_name(f".{p.name}.{pid}.tmp") for p in paths]
+    aside = [p.with_name(f".{p.name}.{pid}.old") for p in paths]
+    placed: list[int] = []
+    try:
+        for (path, meta, sh, mips), tmp in zip(files, temporary, strict=True):
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+            _encode(tmp, meta, sh, mips)
+        for k, (path, tmp, old) in enumerate(zip(paths, temporary, aside, strict=True)):
+            if path.exists():
+                os.replace(path, old)
+            placed.append(k)
+            os.replace(tmp, path)
+    except BaseException:
+        for k in reversed(placed):
+            if not temporary[k].exists():  # the new file went in: take it out
+                paths[k].unlink(missing_ok=True)
+            if aside[k].exists():
+                os.replace(aside[k], paths[k])
+        raise
+    finally:
+        for tmp in temporary:
+            tmp.unlink(missing_ok=True)
+    for old in aside:
+        old.unlink(missing_ok=True)
+
+
+def _encode(path: Path, meta: dict, sh: np.ndarray, mips) -> None:
+    """One probe's OpenEXR file at ``path`` (``write``'s arguments)."""
     import OpenEXR
 
-    path = Path(path)
     sh = np.asarray(sh, np.float32).reshape(-1, 9, 3)
     images = [("sh", sh)]
     for chain, levels in (mips or {}).items():
@@ -65,14 +107,15 @@ def write(path: str | os.PathLike, meta: dict, sh: np.ndarray,
     text = json.dumps({**meta, "format": FORMAT, "checksum": _digest(images)})
     parts = [_part(name, img, {"bo2.meta": text} if i == 0 else {}, window)
              for i, (name, img) in enumerate(images)]
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        OpenEXR.File(parts).write(str(tmp))
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+    OpenEXR.File(parts).write(str(path))
+
+
+def size_bound(points: int, face_size: int | None) -> int:
+    """An upper bound of a probe file's bytes: ``points`` SH rows and, with ``face_size``, both
+    prefiltered chains of that cube, uncompressed."""
+    texels = 0 if face_size is None else 2 * sum(6 * (face_size >> m) ** 2
+                                                 for m in range(face_size.bit_length()))
+    return 12 * (points * 9 + texels) + 65536
 
 
 def _digest(images) -> str:

@@ -7,7 +7,6 @@ mean of its valid neighbours one spacing away (equal weights).
 
 import bpy
 import numpy as np
-import pytest
 from test_probes import room
 from util import render_pixels
 
@@ -99,44 +98,3 @@ def test_odd_probes_bake_with_one_warning_each(addon, tmp_path):
         "Irradiance.exr", "Reflection.exr", "Reflection twin.exr", "No influence.exr",
         "Boxed.exr"}
     assert np.isfinite(render_pixels(scene, "BO2_LIGHTING", samples=1)).all()
-
-
-def test_every_probe_name_has_its_own_file(addon, tmp_path):
-    scene = room(tmp_path)
-    for name in ("a/b", "a?b", "a_b"):
-        obj = scene.objects["Reflection"].copy()
-        obj.name = name
-        obj.location.x += 0.1 * len(scene.objects)
-        scene.collection.objects.link(obj)
-    run_bake(scene)
-    folder = probes.bake_folder(scene)
-    paths = {name: probes.probe_path(folder, name) for name in ("a/b", "a?b", "a_b")}
-    assert len(set(paths.values())) == 3 and paths["a_b"].name == "a_b.exr"
-    assert all(p.parent == folder and p.exists() for p in paths.values())
-    for name in paths:
-        assert probes.bake_state(scene.objects[name], folder).state == "BAKED"
-    scene.objects["a?b"].name = "renamed"  # the others keep their files
-    assert probes.probe_path(folder, "a/b") == paths["a/b"]
-    assert probes.bake_state(scene.objects["a/b"], folder).state == "BAKED"
-    scene.objects["renamed"].name = "A_B"  # beside a_b
-    with pytest.raises(probes.BakeError, match="differ only in case"):
-        run_bake(scene)
-
-
-def test_a_probe_file_of_nan_light_falls_back_to_the_world(addon, tmp_path, capfd):
-    scene = room(tmp_path)
-    world_only = render_pixels(scene, "BO2_LIGHTING", samples=1)
-    run_bake(scene)
-    folder = probes.bake_folder(scene)
-    for name in ("Reflection", "Irradiance"):  # rewritten with NaN, checksums and all
-        meta, sh, mips = probe_file.read(folder / f"{name}.exr")
-        sh[:, 0] = np.nan
-        probe_file.write(folder / f"{name}.exr", meta, sh, mips or None)
-    capfd.readouterr()
-    px = render_pixels(scene, "BO2_LIGHTING", samples=1)
-    assert np.isfinite(px).all()
-    np.testing.assert_allclose(px, world_only, atol=1e-6)
-    captured = capfd.readouterr()
-    err = captured.out + captured.err
-    for name in ("Reflection", "Irradiance"):
-        assert err.count(f"{name}.exr: part sh holds NaN or infinite values") == 1, err

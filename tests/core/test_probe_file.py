@@ -84,3 +84,71 @@ def test_non_finite_light_is_refused_though_the_checksum_holds(tmp_path, where, 
     with pytest.raises(probe_file.ProbeFileError,
                        match=r"^Bad name\.exr: part (sh|bo1\.mip2) holds NaN or infinite"):
         probe_file.read(path)
+
+
+def three_probes(tmp_path, value):
+    return [(tmp_path / f"P{k}.exr", {"probe": f"P{k}", "v": value},
+             np.full((1, 9, 3), value, np.float32), chains()) for k in range(3)]
+
+
+def snapshot(folder):
+    return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
+
+
+@pytest.mark.parametrize("failing", [1, 2, 3])
+def test_a_failed_nth_write_keeps_every_old_file(tmp_path, monkeypatch, failing):
+    probe_file.write_all(three_probes(tmp_path, 1.0))
+    (tmp_path / "P1.exr").unlink()  # one probe new in this bake
+    before = snapshot(tmp_path)
+    real, calls = probe_file._encode, []
+
+    def encode(path, *args):
+        calls.append(path)
+        if len(calls) == failing:
+            raise OSError(28, "No space left on device")
+        real(path, *args)
+
+    monkeypatch.setattr(probe_file, "_encode", encode)
+    with pytest.raises(OSError, match="No space left"):
+        probe_file.write_all(three_probes(tmp_path, 2.0))
+    assert snapshot(tmp_path) == before  # no temporary, no new file, the old ones intact
+
+
+@pytest.mark.parametrize("failing", [2, 3, 4, 5])
+def test_a_failed_swap_puts_every_old_file_back(tmp_path, monkeypatch, failing):
+    probe_file.write_all(three_probes(tmp_path, 1.0))
+    (tmp_path / "P2.exr").unlink()
+    before = snapshot(tmp_path)
+    real, calls = os.replace, []
+
+    def replace(src, dst):
+        calls.append((src, dst))
+        if len(calls) == failing:
+            raise OSError(5, "Input/output error")
+        real(src, dst)
+
+    monkeypatch.setattr(os, "replace", replace)
+    with pytest.raises(OSError, match="Input/output"):
+        probe_file.write_all(three_probes(tmp_path, 2.0))
+    monkeypatch.setattr(os, "replace", real)
+    assert snapshot(tmp_path) == before
+
+
+def test_a_folder_at_a_probes_path_changes_nothing(tmp_path):
+    probe_file.write_all(three_probes(tmp_path, 1.0))
+    (tmp_path / "P1.exr").unlink()
+    (tmp_path / "P1.exr").mkdir()
+    before = {p.name: p.is_dir() or p.read_bytes() for p in tmp_path.iterdir()}
+    with pytest.raises(probe_file.ProbeFileError, match="a folder stands where"):
+        probe_file.write_all(three_probes(tmp_path, 2.0))
+    assert {p.name: p.is_dir() or p.read_bytes() for p in tmp_path.iterdir()} == before
+    probe_file.write_all(three_probes(tmp_path, 2.0)[::2])  # the others alone are fine
+    assert probe_file.read(tmp_path / "P2.exr")[0]["v"] == 2.0
+
+
+def test_size_bound_holds(tmp_path):
+    for points, face in ((1, 128), (1, 32), (300, None)):
+        sh = np.random.default_rng(0).random((points, 9, 3), dtype=np.float32)
+        path = tmp_path / f"p{points}_{face}.exr"
+        probe_file.write(path, {"kind": "x"}, sh, chains(face) if face else None)
+        assert path.stat().st_size <= probe_file.size_bound(points, face)
