@@ -79,14 +79,15 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
+            last_warnings.clear()
             frame, warnings = extract.extract_scene(depsgraph, indirect=scene.bo2.use_indirect)
             for message in warnings:
-                self.report({"WARNING"}, message)
+                self._warn(message)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
             tiles = pipeline.render_tiles(
                 frame, progress=self.update_progress, should_stop=self.test_break,
-                warn=lambda message: self.report({"WARNING"}, message))
+                warn=self._warn)
             for tile, layers in tiles:
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
         except pipeline.Cancelled:
@@ -99,6 +100,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             self._fail(f"BO2 Lighting failed: {type(exc).__name__}: {exc}")
             return
         self.update_stats("BO2 Lighting", f"Done in {time.perf_counter() - start:.2f} s")
+
+    def _warn(self, message: str) -> None:
+        """One warning: the operator's report, and ``last_warnings`` for the command line."""
+        last_warnings.append(message)
+        self.report({"WARNING"}, message)
 
     def _fail(self, message: str) -> None:
         """Show one error: in the render window (``error_set``) and as the operator's report."""
@@ -126,5 +132,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 self.register_pass(scene, renderlayer, passes.blender_name(name), p.channels,
                                    p.ids, p.kind)
 
+
+# The warnings of the last final render, in order (``bo2 render`` prints them: Blender's own
+# report printing is silenced there).
+last_warnings: list[str] = []
 
 CLASSES = [BO2RenderEngine]

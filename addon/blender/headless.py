@@ -123,22 +123,25 @@ def apply_render_options(scene, engine: str, resolution: tuple[int, int] | None 
         enable_all_passes(view_layer(), engine)
 
 
-def render_frame(scene, path: Path, fmt: str) -> float:
+def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:
     """Render the scene's current frame and write it to ``path`` (replaced atomically) as
-    ``fmt``, a value of ``IMAGE_FORMATS``; returns the render time in seconds.
+    ``fmt``, a value of ``IMAGE_FORMATS``; returns the render time in seconds and the engine's
+    warnings (BO2 Lighting's; none for Cycles).
     Raises ``images.ImageError`` when the image cannot be written."""
     import bpy
 
-    from . import images
+    from . import engine, images
 
+    engine.last_warnings.clear()
     start = time.perf_counter()
     bpy.ops.render.render(write_still=False)
     seconds = time.perf_counter() - start
+    warnings = list(dict.fromkeys(engine.last_warnings))
     if fmt == "OPEN_EXR":
         images.save_render_result(scene, path.resolve(), "OPEN_EXR_MULTILAYER", "32")
     else:
         images.save_render_result(scene, path.resolve(), fmt)
-    return seconds
+    return seconds, warnings
 
 
 def read_equirect(path: Path):

@@ -36,14 +36,15 @@ def check_output(out: Path, create: bool = True) -> str:
     return fmt
 
 
-def render_frame(scene, out: Path) -> float:
-    """Render the scene's current frame to ``out``; returns the render time in seconds."""
+def render_frame(scene, out: Path) -> tuple[float, list[str]]:
+    """Render the scene's current frame to ``out``; returns the render time in seconds and the
+    engine's warnings."""
     fmt = check_output(out)
     with quiet_blender():
-        seconds = headless.render_frame(scene, out, fmt)
+        seconds, warnings = headless.render_frame(scene, out, fmt)
     if not out.exists():
         raise CommandError(f"{out}: the render did not produce an image")
-    return seconds
+    return seconds, warnings
 
 
 def _error_text(exc: Exception) -> str:
@@ -53,8 +54,10 @@ def _error_text(exc: Exception) -> str:
 
 def _write_summary(path: Path, args, images: list[dict], seconds: float) -> None:
     ok = sum(image["status"] == "ok" for image in images)
+    warnings = list(dict.fromkeys(w for image in images for w in image["warnings"]))
     summary = {"engine": args.engine, "output": args.output, "total": len(images), "ok": ok,
-               "failed": len(images) - ok, "seconds": round(seconds, 3), "images": images}
+               "failed": len(images) - ok, "seconds": round(seconds, 3),
+               "warnings": warnings, "images": images}
     temporary = path.with_name(path.name + ".part")
     try:
         temporary.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
@@ -101,11 +104,14 @@ def run(args) -> int:
     written: set[str] = set()
     progress = BatchProgress(len(planned)) if batch else None
 
-    def record(blend, frame, out, seconds, error=None):
+    def record(blend, frame, out, seconds, error=None, warnings=()):
         images.append({"file": str(blend), "scene": blend.stem, "frame": frame,
                        "output": None if out is None else str(out),
                        "status": "ok" if error is None else "failed",
-                       "seconds": round(seconds, 3), "error": error})
+                       "seconds": round(seconds, 3), "error": error,
+                       "warnings": list(warnings)})
+
+    said: set[str] = set()  # each warning is printed once per command
 
     def say(line, stream):
         if progress is None:
@@ -129,7 +135,7 @@ def run(args) -> int:
                 say(f"bo2: error: {_error_text(exc)}", sys.stderr)
                 continue
             for frame in per_file:
-                began, out = time.perf_counter(), None
+                began, out, warnings = time.perf_counter(), None, []
                 number = headless.current_frame(scene) if frame is None else frame
                 where = f"{blend} frame {number}" if batch else f"{blend}"
                 if progress is not None:
@@ -144,7 +150,7 @@ def run(args) -> int:
                     key = patterns.path_key(out)
                     if key in written:
                         raise CommandError(f"{out}: already written by this command")
-                    seconds = render_frame(scene, out)
+                    seconds, warnings = render_frame(scene, out)
                     written.add(key)
                 except Exception as exc:  # noqa: BLE001 - the other frames still render
                     error = f"{where}: {_error_text(exc)}"
@@ -153,9 +159,13 @@ def run(args) -> int:
                     error = None
                     line = f"{args.engine}: {out} (rendered in {seconds:.2f} s)"
                     stream = sys.stdout
-                record(blend, number, out, time.perf_counter() - began, error)
+                record(blend, number, out, time.perf_counter() - began, error, warnings)
                 if progress is not None:
                     progress.done += 1
+                for warning in warnings:
+                    if warning not in said:
+                        said.add(warning)
+                        say(f"bo2: warning: {blend.name}: {warning}", sys.stderr)
                 say(line, stream)
     finally:
         if progress is not None:
