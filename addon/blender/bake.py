@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import version
 from ..core import bake, capture, cubemap, probe_file
-from . import extract, images, probes
+from . import extract, images, interrupt, probes
 from .probes import BakeError
 
 
@@ -130,7 +130,8 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     face_size = int(settings.bake_face_size)
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))
-    captures = capture.Capture(core_scene)  # the volumes' surroundings, with either backend
+    # the volumes' surroundings too, with either backend; Ctrl-C of the bo2 command stops it
+    captures = capture.Capture(core_scene, should_stop=interrupt.requested)
     if backend == "BO2":
         grab = captures.cube
     else:

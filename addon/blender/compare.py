@@ -30,7 +30,7 @@ import bpy
 from ..core import compare as core
 from ..core import imaging
 from ..core.passes import PASSES
-from . import images, passes
+from . import images, interrupt, passes
 
 # key -> (engine identifier, label, EXR file name)
 ENGINES = {"bo2": ("BO2_LIGHTING", "BO2 Lighting", "bo2.exr"),
@@ -249,6 +249,7 @@ def render_sync(job: Comparison, key: str) -> float:
         start = time.perf_counter()
         bpy.ops.render.render(layer=job.layer)
         seconds = time.perf_counter() - start
+        interrupt.check()  # the bo2 command's Ctrl-C: nothing of this render is kept
     except RuntimeError as exc:
         text = str(exc).strip().splitlines()[-1].removeprefix("Error: ") if str(exc) else ""
         raise CompareError(f"the {label} render failed: {text}") from None

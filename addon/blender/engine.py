@@ -16,7 +16,7 @@ import numpy as np
 
 from ..core import kernels, pipeline
 from ..core.passes import PASSES
-from . import extract, passes, viewport
+from . import extract, interrupt, passes, viewport
 
 
 class BO2RenderEngine(bpy.types.RenderEngine):
@@ -86,7 +86,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
             tiles = pipeline.render_tiles(
-                frame, progress=self.update_progress, should_stop=self.test_break,
+                frame, progress=self.update_progress,
+                should_stop=lambda: self.test_break() or interrupt.requested(),
                 warn=self._warn)
             for tile, layers in tiles:
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)

@@ -45,9 +45,12 @@ def load_blend(path: Path):
     import bpy
 
     from .. import register
+    from . import interrupt
 
+    interrupt.install()  # bpy took Ctrl-C from Python: give it to the renders and bakes
     register()
     bpy.ops.wm.open_mainfile(filepath=str(path.resolve()), load_ui=False)
+    interrupt.check()
     return bpy.context.scene
 
 
@@ -130,12 +133,13 @@ def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:
     Raises ``images.ImageError`` when the image cannot be written."""
     import bpy
 
-    from . import engine, images
+    from . import engine, images, interrupt
 
     engine.last_warnings.clear()
     start = time.perf_counter()
     bpy.ops.render.render(write_still=False)
     seconds = time.perf_counter() - start
+    interrupt.check()  # a render stopped by Ctrl-C is not written
     warnings = list(dict.fromkeys(engine.last_warnings))
     if fmt == "OPEN_EXR":
         images.save_render_result(scene, path.resolve(), "OPEN_EXR_MULTILAYER", "32")

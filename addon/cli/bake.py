@@ -7,7 +7,8 @@ import sys
 import time
 from pathlib import Path
 
-from ..blender import headless
+from ..blender import headless, interrupt
+from ..core import pipeline
 from . import CommandError, load_blend
 from .terminal import progress_bar, quiet_blender, stderr_copy
 
@@ -36,8 +37,12 @@ def run(args) -> int:
         with quiet_blender():
             steps = bake.bake_steps(scene, depsgraph, objs, args.backend.upper(),
                                     report=warnings.append)
-            for fraction in steps:
-                progress_bar(terminal, fraction, start)
+            try:
+                for fraction in steps:
+                    interrupt.check()  # closing the generator writes nothing
+                    progress_bar(terminal, fraction, start)
+            except pipeline.Cancelled:  # a capture stopped by Ctrl-C
+                raise KeyboardInterrupt from None
     except probes.BakeError as exc:
         raise CommandError(str(exc)) from None
     finally:

@@ -9,7 +9,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..blender import headless
+from ..blender import headless, interrupt
 from . import MAX_SAMPLES, CommandError, load_blend, patterns, usage_error
 from .terminal import BatchProgress, quiet_blender
 
@@ -52,12 +52,13 @@ def _error_text(exc: Exception) -> str:
     return " ".join(text.split())
 
 
-def _write_summary(path: Path, args, images: list[dict], seconds: float) -> None:
+def _write_summary(path: Path, args, images: list[dict], seconds: float,
+                   interrupted: bool = False) -> None:
     ok = sum(image["status"] == "ok" for image in images)
     warnings = list(dict.fromkeys(w for image in images for w in image["warnings"]))
     summary = {"engine": args.engine, "output": args.output, "total": len(images), "ok": ok,
                "failed": len(images) - ok, "seconds": round(seconds, 3),
-               "warnings": warnings, "images": images}
+               "interrupted": interrupted, "warnings": warnings, "images": images}
     temporary = path.with_name(path.name + ".part")
     try:
         temporary.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
@@ -121,6 +122,7 @@ def run(args) -> int:
 
     try:
         for blend in blends:
+            interrupt.check()
             if progress is not None:
                 progress.draw(f"{blend.name} (loading)")
             try:
@@ -135,6 +137,7 @@ def run(args) -> int:
                 say(f"bo2: error: {_error_text(exc)}", sys.stderr)
                 continue
             for frame in per_file:
+                interrupt.check()
                 began, out, warnings = time.perf_counter(), None, []
                 number = headless.current_frame(scene) if frame is None else frame
                 where = f"{blend} frame {number}" if batch else f"{blend}"
@@ -167,6 +170,10 @@ def run(args) -> int:
                         said.add(warning)
                         say(f"bo2: warning: {blend.name}: {warning}", sys.stderr)
                 say(line, stream)
+    except KeyboardInterrupt:  # the finished images stay; the summary says what was done
+        if summary is not None:
+            _write_summary(summary, args, images, time.perf_counter() - start, interrupted=True)
+        raise
     finally:
         if progress is not None:
             progress.close()

@@ -1,0 +1,89 @@
+"""Ctrl-C: every command stops, exits 130, keeps what it finished and leaves nothing half-done.
+
+Run as a user runs it: the command in a subprocess, SIGINT sent once work is under way.
+"""
+
+import hashlib
+import json
+import shutil
+import signal
+import subprocess
+import time
+import zlib
+
+import numpy as np
+from test_cli import BO2, ROOT, bo2
+
+
+def interrupted(cmd, ready, limit=120.0):
+    """Run ``cmd``, send SIGINT once ``ready()`` is true, return the finished process."""
+    proc = subprocess.Popen([str(BO2), *map(str, cmd)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    start = time.monotonic()
+    while not ready() and proc.poll() is None and time.monotonic() - start < limit:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGINT)
+    proc.stdout_text, proc.stderr_text = proc.communicate(timeout=limit)
+    return proc
+
+
+def test_render_stops_keeps_finished_frames_and_writes_no_partial_one(tmp_path):
+    out = tmp_path / "f_#.png"
+    summary = tmp_path / "s.json"
+    proc = interrupted(("render", ROOT / "demo_blends" / "room.blend", "--frames", "1-4",
+                        "-o", out, "--samples", "8", "--resolution", "320x180",
+                        "--summary", summary),
+                       ready=lambda: (tmp_path / "f_1.png").exists())
+    assert proc.returncode == 130, proc.stderr_text
+    assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert "f_1.png" in names and "f_4.png" not in names and "s.json" in names
+    assert not [n for n in names if n.startswith(".") or n.endswith((".tmp", ".part"))]
+    report = json.loads(summary.read_text())
+    assert report["interrupted"] is True
+    assert [i["status"] for i in report["images"]] == ["ok"] * (len(names) - 1)
+
+
+def digests(folder):
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in folder.iterdir()}
+
+
+def test_bake_stops_and_keeps_the_previous_files(tmp_path):
+    blend = tmp_path / "closed_room.blend"
+    shutil.copyfile(ROOT / "demo_blends" / "closed_room.blend", blend)
+    assert bo2("bake", blend).returncode == 0
+    folder = tmp_path / "bo2_bake"
+    before = digests(folder)
+    began = time.monotonic()
+    proc = interrupted(("bake", blend), ready=lambda: time.monotonic() - began > 4.0)
+    assert proc.returncode == 130, proc.stderr_text
+    assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
+    assert digests(folder) == before  # nothing replaced, no temporary file left
+
+
+def test_the_finished_frame_is_whole(tmp_path):
+    """The kept image is a whole frame: equal to the same frame rendered without Ctrl-C."""
+    args = ("--samples", "8", "--resolution", "320x180")
+    proc = interrupted(("render", ROOT / "demo_blends" / "room.blend", "--frames", "1-3",
+                        "-o", tmp_path / "a_#.png", *args),
+                       ready=lambda: (tmp_path / "a_1.png").exists())
+    assert proc.returncode == 130
+    assert bo2("render", ROOT / "demo_blends" / "room.blend", "--frame", "1",
+               "-o", tmp_path / "b.png", *args).returncode == 0
+    a = png_pixels(tmp_path / "a_1.png")
+    b = png_pixels(tmp_path / "b.png")
+    np.testing.assert_array_equal(a, b)
+
+
+def png_pixels(path):
+    """The decompressed scanlines of a PNG file (equal images, equal bytes)."""
+    data = path.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    chunks, at = [], 8
+    while at < len(data):
+        n = int.from_bytes(data[at:at + 4], "big")
+        kind = data[at + 4:at + 8]
+        if kind == b"IDAT":
+            chunks.append(data[at + 8:at + 8 + n])
+        at += 12 + n
+    return np.frombuffer(zlib.decompress(b"".join(chunks)), np.uint8)
