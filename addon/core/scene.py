@@ -82,11 +82,12 @@ class Camera:
         from .kernels import shading
 
         inv = affine.inverse(self.projection @ self.world_to_camera)
-        # Clip-space points on the near (z = -1) and far (z = 1) planes, as affine functions of
-        # the pixel position: p(x, y) = a x + b y + c.
+        # Clip-space points on the near (z = -1) and a middle (z = 0) plane, as affine functions
+        # of the pixel position: p(x, y) = a x + b y + c. Not the far plane: with far / near
+        # large it is at infinity in float32 (the projection's z row rounds to -1).
         planes = np.stack([(2.0 / self.width) * inv[:, 0], (-2.0 / self.height) * inv[:, 1],
                            inv @ np.array([-1.0, 1.0, -1.0, 1.0]),
-                           inv @ np.array([-1.0, 1.0, 1.0, 1.0])])
+                           inv @ np.array([-1.0, 1.0, 0.0, 1.0])])
         x = np.ascontiguousarray(np.asarray(x, np.float64).reshape(-1))
         y = np.ascontiguousarray(np.asarray(y, np.float64).reshape(-1))
         origins, directions = (np.empty((len(x), 3), np.float32) for _ in range(2))

@@ -285,22 +285,35 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
 
 
 def _camera_depth_range(camera: Camera, lo: np.ndarray, hi: np.ndarray):
-    """Camera near/far frustum corners and the view-depth range of the box [lo, hi].
+    """The camera's frustum corners at a view depth, and the view-depth range of the box
+    [lo, hi] clamped to [near, far] (z0 >= z1 when empty).
 
-    returns: near corners (4, 3), far corners (4, 3) in camera space, near, far, and the
-             depth range (z0, z1) of the box clamped to [near, far] (z0 >= z1 when empty)
+    Only the near plane is unprojected: a far plane thousands of times farther than the near
+    one is at infinity in the float32 projection (its z row rounds to -1), and so is f here.
+
+    returns: corners(z) -> (4, 3) camera-space corners at view depth z, near, far, z0, z1
     """
-    ndc = np.array([[x, y, z, 1.0] for z in (-1.0, 1.0) for x, y in
-                    ((-1, -1), (1, -1), (1, 1), (-1, 1))])
-    cs = ndc @ affine.inverse(camera.projection).T
-    cs = cs[:, :3] / cs[:, 3:]
-    near_c, far_c = cs[:4], cs[4:]
-    n, f = -near_c[:, 2].mean(), -far_c[:, 2].mean()
+    proj = np.asarray(camera.projection, np.float64)
+    ndc = np.array([[x, y, -1.0, 1.0] for x, y in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
+    cs = ndc @ affine.inverse(proj).T
+    near_c = cs[:, :3] / cs[:, 3:]
+    n = float(-near_c[:, 2].mean())
+    a, b = proj[2, 2], proj[2, 3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        f = float((b - 1.0) / a) if camera.orthographic else float(b / (a + 1.0))
+    if not np.isfinite(f) or f <= n:
+        f = np.inf
+
+    def corners(z: float) -> np.ndarray:
+        if camera.orthographic:
+            return np.column_stack([near_c[:, :2], np.full(4, -z)])
+        return near_c * (z / n)
+
     box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
                     for z in (lo[2], hi[2])])
     w2c = np.asarray(camera.world_to_camera, np.float64)
     depth = -(box @ w2c[2, :3] + w2c[2, 3])
-    return near_c, far_c, n, f, max(n, depth.min()), min(f, depth.max())
+    return corners, n, f, max(n, depth.min()), min(f, depth.max())
 
 
 def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int):
@@ -314,7 +327,7 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     """
     pts = tris.reshape(-1, 3)
     lo, hi = pts.min(0), pts.max(0)
-    near_c, far_c, n, f, z0, z1 = _camera_depth_range(camera, lo, hi)
+    corners, n, f, z0, z1 = _camera_depth_range(camera, lo, hi)
     if not z1 > z0:
         return np.zeros((0, 3)), np.zeros(0)
     z0 = max(z0, 1e-6)
@@ -330,10 +343,8 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     ext_lo, ext_hi = xy.min(0), xy.max(0)
     rects = []
     for a, b in zip(splits[:-1], splits[1:], strict=True):
-        corners = np.concatenate(
-            [near_c + (far_c - near_c) * ((z - n) / (f - n)) for z in (a, b)]
-        )
-        sxy = affine.linear(affine.transform(corners, c2w), basis[:2])
+        slab = np.concatenate([corners(z) for z in (a, b)])
+        sxy = affine.linear(affine.transform(slab, c2w), basis[:2])
         r_lo = np.maximum(sxy.min(0), ext_lo)
         r_hi = np.minimum(sxy.max(0), ext_hi)
         centre = 0.5 * (r_lo + r_hi)

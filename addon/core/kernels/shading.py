@@ -242,7 +242,7 @@ def rays(x, y, planes, origins, directions):
     """Camera rays through window positions ``x``, ``y`` (N,): ``origins`` on the near plane
     and unit ``directions`` (N, 3). ``planes`` (4, 4): rows a, b of the clip-to-world matrix's
     x and y columns times 2 / width and -2 / height, and its images of the near (z = -1) and
-    far (z = 1) clip points at the corner; a plane point is h = a x + b y + c, divided by h_w
+    middle (z = 0) clip points at the corner; a plane point is h = a x + b y + c, divided by h_w
     (``scene.Camera.rays``, in the order of its NumPy arithmetic)."""
     ends = np.empty((2, 3))
     for i in range(x.shape[0]):

@@ -1,0 +1,55 @@
+"""Long depth ranges: a camera with a clip start of 1 mm and a clip end of 50 km, its projection
+in float32 as Blender's is, renders the frame of a 0.1 m to 100 m camera.
+
+Independent values: the same scene and camera pose with an ordinary depth range; camera rays
+from the camera's position to the points it projects to (``Camera`` definition).
+"""
+
+import dataclasses
+
+import numpy as np
+from test_volume_leaks import cube, grey, scene_of
+
+from bo2_lighting.addon.core import pipeline
+from bo2_lighting.addon.core.scene import Camera, Light
+
+
+def lit_cube(near: float, far: float):
+    cam = Camera.look_at((3.0, -4.0, 2.0), (0.0, 0.0, 0.0), 0.8, 64, 48, near, far)
+    cam = dataclasses.replace(cam, projection=np.asarray(cam.projection, np.float32))
+    sun = Light(kind="SUN", color=np.full(3, 3.0, np.float32),
+                direction=np.array([-0.3, 0.2, -1.0]) / np.linalg.norm([-0.3, 0.2, -1.0]),
+                shadow=True, radius=0.02)
+    spot = Light(kind="SPOT", color=np.full(3, 200.0, np.float32),
+                 position=np.array([2.0, -2.0, 3.0]), direction=np.array([-0.5, 0.5, -0.7]),
+                 shadow=True, spot_size=1.2)
+    floor = cube((-4.0, -4.0, -1.3), (4.0, 4.0, -1.0))  # the cube's shadow falls on it
+    scene = scene_of(np.concatenate([cube(), floor]), grey())
+    return dataclasses.replace(scene, camera=cam, lights=[sun, spot])
+
+
+def test_camera_rays_hold_with_a_far_plane_at_infinity():
+    cam = lit_cube(0.001, 5.0e4).camera
+    assert np.asarray(cam.projection)[2, 2] == -1.0  # far at infinity in float32
+    x, y = np.array([0.5, 31.5, 63.5]), np.array([0.5, 23.5, 47.5])
+    origins, directions = cam.rays(x, y)
+    assert np.isfinite(origins).all() and np.isfinite(directions).all()
+    eye = np.array([3.0, -4.0, 2.0])
+    forward = -np.asarray(cam.world_to_camera, np.float64)[2, :3]
+    np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0, rtol=1e-6)
+    expected = eye + directions * (0.001 / (directions @ forward))[:, None]
+    np.testing.assert_allclose(origins, expected, atol=1e-5)
+
+
+def test_a_long_depth_range_renders_the_ordinary_frame():
+    ordinary = pipeline.render_frame(lit_cube(0.1, 100.0))
+    long = pipeline.render_frame(lit_cube(0.001, 5.0e4))
+    for name, image in long.items():
+        assert np.isfinite(image).all(), name
+    for name in ("Depth", "Position", "Normal", "GlossDir"):
+        np.testing.assert_allclose(long[name], ordinary[name], atol=1e-5)
+    # the sun's cascades split the longer range otherwise: the shadows move by a texel or so
+    diff = np.abs(long["Combined"] - ordinary["Combined"])
+    assert diff.mean() < 5e-3 and np.mean(diff > 2e-3) < 0.05
+    shadowed = long["DiffDir"][..., 0] < 0.5 * long["DiffDir"][..., 0].max()
+    assert shadowed.mean() > 0.02  # the frame holds shadows, and they stayed
