@@ -453,6 +453,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     """
     warnings: list[str] = []
     scene = depsgraph.scene
+    viewer = scene.camera if camera else None
     camera = (extract_camera(depsgraph) if camera else
               cs.Camera(world_to_camera=np.eye(4), projection=np.eye(4), width=1, height=1))
     cache = SceneCache() if cache is None else cache
@@ -493,6 +494,11 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         batches[bkey] = batch
         meshes.append(batch)
     cache.objects, cache.batches = objects, batches  # what is gone from the scene is dropped
+    if viewer is not None and viewer.type == "CAMERA" \
+            and viewer.data.clip_end <= viewer.data.clip_start:
+        warnings.append(f"Camera '{viewer.name}': Clip End is not beyond Clip Start, so it "
+                        "sees no geometry (as in Cycles)")
+        meshes = []
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
     world = extract_world(scene, warnings)

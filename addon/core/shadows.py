@@ -357,7 +357,9 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
 def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None):
     """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
-    tan_half = float(np.tan(0.5 * max(float(light.radius), 0.0)))
+    # Blender's largest angle is pi (in float32, a little above): keep the half angle below
+    # 90 degrees, where the tangent turns negative
+    tan_half = float(np.tan(0.5 * min(max(float(light.radius), 0.0), np.pi - 1e-3)))
     if len(tris) and camera is not None:
         rects, splits = _fit_cascades(camera, basis, tris, res)
     elif len(tris):

@@ -420,3 +420,26 @@ def test_instances_match_cycles(addon):
     assert cycles.sum() > 100  # the scene shows its instances
     assert abs(ours.sum() / cycles.sum() - 1.0) < 0.03
     assert np.abs(ours - cycles).mean() < 0.01
+
+
+@pytest.mark.parametrize("kind", ["PERSP", "ORTHO"])
+def test_clip_end_before_clip_start_sees_nothing_as_in_cycles(addon, capfd, kind):
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 16, 12
+    set_world_color(scene, (0.2, 0.3, 0.4))
+    bpy.ops.mesh.primitive_plane_add(size=4.0)
+    cam = add_ortho_camera(scene, 2.0)
+    cam.data.type = kind
+    cam.data.clip_start, cam.data.clip_end = 2.0, 0.5  # the plane is 1 m away
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    scene.collection.objects.link(sun)
+    capfd.readouterr()
+    bo2 = render_pixels(scene, "BO2_LIGHTING", samples=1)
+    out = capfd.readouterr()
+    assert "Clip End is not beyond Clip Start" in out.out + out.err
+    cycles = render_pixels(scene, "CYCLES", samples=1)
+    np.testing.assert_allclose(cycles[..., :3], np.broadcast_to([0.2, 0.3, 0.4], (12, 16, 3)),
+                               atol=1e-4)
+    np.testing.assert_allclose(bo2, cycles, atol=1e-4)
+    cam.data.clip_start, cam.data.clip_end = 0.1, 10.0  # and with a range, the plane shows
+    assert np.abs(render_pixels(scene, "BO2_LIGHTING", samples=1)[..., :3] - 0.3).max() > 0.05

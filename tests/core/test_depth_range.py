@@ -53,3 +53,30 @@ def test_a_long_depth_range_renders_the_ordinary_frame():
     assert diff.mean() < 5e-3 and np.mean(diff > 2e-3) < 0.05
     shadowed = long["DiffDir"][..., 0] < 0.5 * long["DiffDir"][..., 0].max()
     assert shadowed.mean() > 0.02  # the frame holds shadows, and they stayed
+
+
+def test_a_negative_light_takes_light_away():
+    """Cycles adds a light of negative power as it adds any other: the sum is linear."""
+    scene = lit_cube(0.1, 100.0)
+    sun, spot = scene.lights
+
+    def diffuse(power):
+        light = dataclasses.replace(spot, color=np.full(3, power, np.float32))
+        return pipeline.render_frame(dataclasses.replace(scene, lights=[sun, light]))["DiffDir"]
+
+    plus, zero, minus = diffuse(200.0), diffuse(0.0), diffuse(-200.0)
+    assert (plus - zero).max() > 0.05  # the spot lights part of the frame
+    np.testing.assert_allclose(minus, 2.0 * zero - plus, atol=1e-5)
+
+
+def test_a_sun_of_180_degrees_is_the_softest_not_the_hardest():
+    scene = lit_cube(0.1, 100.0)
+    sun = scene.lights[0]
+
+    def shade(degrees):  # Blender stores the angle in float32: 180 degrees is a little over pi
+        light = dataclasses.replace(sun, radius=float(np.float32(np.radians(degrees))))
+        return pipeline.render_frame(dataclasses.replace(scene, lights=[light]))["DiffDir"]
+
+    hard, wide, widest = shade(0.0), shade(179.0), shade(180.0)
+    assert np.abs(hard - wide).max() > 0.05  # a wide sun's shadow is another
+    np.testing.assert_allclose(widest, wide, atol=0.02)

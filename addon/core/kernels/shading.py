@@ -73,7 +73,7 @@ def incidence(p, geo, kind, color, position, axis, cos_half, blend, l_out, e_out
         for c in range(3):
             e = scale * color[c]
             e_out[i, c] = e
-            lit = lit or e > 0.0
+            lit = lit or e != 0.0  # a negative light takes light away, as in Cycles
         lit = lit and faces
         if not lit:
             e_out[i, 0] = e_out[i, 1] = e_out[i, 2] = 0.0
