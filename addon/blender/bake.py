@@ -151,10 +151,11 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                   "(raise Dilation Radius or Escape Bias, or move the volume)")
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
     try:
-        probe_file.write_all([
-            (probes.probe_path(folder, b.spec.name),
-             bake.metadata(b, backend, job.bounces, stamp, time.perf_counter() - start,
-                           version()), b.coeffs, b.chains) for b in job.results])
+        with interrupt.writing():
+            probe_file.write_all([
+                (probes.probe_path(folder, b.spec.name),
+                 bake.metadata(b, backend, job.bounces, stamp, time.perf_counter() - start,
+                               version()), b.coeffs, b.chains) for b in job.results])
     except (OSError, probe_file.ProbeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise BakeError(f"Could not write the bake into {folder} ({reason}); the previous "

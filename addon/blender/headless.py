@@ -38,16 +38,17 @@ def check_blend(path: Path) -> None:
         raise HeadlessError(f"{path}: not a Blender file (corrupt or wrong format)")
 
 
-def load_blend(path: Path):
+def load_blend(path: Path, terminal: int = 2):
     """Check ``path``, import ``bpy``, register the add-on and open the file; returns its
-    scene."""
+    scene. Ctrl-C from then on stops renders and bakes (``interrupt``; ``terminal``: the file
+    descriptor of the user's stderr)."""
     check_blend(path)
     import bpy
 
     from .. import register
     from . import interrupt
 
-    interrupt.install()  # bpy took Ctrl-C from Python: give it to the renders and bakes
+    interrupt.install(terminal)  # bpy took Ctrl-C from Python: give it to renders and bakes
     register()
     bpy.ops.wm.open_mainfile(filepath=str(path.resolve()), load_ui=False)
     interrupt.check()
@@ -141,10 +142,11 @@ def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:
     seconds = time.perf_counter() - start
     interrupt.check()  # a render stopped by Ctrl-C is not written
     warnings = list(dict.fromkeys(engine.last_warnings))
-    if fmt == "OPEN_EXR":
-        images.save_render_result(scene, path.resolve(), "OPEN_EXR_MULTILAYER", "32")
-    else:
-        images.save_render_result(scene, path.resolve(), fmt)
+    with interrupt.writing():
+        if fmt == "OPEN_EXR":
+            images.save_render_result(scene, path.resolve(), "OPEN_EXR_MULTILAYER", "32")
+        else:
+            images.save_render_result(scene, path.resolve(), fmt)
     return seconds, warnings
 
 

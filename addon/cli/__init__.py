@@ -22,6 +22,7 @@ modules; ``bpy`` is imported only by the commands that need it, so ``bo2 --help`
 from __future__ import annotations
 
 import argparse
+import os
 import re
 import sys
 from pathlib import Path
@@ -49,8 +50,9 @@ def load_blend(path: Path):
     from ..core import kernels
     from .terminal import quiet_blender
 
+    terminal = os.dup(2)  # Ctrl-C's last word reaches the user through Blender's silencing
     with quiet_blender():
-        scene = headless.load_blend(path)
+        scene = headless.load_blend(path, terminal)
     try:
         kernels.load(lambda message: print(f"bo2: {message}", file=sys.stderr, flush=True))
     except kernels.KernelsUnavailable as exc:
@@ -231,6 +233,9 @@ def main(argv: list[str] | None = None) -> int:
         print(f"bo2: error: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt:
+        from ..blender import interrupt
+
+        interrupt.settle()
         print("bo2: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:  # noqa: BLE001 - one line for the user, never a traceback

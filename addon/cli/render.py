@@ -61,8 +61,9 @@ def _write_summary(path: Path, args, images: list[dict], seconds: float,
                "interrupted": interrupted, "warnings": warnings, "images": images}
     temporary = path.with_name(path.name + ".part")
     try:
-        temporary.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
-        os.replace(temporary, path)  # a farm polling the file never reads half of it
+        with interrupt.writing():
+            temporary.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
+            os.replace(temporary, path)  # a farm polling the file never reads half of it
     except OSError as exc:
         temporary.unlink(missing_ok=True)
         raise CommandError(f"{path}: cannot write the summary ({exc.strerror})") from None

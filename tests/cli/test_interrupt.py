@@ -87,3 +87,14 @@ def png_pixels(path):
             chunks.append(data[at + 8:at + 8 + n])
         at += 12 + n
     return np.frombuffer(zlib.decompress(b"".join(chunks)), np.uint8)
+
+
+def test_a_cycles_render_is_ended_too(tmp_path):
+    """Cycles does not poll Python: the deadline ends it, with nothing written."""
+    began = time.monotonic()
+    proc = interrupted(("render", ROOT / "demo_blends" / "room.blend", "--engine", "cycles",
+                        "--samples", "100000", "-o", tmp_path / "c.png"),
+                       ready=lambda: time.monotonic() - began > 6.0)
+    assert proc.returncode == 130, proc.stderr_text
+    assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
+    assert list(tmp_path.iterdir()) == []
