@@ -477,8 +477,10 @@ def _raster(frame: Frame, tile, margin, offset, behind=None):
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
     m, clip, index, cull, keep = margin
+    proj = np.asarray(cam.projection, np.float64)
     frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=cull,
-                             sample_offset=tuple(offset), behind=behind, keep=keep)
+                             sample_offset=tuple(offset), behind=behind, keep=keep,
+                             depth_plane=None if cam.orthographic else (proj[2, 2], proj[2, 3]))
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     if len(index):  # the subset's triangles -> the frame's

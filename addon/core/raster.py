@@ -232,7 +232,8 @@ def _take_columns(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
     return out
 
 
-def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> _Setup:
+def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
+           depth_plane=None) -> _Setup:
     """Steps 1 and 2 of the module doc, and the grouping of step 3 (see ``rasterize``)."""
     sub_bits = _FIXED_BITS - guard_bits
     unit = 1 << sub_bits
@@ -280,6 +281,8 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
                    float(2 ** (guard_bits + sub_bits) + unit), xi, yi, px, py, zn, inv_w, usable,
                    area2)
     del v
+    if depth_plane is not None:  # NDC z from 1 / w: exact where float32 z / w is not
+        zn[:] = -float(depth_plane[0]) + float(depth_plane[1]) * inv_w
     ok = usable & (area2 != 0)
     n_degenerate = 0
     if not ok.all():
@@ -356,28 +359,31 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> 
     )
 
 
-_last_setup = threading.local()  # .entry: (clip, cull, width, height, guard_bits, _Setup) of the
+_last_setup = threading.local()  # .entry: (clip, cull, width, height, guard_bits, depth_plane,
+# _Setup) of the
 # last input of this thread (tiles rendered at once each keep their own)
 
 
-def _cached_setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int) -> _Setup:
+def _cached_setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
+                  depth_plane=None) -> _Setup:
     """``_setup`` of the input, reused while the same input (bit for bit) comes again."""
     last = getattr(_last_setup, "entry", None)
     if (
         last is not None
-        and last[2:5] == (width, height, guard_bits)
+        and last[2:6] == (width, height, guard_bits, depth_plane)
         and last[0].dtype == clip.dtype
         and last[0].shape == clip.shape
         and (cull is None) == (last[1] is None)
         and (cull is None or np.array_equal(cull, last[1]))
         and np.array_equal(_bits(clip), _bits(last[0]))
     ):
-        return last[5]
-    setup = _setup(clip, width, height, cull, guard_bits)
+        return last[6]
+    setup = _setup(clip, width, height, cull, guard_bits, depth_plane)
     size = clip.nbytes + sum(a.nbytes for a in vars(setup).values() if isinstance(a, np.ndarray))
     if size <= _KEEP_BYTES:  # about 350 bytes per triangle
         copy_cull = None if cull is None else cull.copy()
-        _last_setup.entry = (clip.copy(), copy_cull, width, height, guard_bits, setup)
+        _last_setup.entry = (clip.copy(), copy_cull, width, height, guard_bits, depth_plane,
+                             setup)
     else:
         _last_setup.entry = None
     return setup
@@ -398,6 +404,7 @@ def rasterize(
     weights: bool = True,
     behind=None,
     keep: dict | None = None,
+    depth_plane: tuple[float, float] | None = None,
 ) -> Fragments:
     """Rasterize triangles into the nearest fragment per pixel (one sample per pixel).
 
@@ -417,6 +424,9 @@ def rasterize(
     keep:          None, or a dict the caller keeps with this very clip, size and cull (not
                    checked): the set-up is stored in it and reused by later calls (a viewport
                    renders each tile again and again, on any thread)
+    depth_plane:   (P22, P23) of a perspective projection P (float64): the depth test then
+                   uses z/w = -P22 + P23 / w, exact from w, where the float32 clip z holds
+                   nothing of it once far/near is large (a 1 mm to 50 km camera)
     returns:       Fragments; triangles with NaN/inf corners or zero window-space area are skipped
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
@@ -444,10 +454,10 @@ def rasterize(
     oxi, oyi = round(ox * unit), round(oy * unit)
 
     if keep is None:
-        s = _cached_setup(clip, width, height, cull, guard_bits)
+        s = _cached_setup(clip, width, height, cull, guard_bits, depth_plane)
     else:
         if "setup" not in keep:
-            keep["setup"] = _setup(clip, width, height, cull, guard_bits)
+            keep["setup"] = _setup(clip, width, height, cull, guard_bits, depth_plane)
         s = keep["setup"]
     if s.n_sub == 0:
         return _empty_fragments(height, width, s.n_degenerate, s.n_nan, weights)

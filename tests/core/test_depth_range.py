@@ -80,3 +80,13 @@ def test_a_sun_of_180_degrees_is_the_softest_not_the_hardest():
     hard, wide, widest = shade(0.0), shade(179.0), shade(180.0)
     assert np.abs(hard - wide).max() > 0.05  # a wide sun's shadow is another
     np.testing.assert_allclose(widest, wide, atol=0.02)
+
+
+def test_blenders_smallest_clip_start_keeps_the_nearest_surface():
+    """At a clip start of 1 micrometre the float32 z/w of the cube's front and back faces are
+    a few ulps apart; the depth test from 1 / w still sees the front ones."""
+    ordinary = pipeline.render_frame(lit_cube(0.1, 100.0))
+    tiny = pipeline.render_frame(lit_cube(1e-6, 1e5))
+    np.testing.assert_allclose(tiny["Depth"], ordinary["Depth"], rtol=1e-5)
+    np.testing.assert_allclose(tiny["Normal"], ordinary["Normal"], atol=1e-6)
+    np.testing.assert_allclose(tiny["GlossDir"], ordinary["GlossDir"], atol=1e-5)
