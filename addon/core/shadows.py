@@ -238,6 +238,19 @@ def _flatten_pyramids(pyramids: list[list[np.ndarray]]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, 3), np.float32)
 
 
+def _closest_plane(origin: np.ndarray, tris: np.ndarray) -> float:
+    """A lower bound of the distance from ``origin`` to the triangles (T, 3, 3): the least
+    distance to their planes (inf without triangles)."""
+    if not len(tris):
+        return np.inf
+    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
+    length = np.linalg.norm(n, axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        d = np.abs(np.einsum("tk,tk->t", n, origin - tris[:, 0])) / length
+    d = d[np.isfinite(d)]
+    return float(d.min()) if len(d) else np.inf
+
+
 def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     """A point, spot or area light's maps: one job per face, and the function that assembles
     the faces' results into the ShadowMap (``shadow_map_jobs``)."""
@@ -253,7 +266,9 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
         kind, basis, tan_half = "CUBE", _CUBE, 1.0
     reach = float(np.sqrt(((tris - origin) ** 2).sum(-1)).max()) if len(tris) else 1.0
     far = 1.01 * reach + 1e-3
-    near = max(1e-5 * far, 1e-6)
+    # the near plane stays in front of every caster: huge geometry (a 1000 km ground) must not
+    # push it past the casters next to the light (the clip is float64, so depth holds)
+    near = max(min(1e-5 * far, 0.5 * _closest_plane(origin, tris)), 1e-6)
     proj = _perspective(tan_half, near, far)
     centre = (np.arange(res) + 0.5) * (2.0 / res) - 1.0
     ray_len = np.sqrt(1.0 + tan_half**2 * (centre[:, None] ** 2 + centre[None, :] ** 2))

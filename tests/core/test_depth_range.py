@@ -90,3 +90,24 @@ def test_blenders_smallest_clip_start_keeps_the_nearest_surface():
     np.testing.assert_allclose(tiny["Depth"], ordinary["Depth"], rtol=1e-5)
     np.testing.assert_allclose(tiny["Normal"], ordinary["Normal"], atol=1e-6)
     np.testing.assert_allclose(tiny["GlossDir"], ordinary["GlossDir"], atol=1e-5)
+
+
+def test_a_huge_ground_keeps_point_and_spot_shadows():
+    """A 2000 km ground under a cube: the shadows of a point light and a spot on the part of
+    the ground a 8 m one covers are those of the 8 m one."""
+    base = lit_cube(0.1, 100.0)
+    point = Light(kind="POINT", color=np.full(3, 200.0, np.float32),
+                  position=np.array([2.0, -2.0, 3.0]), shadow=True, radius=0.05)
+    for light in (base.lights[1], point):
+        frames = []
+        for half in (4.0, 1e6):
+            tris = np.concatenate([cube(), cube((-half, -half, -1.3), (half, half, -1.0))])
+            scene = dataclasses.replace(scene_of(tris, grey()), camera=base.camera,
+                                        lights=[light])
+            frames.append(pipeline.render_frame(scene))
+        small, huge = frames
+        on_small = small["Depth"][..., 0] < 1e9
+        dark = small["DiffDir"][..., 0] < 0.3 * small["DiffDir"][..., 0].max()
+        assert (dark & on_small).mean() > 0.05  # the small ground holds the shadow
+        diff = np.abs(huge["DiffDir"] - small["DiffDir"])[on_small]
+        assert np.mean(diff.max(-1) > 0.02) < 0.01, light.kind
