@@ -150,6 +150,7 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                   "samples are inside geometry with no valid neighbour; they are left out "
                   "(raise Dilation Radius or Escape Bias, or move the volume)")
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+    interrupt.check()  # Ctrl-C during the last capture: nothing is written
     try:
         with interrupt.writing():
             probe_file.write_all([

@@ -79,7 +79,6 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
-            last_warnings.clear()
             frame, warnings = extract.extract_scene(depsgraph, indirect=scene.bo2.use_indirect)
             for message in warnings:
                 self._warn(message)
@@ -105,6 +104,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
     def _warn(self, message: str) -> None:
         """One warning: the operator's report, and ``last_warnings`` for the command line."""
         last_warnings.append(message)
+        del last_warnings[:-1000]  # the UI never reads them: keep the list bounded
         self.report({"WARNING"}, message)
 
     def _fail(self, message: str) -> None:
@@ -134,8 +134,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                                    p.ids, p.kind)
 
 
-# The warnings of the last final render, in order (``bo2 render`` prints them: Blender's own
-# report printing is silenced there).
+# The warnings of the final renders since ``headless.render_frame`` cleared them, in order, over
+# every view layer (``bo2 render`` prints them: Blender's own report printing is silenced there).
 last_warnings: list[str] = []
 
 CLASSES = [BO2RenderEngine]

@@ -48,6 +48,11 @@ def install(terminal: int = 2) -> None:
     _installed.append((reader, writer))
 
 
+def installed() -> bool:
+    """Whether ``install`` has run in this process."""
+    return bool(_installed)
+
+
 def requested() -> bool:
     """Whether Ctrl-C was pressed since ``install``."""
     return _requested.is_set()

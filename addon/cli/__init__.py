@@ -46,11 +46,12 @@ def load_blend(path: Path):
     """Open the .blend file ``path`` with the add-on registered, Blender silenced, and load the
     compiled kernels (saying so on stderr when they compile); returns its scene. CommandError
     for a missing, unreadable or corrupt file, or numba missing."""
-    from ..blender import headless
+    from ..blender import headless, interrupt
     from ..core import kernels
     from .terminal import quiet_blender
 
-    terminal = os.dup(2)  # Ctrl-C's last word reaches the user through Blender's silencing
+    # Ctrl-C's last word reaches the user through Blender's silencing (one copy per process)
+    terminal = 2 if interrupt.installed() else os.dup(2)
     with quiet_blender():
         scene = headless.load_blend(path, terminal)
     try:

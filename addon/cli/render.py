@@ -173,7 +173,11 @@ def run(args) -> int:
                 say(line, stream)
     except KeyboardInterrupt:  # the finished images stay; the summary says what was done
         if summary is not None:
-            _write_summary(summary, args, images, time.perf_counter() - start, interrupted=True)
+            try:
+                _write_summary(summary, args, images, time.perf_counter() - start,
+                               interrupted=True)
+            except CommandError as exc:
+                print(f"bo2: error: {exc}", file=sys.stderr)
         raise
     finally:
         if progress is not None:

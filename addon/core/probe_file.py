@@ -73,22 +73,28 @@ def write_all(files: list[tuple]) -> None:
             Path(path).parent.mkdir(parents=True, exist_ok=True)
             _encode(tmp, meta, sh, mips)
         for k, (path, tmp, old) in enumerate(zip(paths, temporary, aside, strict=True)):
+            placed.append(k)
             if path.exists():
                 os.replace(path, old)
-            placed.append(k)
             os.replace(tmp, path)
     except BaseException:
         for k in reversed(placed):
-            if not temporary[k].exists():  # the new file went in: take it out
-                paths[k].unlink(missing_ok=True)
-            if aside[k].exists():
-                os.replace(aside[k], paths[k])
+            try:
+                if not temporary[k].exists():  # the new file went in: take it out
+                    paths[k].unlink(missing_ok=True)
+                if aside[k].exists():
+                    os.replace(aside[k], paths[k])
+            except OSError:
+                continue  # put back what can be
         raise
     finally:
         for tmp in temporary:
             tmp.unlink(missing_ok=True)
-    for old in aside:
-        old.unlink(missing_ok=True)
+    for old in aside:  # the bake is in: a left-over old file is only clutter
+        try:
+            old.unlink(missing_ok=True)
+        except OSError:
+            pass
 
 
 def _encode(path: Path, meta: dict, sh: np.ndarray, mips) -> None:
