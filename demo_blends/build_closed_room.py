@@ -15,9 +15,7 @@ import sys
 from pathlib import Path
 
 import bpy
-from scene_kit import ball, closed_room, light, principled, probe, sky, slab
-
-import bo2_lighting
+from scene_kit import ball, camera, closed_room, empty_scene, light, principled, probe, sky, slab
 
 HERE = Path(__file__).resolve().parent
 WALL = 0.2  # thickness, metres
@@ -26,13 +24,7 @@ WINDOW = (-1.0, 1.0, 1.0, 2.2)  # in the left wall: y0, y1, z0, z1
 
 
 def build(out: Path) -> None:
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bo2_lighting.register()
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 480, 270
-    scene.render.resolution_percentage = 100
-    scene.render.engine = "BO2_LIGHTING"
-    scene.view_settings.view_transform = "Standard"
+    scene = empty_scene()
     c = scene.cycles  # full global illumination
     c.samples, c.max_bounces, c.diffuse_bounces, c.glossy_bounces = 256, 32, 32, 32
 
@@ -65,12 +57,7 @@ def build(out: Path) -> None:
     scene.bo2.bake_volume_face_size = "16"
     scene.bo2.bake_bounces = 3
 
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.data.lens = 16
-    cam.location = (2.7, -2.2, 1.6)
-    cam.rotation_euler = (math.radians(82), 0, math.radians(62))
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    camera(16, (2.7, -2.2, 1.6), (82, 0, 62))
     out.parent.mkdir(parents=True, exist_ok=True)
     bpy.ops.wm.save_as_mainfile(filepath=str(out))
     print(f"wrote {out}")

@@ -16,33 +16,15 @@ import sys
 from pathlib import Path
 
 import bpy
-from scene_kit import light, probe, sky
-
-import bo2_lighting
+from scene_kit import bo2_material, camera, empty_scene, light, probe, sky
 
 HERE = Path(__file__).resolve().parent
 GLOSS = [0.3, 0.5, 0.7, 0.9]
 
 
 def build(out: Path) -> None:
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bo2_lighting.register()
-    from bo2_lighting.addon.blender import node_groups
-
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 480, 270
-    scene.render.resolution_percentage = 100
-    scene.render.engine = "BO2_LIGHTING"
-    scene.view_settings.view_transform = "Standard"
+    scene = empty_scene()
     scene.cycles.samples = 64
-
-    def bo2_material(name, albedo, rf0, gloss):
-        mat = node_groups.new_material(name)
-        group = next(n for n in mat.node_tree.nodes if node_groups.is_bo2_material_node(n))
-        group.inputs["Albedo"].default_value = (*albedo, 1.0)
-        group.inputs["Specular Color"].default_value = (*rf0, 1.0)
-        group.inputs["Gloss"].default_value = gloss
-        return mat
 
     for i, gloss in enumerate(GLOSS * 2):
         metal = i >= len(GLOSS)
@@ -71,11 +53,7 @@ def build(out: Path) -> None:
           resolution_y=4, resolution_z=2, influence_distance=1.0)
     scene.bo2.bake_volume_face_size = "16"
 
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.data.lens = 35
-    cam.location, cam.rotation_euler = (0.0, -5.5, 2.2), (math.radians(72), 0, 0)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    camera(35, (0.0, -5.5, 2.2), (72, 0, 0))
     bpy.ops.wm.save_as_mainfile(filepath=str(out), compress=True)
 
 

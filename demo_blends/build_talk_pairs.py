@@ -22,30 +22,17 @@ import sys
 from pathlib import Path
 
 import bpy
-from scene_kit import ball, bo2_material, closed_room, light, probe, sky, slab
-
-import bo2_lighting
+from scene_kit import ball, bo2_material, camera, closed_room, empty_scene, light, probe, sky, slab
 
 HERE = Path(__file__).resolve().parent
 PAIRS = ("normalization", "prefilter", "env_brdf")
 
 
 def new_scene(lens: float, location, rotation_deg):
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    bo2_lighting.register()
-    scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 480, 270
-    scene.render.resolution_percentage = 100
-    scene.render.engine = "BO2_LIGHTING"
-    scene.view_settings.view_transform = "Standard"
+    scene = empty_scene()
     scene.cycles.samples = 64
     scene.bo2.bake_volume_face_size = "16"
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.data.lens = lens
-    cam.location = location
-    cam.rotation_euler = [math.radians(a) for a in rotation_deg]
-    scene.collection.objects.link(cam)
-    scene.camera = cam
+    camera(lens, location, rotation_deg)
     return scene
 
 

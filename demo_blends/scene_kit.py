@@ -4,6 +4,8 @@ Imported by the ``build_*.py`` scripts next to it (run as scripts, their folder 
 and by ``tools/make_probe_images.py``.
 """
 
+import math
+
 import bpy
 
 
@@ -116,3 +118,30 @@ def closed_room(lo, hi, material, thickness=0.2, window=None):
     slab("Wall left 2", (x0 - t, wy1, z0), (x0, y1, z1), material)
     slab("Wall left 3", (x0 - t, wy0, z0), (x0, wy1, wz0), material)
     slab("Wall left 4", (x0 - t, wy0, wz1), (x0, wy1, z1), material)
+
+
+def empty_scene(resolution=(480, 270)):
+    """Blender's factory settings without objects, the add-on registered, and a scene that
+    renders with BO2 Lighting at ``resolution`` (100%) through the Standard view; returns it."""
+    import bo2_lighting
+
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bo2_lighting.register()
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = resolution
+    scene.render.resolution_percentage = 100
+    scene.render.engine = "BO2_LIGHTING"
+    scene.view_settings.view_transform = "Standard"
+    return scene
+
+
+def camera(lens, location, rotation_deg):
+    """A camera of focal length ``lens`` (mm) at ``location``, XYZ Euler ``rotation_deg``
+    (degrees), linked to the scene and made its camera."""
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.data.lens = lens
+    cam.location = location
+    cam.rotation_euler = [math.radians(a) for a in rotation_deg]
+    bpy.context.scene.collection.objects.link(cam)
+    bpy.context.scene.camera = cam
+    return cam
