@@ -29,11 +29,69 @@ class ImageError(Exception):
 
 def image_pixels(image) -> np.ndarray:
     """(H, W, C) float32 pixels of a Blender image as ``Image.pixels`` holds them (float images
-    scene-linear, byte images encoded), row 0 at the top."""
+    scene-linear, byte images encoded), row 0 at the top: a view of Blender's row order."""
     width, height = image.size
     flat = np.empty(width * height * image.channels, np.float32)
     image.pixels.foreach_get(flat)
-    return np.ascontiguousarray(flat.reshape(height, width, image.channels)[::-1])
+    return flat.reshape(height, width, image.channels)[::-1]
+
+
+def image_codes(image, release: bool = False) -> np.ndarray | None:
+    """(H, W, 4) uint8 codes of an 8-bit Blender image as it holds them, row 0 at the top, read
+    without the float copy ``Image.pixels`` makes (four times the image): Blender writes its
+    byte buffer to an uncompressed Targa file, which is read back. Blender writes the codes of
+    images in sRGB or a data colour space unchanged through a Standard view; for other colour
+    spaces, float images or an unexpected file it returns None.
+
+    release: free Blender's own copy of the pixels once written (an image that was not in
+             memory before), before the file is read
+    """
+    settings = image.colorspace_settings
+    if image.is_float or not (settings.name == "sRGB" or getattr(settings, "is_data", False)
+                              or settings.name == "Non-Color"):
+        return None
+    width, height = image.size
+    scene = bpy.data.scenes.new("BO2 image codes")
+    try:
+        scene.view_settings.view_transform = "Standard"
+        scene.view_settings.look = "None"
+        set_format(scene.render.image_settings, "TARGA_RAW", "8", "RGBA")
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "codes.tga"
+            try:
+                image.save_render(filepath=str(path), scene=scene)
+            except RuntimeError:
+                return None
+            if release:
+                image.buffers_free()
+            return _targa_codes(path, width, height)
+    finally:
+        bpy.data.scenes.remove(scene)
+
+
+def _targa_codes(path: Path, width: int, height: int) -> np.ndarray | None:
+    """RGBA codes (H, W, 4) uint8, row 0 at the top, of an uncompressed 32-bit Targa file of
+    the given size (Truevision TGA 2.0: an 18-byte header, an optional id, BGRA texels from the
+    bottom row up unless bit 5 of the descriptor says top); None for any other file."""
+    with open(path, "rb") as f:
+        header = f.read(18)
+        if len(header) < 18:
+            return None
+        id_length, colormap, kind = header[0], header[1], header[2]
+        w, h = int.from_bytes(header[12:14], "little"), int.from_bytes(header[14:16], "little")
+        if (colormap, kind, header[16], w, h) != (0, 2, 32, width, height):
+            return None
+        f.seek(18 + id_length)
+        data = np.fromfile(f, np.uint8, width * height * 4)
+    if data.size != width * height * 4:
+        return None
+    data = data.reshape(height, width, 4)
+    for y in range(0, height, 256):  # BGRA to RGBA, a band of rows at a time
+        band = data[y:y + 256]
+        blue = band[..., 0].copy()
+        band[..., 0] = band[..., 2]
+        band[..., 2] = blue
+    return data if header[17] & 0x20 else data[::-1]
 
 
 def new_image(name: str, pixels: np.ndarray):
@@ -62,7 +120,7 @@ def read_file(path: str | os.PathLike, colorspace: str | None = None,
         width, height = image.size  # reading the size loads the pixels (or fails to)
         if width == 0 or height == 0 or not image.has_data:
             raise ImageError(f"{path}: not an image Blender can read")
-        pixels = image_pixels(image)
+        pixels = np.ascontiguousarray(image_pixels(image))
         if linear and not image.is_float and image.colorspace_settings.name == "sRGB":
             colour = slice(0, min(3, pixels.shape[2]))
             pixels[..., colour] = texture.srgb_to_linear(pixels[..., colour])

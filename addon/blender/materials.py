@@ -14,6 +14,8 @@ magenta) or attribute (zero) give one warning each and the render goes on.
 from __future__ import annotations
 
 import hashlib
+import os
+from collections import OrderedDict
 
 import bpy
 import numpy as np
@@ -25,46 +27,78 @@ from ..core.scene import Material
 from . import images
 from .node_groups import is_bo2_material_node
 
-_cache: dict[tuple, tuple] = {}  # image key -> (texture, digest of its pixels)
+_cache: OrderedDict[tuple, tuple] = OrderedDict()  # image key -> (texture, digest), oldest first
+CACHE_BYTES = 2 << 30  # textures kept for later renders, least recently used dropped beyond it
 RAMP_TABLE_SIZE = 257  # Cycles' RAMP_TABLE_SIZE + 1 entries, at i / 256
 _GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
 
 
 def _image_key(image) -> tuple:
-    return (image.name_full, image.filepath_raw, tuple(image.size),
-            image.colorspace_settings.name, image.source, bool(image.is_float))
+    """What identifies an image's pixels: for an image file on disk its path, size and
+    modification time (the image need not be loaded); otherwise its size and type, which
+    load it."""
+    common = (image.name_full, image.filepath_raw, image.colorspace_settings.name,
+              image.alpha_mode, image.source)
+    if image.source == "FILE" and image.packed_file is None:
+        try:
+            stat = os.stat(bpy.path.abspath(image.filepath, library=image.library))
+            return (*common, stat.st_size, stat.st_mtime_ns)
+        except (OSError, ValueError):
+            pass
+    return (*common, tuple(image.size), bool(image.is_float))
+
+
+def _keep(key: tuple, tex, digest: str) -> None:
+    """Cache ``tex`` under ``key``, dropping the least recently used textures beyond
+    ``CACHE_BYTES`` (a texture a material still holds lives on with it)."""
+    _cache[key] = (tex, digest)
+    _cache.move_to_end(key)
+    total = sum(t.nbytes for t, _ in _cache.values())
+    while total > CACHE_BYTES and len(_cache) > 1:
+        _, (old, _) = _cache.popitem(last=False)
+        total -= old.nbytes
 
 
 def load_image(image, extension: str, interpolation: str, warnings: list[str], where: str):
-    """A Blender image as a mipmapped linear ``Texture``, or None (with a warning) if unusable.
-    Prepared once per image and settings and reused across renders while it is unchanged (an
-    image edited in Blender and not saved is compared by a digest of its pixels)."""
+    """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
+    images stay 8-bit (``images.image_codes``), float images float32. Prepared once per image
+    and settings and reused across renders while it is unchanged (an image edited in Blender
+    and not saved is compared by a digest of its pixels). An image that was not in memory
+    before is released again once read."""
     if image is None:
         warnings.append(f"{where}: the Image Texture node has no image")
         return None
+    loaded_here = not image.has_data
     key = _image_key(image) + (extension, interpolation)
     cached = _cache.get(key)
     if cached is not None and not image.is_dirty:
+        _cache.move_to_end(key)
+        if loaded_here and image.has_data:
+            image.buffers_free()
         return cached[0]
-    if not image.has_data:
-        try:
-            image.pixels[0]  # loads the image from its file when it can be loaded
-        except (IndexError, RuntimeError):
-            pass
     width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
         warnings.append(f"{where}: image '{image.name}' could not be loaded "
                         f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
         return None
-    pixels = images.image_pixels(image)
-    digest = hashlib.blake2b(pixels.tobytes(), digest_size=16).hexdigest()
-    if cached is not None and cached[1] == digest:
-        return cached[0]
+    is_float = image.is_float
     # Byte images hold encoded values; float images are already scene-linear in memory.
-    srgb = not image.is_float and image.colorspace_settings.name == "sRGB"
+    srgb = not is_float and image.colorspace_settings.name == "sRGB"
+    pixels = images.image_codes(image, release=loaded_here)
+    if pixels is None:
+        pixels = images.image_pixels(image)
+        if not is_float:  # byte images hold codes / 255
+            pixels = np.rint(pixels * np.float32(255.0)).astype(np.uint8)
+    if loaded_here and image.has_data:
+        image.buffers_free()  # (reading the image's properties would load it again)
+    rows = pixels[::-1] if pixels[::-1].flags.c_contiguous else np.ascontiguousarray(pixels)
+    digest = hashlib.blake2b(memoryview(rows).cast("B"), digest_size=16).hexdigest()
+    if cached is not None and cached[1] == digest:
+        _cache.move_to_end(key)
+        return cached[0]
     tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
                                interpolation=interpolation, name=image.name)
-    _cache[key] = (tex, digest)
+    _keep(key, tex, digest)
     return tex
 
 

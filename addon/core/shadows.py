@@ -125,7 +125,8 @@ class ShadowMap:
     tan_half:   tangent of half the field of view of a perspective face
     near:       near plane of perspective faces, metres
     rects:      (F, 3) float64 cascade squares (cx, cy, half side) in the sun's (R, U) plane, m
-    z_min:      light-space depth of the nearest caster (cascades), metres
+    z_min:      (F,) float64 light-space depth of the nearest caster in each cascade's square
+                (suns), metres
     light_size: light radius R in metres (point, spot, area), or tan(angle / 2) (sun)
     splits:     (F + 1,) float64 camera view depths bounding the cascades, metres (sun)
     min_mips:   the first column of ``mips`` as one (F, side, side) view per level
@@ -148,7 +149,7 @@ class ShadowMap:
     tan_half: float = 1.0
     near: float = 0.0
     rects: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
-    z_min: float = 0.0
+    z_min: np.ndarray = field(default_factory=lambda: np.zeros(0))
     light_size: float = 0.0
     splits: np.ndarray = field(default_factory=lambda: np.zeros(0))
     min_mips: list[np.ndarray] = field(default_factory=list)
@@ -299,15 +300,19 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     return [lambda f=f: face(f) for f in range(len(basis))], finish
 
 
-def _camera_depth_range(camera: Camera, lo: np.ndarray, hi: np.ndarray):
-    """The camera's frustum corners at a view depth, and the view-depth range of the box
-    [lo, hi] clamped to [near, far] (z0 >= z1 when empty).
+def _camera_depth_range(camera: Camera, tris: np.ndarray):
+    """The camera's frustum corners at a view depth, and the view-depth range of the parts of
+    the triangles ``tris`` (T, 3, 3) float64 inside its frustum (``kernels.raster.
+    clipped_depths``), clamped to [near, far] (z0 > z1 when empty): a ground reaching far
+    beyond the view counts only as far as the camera sees it.
 
     Only the near plane is unprojected: a far plane thousands of times farther than the near
     one is at infinity in the float32 projection (its z row rounds to -1), and so is f here.
 
     returns: corners(z) -> (4, 3) camera-space corners at view depth z, near, far, z0, z1
     """
+    from .kernels import raster as kernels
+
     proj = np.asarray(camera.projection, np.float64)
     ndc = np.array([[x, y, -1.0, 1.0] for x, y in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
     cs = ndc @ affine.inverse(proj).T
@@ -324,34 +329,38 @@ def _camera_depth_range(camera: Camera, lo: np.ndarray, hi: np.ndarray):
             return np.column_stack([near_c[:, :2], np.full(4, -z)])
         return near_c * (z / n)
 
-    box = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-                    for z in (lo[2], hi[2])])
     w2c = np.asarray(camera.world_to_camera, np.float64)
-    depth = -(box @ w2c[2, :3] + w2c[2, 3])
-    return corners, n, f, max(n, depth.min()), min(f, depth.max())
+    rows = np.concatenate([(proj @ w2c)[[0, 1, 3]], -w2c[2:3]])  # clip x, y, w; view depth
+    lo, hi = kernels.clipped_depths(tris, rows, n)
+    return corners, n, f, max(n, lo), min(f, hi)
 
 
 def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int):
     """Cascade squares (C, 3) (cx, cy, half side) in the light's (R, U) plane and splits (C+1,).
 
-    The camera's view-depth range, clipped to the casters' bounding box, is split with the
-    practical scheme z_i = l z0 (z1/z0)^(i/C) + (1 - l)(z0 + (z1 - z0) i/C) (Zhang et al. 2006),
-    with C = ceil(log(z1/z0) / log(CASCADE_RATIO)) in [1, MAX_CASCADES] (1 for an orthographic
-    camera). Each slice's eight corners are projected onto the light plane; their bounding
-    rectangle, clipped to the casters' extent, becomes a square with a 4-texel margin.
+    The view-depth range the camera sees of the casters (``_camera_depth_range``) is split
+    with the practical scheme z_i = l z0 (z1/z0)^(i/C) + (1 - l)(z0 + (z1 - z0) i/C)
+    (Zhang et al. 2006), with C = ceil(log(z1/z0) / log(CASCADE_RATIO)) in [1, MAX_CASCADES]
+    (1 for an orthographic camera); l = SPLIT_LAMBDA, or 1 (logarithmic) when the range needs
+    more than MAX_CASCADES. Each slice's eight corners are projected onto the light plane;
+    their bounding rectangle, clipped to the casters' extent, becomes a square with a 4-texel
+    margin.
     """
     pts = tris.reshape(-1, 3)
-    lo, hi = pts.min(0), pts.max(0)
-    corners, n, f, z0, z1 = _camera_depth_range(camera, lo, hi)
-    if not z1 > z0:
+    corners, n, f, z0, z1 = _camera_depth_range(camera, tris)
+    if not z1 >= z0:  # (a flat receiver facing an orthographic camera: one depth)
         return np.zeros((0, 3)), np.zeros(0)
     z0 = max(z0, 1e-6)
     if camera.orthographic:
         count = 1
     else:
-        count = int(np.clip(np.ceil(np.log(z1 / z0) / np.log(CASCADE_RATIO)), 1, MAX_CASCADES))
+        needed = int(np.ceil(np.log(z1 / z0) / np.log(CASCADE_RATIO)))
+        count = int(np.clip(needed, 1, MAX_CASCADES))
+    # a range longer than the cascades can hold is split logarithmically: the linear part
+    # would give the first cascade most of the range
+    weight = 1.0 if not camera.orthographic and needed > MAX_CASCADES else SPLIT_LAMBDA
     i = np.arange(count + 1) / count
-    splits = SPLIT_LAMBDA * z0 * (z1 / z0) ** i + (1.0 - SPLIT_LAMBDA) * (z0 + (z1 - z0) * i)
+    splits = weight * z0 * (z1 / z0) ** i + (1.0 - weight) * (z0 + (z1 - z0) * i)
     splits[0], splits[-1] = z0, z1
     c2w = affine.inverse(camera.world_to_camera)
     xy = affine.linear(pts, basis[:2])
@@ -384,13 +393,24 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         rects, splits = np.array([[*(0.5 * (lo + hi)), half]]), np.zeros(0)
     else:
         rects, splits = np.zeros((0, 3)), np.zeros(0)
+    from .kernels import raster as kernels
+
     zs = affine.linear(tris, basis[2:])[..., 0]  # (T, 3) depth of every corner along the light
-    z_lo = float(zs.min()) if len(tris) else 0.0
-    z_hi = float(zs.max()) if len(tris) else 1.0
-    pad = 1e-3 * (z_hi - z_lo) + 1e-4
-    z_lo, z_hi = z_lo - pad, z_hi + pad
     view_proj = np.zeros((len(rects), 4, 4))
+    z_min = np.zeros(len(rects))
     for c, (cx, cy, half) in enumerate(rects):
+        # the casters inside the cascade's square: a ground far wider than the view would
+        # otherwise stretch the depth range (and the bias) beyond what float32 can tell apart
+        rows = np.zeros((4, 4))
+        rows[0, :3], rows[0, 3] = basis[0], -cx
+        rows[1, :3], rows[1, 3] = basis[1], -cy
+        rows[2, 3], rows[3, :3] = half, basis[2]
+        z_lo, z_hi = kernels.clipped_depths(tris, rows, -np.inf)
+        if not z_lo <= z_hi:
+            z_lo, z_hi = 0.0, 1.0
+        pad = 1e-3 * (z_hi - z_lo) + 1e-4
+        z_lo, z_hi = z_lo - pad, z_hi + pad
+        z_min[c] = z_lo
         m = view_proj[c]
         m[0, :3], m[0, 3] = basis[0] / half, -cx / half
         m[1, :3], m[1, 3] = basis[1] / half, -cy / half
@@ -416,7 +436,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
             view_proj=view_proj,
             basis=np.broadcast_to(basis, (len(rects), 3, 3)).copy(),
             rects=rects,
-            z_min=z_lo,
+            z_min=z_min,
             light_size=tan_half,
             splits=splits,
             mips=_flatten_pyramids([pyramid for _, pyramid in cascades]),
@@ -512,6 +532,13 @@ _PCF_REACH = _disc_reach(_PCF_DISC)
 _PCF_REACH_HARD = _disc_reach(_PCF_DISC_HARD)
 
 
+def _cascades(sm: ShadowMap) -> np.ndarray:
+    """(F, 4) float32 rows (cx, cy, half side, z_min) of a sun's cascades; (0, 4) else."""
+    rects = np.reshape(sm.rects, (-1, 3))
+    z_min = sm.z_min if len(sm.z_min) == len(rects) else np.zeros(len(rects))
+    return np.ascontiguousarray(np.column_stack([rects, z_min]), np.float32)
+
+
 def _packed(sm: ShadowMap) -> tuple:
     """The map's arrays and constants as the visibility kernel takes them (built once)."""
     if sm.kernel_args is not None:
@@ -533,7 +560,6 @@ def _packed(sm: ShadowMap) -> tuple:
     fp[kernels.P_INV] = inv
     fp[kernels.P_SIZE] = sm.light_size
     fp[kernels.P_MIN_DEPTH] = sm.min_depth
-    fp[kernels.P_Z_MIN] = sm.z_min
     fp[kernels.P_SLACK] = _SLACK + 1e-6 * res
     fp[kernels.P_CAP] = 0.125 * res
     fp[kernels.P_NEAR_FLOOR] = max(sm.near, 1e-12)
@@ -550,7 +576,7 @@ def _packed(sm: ShadowMap) -> tuple:
     packed = (sm.depth.reshape(-1), np.ascontiguousarray(sm.mips.reshape(-1), np.float32),
               np.asarray(offsets, np.int64), np.asarray(sides, np.int64),
               np.ascontiguousarray(sm.basis[0], np.float32),
-              np.ascontiguousarray(sm.rects, np.float32).reshape(-1, 3), _FACES, fp, ip)
+              _cascades(sm), _FACES, fp, ip)
     sm.kernel_args = packed
     return packed
 

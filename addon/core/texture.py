@@ -49,8 +49,8 @@ from __future__ import annotations
 import functools
 import hashlib
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -99,6 +99,9 @@ def srgb_to_linear(x):
 
 
 _SRGB_LUT = srgb_to_linear(np.arange(256, dtype=np.float32) / np.float32(255.0))
+_NO_TABLE = np.empty(0, np.float32)
+# linear values halfway between consecutive 8-bit sRGB codes: the nearest code of a value
+_SRGB_HALFWAY = srgb_to_linear((np.arange(255, dtype=np.float64) + 0.5) / 255.0)
 
 
 def linear_to_srgb(x):
@@ -119,27 +122,82 @@ def linear_to_srgb(x):
 # Textures and mip chains
 
 
-@dataclass
 class Texture:
-    """An image texture with its full mip chain.
+    """An image texture and its mip chain, filled when a look-up first needs it.
 
-    mips:          list of (h_k, w_k, C) float32 arrays, scene-linear (or Non-Color data), row 0
-                   at the top; mips[0] is the image, the last level is 1 x 1; the first
-                   ``encoded`` channels of level 0 are sRGB-encoded (``linear(0)`` decodes)
+    Texels are float32 (scene-linear, or Non-Color data) or, for 8-bit images kept at their
+    stored precision, uint8 codes (value = code / 255). The first ``encoded`` channels of level
+    0 are sRGB-encoded (``linear`` decodes); the other levels of a float texture are linear,
+    those of an 8-bit texture hold sRGB codes in the ``encoded`` channels (filtered in linear,
+    encoded again, as GPUs store sRGB mips).
+
+    mips:          list of (h_k, w_k, C) arrays, row 0 at the top; mips[0] is the image, the
+                   last level is 1 x 1 (reading ``mips`` fills a pending chain)
     extension:     "REPEAT", "EXTEND", "CLIP" or "MIRROR" (Image Texture node's Extension)
     interpolation: "Linear", "Closest", "Cubic" or "Smart" (Cubic, as Cycles)
     name:          the image's name, for messages
+    pending:       levels 1, 2, ... are not filled yet (``make_texture``'s chains)
     """
 
-    mips: list[np.ndarray]
-    extension: str = "REPEAT"
-    interpolation: str = "Linear"
-    name: str = ""
-    encoded: int = 0
+    def __init__(self, mips: list[np.ndarray], extension: str = "REPEAT",
+                 interpolation: str = "Linear", name: str = "", encoded: int = 0,
+                 pending: bool = False):
+        self._levels = list(mips)
+        self.extension = extension
+        self.interpolation = interpolation
+        self.name = name
+        self.encoded = encoded
+        self._pending = pending and len(self._levels) > 1
+        self._lock = threading.Lock()
+
+    @property
+    def mips(self) -> list[np.ndarray]:
+        """Every level, filled (``fill_mips``)."""
+        self.fill_mips()
+        return self._levels
+
+    @property
+    def image(self) -> np.ndarray:
+        """Level 0, (H, W, C) as stored."""
+        return self._levels[0]
+
+    @property
+    def pending(self) -> bool:
+        """Whether levels 1, 2, ... are still to be filled."""
+        return self._pending
+
+    @property
+    def codes(self) -> bool:
+        """Whether the texels are 8-bit codes (uint8) rather than float32."""
+        return self._levels[0].dtype == np.uint8
+
+    def fill_mips(self) -> None:
+        """Fill levels 1, 2, ... once, each the area-weighted box filter of the one above
+        (``kernels.textures.halve``, ``halve_bytes`` for 8-bit codes); safe across threads."""
+        if not self._pending:
+            return
+        from .kernels import textures as kernels
+
+        with self._lock:
+            if not self._pending:
+                return
+            levels = self._levels
+            for k, (above, level) in enumerate(zip(levels[:-1], levels[1:], strict=True)):
+                if self.codes:
+                    kernels.halve_bytes(above, level, self.encoded, _SRGB_LUT, _SRGB_HALFWAY)
+                else:
+                    kernels.halve(self.linear(0) if k == 0 and self.encoded else above, level)
+            self._pending = False
 
     def linear(self, k: int = 0) -> np.ndarray:
-        """Mip level k, (h_k, w_k, C) float32 scene-linear (level 0 decoded when encoded)."""
-        level = self.mips[k]
+        """Mip level k, (h_k, w_k, C) float32 scene-linear (sRGB codes and encoded channels
+        decoded)."""
+        level = self.mips[k] if k else self._levels[0]
+        if self.codes:
+            out = level * np.float32(1.0 / 255.0)
+            if self.encoded:
+                out[..., :self.encoded] = _SRGB_LUT[level[..., :self.encoded]]
+            return out
         if k or not self.encoded:
             return level
         out = level.copy()
@@ -149,67 +207,68 @@ class Texture:
     @property
     def size(self) -> tuple[int, int]:
         """(width, height) of level 0 in texels."""
-        h, w = self.mips[0].shape[:2]
+        h, w = self._levels[0].shape[:2]
         return w, h
 
     @property
     def channels(self) -> int:
         """Number of channels C."""
-        return self.mips[0].shape[2]
+        return self._levels[0].shape[2]
 
     @property
     def levels(self) -> int:
         """Number of mip levels."""
-        return len(self.mips)
+        return len(self._levels)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes of the whole chain once filled."""
+        return sum(m.nbytes for m in self._levels)
 
     @functools.cached_property
     def packed(self) -> tuple[np.ndarray, np.ndarray]:
         """The mip chain as ``kernels.textures.sample`` reads it: every level's texels in one
-        flat float32 array, and (levels, 3) int64 rows (offset, height, width). A chain of
-        ``build_mips`` already lies in one array, which is returned without a copy."""
-        sizes = np.array([m.size for m in self.mips], np.int64)
+        flat array (float32 or uint8), and (levels, 3) int64 rows (offset, height, width). A
+        chain of ``make_texture`` already lies in one array, which is returned without a copy
+        (levels still pending are filled in place later)."""
+        levels = self._levels
+        sizes = np.array([m.size for m in levels], np.int64)
         offsets = np.concatenate([[0], np.cumsum(sizes)[:-1]])
-        shapes = np.array([m.shape[:2] for m in self.mips], np.int64)
+        shapes = np.array([m.shape[:2] for m in levels], np.int64)
         rows = np.ascontiguousarray(np.column_stack([offsets, shapes]), np.int64)
-        flat = self.mips[0].base
-        if not (isinstance(flat, np.ndarray) and flat.dtype == np.float32 and flat.ndim == 1
+        dtype = levels[0].dtype
+        flat = levels[0].base
+        if not (isinstance(flat, np.ndarray) and flat.dtype == dtype and flat.ndim == 1
                 and flat.size == sizes.sum()
                 and all(m.base is flat and m.flags.c_contiguous
-                        and m.ctypes.data == flat.ctypes.data + 4 * int(o)
-                        for m, o in zip(self.mips, offsets, strict=True))):
-            flat = np.concatenate([np.ascontiguousarray(m, np.float32).reshape(-1)
+                        and m.ctypes.data == flat.ctypes.data + dtype.itemsize * int(o)
+                        for m, o in zip(levels, offsets, strict=True))):
+            flat = np.concatenate([np.ascontiguousarray(m, dtype).reshape(-1)
                                    for m in self.mips])
         return flat, rows
 
     @functools.cached_property
     def digest(self) -> str:
-        """A digest of level 0's pixels, computed once: equal images have equal digests."""
-        return hashlib.blake2b(np.ascontiguousarray(self.mips[0]).tobytes(),
-                               digest_size=16).hexdigest()
+        """A digest of level 0's pixels and type, computed once: equal images have equal
+        digests."""
+        h = hashlib.blake2b(str(self._levels[0].dtype).encode(), digest_size=16)
+        h.update(memoryview(np.ascontiguousarray(self._levels[0])).cast("B"))
+        return h.hexdigest()
 
 
-def _chain(shape) -> list[np.ndarray]:
-    """Empty levels (h_k, w_k, C) float32 of a mip chain of an (H, W, C) image, views in
-    order of one flat array (``Texture.packed``): h_{k+1} = max(1, h_k // 2), same for w."""
+def _chain(shape, dtype=np.float32) -> list[np.ndarray]:
+    """Empty levels (h_k, w_k, C) of a mip chain of an (H, W, C) image, views in order of one
+    flat array (``Texture.packed``): h_{k+1} = max(1, h_k // 2), same for w. Pages of levels
+    not yet written take no memory."""
     shapes = [tuple(shape)]
     while shapes[-1][0] > 1 or shapes[-1][1] > 1:
         h, w, c = shapes[-1]
         shapes.append((max(1, h // 2), max(1, w // 2), c))
-    flat = np.empty(sum(h * w * c for h, w, c in shapes), np.float32)
+    flat = np.empty(sum(h * w * c for h, w, c in shapes), dtype)
     levels, at = [], 0
     for h, w, c in shapes:
         levels.append(flat[at:at + h * w * c].reshape(h, w, c))
         at += h * w * c
-    return levels
-
-
-def _filter_chain(levels: list[np.ndarray]) -> list[np.ndarray]:
-    """Fill levels 1, 2, ... of ``_chain``'s levels from level 0, each the area-weighted box
-    filter of the one above (``kernels.textures.halve``)."""
-    from .kernels import textures as kernels
-
-    for above, level in zip(levels[:-1], levels[1:], strict=True):
-        kernels.halve(above, level)
     return levels
 
 
@@ -221,13 +280,12 @@ def build_mips(image: np.ndarray) -> list[np.ndarray]:
     returns: list of (h_k, w_k, C) float32 with h_{k+1} = max(1, h_k // 2), same for w, views
              of one flat array
     """
-    image = np.asarray(image, np.float32)
-    levels = _chain(image.shape)
-    levels[0][...] = image
-    return _filter_chain(levels)
+    levels = _chain(np.shape(image))
+    levels[0][...] = np.asarray(image, np.float32)
+    return Texture(levels, pending=True).mips
 
 
-PREPARE_BAND = 1 << 20  # values per thread, at least, when an image is decoded
+PREPARE_BAND = 1 << 20  # values per thread, at least, when an image is copied
 
 
 def make_texture(
@@ -238,17 +296,17 @@ def make_texture(
     interpolation: str = "Linear",
     name: str = "",
 ) -> Texture:
-    """Build a texture and its mip chain from an image.
+    """A texture from an image; its mip chain is filled when a look-up first needs it.
 
-    pixels:        (H, W, C) or (H, W) image, row 0 at the top, C in {1, 3, 4}; non-finite
-                   values are replaced by 0
+    pixels:        (H, W, C) or (H, W) image, row 0 at the top, C in {1, 3, 4}: uint8 codes
+                   (kept 8-bit) or floats (kept float32, non-finite values replaced by 0)
     srgb:          True when the values are sRGB-encoded colour: the colour channels (all of
                    C = 1 or 3, the first three of C = 4; never alpha) are decoded to linear
-                   (IEC 61966-2-1): the mip levels here, level 0 after each bilinear look-up.
-                   False for linear or Non-Color data
+                   (IEC 61966-2-1) after each bilinear look-up of level 0, as Cycles does, and
+                   filtered in linear for the other levels. False for linear or Non-Color data
     extension:     one of ``EXTENSIONS``
     interpolation: one of ``INTERPOLATIONS``
-    returns:       Texture with float32 straight-alpha mips
+    returns:       Texture with straight-alpha levels
     """
     if extension not in EXTENSIONS:
         raise ValueError(f"unknown texture extension {extension!r}, expected one of {EXTENSIONS}")
@@ -258,26 +316,25 @@ def make_texture(
         )
     from .kernels import textures as kernels
 
-    image = np.asarray(pixels, np.float32)
+    image = np.asarray(pixels)
+    if image.dtype != np.uint8:
+        image = image.astype(np.float32, copy=False)
     if image.ndim == 2:
         image = image[:, :, None]
     if image.ndim != 3 or image.shape[2] not in (1, 3, 4) or 0 in image.shape[:2]:
         raise ValueError(f"expected an (H, W, C) image with C in 1, 3, 4, got {image.shape}")
-    levels = _chain(image.shape)
+    levels = _chain(image.shape, image.dtype)
     level0 = levels[0]
-    decode = min(image.shape[2], 3) if srgb else 0
-    count = max(1, min(os.cpu_count() or 1, image.size // PREPARE_BAND))
-    edges = np.linspace(0, image.shape[0], count + 1).astype(int)
-    with ThreadPoolExecutor(count) as pool:  # row bands; the kernel releases Python's lock
-        def copy(decoding):
-            list(pool.map(lambda y0, y1: kernels.prepare(image[y0:y1], decoding, _SRGB_LUT,
+    if image.dtype == np.uint8:
+        level0[...] = image
+    else:
+        count = max(1, min(os.cpu_count() or 1, image.size // PREPARE_BAND))
+        edges = np.linspace(0, image.shape[0], count + 1).astype(int)
+        with ThreadPoolExecutor(count) as pool:  # row bands; the kernel releases Python's lock
+            list(pool.map(lambda y0, y1: kernels.prepare(image[y0:y1], 0, _SRGB_LUT,
                                                          level0[y0:y1]), edges[:-1], edges[1:]))
-
-        copy(decode)
-        mips = _filter_chain(levels)  # from the linear image
-        if decode:  # level 0 keeps the encoded values: decoded after interpolation, as Cycles
-            copy(0)
-    return Texture(mips, extension, interpolation, name, encoded=decode)
+    decode = min(image.shape[2], 3) if srgb else 0
+    return Texture(levels, extension, interpolation, name, encoded=decode, pending=True)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -316,10 +373,13 @@ def sample(texture: Texture, uv, lod=None, associate: int = 0) -> np.ndarray:
     use_lod = lod is not None
     lod = np.require(np.broadcast_to(np.asarray(0.0 if lod is None else lod, np.float64), (n,)),
                      np.float64, ["C", "W"])
+    mode = kernels.FILTERS.get(texture.interpolation, kernels.LINEAR)
+    if use_lod and mode != kernels.CLOSEST and not (lod <= 0.0).all():
+        texture.fill_mips()  # some look-up reaches level 1 (NaN: the coarsest level)
     out = np.empty((n, texture.channels), np.float32)
     kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.EXTEND),
-                   texture.channels, kernels.FILTERS.get(texture.interpolation, kernels.LINEAR),
-                   u, v, lod, use_lod, texture.encoded, int(associate), out)
+                   texture.channels, mode, u, v, lod, use_lod, texture.encoded, int(associate),
+                   _SRGB_LUT if texture.codes else _NO_TABLE, out)
     return out
 
 

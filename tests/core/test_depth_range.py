@@ -78,8 +78,8 @@ def test_a_sun_of_180_degrees_is_the_softest_not_the_hardest():
         return pipeline.render_frame(dataclasses.replace(scene, lights=[light]))["DiffDir"]
 
     hard, wide, widest = shade(0.0), shade(179.0), shade(180.0)
-    assert np.abs(hard - wide).max() > 0.05  # a wide sun's shadow is another
-    np.testing.assert_allclose(widest, wide, atol=0.02)
+    assert np.abs(hard - wide).max() > 0.15  # a wide sun's shadow is another
+    assert np.abs(widest - wide).max() < 0.03 and np.abs(widest - wide).mean() < 1e-4
 
 
 def test_blenders_smallest_clip_start_keeps_the_nearest_surface():
@@ -111,3 +111,31 @@ def test_a_huge_ground_keeps_point_and_spot_shadows():
         assert (dark & on_small).mean() > 0.05  # the small ground holds the shadow
         diff = np.abs(huge["DiffDir"] - small["DiffDir"])[on_small]
         assert np.mean(diff.max(-1) > 0.02) < 0.01, light.kind
+
+
+def test_a_huge_ground_keeps_the_suns_shadow():
+    """A low sun casts the cube's shadow towards the camera on a 8 m and on a 2000 km ground,
+    with the far plane at 100 m and at 50 km: the cascades cover what the camera sees of the
+    ground (not its whole extent) and their depth ranges and biases the casters in each
+    square, so the shadow stays where the 8 m ground has it. (The huge ground's receivers are
+    placed to float32 barycentric precision, about 1e-7 of its size: its shadow edge is
+    noisier.)"""
+    direction = np.array([0.5, -0.7, -0.6]) / np.linalg.norm([0.5, -0.7, -0.6])
+    sun = Light(kind="SUN", color=np.full(3, 3.0, np.float32), direction=direction,
+                shadow=True, radius=0.02)
+    for far in (100.0, 5.0e4):
+        camera = lit_cube(0.1, far).camera
+        frames = []
+        for half in (4.0, 1e6):
+            tris = np.concatenate([cube(), cube((-half, -half, -1.3), (half, half, -1.0))])
+            scene = dataclasses.replace(scene_of(tris, grey()), camera=camera, lights=[sun])
+            frames.append(pipeline.render_frame(scene))
+        small, huge = frames
+        ground = ((small["Depth"][..., 0] < 1e9) & (small["Normal"][..., 2] > 0.99)
+                  & (small["Position"][..., 2] < -0.99))
+        lit = small["DiffDir"][..., 0][ground].max()
+        in_small = (small["DiffDir"][..., 0] < 0.5 * lit) & ground
+        in_huge = (huge["DiffDir"][..., 0] < 0.5 * lit) & ground
+        assert in_small.sum() > 0.25 * ground.sum()  # the shadow covers a third of the ground
+        assert abs(int(in_huge.sum()) - int(in_small.sum())) < 0.1 * in_small.sum(), far
+        assert np.mean((in_small == in_huge)[ground]) > 0.93, far

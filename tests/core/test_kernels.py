@@ -36,13 +36,14 @@ LOAD = ("import sys; from bo2_lighting.addon.core import kernels; "
 
 # After compiling: every helper of the kernels compiled once, for float32 data where the kernel
 # works in float32 (a stray float64 constant silently doubles a helper's compile and changes
-# its rounding); the multi-typed kernels are the ones declared so.
+# its rounding); the multi-typed kernels are the ones declared so (textures: float32 and
+# 8-bit texels).
 TYPES = """
 import importlib
 from bo2_lighting.addon.core import kernels
 kernels.load()
 several = {("raster", "project"), ("raster", "survivors"), ("raster", "_permute"),
-           ("raster", "_rejection")}
+           ("raster", "_rejection"), ("textures", "sample"), ("textures", "_value")}
 for module in kernels.MODULES:
     mod = importlib.import_module(f"{kernels.__name__}.{module}")
     for name, f in vars(mod).items():

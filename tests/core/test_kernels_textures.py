@@ -237,3 +237,98 @@ def test_footprint_lod_is_lod_from_uv_derivatives():
     expected = texture.lod_from_uv_derivatives(tex, dx[:, :2], dy[:, :2])
     assert np.all(lod[:2] >= tex.levels - 1) and np.all(expected[:2] >= tex.levels - 1)
     np.testing.assert_allclose(lod[3:], expected[3:], rtol=1e-5, atol=1e-5)
+
+
+# sRGB codes' linear values, and the linear values halfway between codes (IEC 61966-2-1)
+TABLES = (texture.srgb_to_linear(np.arange(256) / 255.0),
+          texture.srgb_to_linear((np.arange(255) + 0.5) / 255.0))
+
+
+def reference_halve_codes(codes: np.ndarray, decode: int) -> np.ndarray:
+    """One 8-bit mip level written out in float64, before rounding: the first ``decode``
+    channels decoded from sRGB (IEC 61966-2-1), the two-pass area-weighted box filter, encoded
+    again, times 255; the other channels filtered as codes."""
+    values = codes.astype(np.float64)
+    values[..., :decode] = texture.srgb_to_linear(values[..., :decode] / 255.0).astype(np.float64)
+    out = reference_halve_axis(reference_halve_axis(values, 0), 1).astype(np.float64)
+    linear = np.clip(out[..., :decode], 0.0, 1.0)
+    out[..., :decode] = 255.0 * np.where(linear <= 0.0031308, 12.92 * linear,
+                                         1.055 * linear ** (1.0 / 2.4) - 0.055)
+    return out
+
+
+@pytest.mark.parametrize("shape", [(8, 8, 4), (7, 9, 3), (1, 5, 1), (6, 1, 4), (13, 12, 4),
+                                   (1, 1, 3), (12, 7, 4)])
+@pytest.mark.parametrize("decode", [0, 3])
+def test_eight_bit_levels_are_filtered_in_linear_and_encoded_again(shape, decode):
+    decode = min(decode, shape[2])
+    src = RNG.integers(0, 256, shape).astype(np.uint8)
+    out = np.empty((max(1, shape[0] // 2), max(1, shape[1] // 2), shape[2]), np.uint8)
+    kernels.halve_bytes(src, out, decode, *TABLES)
+    exact = reference_halve_codes(src, decode)
+    diff = np.abs(out.astype(int) - np.rint(exact).astype(int))  # nearest code, ties to even
+    assert diff.max() <= 1
+    edge = np.abs(exact - np.floor(exact) - 0.5) < 2e-3  # float32 rounding decides a tie
+    assert not (diff > 0)[~edge].any()
+    # a uniform image keeps its codes level after level
+    flat = np.full(shape, 200, np.uint8)
+    kernels.halve_bytes(flat, out, decode, *TABLES)
+    assert (out == 200).all()
+
+
+def test_eight_bit_texture_samples_as_its_float_twin():
+    """An 8-bit image kept as codes reads as the float image of the same values at level 0
+    (every filter, alpha association); its other levels are the linear filter of the codes,
+    stored as codes, and a trilinear look-up blends them as the texel-by-texel reference."""
+    codes = RNG.integers(0, 256, (21, 34, 4)).astype(np.uint8)
+    for srgb in (True, False):
+        for interpolation in ("Linear", "Closest", "Cubic"):
+            eight = texture.make_texture(codes, srgb=srgb, interpolation=interpolation)
+            twin = texture.make_texture(codes / np.float32(255.0), srgb=srgb,
+                                        interpolation=interpolation)
+            assert eight.codes and eight.image.dtype == np.uint8 and not twin.codes
+            uv = RNG.uniform(-0.5, 1.5, (300, 2))
+            for associate in (0, 1, 2):
+                np.testing.assert_allclose(texture.sample(eight, uv, None, associate),
+                                           texture.sample(twin, uv, None, associate),
+                                           rtol=2e-6, atol=1e-7)
+        tex = texture.make_texture(codes, srgb=srgb)
+        linear = [tex.linear(k) for k in range(tex.levels)]
+        reference = linear[:1] + [texture.make_texture(level, srgb=False).image
+                                  for level in linear[1:]]
+        lod = RNG.uniform(0.0, 5.0, 300)
+        uv = RNG.uniform(-0.5, 1.5, (300, 2))
+        got = texture.sample(tex, uv, lod)
+        ref = np.array([reference_lookup(reference, "REPEAT", a, b, lod[i])
+                        for i, (a, b) in enumerate(uv)])
+        if srgb:  # level 0 is decoded after its bilinear step: compare the blend of levels >= 1
+            ok = lod >= 1.0
+            got, ref = got[ok], ref[ok]
+        np.testing.assert_allclose(got, ref, rtol=1e-5, atol=1e-6)
+        # the 8-bit levels are the float twin's levels to within half a code at level 1, and
+        # a code and a quarter deeper (each level rounds a level that was rounded)
+        twin = texture.make_texture(codes / np.float32(255.0), srgb=srgb)
+        for k in range(1, tex.levels):
+            encoded = texture.linear_to_srgb(twin.mips[k][..., :3]) if srgb else twin.mips[k]
+            np.testing.assert_allclose(tex.mips[k][..., :encoded.shape[-1]] / 255.0, encoded,
+                                       atol=(0.5 if k == 1 else 1.25) / 255 + 1e-6)
+
+
+def test_mip_levels_are_filled_when_a_look_up_first_needs_them():
+    """make_texture fills level 0 only; look-ups at level 0 (no lod, lod <= 0, Closest) leave
+    the other levels pending, the first that reaches level 1 fills them once."""
+    codes = RNG.integers(0, 256, (64, 48, 4)).astype(np.uint8)
+    tex = texture.make_texture(codes, srgb=True)
+    uv = RNG.uniform(0.0, 1.0, (50, 2))
+    texture.sample(tex, uv)
+    texture.sample(tex, uv, np.full(50, -1.0))
+    texture.sample(texture.make_texture(codes, srgb=True, interpolation="Closest"), uv,
+                   np.full(50, 3.0))
+    assert tex.pending
+    lod = np.zeros(50)
+    lod[7] = np.nan  # the coarsest level
+    texture.sample(tex, uv, lod)
+    assert not tex.pending
+    twin = texture.make_texture(codes, srgb=True)
+    np.testing.assert_array_equal(np.concatenate([m.ravel() for m in twin.mips]),
+                                  tex.packed[0])

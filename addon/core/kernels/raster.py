@@ -9,7 +9,8 @@ of each row from the three edge functions (exact: integer floor divisions, or fl
 the quotient is provably exact), and keeps the smallest packed key (quantized depth, triangle
 index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
 perspective-correct weights and clip w. For shadow maps: ``reduction`` builds the
-min/max pyramid, ``corner_sum`` a sun map's depths.
+min/max pyramid, ``corner_sum`` a sun map's depths, ``clipped_depths`` the depth range of
+the geometry inside a camera's frustum or a sun cascade's square.
 """
 
 from __future__ import annotations
@@ -385,3 +386,83 @@ def corner_sum(tri, bary, values, out):
                 out[i, j] = ((np.float64(bary[i, j, 0]) * values[t, 0]
                               + np.float64(bary[i, j, 1]) * values[t, 1])
                              + np.float64(bary[i, j, 2]) * values[t, 2])
+
+
+
+
+@nb.njit(**_OPTIONS)
+def _plane_distance(v, plane, near):
+    """Signed distance-like value of vertex v (x, y, w, depth) to one plane of the box
+    |x| <= w, |y| <= w, depth >= near: 0 w + x, 1 w - x, 2 w + y, 3 w - y, 4 depth - near;
+    inside where >= 0."""
+    if plane == 0:
+        return v[2] + v[0]
+    if plane == 1:
+        return v[2] - v[0]
+    if plane == 2:
+        return v[2] + v[1]
+    if plane == 3:
+        return v[2] - v[1]
+    return v[3] - near
+
+
+@nb.njit(**_OPTIONS)
+def _clip_polygon(src, count, dst, plane, near):
+    """Sutherland-Hodgman: the polygon ``src[:count]`` (rows x, y, w, depth) cut by one plane
+    (``_plane_distance``) into ``dst``; returns the new count."""
+    out = 0
+    for i in range(count):
+        j = i + 1 if i + 1 < count else 0
+        da = _plane_distance(src[i], plane, near)
+        db = _plane_distance(src[j], plane, near)
+        if da >= 0.0:
+            for k in range(4):
+                dst[out, k] = src[i, k]
+            out += 1
+        if (da >= 0.0) != (db >= 0.0):
+            t = da / (da - db)
+            for k in range(4):
+                dst[out, k] = src[i, k] + t * (src[j, k] - src[i, k])
+            out += 1
+    return out
+
+
+@nb.njit(nb.types.UniTuple(nb.float64, 2)(nb.float64[:, :, ::1], nb.float64[:, ::1],
+                                          nb.float64), **_OPTIONS)
+def clipped_depths(points, rows, near):
+    """The smallest and largest depth of the parts of triangles ``points`` (T, 3, 3, float64)
+    inside the region |x| <= w, |y| <= w, depth >= ``near``, where x, y, w and depth are the
+    affine functions of a point given by ``rows`` (4, 4) (a camera's clip-space x, y, w and
+    view depth: its frustum without the far plane; a sun cascade's square: x and y from its
+    centre, w its half side, depth along the light, ``near`` -inf). Each triangle is clipped
+    by the five planes (Sutherland and Hodgman 1974). (inf, -inf) when nothing is inside."""
+    lo, hi = np.inf, -np.inf
+    a = np.empty((9, 4))  # a triangle cut by five planes has at most 8 corners
+    b = np.empty((9, 4))
+    for t in range(points.shape[0]):
+        inside = True
+        for c in range(3):
+            x, y, z = points[t, c, 0], points[t, c, 1], points[t, c, 2]
+            for r in range(4):
+                a[c, r] = rows[r, 0] * x + rows[r, 1] * y + rows[r, 2] * z + rows[r, 3]
+            for plane in range(5):
+                inside = inside and _plane_distance(a[c], plane, near) >= 0.0
+        if inside:  # most triangles: no clipping
+            for c in range(3):
+                lo = min(lo, a[c, 3])
+                hi = max(hi, a[c, 3])
+            continue
+        count = np.int64(3)
+        for plane in range(5):  # a -> b, b -> a, ..., the last into b
+            if plane % 2 == 0:
+                count = _clip_polygon(a, count, b, plane, near)
+            else:
+                count = _clip_polygon(b, count, a, plane, near)
+            if count == 0:
+                break
+        for i in range(count):
+            d = b[i, 3]
+            if d == d:
+                lo = min(lo, d)
+                hi = max(hi, d)
+    return lo, hi

@@ -29,10 +29,10 @@ I_KIND, I_RES, I_LEVELS, I_JITTER, I_MIP_FIRST, I_REFINEMENTS = range(6)
 I_SIZE = 6
 
 # float32 constants of a map (``fparams``)
-(P_TAN, P_HALF_RES, P_NEAR, P_NEAR2, P_OFFSET, P_TEXEL, P_INV, P_SIZE, P_MIN_DEPTH, P_Z_MIN,
+(P_TAN, P_HALF_RES, P_NEAR, P_NEAR2, P_OFFSET, P_TEXEL, P_INV, P_SIZE, P_MIN_DEPTH,
  P_SLACK, P_CAP, P_NEAR_FLOOR, P_OX, P_OY, P_OZ, P_HALF_INV, P_ONE_HALF_INV, P_MAX_SLOPE,
- P_BIAS_REL, P_BIAS_TEXELS, P_MIN_FILTER) = range(22)
-P_SIZE_ALL = 22
+ P_BIAS_REL, P_BIAS_TEXELS, P_MIN_FILTER) = range(21)
+P_SIZE_ALL = 21
 
 # per-point slots of the scratch vector
 (F_CX, F_RY, F_JC1, F_JC2, F_JR1, F_JR2, F_W0, F_DIST, F_TEXEL, F_K, F_A, F_B, F_C, F_BIAS,
@@ -104,7 +104,8 @@ def _to_face(fx, fy, fz, sign, x, y, z):
 
 @nb.njit(**_OPTIONS)
 def _find_cascade(rects, x, y):
-    """Finest cascade whose square holds the light-plane point (x, y), or -1."""
+    """Finest cascade whose square holds the light-plane point (x, y), or -1; ``rects`` rows
+    (cx, cy, half side, depth of the cascade's nearest caster) (``shadows._cascades``)."""
     for c in range(rects.shape[0]):
         if abs(x - rects[c, 0]) <= rects[c, 2] and abs(y - rects[c, 1]) <= rects[c, 2]:
             return c
@@ -207,7 +208,7 @@ def _setup_ortho(fr, fp, ip, basis, rects, px, py, pz, nx, ny, nz):
     inv_nf = np.float32(1.0) / nf
     z0 = z - ((cx - x) * nr + (cy - y) * nu) * inv_nf
     _plane_in_texels(fr, fp, res, z0, -half * nr * inv_nf, -half * nu * inv_nf)
-    fr[F_BIAS] = fp[P_BIAS_REL] * abs(z - fp[P_Z_MIN]) + fp[P_BIAS_TEXELS] * fr[F_TEXEL]
+    fr[F_BIAS] = fp[P_BIAS_REL] * abs(z - rects[casc, 3]) + fp[P_BIAS_TEXELS] * fr[F_TEXEL]
     fr[F_XW], fr[F_YW], fr[F_NR], fr[F_NU], fr[F_NF] = x, y, nr, nu, nf
     fr[F_L1C], fr[F_L1R] = g, g
     return True
@@ -505,7 +506,7 @@ def _pcss(fr, fp, ip, depth, mips, offsets, sides, rects, faces, r_search, r_min
 
 _VIS = nb.void(
     nb.float32[::1], nb.float32[::1], nb.int64[::1], nb.int64[::1],  # depth, mips, offsets, sides
-    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # basis, rects, faces
+    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # basis, cascades, faces
     nb.float32[::1], nb.int64[::1],  # fparams, iparams
     nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1],  # discs, reaches
     nb.float32[::1], nb.float32[::1],  # rotation cos, sin

@@ -1,10 +1,11 @@
-"""Texture kernels: an image's copy with sRGB decoded by table, one box-filtered mip level,
-and filtered look-ups.
+"""Texture kernels: an image's copy with sRGB decoded by table, one box-filtered mip level
+of a float or an 8-bit image, and filtered look-ups of either.
 
 References (what tests/core/test_kernels_textures.py holds these kernels to):
-``texture.srgb_to_linear`` (IEC 61966-2-1), the test's two-pass area-weighted box filter
-(Williams 1983), and bilinear / trilinear look-ups written out texel by texel with Cycles' wrap
-rules (``sample``, which gave bit for bit the results of the NumPy it replaced).
+``texture.srgb_to_linear`` and ``texture.linear_to_srgb`` (IEC 61966-2-1), the test's two-pass
+area-weighted box filter (Williams 1983), and bilinear / trilinear look-ups written out texel by
+texel with Cycles' wrap rules (``sample``, which gave bit for bit the results of the NumPy it
+replaced).
 """
 
 from __future__ import annotations
@@ -104,6 +105,96 @@ def halve(src, out):
                         + w2_ * rows[i, 2 * x + 2, c]
 
 
+CODE_BINS = 16384
+# the sRGB code of the linear value at the lower edge of each bin (IEC 61966-2-1): the nearest
+# code of a value in the bin is this one or one of the next few
+_edges = np.arange(CODE_BINS + 1) / CODE_BINS
+_BIN_CODES = np.rint(255.0 * np.where(_edges <= 0.0031308, 12.92 * _edges,
+                                      1.055 * _edges ** (1.0 / 2.4) - 0.055)).astype(np.int64)
+_BIN_CODES = np.maximum(_BIN_CODES - 1, 0)  # a code at or below every value of its bin
+
+
+@nb.njit(**_OPTIONS)
+def _taps(i, n):
+    """First input texel and the area weights of output texel i of an axis of n texels
+    (``halve``'s: the texel itself for n = 1, pairs for even n, three taps for odd n)."""
+    if n == 1:
+        return 0, np.float32(1.0), np.float32(0.0), np.float32(0.0)
+    if n % 2 == 0:
+        return 2 * i, np.float32(0.5), np.float32(0.5), np.float32(0.0)
+    m = (n - 1) // 2
+    return (2 * i, (np.float32(m) - np.float32(i)) / np.float32(n), np.float32(m / n),
+            (np.float32(i) + np.float32(1.0)) / np.float32(n))
+
+
+@nb.njit(**_OPTIONS)
+def _nearest_code(v, thresholds):
+    """The 8-bit sRGB code nearest to the linear value v: the number of ``thresholds`` (255,)
+    (the linear values halfway between codes, in encoded terms) below v, found from the code
+    below v's bin of ``CODE_BINS`` and counted up from there."""
+    if not v > np.float32(0.0):
+        return 0
+    code = _BIN_CODES[min(np.int64(v * np.float32(CODE_BINS)), CODE_BINS)]
+    while code < 255 and thresholds[code] < v:
+        code += 1
+    return code
+
+
+@nb.njit(**_OPTIONS)
+def _round_code(acc):
+    """A filtered code (float32) rounded to the nearest integer, ties to even, in [0, 255]."""
+    code = np.floor(acc + np.float32(0.5))
+    if code - acc == np.float32(0.5) and code % 2 == 1:  # ties to even: no drift
+        code -= np.float32(1.0)
+    return np.uint8(min(max(code, np.float32(0.0)), np.float32(255.0)))
+
+
+@nb.njit(nb.void(nb.uint8[:, :, ::1], nb.uint8[:, :, ::1], nb.int64, nb.float32[::1],
+                 nb.float32[::1]), **_OPTIONS)
+def halve_bytes(src, out, decode, lut, thresholds):
+    """``halve`` of an 8-bit level: ``src`` (h, w, C) uint8 to ``out`` (max(1, h // 2),
+    max(1, w // 2), C) with the same area weights, in float32. The first ``decode`` channels
+    hold sRGB codes: they are filtered as the linear values of ``lut`` (256,) and take the
+    nearest code again (``thresholds`` (255,): the linear values halfway between codes); the
+    others are filtered as they are and rounded to the nearest code, ties to even (so that
+    levels made of levels do not drift)."""
+    h, w, nc = src.shape
+    h2, w2 = out.shape[0], out.shape[1]
+    quarter = np.float32(0.25)
+    if h % 2 == 0 and w % 2 == 0:  # 2 x 2 blocks: the usual case, written out
+        for i in range(h2):
+            for x in range(w2):
+                for c in range(nc):
+                    a, b = src[2 * i, 2 * x, c], src[2 * i, 2 * x + 1, c]
+                    d, e = src[2 * i + 1, 2 * x, c], src[2 * i + 1, 2 * x + 1, c]
+                    if c < decode:
+                        v = quarter * ((lut[a] + lut[b]) + (lut[d] + lut[e]))
+                        out[i, x, c] = _nearest_code(v, thresholds)
+                    else:
+                        total = np.int64(a) + np.int64(b) + np.int64(d) + np.int64(e)
+                        q, r = total >> 2, total & 3
+                        out[i, x, c] = q + (1 if r > 2 or (r == 2 and q % 2 == 1) else 0)
+        return
+    for i in range(h2):
+        r0, wr0, wr1, wr2 = _taps(i, h)
+        rows = 1 if h == 1 else (2 if h % 2 == 0 else 3)
+        for x in range(w2):
+            c0, wc0, wc1, wc2 = _taps(x, w)
+            cols = 1 if w == 1 else (2 if w % 2 == 0 else 3)
+            for c in range(nc):
+                acc = np.float32(0.0)
+                for j in range(rows):
+                    wr = wr0 if j == 0 else (wr1 if j == 1 else wr2)
+                    line = np.float32(0.0)
+                    for m in range(cols):
+                        wc = wc0 if m == 0 else (wc1 if m == 1 else wc2)
+                        t = src[r0 + j, c0 + m, c]
+                        line += wc * (lut[t] if c < decode else np.float32(t))
+                    acc += wr * line
+                out[i, x, c] = (_nearest_code(acc, thresholds) if c < decode
+                                else _round_code(acc))
+
+
 REPEAT, EXTEND, CLIP, MIRROR = 0, 1, 2, 3
 EXTENSIONS = {"REPEAT": REPEAT, "EXTEND": EXTEND, "CLIP": CLIP, "MIRROR": MIRROR}
 
@@ -121,11 +212,11 @@ def _wrap(i, n, extension):
     return clamped, (extension != CLIP or (0 <= i < n))
 
 
-_SAMPLE = nb.void(
-    nb.float32[::1], nb.int64[:, ::1], nb.int64, nb.int64, nb.int64,  # texels, levels
+_SAMPLE = [nb.void(
+    texels, nb.int64[:, ::1], nb.int64, nb.int64, nb.int64,  # texels, levels
     nb.float64[::1], nb.float64[::1], nb.float64[::1], nb.boolean,  # u, v, lod, use lod
-    nb.int64, nb.int64, nb.float32[:, ::1],  # decode, associate, out (N, C)
-)
+    nb.int64, nb.int64, nb.float32[::1], nb.float32[:, ::1],  # decode, associate, table, out
+) for texels in (nb.float32[::1], nb.uint8[::1])]
 
 
 @nb.njit(nb.float32(nb.float32), **_OPTIONS)
@@ -166,22 +257,34 @@ def _finish(vals, straight, decode, weight, out):
         out[c] += weight * v
 
 
+@nb.njit(**_OPTIONS)
+def _value(texels, at, scale):
+    """One stored value as float32: an 8-bit code times ``scale`` (1 / 255), a float value
+    as it is (``scale`` 1)."""
+    return np.float32(texels[at]) * scale
+
+
 @nb.njit(_SAMPLE, **_OPTIONS)
 def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode, associate,
-           out):
+           table, out):
     """``texture.sample``: filtered look-ups of a texture whose mip level k (rows: offset into
     ``texels``, height, width) is stored row 0 at the top, C = ``channels``; ``mode`` LINEAR:
     bilinear at level 0 without ``use_lod``, else trilinear at ``lod`` (N,) (clamped to the
     levels, NaN: the coarsest); CLOSEST: the nearest texel of level 0; CUBIC: level 0 by the
     cubic B-spline of its 4 x 4 taps (as Cycles' Cubic), blended linearly with level 1 beyond
     lod 0. The first ``decode`` channels of level 0 are sRGB-encoded and decoded after the
-    interpolation, as Cycles does for 8-bit sRGB images (the other levels are linear). With
-    ``associate`` (RGBA only), the colour of every tap is multiplied by its alpha before it is
-    weighted, as Cycles filters images with alpha: 1 returns that premultiplied colour, 2
-    divides it by the filtered alpha again. UV as Blender's, v up; out (N, C) float32."""
+    interpolation, as Cycles does for 8-bit sRGB images. Float texels are read as they are
+    (``table`` empty) and their other levels are linear; 8-bit texels (uint8) are codes / 255,
+    and the first ``decode`` channels of their other levels are sRGB codes, each decoded by
+    ``table`` (256,) before it is filtered. With ``associate`` (RGBA only), the colour of
+    every tap is multiplied by its alpha before it is weighted, as Cycles filters images with
+    alpha: 1 returns that premultiplied colour, 2 divides it by the filtered alpha again. UV
+    as Blender's, v up; out (N, C) float32."""
     closest = mode == CLOSEST
     assoc = associate > 0 and channels == 4
     straight = assoc and associate == 2
+    codes = table.shape[0] > 0
+    scale = np.float32(1.0 / 255.0) if codes else np.float32(1.0)
     vals = np.empty(channels, np.float32)
     top = levels.shape[0] - 1
     for i in range(u.shape[0]):
@@ -198,9 +301,11 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
             row, row_ok = _wrap(np.int64(np.floor(vv * h)), h, extension)
             at = off + ((h - 1 - row) * w + col) * channels
             for c in range(channels):
-                t = texels[at + c] if col_ok and row_ok else np.float32(0.0)
-                if assoc and c < 3 and col_ok and row_ok:
-                    t *= texels[at + 3]
+                t = np.float32(0.0)
+                if col_ok and row_ok:
+                    t = _value(texels, at + c, scale)
+                    if assoc and c < 3:
+                        t *= _value(texels, at + 3, scale)
                 vals[c] = t
             _finish(vals, straight, decode, np.float32(1.0), out[i])
             continue
@@ -235,9 +340,10 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
                         for m in range(4):
                             col, col_ok = _wrap(np.int64(x0) - 1 + m, w, extension)
                             if col_ok:
-                                t = texels[base_row + col * channels + c]
+                                at = base_row + col * channels
+                                t = _value(texels, at + c, scale)
                                 if assoc and c < 3:
-                                    t *= texels[base_row + col * channels + 3]
+                                    t *= _value(texels, at + 3, scale)
                                 line += wx[m] * t
                         acc += wy[j] * line
                     vals[c] = acc
@@ -248,6 +354,7 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
                 r1, okr1 = _wrap(np.int64(y0) + 1, h, extension)
                 one = np.float32(1.0)
                 for c in range(channels):
+                    decoded = codes and k > 0 and c < decode
                     acc = np.float32(0.0)
                     for (row, row_ok, wy) in ((r0, okr0, one - ty), (r1, okr1, ty)):
                         base_row = off + (h - 1 - row) * w * channels
@@ -255,9 +362,11 @@ def sample(texels, levels, extension, channels, mode, u, v, lod, use_lod, decode
                             wgt = wx * wy
                             if not (row_ok and col_ok):
                                 wgt = np.float32(0.0)
-                            t = texels[base_row + col * channels + c]
+                            at = base_row + col * channels
+                            t = table[np.int64(texels[at + c])] if decoded \
+                                else _value(texels, at + c, scale)
                             if assoc and c < 3:
-                                t *= texels[base_row + col * channels + 3]
+                                t *= _value(texels, at + 3, scale)
                             acc += wgt * t
                     vals[c] = acc
             _finish(vals, straight, decode if k == 0 else 0, weight, out[i])
