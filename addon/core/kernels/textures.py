@@ -163,17 +163,19 @@ def halve_bytes(src, out, decode, lut, thresholds):
     quarter = np.float32(0.25)
     if h % 2 == 0 and w % 2 == 0:  # 2 x 2 blocks: the usual case, written out
         for i in range(h2):
+            top, bottom = src[2 * i], src[2 * i + 1]
+            row = out[i]
             for x in range(w2):
-                for c in range(nc):
-                    a, b = src[2 * i, 2 * x, c], src[2 * i, 2 * x + 1, c]
-                    d, e = src[2 * i + 1, 2 * x, c], src[2 * i + 1, 2 * x + 1, c]
-                    if c < decode:
-                        v = quarter * ((lut[a] + lut[b]) + (lut[d] + lut[e]))
-                        out[i, x, c] = _nearest_code(v, thresholds)
-                    else:
-                        total = np.int64(a) + np.int64(b) + np.int64(d) + np.int64(e)
-                        q, r = total >> 2, total & 3
-                        out[i, x, c] = q + (1 if r > 2 or (r == 2 and q % 2 == 1) else 0)
+                for c in range(nc):  # codes: the sum of four, halved twice, ties to even
+                    total = ((np.int32(top[2 * x, c]) + np.int32(top[2 * x + 1, c]))
+                             + (np.int32(bottom[2 * x, c]) + np.int32(bottom[2 * x + 1, c])))
+                    q = total >> 2
+                    r = total & 3
+                    row[x, c] = q + ((r > 2) | ((r == 2) & (q & 1 == 1)))
+                for c in range(decode):
+                    v = quarter * ((lut[top[2 * x, c]] + lut[top[2 * x + 1, c]])
+                                   + (lut[bottom[2 * x, c]] + lut[bottom[2 * x + 1, c]]))
+                    row[x, c] = _nearest_code(v, thresholds)
         return
     for i in range(h2):
         r0, wr0, wr1, wr2 = _taps(i, h)
