@@ -41,7 +41,8 @@ def image_codes(image, release: bool = False) -> np.ndarray | None:
     without the float copy ``Image.pixels`` makes (four times the image): Blender writes its
     byte buffer to an uncompressed Targa file, which is read back. Blender writes the codes of
     images in sRGB or a data colour space unchanged through a Standard view; for other colour
-    spaces, float images or an unexpected file it returns None.
+    spaces, float images, a file Blender cannot write or an unexpected one it returns None.
+    Call it on Blender's main thread: it adds and removes a scene.
 
     release: free Blender's own copy of the pixels once written (an image that was not in
              memory before), before the file is read
@@ -53,9 +54,14 @@ def image_codes(image, release: bool = False) -> np.ndarray | None:
     width, height = image.size
     scene = bpy.data.scenes.new("BO2 image codes")
     try:
-        scene.view_settings.view_transform = "Standard"
-        scene.view_settings.look = "None"
-        set_format(scene.render.image_settings, "TARGA_RAW", "8", "RGBA")
+        try:  # no view, look, dither or display that would change a code
+            scene.display_settings.display_device = "sRGB"
+            scene.view_settings.view_transform = "Standard"
+            scene.view_settings.look = "None"
+            scene.render.dither_intensity = 0.0
+            set_format(scene.render.image_settings, "TARGA_RAW", "8", "RGBA")
+        except (TypeError, ValueError):  # a colour configuration without them
+            return None
         with tempfile.TemporaryDirectory() as tmp:
             path = Path(tmp) / "codes.tga"
             try:

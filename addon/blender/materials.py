@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import threading
 from collections import OrderedDict
 
 import bpy
@@ -28,29 +29,38 @@ from . import images
 from .node_groups import is_bo2_material_node
 
 _cache: OrderedDict[tuple, tuple] = OrderedDict()  # image key -> (texture, digest), oldest first
+_lock = threading.Lock()  # the viewport and a final render may load images at once
 CACHE_BYTES = 2 << 30  # textures kept for later renders, least recently used dropped beyond it
 RAMP_TABLE_SIZE = 257  # Cycles' RAMP_TABLE_SIZE + 1 entries, at i / 256
 _GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
 
 
+def _on_disk(image) -> bool:
+    return image.source == "FILE" and image.packed_file is None
+
+
 def _image_key(image) -> tuple:
-    """What identifies an image's pixels: for an image file on disk its path, size and
-    modification time (the image need not be loaded); otherwise its size and type, which
-    load it."""
+    """What identifies an image's pixels. An image file on disk that is not in memory: its
+    path, size and modification time (read without loading it); an image in memory (edited,
+    packed, generated, or loaded by Blender before): its size, type and generator, which load
+    it. The two never match, so pixels read from memory are not taken for the file's."""
     common = (image.name_full, image.filepath_raw, image.colorspace_settings.name,
               image.alpha_mode, image.source)
-    if image.source == "FILE" and image.packed_file is None:
+    if _on_disk(image) and not image.has_data:
         try:
             stat = os.stat(bpy.path.abspath(image.filepath, library=image.library))
-            return (*common, stat.st_size, stat.st_mtime_ns)
+            return (*common, "file", stat.st_size, stat.st_mtime_ns)
         except (OSError, ValueError):
             pass
-    return (*common, tuple(image.size), bool(image.is_float))
+    generator = ((image.generated_type, tuple(image.generated_color),
+                  image.use_generated_float) if image.source == "GENERATED" else ())
+    return (*common, "memory", tuple(image.size), bool(image.is_float), *generator)
 
 
-def _keep(key: tuple, tex, digest: str) -> None:
-    """Cache ``tex`` under ``key``, dropping the least recently used textures beyond
-    ``CACHE_BYTES`` (a texture a material still holds lives on with it)."""
+def _keep(key: tuple, tex, digest: str | None) -> None:
+    """Cache ``tex`` (and the digest of an edited image's pixels) under ``key``, dropping the
+    least recently used textures beyond ``CACHE_BYTES`` (a texture a material still holds
+    lives on with it)."""
     _cache[key] = (tex, digest)
     _cache.move_to_end(key)
     total = sum(t.nbytes for t, _ in _cache.values())
@@ -63,18 +73,23 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
     """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
     images stay 8-bit (``images.image_codes``), float images float32. Prepared once per image
     and settings and reused across renders while it is unchanged (an image edited in Blender
-    and not saved is compared by a digest of its pixels). An image that was not in memory
-    before is released again once read."""
+    and not saved is compared by a digest of its pixels). An image file that was not in
+    memory before is released again once read (on Blender's main thread)."""
     if image is None:
         warnings.append(f"{where}: the Image Texture node has no image")
         return None
-    loaded_here = not image.has_data
+    with _lock:
+        return _load(image, extension, interpolation, warnings, where)
+
+
+def _load(image, extension, interpolation, warnings, where):
+    main = threading.current_thread() is threading.main_thread()
+    release = main and _on_disk(image) and not image.has_data
     key = _image_key(image) + (extension, interpolation)
     cached = _cache.get(key)
-    if cached is not None and not image.is_dirty:
+    dirty = image.is_dirty
+    if cached is not None and not dirty:
         _cache.move_to_end(key)
-        if loaded_here and image.has_data:
-            image.buffers_free()
         return cached[0]
     width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
@@ -84,18 +99,22 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
     is_float = image.is_float
     # Byte images hold encoded values; float images are already scene-linear in memory.
     srgb = not is_float and image.colorspace_settings.name == "sRGB"
-    pixels = images.image_codes(image, release=loaded_here)
+    # Blender writes the codes of an image only on its main thread (a final render in the UI
+    # runs on another)
+    pixels = images.image_codes(image, release=release) if main else None
     if pixels is None:
         pixels = images.image_pixels(image)
         if not is_float:  # byte images hold codes / 255
             pixels = np.rint(pixels * np.float32(255.0)).astype(np.uint8)
-    if loaded_here and image.has_data:
+    if release and image.has_data:
         image.buffers_free()  # (reading the image's properties would load it again)
-    rows = pixels[::-1] if pixels[::-1].flags.c_contiguous else np.ascontiguousarray(pixels)
-    digest = hashlib.blake2b(memoryview(rows).cast("B"), digest_size=16).hexdigest()
-    if cached is not None and cached[1] == digest:
-        _cache.move_to_end(key)
-        return cached[0]
+    digest = None
+    if dirty:  # an edited image is compared by its pixels
+        rows = pixels[::-1] if pixels[::-1].flags.c_contiguous else np.ascontiguousarray(pixels)
+        digest = hashlib.blake2b(memoryview(rows).cast("B"), digest_size=16).hexdigest()
+        if cached is not None and cached[1] == digest:
+            _cache.move_to_end(key)
+            return cached[0]
     tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
                                interpolation=interpolation, name=image.name)
     _keep(key, tex, digest)

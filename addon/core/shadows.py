@@ -125,8 +125,8 @@ class ShadowMap:
     tan_half:   tangent of half the field of view of a perspective face
     near:       near plane of perspective faces, metres
     rects:      (F, 3) float64 cascade squares (cx, cy, half side) in the sun's (R, U) plane, m
-    z_min:      (F,) float64 light-space depth of the nearest caster in each cascade's square
-                (suns), metres
+    z_min:      (F,) float64 light-space depth of the nearest caster in each cascade's square,
+                less a small pad (suns), metres
     light_size: light radius R in metres (point, spot, area), or tan(angle / 2) (sun)
     splits:     (F + 1,) float64 camera view depths bounding the cascades, metres (sun)
     min_mips:   the first column of ``mips`` as one (F, side, side) view per level
@@ -331,7 +331,7 @@ def _camera_depth_range(camera: Camera, tris: np.ndarray):
 
     w2c = np.asarray(camera.world_to_camera, np.float64)
     rows = np.concatenate([(proj @ w2c)[[0, 1, 3]], -w2c[2:3]])  # clip x, y, w; view depth
-    lo, hi = kernels.clipped_depths(tris, rows, n)
+    lo, hi = kernels.clipped_depths(np.ascontiguousarray(tris, np.float64), rows, n)
     return corners, n, f, max(n, lo), min(f, hi)
 
 
@@ -341,24 +341,21 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     The view-depth range the camera sees of the casters (``_camera_depth_range``) is split
     with the practical scheme z_i = l z0 (z1/z0)^(i/C) + (1 - l)(z0 + (z1 - z0) i/C)
     (Zhang et al. 2006), with C = ceil(log(z1/z0) / log(CASCADE_RATIO)) in [1, MAX_CASCADES]
-    (1 for an orthographic camera); l = SPLIT_LAMBDA, or 1 (logarithmic) when the range needs
-    more than MAX_CASCADES. Each slice's eight corners are projected onto the light plane;
-    their bounding rectangle, clipped to the casters' extent, becomes a square with a 4-texel
-    margin.
+    (1 for an orthographic camera); l = SPLIT_LAMBDA, rising linearly to 1 (logarithmic) as
+    the range needs from MAX_CASCADES to MAX_CASCADES + 1 cascades. Each slice's eight
+    corners are projected onto the light plane; their bounding rectangle, clipped to the
+    casters' extent, becomes a square with a 4-texel margin.
     """
     pts = tris.reshape(-1, 3)
     corners, n, f, z0, z1 = _camera_depth_range(camera, tris)
     if not z1 >= z0:  # (a flat receiver facing an orthographic camera: one depth)
         return np.zeros((0, 3)), np.zeros(0)
     z0 = max(z0, 1e-6)
-    if camera.orthographic:
-        count = 1
-    else:
-        needed = int(np.ceil(np.log(z1 / z0) / np.log(CASCADE_RATIO)))
-        count = int(np.clip(needed, 1, MAX_CASCADES))
-    # a range longer than the cascades can hold is split logarithmically: the linear part
-    # would give the first cascade most of the range
-    weight = 1.0 if not camera.orthographic and needed > MAX_CASCADES else SPLIT_LAMBDA
+    needed = 0.0 if camera.orthographic else float(np.log(z1 / z0) / np.log(CASCADE_RATIO))
+    count = int(np.clip(np.ceil(needed), 1, MAX_CASCADES))
+    # a range longer than the cascades hold turns logarithmic over one more cascade's ratio:
+    # the linear part would give the first cascade most of a long range
+    weight = SPLIT_LAMBDA + (1.0 - SPLIT_LAMBDA) * float(np.clip(needed - MAX_CASCADES, 0, 1))
     i = np.arange(count + 1) / count
     splits = weight * z0 * (z1 / z0) ** i + (1.0 - weight) * (z0 + (z1 - z0) * i)
     splits[0], splits[-1] = z0, z1
@@ -405,7 +402,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         rows[0, :3], rows[0, 3] = basis[0], -cx
         rows[1, :3], rows[1, 3] = basis[1], -cy
         rows[2, 3], rows[3, :3] = half, basis[2]
-        z_lo, z_hi = kernels.clipped_depths(tris, rows, -np.inf)
+        z_lo, z_hi = kernels.clipped_depths(np.ascontiguousarray(tris), rows, -np.inf)
         if not z_lo <= z_hi:
             z_lo, z_hi = 0.0, 1.0
         pad = 1e-3 * (z_hi - z_lo) + 1e-4

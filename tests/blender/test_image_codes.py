@@ -18,16 +18,21 @@ RNG = np.random.default_rng(11)
 ALPHA_MODES = ("STRAIGHT", "PREMUL", "CHANNEL_PACKED", "NONE")
 
 
-def png(tmp_path, width=37, height=23, name="codes.png"):
-    """An 8-bit RGBA PNG of random codes written by Blender, and the codes (row 0 at the
-    top)."""
+def png(tmp_path, width=37, height=23, name="codes.png", mode="RGBA"):
+    """An 8-bit PNG (``mode`` RGBA, RGB or BW) of random codes written by Blender, and the
+    codes as Blender holds them (RGBA, row 0 at the top)."""
     codes = RNG.integers(0, 256, (height, width, 4)).astype(np.uint8)
+    if mode != "RGBA":
+        codes[..., 3] = 255
+    if mode == "BW":
+        codes[..., 1] = codes[..., 2] = codes[..., 0]
     image = bpy.data.images.new("writer", width, height, alpha=True)
     image.pixels.foreach_set((codes[::-1] / np.float32(255.0)).astype(np.float32).ravel())
     path = tmp_path / name
-    image.filepath_raw = str(path)
-    image.file_format = "PNG"
-    image.save()
+    scene = bpy.context.scene
+    images.set_format(scene.render.image_settings, "PNG", "8", mode)
+    scene.view_settings.view_transform = "Standard"
+    image.save_render(filepath=str(path), scene=scene)
     bpy.data.images.remove(image)
     return path, codes
 
@@ -50,6 +55,15 @@ def test_codes_are_the_codes_blender_holds(empty_scene, tmp_path, colorspace, al
     if alpha_mode in ("STRAIGHT", "CHANNEL_PACKED"):
         np.testing.assert_array_equal(got, codes)  # what was written
     assert len(bpy.data.scenes) == scenes and not image.is_dirty
+
+
+@pytest.mark.parametrize("mode", ["RGB", "BW"])
+def test_codes_of_images_without_alpha(empty_scene, tmp_path, mode):
+    path, codes = png(tmp_path, mode=mode)
+    image = bpy.data.images.load(str(path), check_existing=False)
+    got = images.image_codes(image)
+    np.testing.assert_array_equal(got, pixel_codes(image))
+    np.testing.assert_array_equal(got, codes)
 
 
 def test_codes_of_generated_and_edited_images(empty_scene):
@@ -149,3 +163,15 @@ def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monke
     image.reload()
     second = materials.load_image(image, "REPEAT", "Linear", [], "t")
     assert len(made) == 2 and not np.array_equal(second.image, codes)
+    # an edit, rendered, then taken back by Reload: the file's pixels again
+    image.size[0]  # noqa: B018 (loads it)
+    px = np.empty(image.size[0] * image.size[1] * 4, np.float32)
+    image.pixels.foreach_get(px)
+    image.pixels.foreach_set(np.zeros_like(px))
+    assert image.is_dirty
+    edited = materials.load_image(image, "REPEAT", "Linear", [], "t")
+    assert not edited.image[..., :3].any()
+    image.reload()
+    assert not image.is_dirty
+    again = materials.load_image(image, "REPEAT", "Linear", [], "t")
+    np.testing.assert_array_equal(again.image, second.image)

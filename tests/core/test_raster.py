@@ -652,3 +652,34 @@ def test_rasterizing_on_threads_at_once_gives_the_serial_fragments():
     for i, frags in enumerate(threaded):
         np.testing.assert_array_equal(frags.tri, serial[i % len(inputs)].tri)
         np.testing.assert_array_equal(frags.bary, serial[i % len(inputs)].bary)
+
+
+def test_clipped_depths_bound_the_points_inside_the_region():
+    """``kernels.raster.clipped_depths`` against dense samples of each triangle: the depths of
+    the sampled points inside |x| <= w, |y| <= w, depth >= near lie within its range, and its
+    range is theirs to within the sampling step; nothing inside gives (inf, -inf)."""
+    from bo2_lighting.addon.core.kernels import raster as kernels
+
+    rng = np.random.default_rng(21)
+    rows = np.array([[1.2, 0.1, 0.3, 0.2], [0.0, 1.5, -0.2, 0.1], [0.1, 0.0, -1.0, 0.0],
+                     [0.05, 0.0, -1.0, 0.3]])  # x, y, w, depth
+    near = 0.5
+    n = 120
+    i, j = np.meshgrid(np.arange(n + 1), np.arange(n + 1), indexing="ij")
+    keep = i + j <= n
+    bary = np.stack([i[keep], j[keep], n - i[keep] - j[keep]], 1) / n
+    for _ in range(60):
+        tri = rng.uniform(-3.0, 3.0, (1, 3, 3))
+        tri[0, :, 2] -= rng.uniform(0.0, 4.0)
+        lo, hi = kernels.clipped_depths(np.ascontiguousarray(tri), rows, near)
+        pts = bary @ tri[0]
+        x, y, w, depth = (pts @ rows[:, :3].T + rows[:, 3]).T
+        inside = (np.abs(x) <= w) & (np.abs(y) <= w) & (depth >= near)
+        if not inside.any():
+            assert not lo <= hi or hi - lo < 0.2  # (a sliver between the samples)
+            continue
+        step = np.ptp(tri[0] @ rows[3, :3]) / n + 1e-9
+        assert lo <= depth[inside].min() + 1e-9 and hi >= depth[inside].max() - 1e-9
+        assert depth[inside].min() - lo <= 2 * step and hi - depth[inside].max() <= 2 * step
+    far = np.ascontiguousarray(np.full((1, 3, 3), 100.0))  # all beyond |x| <= w
+    assert kernels.clipped_depths(far, rows, near) == (np.inf, -np.inf)

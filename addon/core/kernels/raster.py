@@ -437,8 +437,10 @@ def clipped_depths(points, rows, near):
     centre, w its half side, depth along the light, ``near`` -inf). Each triangle is clipped
     by the five planes (Sutherland and Hodgman 1974). (inf, -inf) when nothing is inside."""
     lo, hi = np.inf, -np.inf
-    a = np.empty((9, 4))  # a triangle cut by five planes has at most 8 corners
-    b = np.empty((9, 4))
+    # a triangle cut by five planes has at most 8 corners; each cut at most doubles a polygon
+    # whatever the rounding, so 3 * 2^5 rows always hold it
+    a = np.empty((96, 4))
+    b = np.empty((96, 4))
     for t in range(points.shape[0]):
         inside = True
         for c in range(3):

@@ -105,7 +105,7 @@ def _to_face(fx, fy, fz, sign, x, y, z):
 @nb.njit(**_OPTIONS)
 def _find_cascade(rects, x, y):
     """Finest cascade whose square holds the light-plane point (x, y), or -1; ``rects`` rows
-    (cx, cy, half side, depth of the cascade's nearest caster) (``shadows._cascades``)."""
+    (cx, cy, half side, z_min) (``shadows._cascades``)."""
     for c in range(rects.shape[0]):
         if abs(x - rects[c, 0]) <= rects[c, 2] and abs(y - rects[c, 1]) <= rects[c, 2]:
             return c
