@@ -36,7 +36,7 @@ def face_camera(position, face: int, size: int, near: float, far: float) -> Came
 
 class Capture:
     """Renders cube maps of one scene at many points, its geometry and shadow maps prepared
-    once for every view.
+    once for every view (the shadow maps only when a cube map is first rendered).
 
     scene: the scene (its camera and probes are ignored); its settings' samples and filter
            apply, the film is opaque and the border off
@@ -47,13 +47,18 @@ class Capture:
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None)
         self.scene = dataclasses.replace(scene, settings=settings, probes=None)
         self.warn, self.should_stop = warn, should_stop
-        self._frame = None  # geometry and shadow maps, prepared once for every view
+        self._frame = None  # the geometry, prepared once for every view
+        self._shadowed = False  # its shadow maps built (``cube`` needs them, ``surfaces`` not)
 
     def cube(self, position, size: int, near: float, far: float,
              probes: Probes | None = None) -> np.ndarray:
         """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres, between
         the clip distances ``near`` and ``far`` (metres), lit indirectly by ``probes``."""
         cams = self._cameras(position, size, near, far)
+        if not self._shadowed:
+            self._frame.shadow_maps = pipeline.build_shadow_maps(self._frame, self.should_stop,
+                                                                 fit_shadows=False)
+            self._shadowed = True
         frame = dataclasses.replace(self._frame, scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
         faces = pipeline.render_views(frame.scene, cams, should_stop=self.should_stop,
@@ -87,12 +92,14 @@ class Capture:
         return Surfaces(ratio, nearest[1], nearest[0])
 
     def _cameras(self, position, size: int, near: float, far: float) -> list[Camera]:
-        """The six face cameras at ``position``; the geometry prepared on first use."""
+        """The six face cameras at ``position``; the geometry prepared on first use, without
+        shadow maps."""
         far = max(far, 2.0 * near)
         cams = [face_camera(position, face, size, near, far) for face in range(6)]
         if self._frame is None:
             scene = dataclasses.replace(self.scene, camera=cams[0])
-            self._frame = pipeline.prepare(scene, self.warn, self.should_stop, fit_shadows=False)
+            self._frame = pipeline.prepare(scene, self.warn, self.should_stop,
+                                           shadow_maps=[None] * len(scene.lights))
         return cams
 
 

@@ -12,13 +12,22 @@ Independent values:
   E (1 + rho + ... + rho^(n-1)), whose limit is E / (1 - rho).
 """
 
+import dataclasses
 import math
 
 import numpy as np
 
 from bo2_lighting.addon.core import bake, capture
 from bo2_lighting.addon.core import probes as cp
-from bo2_lighting.addon.core.scene import Camera, Material, MeshBatch, RenderSettings, Scene, World
+from bo2_lighting.addon.core.scene import (
+    Camera,
+    Light,
+    Material,
+    MeshBatch,
+    RenderSettings,
+    Scene,
+    World,
+)
 
 C00 = 2.0 * math.sqrt(math.pi)
 
@@ -188,3 +197,21 @@ def test_bounces_in_a_closed_white_box_converge_to_the_geometric_series():
     limit = emission / (1 - rho)
     gaps = limit - np.array(values)
     assert (gaps > 0).all() and (gaps[1:] < gaps[:-1]).all()
+
+
+def test_surfaces_build_no_shadow_maps():
+    """The validity rays need the geometry only: a Capture asked for surfaces builds no shadow
+    map (a Cycles bake renders its own light), and a cube map rendered afterwards has its
+    shadows, equal to a fresh Capture's."""
+    floor = cube((-3.0, -3.0, -1.3), (3.0, 3.0, -1.0))
+    tris = np.concatenate([cube((-0.3, -0.3, -1.0), (0.3, 0.3, -0.4)), floor])
+    light = Light(kind="POINT", color=np.full(3, 50.0, np.float32),
+                  position=np.array([0.2, 0.1, 1.0]), shadow=True, radius=0.05)
+    scene = dataclasses.replace(scene_of(tris, grey()), lights=[light])
+    grab = capture.Capture(scene)
+    grab.surfaces(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
+    assert grab._frame.shadow_maps == [None]
+    later = grab.cube(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
+    assert grab._frame.shadow_maps[0] is not None
+    fresh = capture.Capture(scene).cube(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
+    np.testing.assert_array_equal(later, fresh)
