@@ -72,7 +72,8 @@ def _keep(key: tuple, tex, digest: str | None) -> None:
 def load_image(image, extension: str, interpolation: str, warnings: list[str], where: str):
     """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
     images stay 8-bit (``images.image_codes``), float images float32. Prepared once per image
-    and settings and reused across renders while it is unchanged (an image edited in Blender
+    (its nodes' extensions and interpolations share its levels) and reused across renders
+    while it is unchanged (an image edited in Blender
     and not saved is compared by a digest of its pixels). An image file that was not in
     memory before is released again once read (on Blender's main thread)."""
     if image is None:
@@ -85,12 +86,12 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
 def _load(image, extension, interpolation, warnings, where):
     main = threading.current_thread() is threading.main_thread()
     release = main and _on_disk(image) and not image.has_data
-    key = _image_key(image) + (extension, interpolation)
+    key = _image_key(image)
     cached = _cache.get(key)
     dirty = image.is_dirty
     if cached is not None and not dirty:
         _cache.move_to_end(key)
-        return cached[0]
+        return cached[0].sampled_as(extension, interpolation)
     width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
         warnings.append(f"{where}: image '{image.name}' could not be loaded "
@@ -114,7 +115,7 @@ def _load(image, extension, interpolation, warnings, where):
         digest = hashlib.blake2b(memoryview(rows).cast("B"), digest_size=16).hexdigest()
         if cached is not None and cached[1] == digest:
             _cache.move_to_end(key)
-            return cached[0]
+            return cached[0].sampled_as(extension, interpolation)
     tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
                                interpolation=interpolation, name=image.name)
     _keep(key, tex, digest)

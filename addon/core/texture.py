@@ -46,11 +46,13 @@ convention), while UV v grows upwards, so v = 1 is row 0.
 
 from __future__ import annotations
 
+import copy
 import functools
 import hashlib
 import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -122,6 +124,21 @@ def linear_to_srgb(x):
 # Textures and mip chains
 
 
+@dataclass
+class _Fill:
+    pending: bool
+    lock: threading.Lock
+
+
+def _check_sampling(extension: str, interpolation: str) -> None:
+    if extension not in EXTENSIONS:
+        raise ValueError(f"unknown texture extension {extension!r}, expected one of {EXTENSIONS}")
+    if interpolation not in INTERPOLATIONS:
+        raise ValueError(
+            f"unknown texture interpolation {interpolation!r}, expected one of {INTERPOLATIONS}"
+        )
+
+
 class Texture:
     """An image texture and its mip chain, filled when a look-up first needs it.
 
@@ -147,8 +164,19 @@ class Texture:
         self.interpolation = interpolation
         self.name = name
         self.encoded = encoded
-        self._pending = pending and len(self._levels) > 1
-        self._lock = threading.Lock()
+        # whether levels 1, 2, ... are still to be filled, and the lock of filling them:
+        # shared with the textures of ``sampled_as``
+        self._fill = _Fill(pending and len(self._levels) > 1, threading.Lock())
+
+    def sampled_as(self, extension: str, interpolation: str) -> Texture:
+        """This texture read with another extension and interpolation: the same levels (one
+        chain in memory, filled once); itself when they are its own."""
+        if (extension, interpolation) == (self.extension, self.interpolation):
+            return self
+        _check_sampling(extension, interpolation)
+        other = copy.copy(self)
+        other.extension, other.interpolation = extension, interpolation
+        return other
 
     @property
     def mips(self) -> list[np.ndarray]:
@@ -164,7 +192,7 @@ class Texture:
     @property
     def pending(self) -> bool:
         """Whether levels 1, 2, ... are still to be filled."""
-        return self._pending
+        return self._fill.pending
 
     @property
     def codes(self) -> bool:
@@ -174,12 +202,12 @@ class Texture:
     def fill_mips(self) -> None:
         """Fill levels 1, 2, ... once, each the area-weighted box filter of the one above
         (``kernels.textures.halve``, ``halve_bytes`` for 8-bit codes); safe across threads."""
-        if not self._pending:
+        if not self._fill.pending:
             return
         from .kernels import textures as kernels
 
-        with self._lock:
-            if not self._pending:
+        with self._fill.lock:
+            if not self._fill.pending:
                 return
             levels = self._levels
             for k, (above, level) in enumerate(zip(levels[:-1], levels[1:], strict=True)):
@@ -187,7 +215,7 @@ class Texture:
                     kernels.halve_bytes(above, level, self.encoded, _SRGB_LUT, _SRGB_HALFWAY)
                 else:
                     kernels.halve(self.linear(0) if k == 0 and self.encoded else above, level)
-            self._pending = False
+            self._fill.pending = False
 
     def linear(self, k: int = 0) -> np.ndarray:
         """Mip level k, (h_k, w_k, C) float32 scene-linear (sRGB codes and encoded channels
@@ -308,12 +336,7 @@ def make_texture(
     interpolation: one of ``INTERPOLATIONS``
     returns:       Texture with straight-alpha levels
     """
-    if extension not in EXTENSIONS:
-        raise ValueError(f"unknown texture extension {extension!r}, expected one of {EXTENSIONS}")
-    if interpolation not in INTERPOLATIONS:
-        raise ValueError(
-            f"unknown texture interpolation {interpolation!r}, expected one of {INTERPOLATIONS}"
-        )
+    _check_sampling(extension, interpolation)
     from .kernels import textures as kernels
 
     image = np.asarray(pixels)

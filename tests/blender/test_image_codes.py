@@ -175,3 +175,19 @@ def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monke
     assert not image.is_dirty
     again = materials.load_image(image, "REPEAT", "Linear", [], "t")
     np.testing.assert_array_equal(again.image, second.image)
+
+
+def test_settings_of_one_image_share_its_levels(addon, tmp_path):
+    """Two nodes reading one image with other extensions and interpolations: one chain in
+    memory and in the cache, filled once for both."""
+    from bo2_lighting.addon.core import texture
+
+    path, _ = png(tmp_path, 64, 32, name="shared.png")
+    image = bpy.data.images.load(str(path), check_existing=False)
+    a = materials.load_image(image, "REPEAT", "Linear", [], "t")
+    b = materials.load_image(image, "CLIP", "Closest", [], "t")
+    assert (b.extension, b.interpolation) == ("CLIP", "Closest")
+    assert np.shares_memory(a.image, b.image) and a.pending and b.pending
+    assert len([k for k in materials._cache if k[0] == image.name_full]) == 1
+    texture.sample(b.sampled_as("REPEAT", "Linear"), np.full((4, 2), 0.5), np.full(4, 2.0))
+    assert not a.pending and not b.pending
