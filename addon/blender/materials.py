@@ -73,9 +73,9 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
     """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
     images stay 8-bit (``images.image_codes``), float images float32. Prepared once per image
     (its nodes' extensions and interpolations share its levels) and reused across renders
-    while it is unchanged (an image edited in Blender
-    and not saved is compared by a digest of its pixels). An image file that was not in
-    memory before is released again once read (on Blender's main thread)."""
+    while it is unchanged (an image edited in Blender and not saved is compared by a digest
+    of its pixels). An image file that was not in memory before is released again once read
+    (on Blender's main thread)."""
     if image is None:
         warnings.append(f"{where}: the Image Texture node has no image")
         return None

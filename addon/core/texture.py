@@ -277,11 +277,10 @@ class Texture:
 
     @functools.cached_property
     def digest(self) -> str:
-        """A digest of level 0's pixels and type, computed once: equal images have equal
-        digests."""
-        h = hashlib.blake2b(str(self._levels[0].dtype).encode(), digest_size=16)
-        h.update(memoryview(np.ascontiguousarray(self._levels[0])).cast("B"))
-        return h.hexdigest()
+        """A digest of level 0's stored values, computed once: equal images have equal
+        digests (a float image's is the one bakes have always recorded)."""
+        level = np.ascontiguousarray(self._levels[0])
+        return hashlib.blake2b(memoryview(level).cast("B"), digest_size=16).hexdigest()
 
 
 def _chain(shape, dtype=np.float32) -> list[np.ndarray]:
