@@ -86,13 +86,20 @@ def _positive(text: str) -> int:
     return value
 
 
+def too_many_samples(value: int, engine: str) -> str | None:
+    """Why ``value`` samples per pixel are refused for ``engine`` ("bo2" or "cycles"), or
+    None when it takes them."""
+    if value <= MAX_SAMPLES[engine]:
+        return None
+    name = "BO2 Lighting" if engine == "bo2" else "Cycles"
+    return f"{value} samples is more than {name} takes ({MAX_SAMPLES[engine]})"
+
+
 def _samples(engine: str):
     def parse(text: str) -> int:
         value = _positive(text)
-        if value > MAX_SAMPLES[engine]:
-            raise argparse.ArgumentTypeError(f"{value} samples is more than "
-                                             f"{'BO2 Lighting' if engine == 'bo2' else 'Cycles'}"
-                                             f" takes ({MAX_SAMPLES[engine]})")
+        if reason := too_many_samples(value, engine):
+            raise argparse.ArgumentTypeError(reason)
         return value
     return parse
 

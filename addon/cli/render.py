@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from ..blender import headless, interrupt
-from . import MAX_SAMPLES, CommandError, load_blend, patterns, usage_error
+from . import CommandError, load_blend, patterns, too_many_samples, usage_error
 from .terminal import BatchProgress, quiet_blender
 
 
@@ -71,10 +71,9 @@ def _write_summary(path: Path, args, images: list[dict], seconds: float,
 
 def run(args) -> int:
     """Render frames of .blend files, one image each; the others go on when one fails."""
-    most = MAX_SAMPLES[args.engine]
-    if args.samples and args.samples > most:
-        usage_error(f"argument --samples: {args.samples} samples is more than "
-                    f"{'BO2 Lighting' if args.engine == 'bo2' else 'Cycles'} takes ({most})")
+    # --samples is checked here, where the engine is known
+    if args.samples and (reason := too_many_samples(args.samples, args.engine)):
+        usage_error(f"argument --samples: {reason}")
     try:
         patterns.check_pattern(args.output)
     except ValueError as exc:

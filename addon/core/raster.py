@@ -359,9 +359,9 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
     )
 
 
-_last_setup = threading.local()  # .entry: (clip, cull, width, height, guard_bits, depth_plane,
-# _Setup) of the
-# last input of this thread (tiles rendered at once each keep their own)
+# .entry: (clip, cull, width, height, guard_bits, depth_plane, _Setup) of the last input of
+# this thread (tiles rendered at once each keep their own)
+_last_setup = threading.local()
 
 
 def _cached_setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
