@@ -396,7 +396,7 @@ def sample(texture: Texture, uv, lod=None, associate: int = 0) -> np.ndarray:
     lod = np.require(np.broadcast_to(np.asarray(0.0 if lod is None else lod, np.float64), (n,)),
                      np.float64, ["C", "W"])
     mode = kernels.FILTERS.get(texture.interpolation, kernels.LINEAR)
-    if use_lod and mode != kernels.CLOSEST and not (lod <= 0.0).all():
+    if texture.pending and use_lod and mode != kernels.CLOSEST and not (lod <= 0.0).all():
         texture.fill_mips()  # some look-up reaches level 1 (NaN: the coarsest level)
     out = np.empty((n, texture.channels), np.float32)
     kernels.sample(texels, levels, kernels.EXTENSIONS.get(texture.extension, kernels.EXTEND),
