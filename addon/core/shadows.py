@@ -466,7 +466,7 @@ def _rasterize_casters(clip, res: int, cutout, face: int, weights: bool):
     through stochastically (``raster.dither`` with ``raster.ordered_thresholds``), so that the
     filtered shadow of a surface of alpha a is a dark."""
     frags = raster.rasterize(clip, res, res, weights=weights or cutout is not None)
-    if cutout is None:
+    if cutout is None or frags.keys is None:  # (no keys: nothing drawn, a face with no caster)
         return frags
     fades, alpha = cutout
     tri, bary, depth = (frags.tri.reshape(-1).copy(), frags.bary.reshape(-1, 3).copy(),

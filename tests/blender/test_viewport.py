@@ -8,7 +8,7 @@ that ``RenderEngine.view_update`` reads). Drawing needs a GPU and is not run her
 import bpy
 import numpy as np
 import pytest
-from util import render_pixels, set_world_color
+from util import camera_of, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import viewport
 from bo2_lighting.addon.core import pipeline
@@ -60,14 +60,6 @@ def build(scene):
     bpy.context.view_layer.update()
 
 
-def camera_of(scene):
-    """The scene camera as the viewport's region camera would be in camera view."""
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    cam = scene.camera.evaluated_get(depsgraph)
-    proj = cam.calc_matrix_camera(depsgraph, x=W, y=H)
-    return core_viewport.view_camera(cam.matrix_world.inverted(), proj, W, H)
-
-
 @pytest.fixture
 def view(addon):
     v = viewport.Viewport()
@@ -78,7 +70,7 @@ def view(addon):
 def open_view(view, scene):
     """``view`` opened on ``scene`` through its camera, rendered to the end."""
     view.sync(bpy.context.evaluated_depsgraph_get())
-    view.set_camera(camera_of(scene))
+    view.set_camera(camera_of(scene, W, H))
     assert view.session.wait(120)
 
 

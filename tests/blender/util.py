@@ -95,3 +95,14 @@ def render_passes(scene, engine: str, names, samples: int = 16) -> dict:
         images.save_render_result(scene, path, "OPEN_EXR_MULTILAYER", "32", "RGBA",
                                   follow_scene=True)
         return images.read_exr_passes(path, layer.name, list(names))
+
+
+def camera_of(scene, width: int, height: int):
+    """The scene camera as the viewport's region camera would be in camera view, for a region
+    of ``width`` x ``height`` pixels (``core.viewport.view_camera``)."""
+    from bo2_lighting.addon.core import viewport
+
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    cam = scene.camera.evaluated_get(depsgraph)
+    proj = cam.calc_matrix_camera(depsgraph, x=width, y=height)
+    return viewport.view_camera(cam.matrix_world.inverted(), proj, width, height)

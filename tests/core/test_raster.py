@@ -683,3 +683,23 @@ def test_clipped_depths_bound_the_points_inside_the_region():
         assert depth[inside].min() - lo <= 2 * step and hi - depth[inside].max() <= 2 * step
     far = np.ascontiguousarray(np.full((1, 3, 3), 100.0))  # all beyond |x| <= w
     assert kernels.clipped_depths(far, rows, near) == (np.inf, -np.inf)
+
+
+def test_layers_of_shadow_dither_are_independent():
+    """Stacked transparent casters: a texel passes layer k where alpha <= its threshold; over
+    a map, k layers of alpha a let (1 - a)^k through (independent thresholds, the product of
+    the probabilities), and one layer is stratified in 4 x 4 blocks."""
+    py, px = np.divmod(np.arange(256 * 256), 256)
+    t = [raster.ordered_thresholds(px, py, layer) for layer in range(raster.DITHER_LAYERS)]
+    for a in (0.25, 0.5, 0.75):
+        passed = np.ones(len(px), bool)
+        for k in range(min(4, raster.DITHER_LAYERS)):
+            passed &= t[k] >= a
+            assert passed.mean() == pytest.approx((1 - a) ** (k + 1), abs=0.015), (a, k)
+        for i in range(raster.DITHER_LAYERS):
+            for j in range(i):
+                both = ((t[i] >= a) & (t[j] >= a)).mean()
+                assert both == pytest.approx((1 - a) ** 2, abs=0.012), (a, i, j)
+    for layer in t:
+        blocks = (layer >= 0.5).reshape(64, 4, 64, 4).mean((1, 3))
+        assert np.abs(blocks - 0.5).mean() < 0.06
