@@ -123,10 +123,10 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                             "inside; move the probe out, or raise its Clip Start past the "
                             "surface")
     specs, odd = bake.check([probes.spec(o) for o in objs])
+    if not specs:  # every probe was refused: the refusals are the error
+        raise BakeError(f"No light probe can be baked: {'; '.join(odd)}")
     for w in warnings + odd:
         _warn(report, w)
-    if not specs:
-        raise BakeError("No light probe can be baked (see the warnings)")
     face_size = int(settings.bake_face_size)
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))

@@ -84,10 +84,25 @@ def set_frame(scene, frame: int) -> None:
     scene.frame_set(frame)
 
 
+MIN_SIDE, MAX_SIDE = 4, 65536  # Blender's least and greatest resolution_x and resolution_y
+
+
+def render_size(width: int, height: int) -> tuple[int, int, int] | None:
+    """Blender's (resolution_x, resolution_y, resolution_percentage) that give exactly
+    ``width`` x ``height`` pixels: sides under ``MIN_SIDE`` are rendered from 2 or 4 times the
+    size at 50 or 25 % (Blender's size is x * percentage / 100 in integers). None when no
+    such setting exists (one side under 4 pixels and the other too large to grow)."""
+    k = next(k for k in (1, 2, 4) if k * min(width, height) >= MIN_SIDE)
+    if k * max(width, height) > MAX_SIDE:
+        return None
+    return k * width, k * height, 100 // k
+
+
 def set_resolution(scene, resolution: tuple[int, int]) -> None:
-    """Output size (width, height) in pixels, at 100 %."""
-    scene.render.resolution_x, scene.render.resolution_y = resolution
-    scene.render.resolution_percentage = 100
+    """Output size (width, height) in pixels, exactly (``render_size``)."""
+    x, y, percentage = render_size(*resolution)
+    scene.render.resolution_x, scene.render.resolution_y = x, y
+    scene.render.resolution_percentage = percentage
 
 
 def set_samples(scene, engine: str, samples: int) -> None:

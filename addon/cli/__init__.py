@@ -27,6 +27,8 @@ import re
 import sys
 from pathlib import Path
 
+from ..blender import headless  # (no bpy: it imports Blender where it needs it)
+
 
 class CommandError(Exception):
     """A failure to report as one line and exit code 1."""
@@ -46,7 +48,7 @@ def load_blend(path: Path):
     """Open the .blend file ``path`` with the add-on registered, Blender silenced, and load the
     compiled kernels (saying so on stderr when they compile); returns its scene. CommandError
     for a missing, unreadable or corrupt file, or numba missing."""
-    from ..blender import headless, interrupt
+    from ..blender import interrupt
     from ..core import kernels
     from .terminal import quiet_blender
 
@@ -61,7 +63,7 @@ def load_blend(path: Path):
     return scene
 
 
-MAX_RESOLUTION = 65536  # Blender's largest resolution_x and resolution_y
+MAX_RESOLUTION = headless.MAX_SIDE
 MAX_SAMPLES = {"bo2": 1024, "cycles": 1 << 24}  # the engines' sample settings' maxima
 MAX_FRAMES = 100_000  # frames one command renders
 
@@ -73,6 +75,11 @@ def _resolution(text: str) -> tuple[int, int]:
     if max(int(m[1]), int(m[2])) > MAX_RESOLUTION:
         raise argparse.ArgumentTypeError(f"resolution {text!r} is too large: at most "
                                          f"{MAX_RESOLUTION} pixels a side (Blender's limit)")
+    if headless.render_size(int(m[1]), int(m[2])) is None:
+        grow = -(-headless.MIN_SIDE // min(int(m[1]), int(m[2])))
+        raise argparse.ArgumentTypeError(
+            f"resolution {text!r}: a side under {headless.MIN_SIDE} pixels is rendered from "
+            f"{grow} times the size, so the other side can be at most {MAX_RESOLUTION // grow}")
     return int(m[1]), int(m[2])
 
 
@@ -136,7 +143,6 @@ def cmd_version(args) -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..blender.headless import ENGINES
     from ..core import brdf, env_brdf
     from . import bake, compare, render, sh
     from . import env_brdf as env_brdf_cmd
@@ -166,7 +172,7 @@ def build_parser() -> argparse.ArgumentParser:
     render_cmd.add_argument("--summary", metavar="PATH.json",
                             help="write a JSON report: per image the file, scene, frame, output, "
                             "status (ok or failed), seconds and error; totals")
-    render_cmd.add_argument("--engine", choices=sorted(ENGINES), default="bo2")
+    render_cmd.add_argument("--engine", choices=sorted(headless.ENGINES), default="bo2")
     render_cmd.add_argument("--samples", type=_positive,
                             help=f"samples per pixel (BO2 Lighting: at most {MAX_SAMPLES['bo2']})")
     render_cmd.add_argument("--resolution", type=_resolution, help="output size WxH in pixels")

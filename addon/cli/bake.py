@@ -48,8 +48,8 @@ def run(args) -> int:
     finally:
         terminal.write("\n")
         terminal.close()
-    for message in warnings:
-        print(f"bo2: warning: {message}", file=sys.stderr)
+        for message in warnings:  # a failed bake's too
+            print(f"bo2: warning: {message}", file=sys.stderr)
     print(f"baked {len(objs)} probe{'s' * (len(objs) != 1)} into {folder} "
           f"in {time.perf_counter() - start:.2f} s")
     return 0

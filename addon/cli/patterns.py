@@ -67,8 +67,10 @@ def output_path(pattern: str, scene: str, frame: int) -> Path:
 
 
 def check_pattern(pattern: str) -> None:
-    """ValueError (one line) for an ``-o`` pattern with other fields than {scene} and {frame},
-    a format spec that does not fit them, or unbalanced braces."""
+    """ValueError (one line) for an empty ``-o`` pattern, one with other fields than {scene}
+    and {frame}, a format spec that does not fit them, or unbalanced braces."""
+    if not pattern.strip():
+        raise ValueError("no file name; give an image file name, such as out/frame.png")
     try:
         fields = [(f, s) for _, f, s, _ in string.Formatter().parse(pattern) if f is not None]
         for field, spec in fields:

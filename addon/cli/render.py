@@ -18,12 +18,13 @@ def check_output(out: Path, create: bool = True) -> str:
     """The image format of ``out`` (``headless.IMAGE_FORMATS``); CommandError if it cannot be
     written. ``create`` makes its folder, otherwise the nearest existing folder above it must be
     writable."""
+    if out.is_dir():
+        raise CommandError(f"{out}: is a folder; give an image file name, such as "
+                           f"{out / 'frame.png'}")
     fmt = headless.IMAGE_FORMATS.get(out.suffix.lower())
     if fmt is None:
         raise CommandError(f"{out}: unknown image type, use one of "
                            f"{', '.join(headless.IMAGE_FORMATS)}")
-    if out.is_dir():
-        raise CommandError(f"{out}: is a folder; give an image file name")
     if len(os.fsencode(out.name)) > 255 or len(os.fsencode(out.absolute())) > 4095:
         raise CommandError(f"{out.name[:40]}...: the output path is too long")
     folder = out.parent

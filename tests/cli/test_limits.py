@@ -68,3 +68,58 @@ def test_env_brdf_json_is_json_for_any_input(value):
 
     data = json.loads(proc.stdout, parse_constant=refuse)
     assert data["gloss"] is None
+
+
+@pytest.mark.parametrize("size", ["1x1", "3x2", "640x2"])
+def test_a_resolution_under_blenders_least_renders_exactly(tmp_path, size):
+    """Blender's resolution is at least 4 pixels a side: smaller images are rendered from a
+    larger size at 50 or 25 %, and come out at the size asked for."""
+    from PIL import Image
+
+    out = tmp_path / "tiny.png"
+    proc = bo2("render", DEMO, "-o", out, "--resolution", size, "--samples", "1")
+    assert proc.returncode == 0, proc.stderr
+    assert "x".join(map(str, Image.open(out).size)) == size
+
+
+def test_a_resolution_that_cannot_be_rendered_exactly_is_refused(tmp_path):
+    proc = bo2("render", DEMO, "-o", tmp_path / "x.png", "--resolution", "20000x1")
+    assert proc.returncode == 2
+    assert "at most 16384" in one_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_existing_folder_or_an_empty_output_is_named(tmp_path):
+    proc = bo2("render", DEMO, "-o", tmp_path)
+    assert proc.returncode == 1
+    assert f"{tmp_path}: is a folder; give an image file name" in one_error_line(proc)
+    proc = bo2("render", DEMO, "-o", "")
+    assert proc.returncode == 2
+    assert "-o '': no file name" in one_error_line(proc)
+    assert list(tmp_path.iterdir()) == []
+
+
+ZERO_SCALE_PROBE = r'''
+import sys
+import bpy
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.mesh.primitive_plane_add(size=4)
+probe = bpy.data.objects.new("Volume", bpy.data.lightprobes.new("Volume", "VOLUME"))
+probe.scale = (0.0, 0.0, 0.0)
+bpy.context.scene.collection.objects.link(probe)
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1])
+'''
+
+
+def test_a_bake_refused_names_its_cause(tmp_path):
+    import subprocess
+    import sys
+
+    blend = tmp_path / "zero.blend"
+    subprocess.run([sys.executable, "-c", ZERO_SCALE_PROBE, str(blend)], check=True,
+                   capture_output=True)
+    proc = bo2("bake", blend)
+    assert proc.returncode == 1
+    line = one_error_line(proc)
+    assert "No light probe can be baked: Light probe 'Volume' has no size" in line, line
+    assert not (tmp_path / "bo2_bake").exists()
