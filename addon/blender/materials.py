@@ -24,6 +24,7 @@ import numpy as np
 from ..core import node_math as nm
 from ..core import texture
 from ..core.material import ProgramBuilder
+from ..core.recursion import Bounded
 from ..core.scene import Material
 from . import images
 from .node_groups import is_bo2_material_node
@@ -140,6 +141,7 @@ class _Compiler:
         self.b = ProgramBuilder()
         self.memo: dict[tuple, tuple[int, str]] = {}
         self.busy: set[tuple] = set()
+        self.depth = Bounded(lambda key: self._compiled(*key))
         self.said: set[str] = set()
 
     # -- messages and constants
@@ -209,7 +211,16 @@ class _Compiler:
         return None if self.is_zero(reg) else reg
 
     def output(self, node, out, ctx: tuple, into) -> tuple[int, str]:
-        """(register, kind) of output ``out`` of ``node`` in group context ``ctx``."""
+        """(register, kind) of output ``out`` of ``node`` in group context ``ctx``; graphs of
+        any depth, their deepest nodes compiled first (``core.recursion``)."""
+        key = (ctx, node.as_pointer(), out.identifier)
+        if key in self.memo:
+            return self.memo[key]
+        if not self.depth.level:
+            return self.depth.run((node, out, ctx, into))
+        return self._compiled(node, out, ctx, into)
+
+    def _compiled(self, node, out, ctx: tuple, into) -> tuple[int, str]:
         key = (ctx, node.as_pointer(), out.identifier)
         if key in self.memo:
             return self.memo[key]
@@ -220,7 +231,8 @@ class _Compiler:
         self.busy.add(key)
         self.fallback = False
         try:
-            result = self._output(node, out, ctx, into)
+            with self.depth.nested((node, out, ctx, into)):
+                result = self._output(node, out, ctx, into)
         finally:
             self.busy.discard(key)
         if not self.fallback:  # a fallback is the consuming socket's own value: not shared
@@ -336,15 +348,23 @@ def _looped_tree(tree, seen=None) -> str | None:
         after.setdefault(link.from_node.as_pointer(), set()).add(link.to_node.as_pointer())
     state: dict[int, int] = {}  # 1: on the path, 2: done
 
-    def visit(node) -> bool:
-        state[node] = 1
-        for nxt in after.get(node, ()):
-            if state.get(nxt) == 1 or state.get(nxt) is None and visit(nxt):
+    def looped(start) -> bool:  # depth-first, with a stack of (node, its successors left)
+        state[start] = 1
+        path = [(start, iter(after.get(start, ())))]
+        while path:
+            node, rest = path[-1]
+            nxt = next(rest, None)
+            if nxt is None:
+                state[node] = 2
+                path.pop()
+            elif state.get(nxt) == 1:
                 return True
-        state[node] = 2
+            elif state.get(nxt) is None:
+                state[nxt] = 1
+                path.append((nxt, iter(after.get(nxt, ()))))
         return False
 
-    if any(state.get(n) is None and visit(n) for n in list(after)):
+    if any(state.get(n) is None and looped(n) for n in list(after)):
         return tree.name
     for node in tree.nodes:
         if node.bl_idname == "ShaderNodeGroup" and node.node_tree is not None:

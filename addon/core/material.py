@@ -36,6 +36,7 @@ import numpy as np
 
 from . import brdf
 from . import node_math as nm
+from .recursion import Bounded
 
 # Operations that read the shaded points (the others are pure functions of their arguments).
 INPUT_KINDS = frozenset({"uv", "attribute", "geometry", "texcoord", "fresnel", "layer_weight",
@@ -126,7 +127,24 @@ class ProgramBuilder:
         return self._consts[key]
 
     def build(self, surface: int, occlusion: int | None = None) -> Program:
-        return Program(list(self.ops), surface, occlusion)
+        """The program of the operations ``surface`` and ``occlusion`` read, in dependency
+        order, renumbered (the others, such as those of a compile of a node that stopped part
+        way, ``core.recursion``, are dropped)."""
+        live = [False] * len(self.ops)
+        stack = [r for r in (surface, occlusion) if r is not None]
+        while stack:
+            reg = stack.pop()
+            if not live[reg]:
+                live[reg] = True
+                stack.extend(a for a in self.ops[reg].args if a is not None)
+        new: dict[int, int] = {}
+        ops = []
+        for reg, op in enumerate(self.ops):
+            if live[reg]:
+                new[reg] = len(ops)
+                ops.append(Op(op.kind, tuple(None if a is None else new[a] for a in op.args),
+                              op.param))
+        return Program(ops, new[surface], None if occlusion is None else new[occlusion])
 
 
 def talk_program(albedo=(0.8, 0.8, 0.8), rf0=(0.04, 0.04, 0.04), gloss=0.5,
@@ -664,15 +682,28 @@ class _Evaluation:
     def __init__(self, program: Program, points: Points) -> None:
         self.program = program
         self.centre = points
-        self.memo: dict[tuple[int, int], object] = {}
+        self.memo: dict[tuple, object] = {}
         self.lod: dict[int, np.ndarray] = {}
+        # values and steps call themselves for their arguments: bounded, for chains of any
+        # length; a key is ("value", reg, pts) or ("step", reg, axis, pts)
+        self.depth = Bounded(lambda key: self._value(*key[1:]) if key[0] == "value"
+                             else self._step(*key[1:]))
 
     def value(self, reg: int, pts: Points):
         key = (reg, id(pts))
+        if key in self.memo:
+            return self.memo[key]
+        if not self.depth.level:
+            return self.depth.run(("value", reg, pts))
+        return self._value(reg, pts)
+
+    def _value(self, reg: int, pts: Points):
+        key = (reg, id(pts))
         if key not in self.memo:
-            op = self.program.ops[reg]
-            with np.errstate(all="ignore"):
-                self.memo[key] = _OPS[op.kind](self, op, pts)
+            with self.depth.nested(("value", reg, pts)):
+                op = self.program.ops[reg]
+                with np.errstate(all="ignore"):
+                    self.memo[key] = _OPS[op.kind](self, op, pts)
         return self.memo[key]
 
     def arg(self, op: Op, k: int, pts: Points) -> np.ndarray:
@@ -691,19 +722,28 @@ class _Evaluation:
         key = ("step", reg, axis)
         if key in self.memo:
             return self.memo[key]
-        moved = self._moved(axis, pts)
-        if moved is None:
-            result = None
-        elif reg is None:
-            result = _uv_step("", pts, moved)
-        else:
-            op = self.program.ops[reg]
-            rule = _STEPS.get(op.kind)
-            result = rule(self, op, pts, axis, moved) if rule is not None else None
-            if result is None and op.kind != "const":
-                result = self.value(reg, moved) - self.value(reg, pts)
-            elif result is None:
-                result = np.zeros((1, self.value(reg, pts).shape[1]), np.float32)
+        if not self.depth.level:
+            return self.depth.run(("step", reg, axis, pts))
+        return self._step(reg, axis, pts)
+
+    def _step(self, reg: int | None, axis: int, pts: Points):
+        key = ("step", reg, axis)
+        if key in self.memo:
+            return self.memo[key]
+        with self.depth.nested(("step", reg, axis, pts)):
+            moved = self._moved(axis, pts)
+            if moved is None:
+                result = None
+            elif reg is None:
+                result = _uv_step("", pts, moved)
+            else:
+                op = self.program.ops[reg]
+                rule = _STEPS.get(op.kind)
+                result = rule(self, op, pts, axis, moved) if rule is not None else None
+                if result is None and op.kind != "const":
+                    result = self.value(reg, moved) - self.value(reg, pts)
+                elif result is None:
+                    result = np.zeros((1, self.value(reg, pts).shape[1]), np.float32)
         self.memo[key] = result
         return result
 

@@ -903,3 +903,62 @@ def test_constant_ramp_steps_where_cycles_steps(addon):
     ours = render_passes(scene, "BO2_LIGHTING", ["Albedo"], samples=1)["Albedo"][1, :, 0]
     cycles = render_passes(scene, "CYCLES", ["DiffCol"], samples=1)["DiffCol"][1, :, 0]
     assert np.abs(ours - cycles).max() < 1e-4
+
+
+def chain_group(name, kind, operation, length, value, socket_type):
+    """A node group of ``length`` nodes ``kind`` chained from its input to its output, each
+    with ``value`` on its second input. (Blender adds nodes to one tree in quadratic time or
+    worse: deep graphs are built from groups.)"""
+    group = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    group.interface.new_socket("In", in_out="INPUT", socket_type=socket_type)
+    group.interface.new_socket("Out", in_out="OUTPUT", socket_type=socket_type)
+    out = _node(group, "NodeGroupInput").outputs[0]
+    for _ in range(length):
+        node = _node(group, kind, operation=operation)
+        node.inputs[1].default_value = value
+        _link(group, out, node.inputs[0])
+        out = node.outputs[0]
+    _link(group, out, _node(group, "NodeGroupOutput").inputs[0])
+    return group
+
+
+def test_node_chains_deeper_than_pythons_recursion_limit(addon):
+    """Generated assets bring deep graphs: 3000 Math nodes (adding 0.0002 each to 0) times an
+    image read through 3000 Vector Math nodes (adding 0 to the UV, so its filter steps pass
+    through them all), as 30 groups of 100: compiled and evaluated without recursion, against
+    Cycles."""
+    import sys
+
+    from bo2_lighting.addon.blender.materials import convert_material
+
+    groups, length = 30, 100
+    assert groups * length > sys.getrecursionlimit()
+    mat, tree, tex = image_material("deep chains")
+    adds = chain_group("Add", "ShaderNodeMath", "ADD", length, 0.0002, "NodeSocketFloat")
+    steps = chain_group("Step", "ShaderNodeVectorMath", "ADD", length, (0.0, 0.0, 0.0),
+                        "NodeSocketVector")
+    value = _node(tree, "ShaderNodeValue")
+    value.outputs[0].default_value = 0.0
+    out, vec = value.outputs[0], tex.inputs["Vector"].links[0].from_socket
+    for _ in range(groups):
+        for group, kind in ((adds, "out"), (steps, "vec")):
+            node = _node(tree, "ShaderNodeGroup")
+            node.node_tree = group
+            if kind == "out":
+                _link(tree, out, node.inputs[0])
+                out = node.outputs[0]
+            else:
+                _link(tree, vec, node.inputs[0])
+                vec = node.outputs[0]
+    _link(tree, vec, tex.inputs["Vector"])
+    mix = _node(tree, "ShaderNodeMix", data_type="RGBA", blend_type="MULTIPLY")
+    mix.inputs["Factor"].default_value = 1.0
+    _link(tree, tex.outputs["Color"], mix.inputs[6])
+    _link(tree, out, mix.inputs[7])
+    diffuse_with(tree, mix.outputs[2])
+    warnings = []
+    program = convert_material(mat, warnings).program
+    assert warnings == []
+    assert len(program.ops) > 2 * groups * length  # every node compiled
+    ours, cycles = compare_albedo(mat, mean=1e-3, worst=0.01)
+    assert 0.05 < ours.mean() < 0.6  # the image times 0.6

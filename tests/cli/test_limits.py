@@ -123,3 +123,24 @@ def test_a_bake_refused_names_its_cause(tmp_path):
     line = one_error_line(proc)
     assert "No light probe can be baked: Light probe 'Volume' has no size" in line, line
     assert not (tmp_path / "bo2_bake").exists()
+
+
+def test_out_of_memory_is_named_not_a_missing_install(tmp_path):
+    """Under a 1.5 GB address-space limit (ulimit -v 1500000) numba's library cannot be mapped:
+    the one error line names memory and the limit, not a missing install."""
+    import resource
+    import subprocess
+
+    from test_cli import BO2
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_AS, (1_500_000 * 1024, resource.RLIM_INFINITY))
+
+    proc = subprocess.run([str(BO2), "render", str(DEMO), "-o", str(tmp_path / "x.png"),
+                           "--resolution", "32x18"], capture_output=True, text=True,
+                          timeout=300, preexec_fn=limit)
+    assert proc.returncode == 1
+    line = one_error_line(proc)
+    assert "out of memory" in line and "1465 MiB of address space" in line, line
+    assert "needs numba" not in line and "reinstall" not in line
+    assert list(tmp_path.iterdir()) == []

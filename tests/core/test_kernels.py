@@ -25,6 +25,29 @@ def test_wrong_or_missing_numba_is_one_clear_message(monkeypatch):
         kernels.check()
 
 
+@pytest.mark.parametrize(("raised", "words"), [
+    ("raise OSError('Could not find/load shared object file') from OSError("
+     "'libllvmlite.so: failed to map segment from shared object')",
+     "BO2 Lighting ran out of memory loading its compiled kernels (numba 0.62.1: OSError: "
+     "libllvmlite.so: failed to map segment from shared object)"),
+    ("raise MemoryError()", "ran out of memory loading its compiled kernels"),
+    ("raise ImportError('libllvmlite.so: undefined symbol: LLVMPY_AddSymbol')",
+     "BO2 Lighting's numba 0.62.1 is installed but fails to load (ImportError: libllvmlite.so: "
+     "undefined symbol: LLVMPY_AddSymbol); reinstall the extension"),
+])
+def test_a_numba_that_fails_to_load_is_not_called_missing(monkeypatch, tmp_path, raised, words):
+    """A numba that is there but cannot load (out of memory under ulimit -v, a broken
+    library) is told apart from a missing one, and memory is named when it is the cause."""
+    (tmp_path / "numba").mkdir()
+    (tmp_path / "numba" / "__init__.py").write_text(raised + "\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delitem(sys.modules, "numba")
+    with pytest.raises(kernels.KernelsUnavailable) as info:
+        kernels.check()
+    assert words in str(info.value)
+    assert "needs numba" not in str(info.value)
+
+
 def test_default_cache_folder_is_per_user(monkeypatch, tmp_path):
     monkeypatch.setattr(sys, "platform", "linux")
     monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))

@@ -21,6 +21,8 @@ passes' assembly and accumulation), ``shadows`` (the shadow filter, point by poi
 
 from __future__ import annotations
 
+import errno
+import importlib.metadata
 import os
 import sys
 from pathlib import Path
@@ -46,13 +48,58 @@ def _found() -> str:
     return f"numba {numba.__version__} at {Path(numba.__file__).parent}"
 
 
+# What the system says when a shared library cannot be mapped for want of memory
+_NO_MEMORY = ("cannot allocate memory", "failed to map segment", "out of memory")
+
+
+def _memory_limit() -> str:
+    """' under a limit of N MiB of address space (ulimit -v)' when the process has one."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError):
+        return ""
+    if soft == resource.RLIM_INFINITY:
+        return ""
+    return f" under a limit of {soft / 2**20:.0f} MiB of address space (ulimit -v)"
+
+
+def _load_failure(exc: BaseException) -> str:
+    """The message for numba installed but failing to import: memory named when memory is
+    the cause (a shared library that cannot be mapped), else the failure itself."""
+    chain = []
+    while exc is not None and len(chain) < 8:
+        chain.append(exc)
+        exc = exc.__cause__ or exc.__context__
+    said = [(e, f"{type(e).__name__}: {e}".replace("\n", " ")) for e in chain]
+    reasons = [r for e, r in said if str(e)]
+    memory = [r for e, r in said if isinstance(e, MemoryError)
+              or getattr(e, "errno", None) == errno.ENOMEM
+              or any(w in str(e).lower() for w in _NO_MEMORY)]
+    try:
+        installed = f"numba {importlib.metadata.version('numba')}"
+    except importlib.metadata.PackageNotFoundError:
+        installed = "numba"
+    if memory:
+        return (f"BO2 Lighting ran out of memory loading its compiled kernels ({installed}: "
+                f"{memory[0]}){_memory_limit()}; close other programs or raise the limit")
+    return (f"BO2 Lighting's {installed} is installed but fails to load "
+            f"({'; '.join(reasons[:3]) or type(chain[0]).__name__}); reinstall the extension "
+            "from the zip of your platform")
+
+
 def check() -> None:
-    """Raise ``KernelsUnavailable`` unless numba ``NUMBA_VERSION`` loads."""
+    """Raise ``KernelsUnavailable`` unless numba ``NUMBA_VERSION`` loads: one message for a
+    missing or other numba, one for a numba that fails to load (naming memory when memory is
+    the cause)."""
     try:
         import numba
         version = numba.__version__
-    except Exception:  # noqa: BLE001 - ImportError, or a broken llvmlite
+    except ModuleNotFoundError:
         version = None
+    except Exception as exc:  # noqa: BLE001 - a broken llvmlite, a library that cannot map
+        raise KernelsUnavailable(_load_failure(exc)) from None
     if version != NUMBA_VERSION:
         raise KernelsUnavailable(
             f"BO2 Lighting needs numba {NUMBA_VERSION}, bundled in the zip for your platform "

@@ -1,0 +1,66 @@
+"""Memoized demand-driven evaluation of graphs of any depth within a bounded Python stack.
+
+Node graphs are compiled and programs evaluated by functions that call themselves for their
+inputs and memoize each result (``blender.materials``, ``core.material``). A chain of thousands
+of nodes (generated assets) would exceed Python's recursion limit. ``Bounded`` keeps their
+simple recursive form: past ``limit`` nested calls, the innermost call gives up with
+``TooDeep(key)``; ``run`` then computes that deeper key first, from an empty stack, and tries
+again. Each retry finds the deeper results memoized, so the graph is evaluated deepest first,
+in a topological order, with at most ``limit`` nested calls whatever its depth. The recursive
+functions must memoize their results and tolerate a call that stops part way (they are called
+again from the start).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Hashable, Iterator
+from contextlib import contextmanager
+
+__all__ = ["Bounded", "TooDeep"]
+
+
+class TooDeep(Exception):  # noqa: N818 - not an error: a request to compute ``key`` first
+    """Raised by ``Bounded.nested`` past the limit; ``key`` is the call that did not fit."""
+
+    def __init__(self, key: Hashable) -> None:
+        super().__init__(key)
+        self.key = key
+
+
+class Bounded:
+    """The depth of one recursive evaluation, and the loop that keeps it bounded.
+
+    call:  call(key) -> result, the memoized recursive function, which wraps its work in
+           ``with bounded.nested(key):``
+    limit: nested calls allowed before ``TooDeep``
+    """
+
+    def __init__(self, call: Callable[[Hashable], object], limit: int = 64) -> None:
+        self.call, self.limit, self.level = call, int(limit), 0
+
+    @contextmanager
+    def nested(self, key: Hashable) -> Iterator[None]:
+        """One nested call of ``key``: TooDeep(key) past the limit."""
+        if self.level >= self.limit:
+            raise TooDeep(key)
+        self.level += 1
+        try:
+            yield
+        finally:
+            self.level -= 1
+
+    def run(self, key: Hashable):
+        """``call(key)`` with every call that went too deep computed first (the deepest
+        pending one, again and again), from an empty stack; returns its result."""
+        if self.level:  # already inside an evaluation: the outer run handles TooDeep
+            return self.call(key)
+        pending = [key]
+        while True:
+            try:
+                result = self.call(pending[-1])
+            except TooDeep as deep:
+                pending.append(deep.key)
+                continue
+            pending.pop()
+            if not pending:
+                return result
