@@ -9,6 +9,7 @@ ignored; panoramic cameras are refused with a clear error.
 from __future__ import annotations
 
 import collections
+import hashlib
 
 import bpy
 import numpy as np
@@ -310,35 +311,168 @@ def _visible(obj) -> bool:
 def _object_data(obj, cache: SceneCache, warnings):
     """Object-space triangles, global material indices (``cache.materials``), corner
     attributes and texture space of an evaluated object, or None."""
-    materials = cache.materials
     mesh = obj.to_mesh()
     try:
         if mesh is None or len(mesh.polygons) == 0:
             return None
-        slot_ids = [cache.material(ms.material, warnings) for ms in obj.material_slots]
-        readers: dict[tuple, list[str]] = {}
-        for k in slot_ids:
-            for key in materials[k].program.requires():
-                readers.setdefault(key, []).append(materials[k].name)
-
-        def missing(key):
-            kind, name = key
-            what = {"uv": "UV map", "attribute": "attribute", "tangent": "UV map"}[kind]
-            label = f"'{name}'" if name else "(the active one)"
-            warnings.append(f"Material '{readers[key][0]}' reads {what} {label}, which object "
-                            f"'{obj.name}' does not have; it reads 0")
-
-        def ngons():
-            warnings.append(f"Object '{obj.name}' has n-gons: Blender's tangents need triangles "
-                            "and quads, so its normal maps use one tangent per triangle")
-
-        pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing, ngons)
-        texspace = np.array([np.asarray(mesh.texspace_location) - np.asarray(mesh.texspace_size),
-                             2.0 * np.asarray(mesh.texspace_size)], np.float32)
-        lut = np.array(slot_ids or [0], np.int32)
-        return pos, nrm, uvs, lut[np.clip(slot, 0, len(lut) - 1)], attributes, texspace
+        return _mesh_data(mesh, [ms.material for ms in obj.material_slots], obj.name, cache,
+                          warnings)
     finally:
         obj.to_mesh_clear()
+
+
+def _mesh_data(mesh, slots, owner: str, cache: SceneCache, warnings):
+    """``_object_data`` of an evaluated mesh whose material slots hold ``slots`` (materials
+    or None), of object ``owner`` (messages)."""
+    materials = cache.materials
+    slot_ids = [cache.material(m, warnings) for m in slots]
+    readers: dict[tuple, list[str]] = {}
+    for k in slot_ids:
+        for key in materials[k].program.requires():
+            readers.setdefault(key, []).append(materials[k].name)
+
+    def missing(key):
+        kind, name = key
+        what = {"uv": "UV map", "attribute": "attribute", "tangent": "UV map"}[kind]
+        label = f"'{name}'" if name else "(the active one)"
+        warnings.append(f"Material '{readers[key][0]}' reads {what} {label}, which object "
+                        f"'{owner}' does not have; it reads 0")
+
+    def ngons():
+        warnings.append(f"Object '{owner}' has n-gons: Blender's tangents need triangles "
+                        "and quads, so its normal maps use one tangent per triangle")
+
+    pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing, ngons)
+    texspace = np.array([np.asarray(mesh.texspace_location) - np.asarray(mesh.texspace_size),
+                         2.0 * np.asarray(mesh.texspace_size)], np.float32)
+    lut = np.array(slot_ids or [0], np.int32)
+    return pos, nrm, uvs, lut[np.clip(slot, 0, len(lut) - 1)], attributes, texspace
+
+
+def _legacy_instancer(obj) -> bool:
+    """Whether ``obj`` instances through its own settings (its vertices or faces, a
+    collection) or a particle system: such instances are read one by one."""
+    if getattr(obj, "instance_type", "NONE") != "NONE":
+        return True
+    return any(ps.settings.render_type in {"OBJECT", "COLLECTION"}
+               for ps in getattr(obj, "particle_systems", ()))
+
+
+def _instance_table(obj):
+    """(GeometrySet, its instance references, their point cloud) of an evaluated object's
+    geometry-nodes instances, or None when it has none."""
+    get = getattr(obj, "evaluated_geometry", None)
+    try:
+        geometry = get() if get is not None else None
+    except TypeError:  # not a geometry object (a camera, a light)
+        return None
+    if geometry is None:
+        return None
+    cloud = geometry.instances_pointcloud()
+    if cloud is None or not len(cloud.points):
+        return None
+    return geometry, geometry.instance_references(), cloud
+
+
+def _readable_at_once(obj) -> bool:
+    """Whether the geometry-nodes instances of ``obj`` (if any) can be read at once: every
+    reference is a mesh (a geometry without instances of its own) or a geometry object."""
+    table = _instance_table(obj)
+    if table is None:
+        return True
+    for ref in table[1]:
+        if isinstance(ref, bpy.types.Object):
+            if ref.type not in _GEOMETRY_TYPES:
+                return False
+        elif isinstance(ref, bpy.types.Collection):
+            return False
+        else:
+            inner = ref.instances_pointcloud()
+            if inner is not None and len(inner.points):
+                return False
+    return True
+
+
+def _instances(obj, depsgraph, cache: SceneCache, warnings):
+    """The geometry-nodes instances of evaluated object ``obj``, read at once: one
+    (key, ``_object_data``, world matrices (I, 4, 4) float64) per instanced mesh."""
+    table = _instance_table(obj)
+    if table is None:
+        return []
+    _, refs, cloud = table
+    count = len(cloud.points)
+    flat = np.empty(count * 16, np.float32)
+    cloud.attributes["instance_transform"].data.foreach_get("value", flat)
+    local = flat.reshape(count, 4, 4).transpose(0, 2, 1).astype(np.float64)  # column-major
+    which = np.zeros(count, np.int32)
+    if ".reference_index" in cloud.attributes:
+        cloud.attributes[".reference_index"].data.foreach_get("value", which)
+    world = np.einsum("ij,njk->nik", _matrix(obj.matrix_world), local)
+    out = []
+    for k, ref in enumerate(refs):
+        pick = np.flatnonzero(which == k)
+        key = (obj.name_full, "instances", k)
+        if not len(pick):
+            continue
+        if key not in cache.objects:
+            if isinstance(ref, bpy.types.Object):
+                data = _object_data(ref.evaluated_get(depsgraph), cache, warnings)
+            else:
+                mesh = ref.mesh
+                data = (None if mesh is None or not len(mesh.polygons) else
+                        _mesh_data(mesh, list(mesh.materials), obj.name, cache, warnings))
+            cache.objects[key] = data
+            cache.reads["mesh", obj.name_full] += 1
+        if cache.objects[key] is not None:
+            out.append((key, cache.objects[key], world[pick]))
+    return out
+
+
+def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs.MeshBatch:
+    """One mesh placed by I world matrices (I, 4, 4): a batch of its triangles in world space,
+    instance by instance (``core.scene.MeshBatch``); mirrored instances keep counter-clockwise
+    fronts, their corners reversed."""
+    from ..core.kernels import raster
+
+    pos, nrm, uvs, mat_index, attributes, texspace = data
+    count, tris = len(matrices), len(pos)
+    lin = np.ascontiguousarray(matrices[:, :3, :3])
+    det = np.linalg.det(lin)
+    normal_matrix = lin.copy()
+    ok = np.abs(det) > 1e-20
+    normal_matrix[ok] = np.linalg.inv(lin[ok]).transpose(0, 2, 1)
+    wpos = np.empty((count * tris, 3, 3), np.float32)
+    wn = np.empty((count * tris, 3, 3), np.float32)
+    raster.place(np.ascontiguousarray(pos, np.float32),
+                            np.ascontiguousarray(nrm, np.float32),
+                            np.ascontiguousarray(matrices, np.float64),
+                            np.ascontiguousarray(normal_matrix, np.float64), wpos, wn)
+    flip = np.repeat(det < 0, tris)
+
+    def repeated(a):  # per-corner values of the mesh, for every instance
+        a = np.ascontiguousarray(np.broadcast_to(a, (count, *a.shape)).reshape(-1, *a.shape[1:]))
+        if flip.any():
+            a[flip] = a[flip][:, ::-1]
+        return a
+
+    wattr = {}
+    for key, a in attributes.items():
+        a = repeated(np.asarray(a, np.float32))
+        if key[0] == "tangent":  # tangents turn with their instance
+            a = a.reshape(count, tris, 3, 4)
+            t = np.einsum("nij,ntkj->ntki", lin.astype(np.float32), a[..., :3])
+            t /= np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-20)
+            a[..., :3] = t
+            a[det < 0, ..., 3] *= -1.0
+            a = a.reshape(-1, 3, 4)
+        wattr[key] = a
+    inverse = np.tile(np.eye(4), (count, 1, 1))
+    square = np.abs(np.linalg.det(matrices)) > 1e-30
+    inverse[square] = np.linalg.inv(matrices[square])
+    return cs.MeshBatch(wpos, wn, np.tile(np.asarray(mat_index, np.int32), count),
+                        uvs=None if uvs is None else repeated(np.asarray(uvs, np.float32)),
+                        name=name, holdout=holdout, attributes=wattr, world_to_object=inverse,
+                        texspace=texspace)
 
 
 def render_border(scene, width: int, height: int) -> tuple[int, int, int, int] | None:
@@ -462,10 +596,27 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     lights: list[cs.Light] = []
     objects: dict[tuple, tuple | None] = {}  # object-space data shared by instances
     batches: dict[tuple, cs.MeshBatch] = {}
+    # Geometry-nodes instances are read at once with their instancer (a million instances
+    # cost their matrices), unless an object instances otherwise: then one by one.
+    at_once = not any(_legacy_instancer(o) or not _readable_at_once(o)
+                      for o in depsgraph.objects)
     for inst in depsgraph.object_instances:
-        if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
+        if at_once and inst.is_instance:
             continue
         obj = inst.object
+        if at_once and obj.type in _GEOMETRY_TYPES and _visible(obj):
+            holdout = bool(obj.is_holdout
+                           or obj.original.holdout_get(view_layer=depsgraph.view_layer))
+            for key, data, matrices in _instances(obj, depsgraph, cache, warnings):
+                objects[key] = data
+                bkey = (*key, hashlib.blake2b(matrices.tobytes()).digest(), holdout)
+                batch = batches.get(bkey) or cache.batches.get(bkey)
+                if batch is None:
+                    batch = _instanced_batch(data, matrices, obj.name, holdout)
+                batches[bkey] = batch
+                meshes.append(batch)
+        if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
+            continue
         if obj.type == "LIGHT":
             lights.append(_light(obj, _matrix(inst.matrix_world)))
             continue

@@ -121,9 +121,9 @@ class Frame:
     shadow_maps: list
     tables: dict            # constant material parameters per material: name -> array
     attributes: dict        # key -> (T, 3, k) float32 corner values (MeshBatch.attributes)
-    obj: np.ndarray         # (T,) int32 index of the triangle's mesh batch
-    world_to_object: np.ndarray  # (B, 4, 4) float64 per mesh batch
-    texspace: np.ndarray    # (B, 2, 3) float32 per mesh batch
+    obj: np.ndarray         # (T,) int32 index of the triangle's object instance
+    world_to_object: np.ndarray  # (B, 4, 4) float64 per object instance
+    texspace: np.ndarray    # (B, 2, 3) float32 per object instance
     fades: np.ndarray       # (T,) bool: the triangle's material may be transparent
     # Per-tile raster set-ups kept across renders of this very frame (the viewport), or None:
     # (tile, margin) -> (``_margin``'s tuple, ``raster.rasterize``'s ``keep`` dict)
@@ -195,26 +195,38 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                  cascade (for views in every direction, e.g. a probe's six faces)
     """
     meshes = scene.meshes
+
+    def joined(parts, dtype):  # one batch's array is used as it is (a million instances)
+        return (parts[0] if len(parts) == 1 else np.concatenate(parts)).astype(dtype, copy=False)
+
+    # per batch instance (a batch of I instances has I): its world_to_object and texspace
+    per_instance = [np.eye(4)[None] if m.world_to_object is None else
+                    np.asarray(m.world_to_object, np.float64).reshape(-1, 4, 4) for m in meshes]
     if meshes:
-        positions = np.concatenate([m.positions for m in meshes]).astype(np.float32, copy=False)
-        normals = np.concatenate([m.normals for m in meshes]).astype(np.float32, copy=False)
-        mat_index = np.concatenate([m.material for m in meshes]).astype(np.int32, copy=False)
-        uvs = np.concatenate([m.uvs if m.uvs is not None else
-                              np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes])
+        positions = joined([m.positions for m in meshes], np.float32)
+        normals = joined([m.normals for m in meshes], np.float32)
+        mat_index = joined([m.material for m in meshes], np.int32)
+        uvs = joined([m.uvs if m.uvs is not None else
+                      np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes], np.float32)
         has_uv = np.concatenate([np.full(len(m.positions), m.uvs is not None) for m in meshes])
         holdout = np.concatenate([np.full(len(m.positions), m.holdout) for m in meshes])
-        obj = np.concatenate([np.full(len(m.positions), k, np.int32)
-                              for k, m in enumerate(meshes)])
+        first = np.cumsum([0] + [len(w) for w in per_instance])
+        obj = np.concatenate([first[k] + np.repeat(np.arange(len(w), dtype=np.int32),
+                                                   len(m.positions) // len(w))
+                              for k, (m, w) in enumerate(zip(meshes, per_instance, strict=True))
+                              ]).astype(np.int32)
     else:
         positions = normals = np.zeros((0, 3, 3), np.float32)
         uvs = np.zeros((0, 3, 2), np.float32)
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
     attributes = _concat_attributes(meshes)
-    world_to_object = np.array([np.eye(4) if m.world_to_object is None else m.world_to_object
-                                for m in meshes] or [np.eye(4)], np.float64)
-    texspace = np.array([[[0.0] * 3, [1.0] * 3] if m.texspace is None else m.texspace
-                         for m in meshes] or [[[0.0] * 3, [1.0] * 3]], np.float32)
+    world_to_object = np.concatenate(per_instance) if meshes else np.eye(4)[None]
+    texspace = np.concatenate([
+        np.broadcast_to(np.asarray([[0.0] * 3, [1.0] * 3] if m.texspace is None else m.texspace,
+                                   np.float32), (len(w), 2, 3))
+        for m, w in zip(meshes, per_instance, strict=True)]) if meshes else np.array(
+        [[[0.0] * 3, [1.0] * 3]], np.float32)
     mats = scene.materials or [Material()]
     if len(mat_index) and (mat_index.max() >= len(mats) or mat_index.min() < 0):
         raise ValueError("a triangle refers to a material index outside Scene.materials")

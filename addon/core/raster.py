@@ -58,7 +58,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Fragments", "coverage", "interpolate", "project", "rasterize"]
+__all__ = ["Fragments", "Projection", "coverage", "interpolate", "project", "rasterize"]
 
 # Fixed point: window coordinates in units of 2^-S pixel, |x| <= 2^G pixels (guard band), with
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
@@ -233,8 +233,16 @@ def _take_columns(a: np.ndarray, idx: np.ndarray) -> np.ndarray:
 
 
 def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
-           depth_plane=None) -> _Setup:
-    """Steps 1 and 2 of the module doc, and the grouping of step 3 (see ``rasterize``)."""
+           depth_plane=None, base: int = 0, ibits: int | None = None,
+           sample: tuple[int, int] | None = None) -> _Setup:
+    """Steps 1 and 2 of the module doc, and the grouping of step 3 (see ``rasterize``).
+
+    base, ibits: the key indices are ``base`` + the piece's index, in ``ibits`` bits (one
+                 chunk of a larger input, ``_rasterize_chunks``); by default 0 and as few
+                 bits as the pieces need
+    sample:      (oxi, oyi) fixed-point sample offset: triangles whose box holds no sample
+                 at that offset are left out (a set-up for that offset only)
+    """
     sub_bits = _FIXED_BITS - guard_bits
     unit = 1 << sub_bits
     n_tri = clip.shape[0]
@@ -290,11 +298,17 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
         n_degenerate = int(np.setdiff1d(bad, orig[ok], assume_unique=True).size)
     if cull is not None:
         ok &= ~(cull[orig] & (area2 > 0))  # window y is down: area2 > 0 is clockwise with y up
+    if sample is not None:  # a sample (c unit + oxi, r unit + oyi) inside the box, or none
+        for fixed, offset in ((xi, sample[0]), (yi, sample[1])):
+            lo = np.minimum(np.minimum(fixed[0], fixed[1]), fixed[2])
+            hi = np.maximum(np.maximum(fixed[0], fixed[1]), fixed[2])
+            ok &= ((hi - offset) >> sub_bits) >= -((offset - lo) >> sub_bits)
     keep = np.flatnonzero(ok)
     n_sub = keep.size
     if n_sub == 0:
         return _Setup(n_degenerate, n_nan)
-    ibits = max(1, (n_sub - 1).bit_length())
+    if ibits is None:
+        ibits = max(1, (n_sub - 1).bit_length())
     qmax = float(2 ** min(52, 63 - ibits) - 1)
 
     # 3. Scan order: by rows per triangle (its box's sample rows, rounded up to a bin), then by
@@ -333,7 +347,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
         n_sub=n_sub,
         ibits=ibits,
         qmax=qmax,
-        sid=order.astype(np.uint64),
+        sid=order.astype(np.uint64) + np.uint64(base),
         slot=slot,
         ea=ea,
         eb=eb,
@@ -434,10 +448,18 @@ def rasterize(
     from .kernels import raster as kernels
 
     width, height = int(width), int(height)
+    if isinstance(clip, Projection):
+        if len(clip) > _SETUP_TRIANGLES:
+            return _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
+                                     depth_plane)
+        clip = clip.part(0, len(clip))
     clip = np.asarray(clip)
     if clip.ndim != 3 or clip.shape[1:] != (3, 4):
         raise ValueError(f"clip must have shape (T, 3, 4), got {clip.shape}")
     n_tri = clip.shape[0]
+    if n_tri > _SETUP_TRIANGLES:
+        return _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
+                                 depth_plane)
     if cull is not None:
         cull = np.asarray(cull, dtype=bool)
         if cull.shape != (n_tri,):
@@ -480,6 +502,93 @@ def rasterize(
                     s.sub_index, width, ox, oy, weights, frags.tri.reshape(-1),
                     bary.reshape(-1, 3), frags.depth.reshape(-1))
     return frags
+
+
+# Inputs of more triangles than this (whose set-up, some 350 bytes a triangle, could not be
+# kept for the next sample) are set up a chunk at a time, for one sample offset each
+_SETUP_TRIANGLES = _KEEP_BYTES // 350
+_CHUNK = 1 << 19
+_MAX_PIECES = 32  # pieces of one triangle clipped by the five planes, one split each at most
+
+
+@dataclass
+class Projection:
+    """Triangles ``positions`` (T, 3, 3) through the 4 x 4 ``matrix`` into clip space as
+    ``dtype`` (``project``), a part at a time: ``rasterize`` takes it in place of the clip
+    array, so that the clip coordinates of a large input never exist all at once."""
+
+    positions: np.ndarray
+    matrix: np.ndarray
+    dtype: type = np.float64
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    def part(self, lo: int, hi: int) -> np.ndarray:
+        """(hi - lo, 3, 4) clip coordinates of triangles lo to hi."""
+        return project(self.positions[lo:hi], self.matrix, self.dtype)
+
+
+def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind, depth_plane):
+    """``rasterize`` of a large input (an array or a ``Projection``) in chunks of ``_CHUNK``
+    triangles, each set up for this sample offset only (triangles whose box holds no sample
+    are left out before the costly steps) and scanned into the same keys: key indices are
+    ``_MAX_PIECES`` t + the piece's index for triangle t, so keys compare (depth, triangle) as
+    in one set-up, and ``behind`` works across calls. The pixels a chunk wins are resolved
+    with its set-up before the next one."""
+    from .kernels import raster as kernels
+
+    n_tri = len(clip)
+    if width <= 0 or height <= 0:
+        return _empty_fragments(max(height, 0), max(width, 0), weights=weights)
+    if cull is not None:
+        cull = np.asarray(cull, dtype=bool)
+        if cull.shape != (n_tri,):
+            raise ValueError(f"cull must have shape ({n_tri},), got {cull.shape}")
+    guard_bits = max(17, max(width, height).bit_length() + 1)
+    sub_bits = _FIXED_BITS - guard_bits
+    unit = 1 << sub_bits
+    ox, oy = (float(o) for o in sample_offset)
+    oxi, oyi = round(ox * unit), round(oy * unit)
+    ibits = (_MAX_PIECES * n_tri).bit_length()
+    npx = height * width
+    keybuf = np.full(npx, kernels.EMPTY, np.uint64)
+    floor = np.zeros(npx, np.uint64) if behind is None else np.ascontiguousarray(behind,
+                                                                                   np.uint64)
+    tri = np.full(npx, -1, np.int32)
+    bary = np.zeros((npx, 3) if weights else (1, 3), np.float32)
+    depth = np.full(npx, np.inf, np.float32)
+    part_tri, part_depth = np.empty(npx, np.int32), np.empty(npx, np.float32)
+    part_bary = np.empty((npx, 3) if weights else (1, 3), np.float32)
+    degenerate = nan = 0
+    for lo in range(0, n_tri, _CHUNK):
+        hi = min(lo + _CHUNK, n_tri)
+        part = clip.part(lo, hi) if isinstance(clip, Projection) else clip[lo:hi]
+        part = np.ascontiguousarray(part, np.float32 if part.dtype == np.float32 else np.float64)
+        base = _MAX_PIECES * lo
+        s = _setup(part, width, height, None if cull is None else cull[lo:hi], guard_bits,
+                   depth_plane, base=base, ibits=ibits, sample=(oxi, oyi))
+        del part
+        degenerate, nan = degenerate + s.n_degenerate, nan + s.n_nan
+        if s.n_sub == 0:
+            continue
+        before = keybuf.copy()
+        kernels.scan(s.ea, s.eb, s.ec, s.eb_f, s.ea_abs, s.half, s.off_lo, s.off_hi, s.ymin,
+                     s.rows, s.za, s.zb, s.zc, s.tame, s.sid, width, height, sub_bits, oxi, oyi,
+                     ox, oy, s.qmax, ibits, max(width, height) >= _FLOAT_SPANS, floor, keybuf)
+        won = np.flatnonzero(keybuf != before)
+        if not len(won):
+            continue
+        keys = np.full(npx, kernels.EMPTY, np.uint64)
+        keys[won] = keybuf[won] - np.uint64(base)  # the chunk's own piece indices
+        kernels.resolve(keys, ibits, s.slot, s.table, s.orig, s.clipped, s.sub_bary,
+                        s.sub_index, width, ox, oy, weights, part_tri, part_bary, part_depth)
+        tri[won], depth[won] = part_tri[won] + lo, part_depth[won]
+        if weights:
+            bary[won] = part_bary[won]
+    return Fragments(tri.reshape(height, width),
+                     bary.reshape(height, width, 3) if weights else None,
+                     depth.reshape(height, width), degenerate, nan, keybuf)
 
 
 def project(corners: np.ndarray, matrix: np.ndarray, dtype=np.float32) -> np.ndarray:

@@ -133,7 +133,10 @@ class MeshBatch:
                ("uv", map) (T, 3, 2); ("attribute", name) (T, 3, 4) RGBA (a float f as
                (f, f, f, 1), a vector as (x, y, z, 1)); ("tangent", map) (T, 3, 4) world
                MikkTSpace tangent and bitangent sign. Map or name "" is the active render one
-    world_to_object: (4, 4) float64 (Object texture coordinates); identity when None
+    world_to_object: (4, 4) float64 (Object texture coordinates); identity when None; or
+               (I, 4, 4), one per instance, for I instances of one mesh (geometry-nodes
+               instances read at once): the triangles are then instance by instance, T / I
+               each
     texspace:  (2, 3) Generated coordinates are (p_object - texspace[0]) / texspace[1]
     """
 

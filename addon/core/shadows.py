@@ -277,7 +277,7 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     view_proj = np.stack([proj @ _view(frame, origin) for frame in basis])
 
     def face(f: int):
-        depth = _rasterize_casters(raster.project(tris, view_proj[f], np.float64), res,
+        depth = _rasterize_casters(raster.Projection(tris, view_proj[f]), res,
                                    cutout, f, False).depth
         dist = depth * ray_len  # distance from the light, metres
         return depth, _pyramid(dist, depth), float(dist.min())
@@ -417,7 +417,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
     def cascade(c: int):
         from .kernels import raster as kernels
 
-        frags = _rasterize_casters(raster.project(tris, view_proj[c], np.float64), res,
+        frags = _rasterize_casters(raster.Projection(tris, view_proj[c]), res,
                                    cutout, c, True)
         d = np.empty((res, res), np.float32)  # depth along the light of each texel's surface
         kernels.corner_sum(frags.tri, frags.bary, np.ascontiguousarray(zs, np.float64), d)

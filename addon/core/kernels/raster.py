@@ -1,7 +1,8 @@
 """Rasterization kernels: every step of ``raster``'s module docstring but the clipping and the
 scan order's sort (the docstring gives the method, the exactness argument and the references).
 
-``project`` takes world corners to clip space; ``survivors`` and ``tile_survivors`` are step 1's
+``place`` puts a mesh's triangles where each of its instances is; ``project`` takes world
+corners to clip space; ``survivors`` and ``tile_survivors`` are step 1's
 trivial rejection (non-finite corners, triangles wholly beyond one frustum plane), the latter
 re-projecting a tile to the viewport; ``window`` and ``edges`` are step 2's set-up, bit for bit
 the NumPy they replaced; ``scan`` walks each triangle's rows of samples, finds the covered span
@@ -153,6 +154,36 @@ def project(positions, matrix, clip):
             for r in range(4):
                 clip[t, c, r] = ((x * matrix[r, 0] + y * matrix[r, 1])
                                  + z * matrix[r, 2]) + matrix[r, 3]
+
+
+@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1], nb.float64[:, :, ::1],
+                 nb.float64[:, :, ::1], nb.float32[:, :, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
+def place(positions, normals, matrices, normal_matrices, positions_out, normals_out):
+    """One mesh's triangles (T, 3, 3) placed by I matrices (I, 4, 4): ``positions_out`` and
+    unit ``normals_out`` (I T, 3, 3), instance by instance, normals through ``normal_matrices``
+    (I, 3, 3) (the inverse transposes); an instance whose matrix mirrors (negative
+    determinant) has its corners in reverse order, so its fronts stay counter-clockwise."""
+    count, tris = matrices.shape[0], positions.shape[0]
+    for i in range(count):
+        m, q = matrices[i], normal_matrices[i]
+        det = (m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
+               - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
+               + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]))
+        for t in range(tris):
+            o = i * tris + t
+            for c in range(3):
+                d = 2 - c if det < 0.0 else c
+                x, y, z = positions[t, c, 0], positions[t, c, 1], positions[t, c, 2]
+                a, b, e = normals[t, c, 0], normals[t, c, 1], normals[t, c, 2]
+                length = 0.0
+                for r in range(3):
+                    positions_out[o, d, r] = m[r, 0] * x + m[r, 1] * y + m[r, 2] * z + m[r, 3]
+                    v = q[r, 0] * a + q[r, 1] * b + q[r, 2] * e
+                    normals_out[o, d, r] = v
+                    length += v * v
+                inv = 1.0 / max(np.sqrt(length), 1e-20)
+                for r in range(3):
+                    normals_out[o, d, r] *= inv
 
 
 KEPT, OUTSIDE, NOT_FINITE = 0, 1, 2
