@@ -437,10 +437,12 @@ def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs
     pos, nrm, uvs, mat_index, attributes, texspace = data
     count, tris = len(matrices), len(pos)
     lin = np.ascontiguousarray(matrices[:, :3, :3])
-    det = np.linalg.det(lin)
-    normal_matrix = lin.copy()
+    # inverse transposes from the cofactors (rows r_i: r1 x r2, r2 x r0, r0 x r1) over det
+    cof = np.stack([np.cross(lin[:, 1], lin[:, 2]), np.cross(lin[:, 2], lin[:, 0]),
+                    np.cross(lin[:, 0], lin[:, 1])], axis=1)
+    det = np.einsum("nk,nk->n", lin[:, 0], cof[:, 0])
     ok = np.abs(det) > 1e-20
-    normal_matrix[ok] = np.linalg.inv(lin[ok]).transpose(0, 2, 1)
+    normal_matrix = np.where(ok[:, None, None], cof / np.where(ok, det, 1.0)[:, None, None], lin)
     wpos = np.empty((count * tris, 3, 3), np.float32)
     wn = np.empty((count * tris, 3, 3), np.float32)
     raster.place(np.ascontiguousarray(pos, np.float32),
@@ -466,9 +468,10 @@ def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs
             a[det < 0, ..., 3] *= -1.0
             a = a.reshape(-1, 3, 4)
         wattr[key] = a
-    inverse = np.tile(np.eye(4), (count, 1, 1))
-    square = np.abs(np.linalg.det(matrices)) > 1e-30
-    inverse[square] = np.linalg.inv(matrices[square])
+    inverse = np.zeros((count, 4, 4))  # world -> object: (L^-1, -L^-1 t), identity if flat
+    inverse[:, 3, 3] = 1.0
+    inverse[:, :3, :3] = np.where(ok[:, None, None], normal_matrix.transpose(0, 2, 1), np.eye(3))
+    inverse[:, :3, 3] = -np.einsum("nij,nj->ni", inverse[:, :3, :3], matrices[:, :3, 3])
     return cs.MeshBatch(wpos, wn, np.tile(np.asarray(mat_index, np.int32), count),
                         uvs=None if uvs is None else repeated(np.asarray(uvs, np.float32)),
                         name=name, holdout=holdout, attributes=wattr, world_to_object=inverse,

@@ -112,11 +112,13 @@ class Frame:
     scene: Scene
     positions: np.ndarray   # (T, 3, 3) float32
     normals: np.ndarray     # (T, 3, 3) float32
-    uvs: np.ndarray         # (T, 3, 2) float32 (zeros where has_uv is False)
+    uvs: np.ndarray         # (T, 3, 2) float32 (zeros where has_uv is False), or (0, 3, 2)
+    #                         when no triangle has UVs (they read 0)
     has_uv: np.ndarray      # (T,) bool
     holdout: np.ndarray     # (T,) bool
     material: np.ndarray    # (T,) int32
-    clip: np.ndarray        # (T, 3, 4) float32 clip-space corners of the whole frame
+    clip: np.ndarray        # (T, 3, 4) float32 clip-space corners of the whole frame (or
+    #                         their raster.Projection, for very many triangles)
     cull: np.ndarray | None
     shadow_maps: list
     tables: dict            # constant material parameters per material: name -> array
@@ -164,10 +166,14 @@ def _constant_points() -> material.Points:
 
 def _broken(positions) -> tuple[np.ndarray, int, int]:
     """Triangles to keep (finite corners and non-zero area), and the counts of the others."""
-    finite = np.isfinite(positions).all(axis=(1, 2))
-    with np.errstate(invalid="ignore", over="ignore"):
-        cross = np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0])
-        area2 = np.einsum("tc,tc->t", cross, cross)
+    finite = np.empty(len(positions), bool)
+    area2 = np.empty(len(positions), positions.dtype)
+    for lo in range(0, len(positions), 1 << 20):  # bounded temporaries (a million instances)
+        part = positions[lo:lo + (1 << 20)]
+        finite[lo:lo + len(part)] = np.isfinite(part).all(axis=(1, 2))
+        with np.errstate(invalid="ignore", over="ignore"):
+            cross = np.cross(part[:, 1] - part[:, 0], part[:, 2] - part[:, 0])
+            area2[lo:lo + len(part)] = np.einsum("tc,tc->t", cross, cross)
     flat = finite & ~(area2 > 0.0)
     return finite & ~flat, int((~finite).sum()), int(flat.sum())
 
@@ -206,8 +212,10 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         positions = joined([m.positions for m in meshes], np.float32)
         normals = joined([m.normals for m in meshes], np.float32)
         mat_index = joined([m.material for m in meshes], np.int32)
-        uvs = joined([m.uvs if m.uvs is not None else
-                      np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes], np.float32)
+        uvs = (joined([m.uvs if m.uvs is not None else
+                       np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes],
+                      np.float32) if any(m.uvs is not None for m in meshes)
+               else np.zeros((0, 3, 2), np.float32))  # none: no zeros held for every corner
         has_uv = np.concatenate([np.full(len(m.positions), m.uvs is not None) for m in meshes])
         holdout = np.concatenate([np.full(len(m.positions), m.holdout) for m in meshes])
         first = np.cumsum([0] + [len(w) for w in per_instance])
@@ -240,7 +248,8 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                  f"{flat} with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
-        normals, uvs = np.nan_to_num(normals[keep]), np.nan_to_num(uvs[keep])
+        normals = np.nan_to_num(normals[keep])
+        uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
     uvs = uvs.astype(np.float32, copy=False)
     # attribute values are data from the mesh (Geometry Nodes can make NaN): finite
@@ -248,7 +257,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                   for k, a in attributes.items()}
 
     cam = scene.camera
-    clip = raster.project(positions, cam.projection @ cam.world_to_camera)
+    clip = _clip(positions, cam)
     cull_t = np.array([m.backface_culling for m in mats], bool)
     cull = cull_t[mat_index] if cull_t.any() else None
 
@@ -260,6 +269,16 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     if shadow_maps is None:
         frame.shadow_maps = build_shadow_maps(frame, should_stop, fit_shadows)
     return frame
+
+
+def _clip(positions: np.ndarray, camera) -> np.ndarray | raster.Projection:
+    """(T, 3, 4) float32 clip coordinates of the triangles through ``camera``; for more
+    triangles than a raster keeps at once, their ``raster.Projection`` (computed a chunk at a
+    time when drawn: a million instances never hold them all)."""
+    matrix = camera.projection @ camera.world_to_camera
+    if len(positions) > raster._SETUP_TRIANGLES:
+        return raster.Projection(positions, matrix, np.float32)
+    return raster.project(positions, matrix)
 
 
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
@@ -300,8 +319,7 @@ def with_camera(frame: Frame, camera) -> Frame:
     """``frame`` seen through another camera: only the projection is redone (same geometry,
     materials and shadow maps)."""
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
-                               clip=raster.project(frame.positions,
-                                                   camera.projection @ camera.world_to_camera),
+                               clip=_clip(frame.positions, camera),
                                tiles=None if frame.tiles is None else {})
 
 
@@ -338,13 +356,20 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
     """Clip coordinates re-projected so that ``tile`` fills the viewport, of the triangles that
     may touch it (the others lie wholly beyond one plane of its frustum).
 
-    clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``)
+    clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``), or its ``raster.Projection``
     returns: (K, 3, 4) float32 clip coordinates and (K,) int64 indices into ``clip``, increasing
+             (for a Projection: the Projection of the tile, and no indices: every triangle)
     """
     from .kernels import raster as kernels
 
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
+    if isinstance(clip, raster.Projection):  # re-projected a chunk at a time when drawn
+        m = np.eye(4)
+        m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
+        m[1, 1], m[1, 3] = height / th, 1.0 - height / th + 2.0 * y0 / th
+        return (raster.Projection(clip.positions, m @ clip.matrix, clip.dtype),
+                np.zeros(0, np.int64))
     clip = np.ascontiguousarray(clip, np.float32)
     out = np.empty_like(clip)
     index = np.empty(len(clip), np.int64)
@@ -378,6 +403,8 @@ def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> mater
         corners = frame.uvs if key == ("uv", "") else frame.attributes.get(key)
         if corners is None:
             return None
+        if not len(corners):  # no triangle has UVs
+            return np.zeros((len(tri), corners.shape[2]), np.float32)
         out = np.empty((len(tri), corners.shape[2]), np.float32)
         shading.interpolate(tri, np.ascontiguousarray(weights, np.float32), corners, out)
         return out
@@ -474,8 +501,9 @@ def _margin(frame: Frame, tile):
     if frame.tiles is not None and key in frame.tiles:
         return frame.tiles[key]
     clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
-    margin = (m, clip, index, None if frame.cull is None else frame.cull[index],
-              None if frame.tiles is None else {})
+    whole = isinstance(clip, raster.Projection)  # every triangle, in frame order
+    cull = None if frame.cull is None else frame.cull if whole else frame.cull[index]
+    margin = (m, clip, index, cull, None if frame.tiles is None else {})
     if frame.tiles is not None:
         frame.tiles[key] = margin
     return margin

@@ -240,8 +240,9 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
     base, ibits: the key indices are ``base`` + the piece's index, in ``ibits`` bits (one
                  chunk of a larger input, ``_rasterize_chunks``); by default 0 and as few
                  bits as the pieces need
-    sample:      (oxi, oyi) fixed-point sample offset: triangles whose box holds no sample
-                 at that offset are left out (a set-up for that offset only)
+    sample:      (oxi, oyi, ox, oy) the sample offset, fixed-point and in pixels: triangles
+                 whose box holds no sample at that offset are left out (a set-up for that
+                 offset only)
     """
     sub_bits = _FIXED_BITS - guard_bits
     unit = 1 << sub_bits
@@ -251,7 +252,10 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
     from .kernels import raster as kernels
 
     orig = np.empty(n_tri, np.int64)
-    count, n_nan = kernels.survivors(clip, orig)
+    if sample is None:
+        count, n_nan = kernels.survivors(clip, orig)
+    else:  # and a sample inside their box
+        count, n_nan = kernels.sample_survivors(clip, width, height, sample[2], sample[3], orig)
     orig = orig[:count]
     if orig.size == 0:
         return _Setup(0, n_nan)
@@ -298,7 +302,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
         n_degenerate = int(np.setdiff1d(bad, orig[ok], assume_unique=True).size)
     if cull is not None:
         ok &= ~(cull[orig] & (area2 > 0))  # window y is down: area2 > 0 is clockwise with y up
-    if sample is not None:  # a sample (c unit + oxi, r unit + oyi) inside the box, or none
+    if sample is not None:  # a sample (c unit + oxi, r unit + oyi) in the snapped box, or none
         for fixed, offset in ((xi, sample[0]), (yi, sample[1])):
             lo = np.minimum(np.minimum(fixed[0], fixed[1]), fixed[2])
             hi = np.maximum(np.maximum(fixed[0], fixed[1]), fixed[2])
@@ -567,7 +571,7 @@ def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
         part = np.ascontiguousarray(part, np.float32 if part.dtype == np.float32 else np.float64)
         base = _MAX_PIECES * lo
         s = _setup(part, width, height, None if cull is None else cull[lo:hi], guard_bits,
-                   depth_plane, base=base, ibits=ibits, sample=(oxi, oyi))
+                   depth_plane, base=base, ibits=ibits, sample=(oxi, oyi, ox, oy))
         del part
         degenerate, nan = degenerate + s.n_degenerate, nan + s.n_nan
         if s.n_sub == 0:

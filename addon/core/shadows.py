@@ -239,19 +239,6 @@ def _flatten_pyramids(pyramids: list[list[np.ndarray]]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, 3), np.float32)
 
 
-def _closest_plane(origin: np.ndarray, tris: np.ndarray) -> float:
-    """A lower bound of the distance from ``origin`` to the triangles (T, 3, 3): the least
-    distance to their planes (inf without triangles)."""
-    if not len(tris):
-        return np.inf
-    n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
-    length = np.linalg.norm(n, axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        d = np.abs(np.einsum("tk,tk->t", n, origin - tris[:, 0])) / length
-    d = d[np.isfinite(d)]
-    return float(d.min()) if len(d) else np.inf
-
-
 def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     """A point, spot or area light's maps: one job per face, and the function that assembles
     the faces' results into the ShadowMap (``shadow_map_jobs``)."""
@@ -265,11 +252,13 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
         kind, basis, tan_half = "PERSPECTIVE", _frame(light.direction)[None], np.tan(0.5 * fov)
     else:
         kind, basis, tan_half = "CUBE", _CUBE, 1.0
-    reach = float(np.sqrt(((tris - origin) ** 2).sum(-1)).max()) if len(tris) else 1.0
+    from .kernels import raster as kernels
+
+    closest, reach = kernels.distances(tris, origin) if len(tris) else (np.inf, 1.0)
     far = 1.01 * reach + 1e-3
     # the near plane stays in front of every caster: huge geometry (a 1000 km ground) must not
     # push it past the casters next to the light (the clip is float64, so depth holds)
-    near = max(min(1e-5 * far, 0.5 * _closest_plane(origin, tris)), 1e-6)
+    near = max(min(1e-5 * far, 0.5 * closest), 1e-6)
     proj = _perspective(tan_half, near, far)
     centre = (np.arange(res) + 0.5) * (2.0 / res) - 1.0
     ray_len = np.sqrt(1.0 + tan_half**2 * (centre[:, None] ** 2 + centre[None, :] ** 2))
@@ -302,7 +291,7 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
 
 def _camera_depth_range(camera: Camera, tris: np.ndarray):
     """The camera's frustum corners at a view depth, and the view-depth range of the parts of
-    the triangles ``tris`` (T, 3, 3) float64 inside its frustum (``kernels.raster.
+    the triangles ``tris`` (T, 3, 3) float32 or float64 inside its frustum (``kernels.raster.
     clipped_depths``), clamped to [near, far] (z0 > z1 when empty): a ground reaching far
     beyond the view counts only as far as the camera sees it.
 
@@ -331,8 +320,20 @@ def _camera_depth_range(camera: Camera, tris: np.ndarray):
 
     w2c = np.asarray(camera.world_to_camera, np.float64)
     rows = np.concatenate([(proj @ w2c)[[0, 1, 3]], -w2c[2:3]])  # clip x, y, w; view depth
-    lo, hi = kernels.clipped_depths(np.ascontiguousarray(tris, np.float64), rows, n)
+    lo, hi = kernels.clipped_depths(tris, rows, n)
     return corners, n, f, max(n, lo), min(f, hi)
+
+
+def _extent(tris: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The least and greatest (A,) of the corners of ``tris`` (T, 3, 3) along ``axes``
+    (A, 3) float64 (``kernels.raster.extent``: one pass, no temporary of the triangles)."""
+    from .kernels import raster as kernels
+
+    rows = np.zeros((len(axes), 4))
+    rows[:, :3] = axes
+    out = np.empty((len(axes), 2))
+    kernels.extent(tris, rows, out)
+    return out[:, 0], out[:, 1]
 
 
 def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int):
@@ -346,7 +347,6 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     corners are projected onto the light plane; their bounding rectangle, clipped to the
     casters' extent, becomes a square with a 4-texel margin.
     """
-    pts = tris.reshape(-1, 3)
     corners, n, f, z0, z1 = _camera_depth_range(camera, tris)
     if not z1 >= z0:  # (a flat receiver facing an orthographic camera: one depth)
         return np.zeros((0, 3)), np.zeros(0)
@@ -360,8 +360,7 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     splits = weight * z0 * (z1 / z0) ** i + (1.0 - weight) * (z0 + (z1 - z0) * i)
     splits[0], splits[-1] = z0, z1
     c2w = affine.inverse(camera.world_to_camera)
-    xy = affine.linear(pts, basis[:2])
-    ext_lo, ext_hi = xy.min(0), xy.max(0)
+    ext_lo, ext_hi = _extent(tris, basis[:2])
     rects = []
     for a, b in zip(splits[:-1], splits[1:], strict=True):
         slab = np.concatenate([corners(z) for z in (a, b)])
@@ -384,15 +383,13 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
     if len(tris) and camera is not None:
         rects, splits = _fit_cascades(camera, basis, tris, res)
     elif len(tris):
-        xy = affine.linear(tris.reshape(-1, 3), basis[:2])
-        lo, hi = xy.min(0), xy.max(0)
+        lo, hi = _extent(tris, basis[:2])
         half = 0.5 * max(float((hi - lo).max()), 1e-6) * (1.0 + 8.0 / res)
         rects, splits = np.array([[*(0.5 * (lo + hi)), half]]), np.zeros(0)
     else:
         rects, splits = np.zeros((0, 3)), np.zeros(0)
     from .kernels import raster as kernels
 
-    zs = affine.linear(tris, basis[2:])[..., 0]  # (T, 3) depth of every corner along the light
     view_proj = np.zeros((len(rects), 4, 4))
     z_min = np.zeros(len(rects))
     for c, (cx, cy, half) in enumerate(rects):
@@ -402,7 +399,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         rows[0, :3], rows[0, 3] = basis[0], -cx
         rows[1, :3], rows[1, 3] = basis[1], -cy
         rows[2, 3], rows[3, :3] = half, basis[2]
-        z_lo, z_hi = kernels.clipped_depths(np.ascontiguousarray(tris), rows, -np.inf)
+        z_lo, z_hi = kernels.clipped_depths(tris, rows, -np.inf)
         if not z_lo <= z_hi:
             z_lo, z_hi = 0.0, 1.0
         pad = 1e-3 * (z_hi - z_lo) + 1e-4
@@ -419,8 +416,15 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
 
         frags = _rasterize_casters(raster.Projection(tris, view_proj[c]), res,
                                    cutout, c, True)
-        d = np.empty((res, res), np.float32)  # depth along the light of each texel's surface
-        kernels.corner_sum(frags.tri, frags.bary, np.ascontiguousarray(zs, np.float64), d)
+        d = np.full((res, res), np.inf, np.float32)  # depth along the light of each texel
+        hit = np.flatnonzero(frags.tri.reshape(-1) >= 0)
+        if len(hit):  # (its triangle's corners' depths, of the triangles seen only)
+            corners = np.asarray(tris[frags.tri.reshape(-1)[hit]], np.float64)
+            zs = np.ascontiguousarray(affine.linear(corners, basis[2:])[..., 0])
+            out = np.empty((1, len(hit)), np.float32)
+            kernels.corner_sum(np.arange(len(hit), dtype=np.int32)[None], np.ascontiguousarray(
+                frags.bary.reshape(-1, 3)[hit][None]), zs, out)
+            d.reshape(-1)[hit] = out[0]
         return d, _pyramid(d, d)
 
     def finish(cascades: list) -> ShadowMap:
@@ -455,7 +459,9 @@ def shadow_map_jobs(
     if not light.shadow:
         return [], lambda results: None
     res = max(1, int(resolution))
-    tris = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
+    tris = np.asarray(triangles)  # float32 as the frame holds them (no copy), or float64
+    tris = np.ascontiguousarray(tris.reshape(-1, 3, 3),
+                                tris.dtype if tris.dtype == np.float32 else np.float64)
     if light.kind == "SUN":
         return _sun_jobs(light, tris, camera, res, cutout)
     return _perspective_jobs(light, tris, res, cutout)

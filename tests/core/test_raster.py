@@ -744,3 +744,29 @@ def test_large_inputs_in_chunks_give_the_same_fragments(monkeypatch, offset):
     lazy = raster.rasterize(raster.Projection(world, proj), w, h)
     assert raster.coverage(direct).mean() > 0.5
     assert (direct.tri == lazy.tri).mean() > 0.999
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_extent_and_distances_of_casters(dtype):
+    """The shadow maps' reductions over every caster, in one pass (no temporary the size of
+    the scene), against NumPy over all corners: extents along directions, the nearest plane
+    and the farthest corner from a light; a NaN triangle is left out."""
+    from bo2_lighting.addon.core.kernels import raster as kernels
+
+    rng = np.random.default_rng(31)
+    tris = rng.normal(size=(500, 3, 3)).astype(dtype) * 4.0
+    tris[7, 1, 2] = np.nan
+    finite = np.isfinite(tris).all(axis=(1, 2))
+    rows = rng.normal(size=(3, 4))
+    out = np.empty((3, 2))
+    kernels.extent(tris, rows, out)
+    values = tris[finite].reshape(-1, 3).astype(np.float64) @ rows[:, :3].T + rows[:, 3]
+    np.testing.assert_allclose(out[:, 0], values.min(0), rtol=1e-12)
+    np.testing.assert_allclose(out[:, 1], values.max(0), rtol=1e-12)
+    origin = np.array([0.5, -1.0, 2.0])
+    near, far = kernels.distances(tris, origin)
+    q = tris[finite].astype(np.float64)
+    n = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+    planes = np.abs(np.einsum("tk,tk->t", n, origin - q[:, 0])) / np.linalg.norm(n, axis=1)
+    assert near == pytest.approx(planes.min(), rel=1e-9)
+    assert far == pytest.approx(np.linalg.norm(q - origin, axis=-1).max(), rel=1e-12)

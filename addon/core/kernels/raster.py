@@ -11,7 +11,8 @@ the quotient is provably exact), and keeps the smallest packed key (quantized de
 index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
 perspective-correct weights and clip w. For shadow maps: ``reduction`` builds the
 min/max pyramid, ``corner_sum`` a sun map's depths, ``clipped_depths`` the depth range of
-the geometry inside a camera's frustum or a sun cascade's square.
+the geometry inside a camera's frustum or a sun cascade's square, ``extent`` and ``distances``
+the geometry's reach along directions and from a light.
 """
 
 from __future__ import annotations
@@ -230,6 +231,44 @@ def survivors(clip, orig):
     return n, n_nan
 
 
+@nb.njit([_COUNTS(nb.float32[:, :, ::1], nb.int64, nb.int64, nb.float64, nb.float64,
+                  nb.int64[::1]),
+          _COUNTS(nb.float64[:, :, ::1], nb.int64, nb.int64, nb.float64, nb.float64,
+                  nb.int64[::1])], **_OPTIONS)
+def sample_survivors(clip, width, height, ox, oy, orig):
+    """``survivors`` for one sample offset (ox, oy): also left out, the triangles in front of
+    the camera whose window box holds no sample (c + ox, r + oy) by more than 0.01 pixel, a
+    margin far beyond the rounding of the clip coordinates and the fixed-point snap (2^-12
+    pixel), so that the exact coverage test later sees every triangle that covers a sample.
+    Most triangles far smaller than a pixel hold none."""
+    n = 0
+    n_nan = 0
+    for t in range(clip.shape[0]):
+        code = _rejection(clip[t])
+        if code == NOT_FINITE:
+            n_nan += 1
+            continue
+        if code != KEPT:
+            continue
+        ahead = True
+        x_lo, x_hi, y_lo, y_hi = np.inf, -np.inf, np.inf, -np.inf
+        for c in range(3):
+            w = np.float64(clip[t, c, 3])
+            if not w > 0.0:
+                ahead = False
+                break
+            x = (np.float64(clip[t, c, 0]) / w + 1.0) * 0.5 * width
+            y = (1.0 - np.float64(clip[t, c, 1]) / w) * 0.5 * height
+            x_lo, x_hi = min(x_lo, x), max(x_hi, x)
+            y_lo, y_hi = min(y_lo, y), max(y_hi, y)
+        if ahead and (np.ceil(x_lo - 0.01 - ox) > np.floor(x_hi + 0.01 - ox)
+                      or np.ceil(y_lo - 0.01 - oy) > np.floor(y_hi + 0.01 - oy)):
+            continue
+        orig[n] = t
+        n += 1
+    return n, n_nan
+
+
 _I3 = nb.int64[:, ::1]
 _D3 = nb.float64[:, ::1]
 
@@ -421,6 +460,55 @@ def corner_sum(tri, bary, values, out):
 
 
 
+@nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float64[:, ::1]),
+          nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], nb.float64[:, ::1])], **_OPTIONS)
+def extent(points, rows, out):
+    """The least and greatest value ``out`` (R, 2) of each affine function ``rows`` (R, 4)
+    (r . (x, y, z, 1), in float64) over the finite corners of triangles ``points`` (T, 3, 3)
+    ((inf, -inf) when there are none): the extent of a scene along R directions, in one pass."""
+    for r in range(rows.shape[0]):
+        out[r, 0], out[r, 1] = np.inf, -np.inf
+    for t in range(points.shape[0]):
+        for c in range(3):
+            x, y, z = np.float64(points[t, c, 0]), np.float64(points[t, c, 1]), \
+                np.float64(points[t, c, 2])
+            if not (np.isfinite(x) and np.isfinite(y) and np.isfinite(z)):
+                continue
+            for r in range(rows.shape[0]):
+                v = rows[r, 0] * x + rows[r, 1] * y + rows[r, 2] * z + rows[r, 3]
+                out[r, 0] = min(out[r, 0], v)
+                out[r, 1] = max(out[r, 1], v)
+
+
+@nb.njit([nb.types.UniTuple(nb.float64, 2)(nb.float32[:, :, ::1], nb.float64[::1]),
+          nb.types.UniTuple(nb.float64, 2)(nb.float64[:, :, ::1], nb.float64[::1])],
+         **_OPTIONS)
+def distances(points, origin):
+    """(least distance from ``origin`` (3,) to the planes of triangles ``points`` (T, 3, 3),
+    greatest distance to a corner), metres, over finite values; (inf, 0) for none."""
+    near, far = np.inf, 0.0
+    for t in range(points.shape[0]):
+        ax, ay, az = (np.float64(points[t, 0, 0]), np.float64(points[t, 0, 1]),
+                      np.float64(points[t, 0, 2]))
+        ux, uy, uz = (np.float64(points[t, 1, 0]) - ax, np.float64(points[t, 1, 1]) - ay,
+                      np.float64(points[t, 1, 2]) - az)
+        vx, vy, vz = (np.float64(points[t, 2, 0]) - ax, np.float64(points[t, 2, 1]) - ay,
+                      np.float64(points[t, 2, 2]) - az)
+        nx, ny, nz = uy * vz - uz * vy, uz * vx - ux * vz, ux * vy - uy * vx
+        length = np.sqrt(nx * nx + ny * ny + nz * nz)
+        d = abs(nx * (origin[0] - ax) + ny * (origin[1] - ay) + nz * (origin[2] - az)) / length
+        if np.isfinite(d):
+            near = min(near, d)
+        for c in range(3):
+            dx = np.float64(points[t, c, 0]) - origin[0]
+            dy = np.float64(points[t, c, 1]) - origin[1]
+            dz = np.float64(points[t, c, 2]) - origin[2]
+            e = np.sqrt(dx * dx + dy * dy + dz * dz)
+            if np.isfinite(e):
+                far = max(far, e)
+    return near, far
+
+
 @nb.njit(**_OPTIONS)
 def _plane_distance(v, plane, near):
     """Signed distance-like value of vertex v (x, y, w, depth) to one plane of the box
@@ -458,10 +546,13 @@ def _clip_polygon(src, count, dst, plane, near):
     return out
 
 
-@nb.njit(nb.types.UniTuple(nb.float64, 2)(nb.float64[:, :, ::1], nb.float64[:, ::1],
-                                          nb.float64), **_OPTIONS)
+@nb.njit([nb.types.UniTuple(nb.float64, 2)(nb.float64[:, :, ::1], nb.float64[:, ::1],
+                                           nb.float64),
+          nb.types.UniTuple(nb.float64, 2)(nb.float32[:, :, ::1], nb.float64[:, ::1],
+                                           nb.float64)], **_OPTIONS)
 def clipped_depths(points, rows, near):
-    """The smallest and largest depth of the parts of triangles ``points`` (T, 3, 3, float64)
+    """The smallest and largest depth of the parts of triangles ``points`` (T, 3, 3, float32
+    or float64)
     inside the region |x| <= w, |y| <= w, depth >= ``near``, where x, y, w and depth are the
     affine functions of a point given by ``rows`` (4, 4) (a camera's clip-space x, y, w and
     view depth: its frustum without the far plane; a sun cascade's square: x and y from its

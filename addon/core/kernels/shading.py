@@ -157,7 +157,8 @@ def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out
     so that the shadow filter's per-point rotation, hashed from the position's bits, stays.
 
     tri, bary: (N,) triangle and (N, 3) perspective-correct weights of its corners
-    positions, normals: (T, 3, 3) corners; uvs: (T, 3, 2)
+    positions, normals: (T, 3, 3) corners; uvs: (T, 3, 2), or (0, 3, 2) when no triangle has
+               UVs (0 then)
     v:         (N, 3) unit directions to the eye (``Camera.rays``, reversed)
     """
     tiny_n, tiny_g = np.float32(1e-20), np.float32(1e-30)
@@ -190,7 +191,10 @@ def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out
             gx, gy, gz = -gx, -gy, -gz
         geo_out[i, 0], geo_out[i, 1], geo_out[i, 2] = gx, gy, gz
         for c in range(2):
-            uv_out[i, c] = (b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c]) + b2 * uvs[t, 2, c]
+            if uvs.shape[0] == 0:  # no triangle has UVs
+                uv_out[i, c] = np.float32(0.0)
+            else:
+                uv_out[i, c] = (b0 * uvs[t, 0, c] + b1 * uvs[t, 1, c]) + b2 * uvs[t, 2, c]
 
 
 @nb.njit(nb.void(nb.int32[::1], _F3, nb.float32[:, :, ::1], _F3), **_OPTIONS)
