@@ -403,11 +403,12 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings):
     count = len(cloud.points)
     flat = np.empty(count * 16, np.float32)
     cloud.attributes["instance_transform"].data.foreach_get("value", flat)
-    local = flat.reshape(count, 4, 4).transpose(0, 2, 1).astype(np.float64)  # column-major
+    world = np.matmul(_matrix(obj.matrix_world),  # (the attribute is column-major)
+                      flat.reshape(count, 4, 4).transpose(0, 2, 1))
+    del flat
     which = np.zeros(count, np.int32)
     if ".reference_index" in cloud.attributes:
         cloud.attributes[".reference_index"].data.foreach_get("value", which)
-    world = np.einsum("ij,njk->nik", _matrix(obj.matrix_world), local)
     out = []
     for k, ref in enumerate(refs):
         pick = np.flatnonzero(which == k)
@@ -424,7 +425,7 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings):
             cache.objects[key] = data
             cache.reads["mesh", obj.name_full] += 1
         if cache.objects[key] is not None:
-            out.append((key, cache.objects[key], world[pick]))
+            out.append((key, cache.objects[key], world if len(pick) == count else world[pick]))
     return out
 
 
@@ -436,24 +437,30 @@ def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs
 
     pos, nrm, uvs, mat_index, attributes, texspace = data
     count, tris = len(matrices), len(pos)
-    lin = np.ascontiguousarray(matrices[:, :3, :3])
+    lin = matrices[:, :3, :3]
     # inverse transposes from the cofactors (rows r_i: r1 x r2, r2 x r0, r0 x r1) over det
-    cof = np.stack([np.cross(lin[:, 1], lin[:, 2]), np.cross(lin[:, 2], lin[:, 0]),
-                    np.cross(lin[:, 0], lin[:, 1])], axis=1)
-    det = np.einsum("nk,nk->n", lin[:, 0], cof[:, 0])
+    normal_matrix = np.stack([np.cross(lin[:, 1], lin[:, 2]), np.cross(lin[:, 2], lin[:, 0]),
+                              np.cross(lin[:, 0], lin[:, 1])], axis=1)
+    det = np.einsum("nk,nk->n", lin[:, 0], normal_matrix[:, 0])
     ok = np.abs(det) > 1e-20
-    normal_matrix = np.where(ok[:, None, None], cof / np.where(ok, det, 1.0)[:, None, None], lin)
+    normal_matrix /= np.where(ok, det, 1.0)[:, None, None]
+    normal_matrix[~ok] = lin[~ok]
+    inverse = np.zeros((count, 4, 4))  # world -> object: (L^-1, -L^-1 t), identity if flat
+    inverse[:, 3, 3] = 1.0
+    inverse[:, :3, :3] = normal_matrix.transpose(0, 2, 1)
+    inverse[~ok, :3, :3] = np.eye(3)
+    inverse[:, :3, 3] = -np.einsum("nij,nj->ni", inverse[:, :3, :3], matrices[:, :3, 3])
     wpos = np.empty((count * tris, 3, 3), np.float32)
     wn = np.empty((count * tris, 3, 3), np.float32)
-    raster.place(np.ascontiguousarray(pos, np.float32),
-                            np.ascontiguousarray(nrm, np.float32),
-                            np.ascontiguousarray(matrices, np.float64),
-                            np.ascontiguousarray(normal_matrix, np.float64), wpos, wn)
-    flip = np.repeat(det < 0, tris)
+    raster.place(np.ascontiguousarray(pos, np.float32), np.ascontiguousarray(nrm, np.float32),
+                 np.ascontiguousarray(matrices, np.float64), normal_matrix, wpos, wn)
+    del normal_matrix
+    mirrored = det < 0
 
     def repeated(a):  # per-corner values of the mesh, for every instance
         a = np.ascontiguousarray(np.broadcast_to(a, (count, *a.shape)).reshape(-1, *a.shape[1:]))
-        if flip.any():
+        if mirrored.any():
+            flip = np.repeat(mirrored, tris)
             a[flip] = a[flip][:, ::-1]
         return a
 
@@ -465,13 +472,9 @@ def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs
             t = np.einsum("nij,ntkj->ntki", lin.astype(np.float32), a[..., :3])
             t /= np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-20)
             a[..., :3] = t
-            a[det < 0, ..., 3] *= -1.0
+            a[mirrored, ..., 3] *= -1.0
             a = a.reshape(-1, 3, 4)
         wattr[key] = a
-    inverse = np.zeros((count, 4, 4))  # world -> object: (L^-1, -L^-1 t), identity if flat
-    inverse[:, 3, 3] = 1.0
-    inverse[:, :3, :3] = np.where(ok[:, None, None], normal_matrix.transpose(0, 2, 1), np.eye(3))
-    inverse[:, :3, 3] = -np.einsum("nij,nj->ni", inverse[:, :3, :3], matrices[:, :3, 3])
     return cs.MeshBatch(wpos, wn, np.tile(np.asarray(mat_index, np.int32), count),
                         uvs=None if uvs is None else repeated(np.asarray(uvs, np.float32)),
                         name=name, holdout=holdout, attributes=wattr, world_to_object=inverse,
@@ -612,7 +615,8 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
                            or obj.original.holdout_get(view_layer=depsgraph.view_layer))
             for key, data, matrices in _instances(obj, depsgraph, cache, warnings):
                 objects[key] = data
-                bkey = (*key, hashlib.blake2b(matrices.tobytes()).digest(), holdout)
+                digest = hashlib.blake2b(memoryview(np.ascontiguousarray(matrices)).cast("B"))
+                bkey = (*key, digest.digest(), holdout)
                 batch = batches.get(bkey) or cache.batches.get(bkey)
                 if batch is None:
                     batch = _instanced_batch(data, matrices, obj.name, holdout)

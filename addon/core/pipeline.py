@@ -216,20 +216,20 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                        np.zeros((len(m.positions), 3, 2), np.float32) for m in meshes],
                       np.float32) if any(m.uvs is not None for m in meshes)
                else np.zeros((0, 3, 2), np.float32))  # none: no zeros held for every corner
-        has_uv = np.concatenate([np.full(len(m.positions), m.uvs is not None) for m in meshes])
-        holdout = np.concatenate([np.full(len(m.positions), m.holdout) for m in meshes])
-        first = np.cumsum([0] + [len(w) for w in per_instance])
-        obj = np.concatenate([first[k] + np.repeat(np.arange(len(w), dtype=np.int32),
-                                                   len(m.positions) // len(w))
-                              for k, (m, w) in enumerate(zip(meshes, per_instance, strict=True))
-                              ]).astype(np.int32)
+        has_uv = joined([np.full(len(m.positions), m.uvs is not None) for m in meshes], bool)
+        holdout = joined([np.full(len(m.positions), m.holdout) for m in meshes], bool)
+        first = np.cumsum([0] + [len(w) for w in per_instance]).astype(np.int32)
+        obj = joined([np.repeat(np.arange(first[k], first[k + 1], dtype=np.int32),
+                                len(m.positions) // len(w))
+                      for k, (m, w) in enumerate(zip(meshes, per_instance, strict=True))],
+                     np.int32)
     else:
         positions = normals = np.zeros((0, 3, 3), np.float32)
         uvs = np.zeros((0, 3, 2), np.float32)
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
     attributes = _concat_attributes(meshes)
-    world_to_object = np.concatenate(per_instance) if meshes else np.eye(4)[None]
+    world_to_object = joined(per_instance, np.float64) if meshes else np.eye(4)[None]
     texspace = np.concatenate([
         np.broadcast_to(np.asarray([[0.0] * 3, [1.0] * 3] if m.texspace is None else m.texspace,
                                    np.float32), (len(w), 2, 3))
