@@ -395,7 +395,8 @@ def _readable_at_once(obj) -> bool:
 
 def _instances(obj, depsgraph, cache: SceneCache, warnings):
     """The geometry-nodes instances of evaluated object ``obj``, read at once: one
-    (key, ``_object_data``, world matrices (I, 4, 4) float64) per instanced mesh."""
+    (key, ``_object_data``, matrices (I, 16) float32, column-major, in ``obj``'s space) per
+    instanced mesh."""
     table = _instance_table(obj)
     if table is None:
         return []
@@ -403,9 +404,7 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings):
     count = len(cloud.points)
     flat = np.empty(count * 16, np.float32)
     cloud.attributes["instance_transform"].data.foreach_get("value", flat)
-    world = np.matmul(_matrix(obj.matrix_world),  # (the attribute is column-major)
-                      flat.reshape(count, 4, 4).transpose(0, 2, 1))
-    del flat
+    local = flat.reshape(count, 16)  # column-major 4 x 4 each
     which = np.zeros(count, np.int32)
     if ".reference_index" in cloud.attributes:
         cloud.attributes[".reference_index"].data.foreach_get("value", which)
@@ -425,37 +424,27 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings):
             cache.objects[key] = data
             cache.reads["mesh", obj.name_full] += 1
         if cache.objects[key] is not None:
-            out.append((key, cache.objects[key], world if len(pick) == count else world[pick]))
+            out.append((key, cache.objects[key], local if len(pick) == count else local[pick]))
     return out
 
 
-def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs.MeshBatch:
-    """One mesh placed by I world matrices (I, 4, 4): a batch of its triangles in world space,
-    instance by instance (``core.scene.MeshBatch``); mirrored instances keep counter-clockwise
-    fronts, their corners reversed."""
+def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
+                     holdout: bool) -> cs.MeshBatch:
+    """One mesh placed by I instance matrices ``local`` (I, 16) (column-major) in the space of
+    ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
+    (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
+    counter-clockwise fronts, their corners reversed."""
     from ..core.kernels import raster
 
     pos, nrm, uvs, mat_index, attributes, texspace = data
-    count, tris = len(matrices), len(pos)
-    lin = matrices[:, :3, :3]
-    # inverse transposes from the cofactors (rows r_i: r1 x r2, r2 x r0, r0 x r1) over det
-    normal_matrix = np.stack([np.cross(lin[:, 1], lin[:, 2]), np.cross(lin[:, 2], lin[:, 0]),
-                              np.cross(lin[:, 0], lin[:, 1])], axis=1)
-    det = np.einsum("nk,nk->n", lin[:, 0], normal_matrix[:, 0])
-    ok = np.abs(det) > 1e-20
-    normal_matrix /= np.where(ok, det, 1.0)[:, None, None]
-    normal_matrix[~ok] = lin[~ok]
-    inverse = np.zeros((count, 4, 4))  # world -> object: (L^-1, -L^-1 t), identity if flat
-    inverse[:, 3, 3] = 1.0
-    inverse[:, :3, :3] = normal_matrix.transpose(0, 2, 1)
-    inverse[~ok, :3, :3] = np.eye(3)
-    inverse[:, :3, 3] = -np.einsum("nij,nj->ni", inverse[:, :3, :3], matrices[:, :3, 3])
+    count, tris = len(local), len(pos)
     wpos = np.empty((count * tris, 3, 3), np.float32)
     wn = np.empty((count * tris, 3, 3), np.float32)
+    inverse = np.empty((count, 4, 4))
+    mirrored = np.empty(count, bool)
     raster.place(np.ascontiguousarray(pos, np.float32), np.ascontiguousarray(nrm, np.float32),
-                 np.ascontiguousarray(matrices, np.float64), normal_matrix, wpos, wn)
-    del normal_matrix
-    mirrored = det < 0
+                 np.ascontiguousarray(local, np.float32), np.ascontiguousarray(parent), wpos,
+                 wn, inverse, mirrored)
 
     def repeated(a):  # per-corner values of the mesh, for every instance
         a = np.ascontiguousarray(np.broadcast_to(a, (count, *a.shape)).reshape(-1, *a.shape[1:]))
@@ -469,7 +458,9 @@ def _instanced_batch(data, matrices: np.ndarray, name: str, holdout: bool) -> cs
         a = repeated(np.asarray(a, np.float32))
         if key[0] == "tangent":  # tangents turn with their instance
             a = a.reshape(count, tris, 3, 4)
-            t = np.einsum("nij,ntkj->ntki", lin.astype(np.float32), a[..., :3])
+            lin = local.reshape(count, 4, 4)[:, :3, :3].transpose(0, 2, 1).astype(np.float64)
+            lin = np.matmul(parent[:3, :3], lin).astype(np.float32)
+            t = np.einsum("nij,ntkj->ntki", lin, a[..., :3])
             t /= np.maximum(np.linalg.norm(t, axis=-1, keepdims=True), 1e-20)
             a[..., :3] = t
             a[mirrored, ..., 3] *= -1.0
@@ -613,13 +604,15 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         if at_once and obj.type in _GEOMETRY_TYPES and _visible(obj):
             holdout = bool(obj.is_holdout
                            or obj.original.holdout_get(view_layer=depsgraph.view_layer))
-            for key, data, matrices in _instances(obj, depsgraph, cache, warnings):
+            parent = _matrix(obj.matrix_world)
+            for key, data, local in _instances(obj, depsgraph, cache, warnings):
                 objects[key] = data
-                digest = hashlib.blake2b(memoryview(np.ascontiguousarray(matrices)).cast("B"))
+                digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
+                digest.update(parent.tobytes())
                 bkey = (*key, digest.digest(), holdout)
                 batch = batches.get(bkey) or cache.batches.get(bkey)
                 if batch is None:
-                    batch = _instanced_batch(data, matrices, obj.name, holdout)
+                    batch = _instanced_batch(data, local, parent, obj.name, holdout)
                 batches[bkey] = batch
                 meshes.append(batch)
         if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)

@@ -511,7 +511,7 @@ def rasterize(
 # Inputs of more triangles than this (whose set-up, some 350 bytes a triangle, could not be
 # kept for the next sample) are set up a chunk at a time, for one sample offset each
 _SETUP_TRIANGLES = _KEEP_BYTES // 350
-_CHUNK = 1 << 18
+_CHUNK = 1 << 17
 _MAX_PIECES = 32  # pieces of one triangle clipped by the five planes, one split each at most
 
 

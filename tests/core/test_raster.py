@@ -770,3 +770,45 @@ def test_extent_and_distances_of_casters(dtype):
     planes = np.abs(np.einsum("tk,tk->t", n, origin - q[:, 0])) / np.linalg.norm(n, axis=1)
     assert near == pytest.approx(planes.min(), rel=1e-9)
     assert far == pytest.approx(np.linalg.norm(q - origin, axis=-1).max(), rel=1e-12)
+
+
+def test_place_puts_a_mesh_where_each_instance_is():
+    """``kernels.raster.place`` against NumPy per instance: corners through parent @ local
+    (local column-major, as Blender stores instance transforms), normals through the inverse
+    transpose, world-to-object inverses; a mirrored instance has its corners reversed (fronts
+    stay counter-clockwise), a flat one an identity inverse."""
+    from bo2_lighting.addon.core.kernels import raster as kernels
+
+    rng = np.random.default_rng(41)
+    pos = rng.normal(size=(5, 3, 3)).astype(np.float32)
+    nrm = rng.normal(size=(5, 3, 3)).astype(np.float32)
+    nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+    mats = np.tile(np.eye(4), (4, 1, 1))
+    mats[:, :3, :3] = rng.normal(size=(4, 3, 3))
+    mats[:, :3, 3] = rng.normal(size=(4, 3)) * 10.0
+    mats[1, :3, :3] = np.diag([-1.0, 2.0, 0.5])  # mirrored
+    mats[2, 2, :3] = 0.0  # flat
+    parent = np.eye(4)
+    parent[:3, :3] = rng.normal(size=(3, 3)) + 2.0 * np.eye(3)
+    parent[:3, 3] = [1.0, -2.0, 3.0]
+    local = np.ascontiguousarray(mats.transpose(0, 2, 1).reshape(4, 16), np.float32)
+    out_p, out_n = np.empty((20, 3, 3), np.float32), np.empty((20, 3, 3), np.float32)
+    inverse, mirrored = np.empty((4, 4, 4)), np.empty(4, bool)
+    kernels.place(pos, nrm, local, parent, out_p, out_n, inverse, mirrored)
+    for i in range(4):
+        m = parent @ local[i].astype(np.float64).reshape(4, 4).T
+        lin = m[:3, :3]
+        det = np.linalg.det(lin)
+        if abs(det) > 1e-9:  # (a flat instance's triangles have no front to keep)
+            assert mirrored[i] == (det < 0)
+        order = [2, 1, 0] if mirrored[i] else [0, 1, 2]
+        want_p = pos.astype(np.float64) @ lin.T + m[:3, 3]
+        np.testing.assert_allclose(out_p[5 * i:5 * i + 5], want_p[:, order], rtol=1e-5,
+                                   atol=1e-4)
+        if abs(det) > 1e-20:
+            n = nrm.astype(np.float64) @ np.linalg.inv(lin)
+            n /= np.linalg.norm(n, axis=-1, keepdims=True)
+            np.testing.assert_allclose(out_n[5 * i:5 * i + 5], n[:, order], atol=1e-5)
+            np.testing.assert_allclose(inverse[i], np.linalg.inv(m), atol=1e-9)
+        else:
+            np.testing.assert_array_equal(inverse[i][:3, :3], np.eye(3))

@@ -157,19 +157,62 @@ def project(positions, matrix, clip):
                                  + z * matrix[r, 2]) + matrix[r, 3]
 
 
-@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1], nb.float64[:, :, ::1],
-                 nb.float64[:, :, ::1], nb.float32[:, :, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
-def place(positions, normals, matrices, normal_matrices, positions_out, normals_out):
-    """One mesh's triangles (T, 3, 3) placed by I matrices (I, 4, 4): ``positions_out`` and
-    unit ``normals_out`` (I T, 3, 3), instance by instance, normals through ``normal_matrices``
-    (I, 3, 3) (the inverse transposes); an instance whose matrix mirrors (negative
-    determinant) has its corners in reverse order, so its fronts stay counter-clockwise."""
-    count, tris = matrices.shape[0], positions.shape[0]
-    for i in range(count):
-        m, q = matrices[i], normal_matrices[i]
-        det = (m[0, 0] * (m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1])
-               - m[0, 1] * (m[1, 0] * m[2, 2] - m[1, 2] * m[2, 0])
-               + m[0, 2] * (m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]))
+@nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1], nb.float32[:, ::1],
+                 nb.float64[:, ::1], nb.float32[:, :, ::1], nb.float32[:, :, ::1],
+                 nb.float64[:, :, ::1], nb.boolean[::1]), **_OPTIONS)
+def place(positions, normals, local, parent, positions_out, normals_out, world_to_object,
+          mirrored):
+    """One mesh's triangles (T, 3, 3) placed by I instances: ``positions_out`` and unit
+    ``normals_out`` (I T, 3, 3), instance by instance, the matrix of instance i being
+    ``parent`` (4, 4) times its ``local`` (I, 16) matrix (column-major, as Blender stores
+    instance transforms), all in float64; normals through its inverse transpose (from the
+    cofactors). Also ``world_to_object`` (I, 4, 4), the inverses (identity for a matrix flat
+    to rounding: |det| <= 1e-12 max|m|^3),
+    and ``mirrored`` (I,): a negative determinant, whose corners go in reverse order so that
+    fronts stay counter-clockwise."""
+    m = np.empty((4, 4))
+    q = np.empty((3, 3))
+    tris = positions.shape[0]
+    for i in range(local.shape[0]):
+        for r in range(4):
+            for c in range(4):
+                acc = 0.0
+                for k in range(4):
+                    acc += parent[r, k] * np.float64(local[i, 4 * c + k])
+                m[r, c] = acc
+        # cofactors: q = det * inverse transpose of the linear part
+        q[0, 0] = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+        q[0, 1] = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+        q[0, 2] = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+        q[1, 0] = m[2, 1] * m[0, 2] - m[2, 2] * m[0, 1]
+        q[1, 1] = m[2, 2] * m[0, 0] - m[2, 0] * m[0, 2]
+        q[1, 2] = m[2, 0] * m[0, 1] - m[2, 1] * m[0, 0]
+        q[2, 0] = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
+        q[2, 1] = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
+        q[2, 2] = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+        det = m[0, 0] * q[0, 0] + m[0, 1] * q[0, 1] + m[0, 2] * q[0, 2]
+        size = 0.0
+        for r in range(3):
+            for c in range(3):
+                size = max(size, abs(m[r, c]))
+        if not abs(det) > 1e-12 * size * size * size:  # flat, to rounding
+            det = 0.0
+        mirrored[i] = det < 0.0
+        inv = world_to_object[i]
+        inv[:, :] = 0.0
+        inv[3, 3] = 1.0
+        if det != 0.0:
+            for r in range(3):
+                for c in range(3):
+                    q[r, c] /= det
+                    inv[c, r] = q[r, c]
+            for r in range(3):
+                inv[r, 3] = -(inv[r, 0] * m[0, 3] + inv[r, 1] * m[1, 3] + inv[r, 2] * m[2, 3])
+        else:  # flat: normals through the matrix itself
+            for r in range(3):
+                inv[r, r] = 1.0
+                for c in range(3):
+                    q[r, c] = m[r, c]
         for t in range(tris):
             o = i * tris + t
             for c in range(3):
@@ -182,9 +225,9 @@ def place(positions, normals, matrices, normal_matrices, positions_out, normals_
                     v = q[r, 0] * a + q[r, 1] * b + q[r, 2] * e
                     normals_out[o, d, r] = v
                     length += v * v
-                inv = 1.0 / max(np.sqrt(length), 1e-20)
+                scale = 1.0 / max(np.sqrt(length), 1e-20)
                 for r in range(3):
-                    normals_out[o, d, r] *= inv
+                    normals_out[o, d, r] *= scale
 
 
 KEPT, OUTSIDE, NOT_FINITE = 0, 1, 2
