@@ -14,7 +14,7 @@ import traceback
 import bpy
 import numpy as np
 
-from ..core import kernels, pipeline
+from ..core import kernels, memory, pipeline
 from ..core.passes import PASSES
 from . import extract, interrupt, passes, viewport
 
@@ -76,6 +76,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
     def render(self, depsgraph):
         scene = depsgraph.scene
         start = time.perf_counter()
+        frame = None
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
@@ -94,6 +95,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             return
         except (extract.SceneError, kernels.KernelsUnavailable) as exc:
             self._fail(str(exc))
+            return
+        except MemoryError:
+            message = memory.out_of_memory(frame)  # (None: while the scene was read)
+            frame = None
+            self._fail(message)
             return
         except Exception as exc:  # noqa: BLE001 - the UI gets one line, the console the trace
             traceback.print_exc(file=sys.stderr)

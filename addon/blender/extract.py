@@ -358,62 +358,79 @@ def _legacy_instancer(obj) -> bool:
                for ps in getattr(obj, "particle_systems", ()))
 
 
-def _instance_table(obj):
-    """(GeometrySet, its instance references, their point cloud) of an evaluated object's
-    geometry-nodes instances, or None when it has none."""
+def _geometry(obj):
+    """The evaluated geometry (a GeometrySet) of an evaluated object, or None."""
     get = getattr(obj, "evaluated_geometry", None)
     try:
-        geometry = get() if get is not None else None
+        return get() if get is not None else None
     except TypeError:  # not a geometry object (a camera, a light)
         return None
+
+
+_NESTING = 8  # instances of instances followed this deep
+
+
+def _readable_at_once(obj, geometry=None, depth: int = 0) -> bool:
+    """Whether the geometry-nodes instances of ``obj`` (if any) can be read at once: every
+    reference, nested ones too, is a mesh or a geometry object (not a collection)."""
+    geometry = _geometry(obj) if geometry is None else geometry
     if geometry is None:
-        return None
+        return True
     cloud = geometry.instances_pointcloud()
     if cloud is None or not len(cloud.points):
-        return None
-    return geometry, geometry.instance_references(), cloud
-
-
-def _readable_at_once(obj) -> bool:
-    """Whether the geometry-nodes instances of ``obj`` (if any) can be read at once: every
-    reference is a mesh (a geometry without instances of its own) or a geometry object."""
-    table = _instance_table(obj)
-    if table is None:
         return True
-    for ref in table[1]:
+    for ref in geometry.instance_references():
         if isinstance(ref, bpy.types.Object):
             if ref.type not in _GEOMETRY_TYPES:
                 return False
-        elif isinstance(ref, bpy.types.Collection):
+        elif isinstance(ref, bpy.types.Collection) or depth >= _NESTING:
             return False
-        else:
-            inner = ref.instances_pointcloud()
-            if inner is not None and len(inner.points):
-                return False
+        elif not _readable_at_once(None, ref, depth + 1):
+            return False
     return True
+
+
+def _instance_matrices(geometry) -> list[tuple]:
+    """[(reference, matrices (N, 16) float32 column-major, in ``geometry``'s space)] of the
+    instances of a GeometrySet (``_readable_at_once``), nested instances flattened (their
+    matrices composed in float64): a reference is a geometry object or a GeometrySet."""
+    cloud = geometry.instances_pointcloud()
+    if cloud is None or not len(cloud.points):
+        return []
+    count = len(cloud.points)
+    flat = np.empty(count * 16, np.float32)
+    cloud.attributes["instance_transform"].data.foreach_get("value", flat)
+    flat = flat.reshape(count, 16)
+    which = np.zeros(count, np.int32)
+    if ".reference_index" in cloud.attributes:
+        cloud.attributes[".reference_index"].data.foreach_get("value", which)
+    out = []
+    for k, ref in enumerate(geometry.instance_references()):
+        pick = np.flatnonzero(which == k)
+        if not len(pick):
+            continue
+        mats = flat if len(pick) == count else flat[pick]
+        out.append((ref, mats))
+        if not isinstance(ref, bpy.types.Object):
+            for inner, inner_mats in _instance_matrices(ref):
+                outer = mats.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)
+                both = np.matmul(outer[:, None], inner_mats.reshape(-1, 4, 4).transpose(
+                    0, 2, 1).astype(np.float64)[None])
+                out.append((inner, np.ascontiguousarray(
+                    both.transpose(0, 1, 3, 2).reshape(-1, 16), np.float32)))
+    return out
 
 
 def _instances(obj, depsgraph, cache: SceneCache, warnings):
     """The geometry-nodes instances of evaluated object ``obj``, read at once: one
     (key, ``_object_data``, matrices (I, 16) float32, column-major, in ``obj``'s space) per
     instanced mesh."""
-    table = _instance_table(obj)
-    if table is None:
+    geometry = _geometry(obj)
+    if geometry is None:
         return []
-    _, refs, cloud = table
-    count = len(cloud.points)
-    flat = np.empty(count * 16, np.float32)
-    cloud.attributes["instance_transform"].data.foreach_get("value", flat)
-    local = flat.reshape(count, 16)  # column-major 4 x 4 each
-    which = np.zeros(count, np.int32)
-    if ".reference_index" in cloud.attributes:
-        cloud.attributes[".reference_index"].data.foreach_get("value", which)
     out = []
-    for k, ref in enumerate(refs):
-        pick = np.flatnonzero(which == k)
+    for k, (ref, local) in enumerate(_instance_matrices(geometry)):
         key = (obj.name_full, "instances", k)
-        if not len(pick):
-            continue
         if key not in cache.objects:
             if isinstance(ref, bpy.types.Object):
                 data = _object_data(ref.evaluated_get(depsgraph), cache, warnings)
@@ -424,7 +441,7 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings):
             cache.objects[key] = data
             cache.reads["mesh", obj.name_full] += 1
         if cache.objects[key] is not None:
-            out.append((key, cache.objects[key], local if len(pick) == count else local[pick]))
+            out.append((key, cache.objects[key], local))
     return out
 
 

@@ -174,3 +174,22 @@ def test_a_foreign_numba_is_one_clear_error(addon, monkeypatch):
         render_pixels(scene, "BO2_LIGHTING", samples=1)
     monkeypatch.undo()
     assert render_pixels(scene, "BO2_LIGHTING", samples=1).shape[2] == 4
+
+
+def test_running_out_of_memory_is_one_message_with_the_figure(addon, monkeypatch):
+    """A render that runs out of memory stops with one message that names memory, the
+    triangles and what the frame needs (``core.memory.frame_bytes``), and Blender goes on."""
+    from bo2_lighting.addon.core import pipeline
+
+    scene = lambert_plane_scene("SUN")
+    real = pipeline.render_tiles
+
+    def starved(*args, **kwargs):
+        raise MemoryError()
+
+    monkeypatch.setattr(pipeline, "render_tiles", starved)
+    with pytest.raises(RuntimeError, match=r"ran out of memory: 2 triangles and 1 shadow maps "
+                                           r"need about 17 MiB beside Blender's own"):
+        render_pixels(scene, "BO2_LIGHTING", samples=1)
+    monkeypatch.setattr(pipeline, "render_tiles", real)
+    assert render_pixels(scene, "BO2_LIGHTING", samples=1).shape[2] == 4

@@ -141,6 +141,6 @@ def test_out_of_memory_is_named_not_a_missing_install(tmp_path):
                           timeout=300, preexec_fn=limit)
     assert proc.returncode == 1
     line = one_error_line(proc)
-    assert "out of memory" in line and "1465 MiB of address space" in line, line
+    assert "out of memory" in line and "1.4 GiB of address space" in line, line
     assert "needs numba" not in line and "reinstall" not in line
     assert list(tmp_path.iterdir()) == []

@@ -212,3 +212,44 @@ def test_hostile_geometry_in_a_corner_of_an_8k_frame_stays_finite():
         assert (passes["Combined"][..., 3] == 1.0).all()  # the floors cover the border
         assert passes["Combined"][..., 0].max() > 0.0  # and the light reaches them
     assert seen == 64 * 64
+
+
+def test_instanced_batches_and_the_memory_they_need():
+    """A batch of I instances of one mesh (per-instance world_to_object): each triangle knows
+    its instance's matrix; a frame with more triangles than a raster keeps at once draws
+    from its projection a chunk at a time (the same image as one set-up); ``memory.
+    frame_bytes`` is within 10% of what the prepared frame and its shadow maps hold."""
+    from bo2_lighting.addon.core import memory, raster
+
+    cube = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]],
+                    np.float32) * 0.4 - [0.2, 0.2, 0.0]
+    count = 400
+    shift = np.stack(np.meshgrid(np.arange(20), np.arange(20)), -1).reshape(-1, 2) * 0.45
+    shift = np.column_stack([shift - 4.3, np.full(count, 0.01)]).astype(np.float32)
+    positions = (cube[None] + shift[:, None, None]).reshape(-1, 3, 3)
+    normals = np.broadcast_to(np.float32([0, 0, 1]), positions.shape).copy()
+    inverse = np.tile(np.eye(4), (count, 1, 1))
+    inverse[:, :3, 3] = -shift
+    batch = MeshBatch(positions, normals, np.zeros(len(positions), np.int32),
+                      world_to_object=inverse)
+    scene = lambert_scene(Light("POINT", np.full(3, 2000.0, np.float32),
+                                position=np.array([0.0, 0.0, 3.0])))
+    scene.settings.shadow_resolution = 256
+    scene.meshes.append(batch)
+    frame = pipeline.prepare(scene)
+    assert frame.world_to_object.shape == (count + 1, 4, 4)  # the floor's, then each instance
+    assert (np.bincount(frame.obj) == [2] + [2] * count).all()
+    held = sum(a.nbytes for a in (frame.positions, frame.normals, frame.uvs, frame.material,
+                                  frame.obj, frame.has_uv, frame.holdout, frame.fades,
+                                  frame.world_to_object, frame.texspace))
+    held += sum(m.depth.nbytes + m.mips.nbytes for m in frame.shadow_maps if m is not None)
+    assert memory.frame_bytes(scene) == pytest.approx(held, rel=0.1)
+    whole = pipeline.render_frame(scene, frame=frame)["Combined"]
+    saved = raster._SETUP_TRIANGLES, raster._CHUNK
+    try:
+        raster._SETUP_TRIANGLES, raster._CHUNK = 100, 150
+        chunked = pipeline.render_frame(scene)["Combined"]
+        assert isinstance(pipeline.prepare(scene).clip, raster.Projection)
+    finally:
+        raster._SETUP_TRIANGLES, raster._CHUNK = saved
+    assert np.abs(chunked - whole).mean() < 1e-3

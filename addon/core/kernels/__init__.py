@@ -27,6 +27,8 @@ import os
 import sys
 from pathlib import Path
 
+from ..memory import limit_note
+
 NUMBA_VERSION = "0.62.1"
 LLVMLITE_VERSION = "0.45.1"
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
@@ -52,19 +54,6 @@ def _found() -> str:
 _NO_MEMORY = ("cannot allocate memory", "failed to map segment", "out of memory")
 
 
-def _memory_limit() -> str:
-    """' under a limit of N MiB of address space (ulimit -v)' when the process has one."""
-    try:
-        import resource
-
-        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
-    except (ImportError, OSError, ValueError):
-        return ""
-    if soft == resource.RLIM_INFINITY:
-        return ""
-    return f" under a limit of {soft / 2**20:.0f} MiB of address space (ulimit -v)"
-
-
 def _load_failure(exc: BaseException) -> str:
     """The message for numba installed but failing to import: memory named when memory is
     the cause (a shared library that cannot be mapped), else the failure itself."""
@@ -83,7 +72,7 @@ def _load_failure(exc: BaseException) -> str:
         installed = "numba"
     if memory:
         return (f"BO2 Lighting ran out of memory loading its compiled kernels ({installed}: "
-                f"{memory[0]}){_memory_limit()}; close other programs or raise the limit")
+                f"{memory[0]}){limit_note()}; close other programs or raise the limit")
     return (f"BO2 Lighting's {installed} is installed but fails to load "
             f"({'; '.join(reasons[:3]) or type(chain[0]).__name__}); reinstall the extension "
             "from the zip of your platform")

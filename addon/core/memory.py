@@ -1,0 +1,71 @@
+"""What a frame holds in memory, and the words for running out of it.
+
+A render keeps, per triangle, its corners and corner normals in world space (float32), its
+material, object instance and a few flags, UVs and attributes where meshes have them; per
+object instance its world-to-object matrix; per light a shadow map (six faces, one for a spot,
+up to four sun cascades). ``frame_bytes`` adds these up (the figure a message gives when
+memory runs out: Blender's own memory and the render's transient buffers come on top).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .scene import Scene
+
+__all__ = ["frame_bytes", "limit_note", "out_of_memory"]
+
+_PER_TRIANGLE = 36 + 36 + 4 + 4 + 3  # positions, normals, material, instance, flags
+_PER_INSTANCE = 16 * 8 + 6 * 4  # world_to_object float64, texture space float32
+_MAPS = {"POINT": 6, "AREA": 6, "SPOT": 1, "SUN": 4}  # faces or cascades at most
+
+
+def frame_bytes(scene: Scene) -> int:
+    """Bytes the render of ``scene`` keeps for its geometry and shadow maps (estimate)."""
+    total = 0
+    for m in scene.meshes:
+        tris = len(m.positions)
+        total += tris * _PER_TRIANGLE
+        if m.uvs is not None:
+            total += tris * 24
+        total += sum(int(a.size) * 4 for a in m.attributes.values())
+        w2o = m.world_to_object
+        total += (1 if w2o is None or w2o.ndim == 2 else len(w2o)) * _PER_INSTANCE
+    res = int(scene.settings.shadow_resolution)
+    for light in scene.lights:
+        if light.shadow:
+            total += _MAPS.get(light.kind, 6) * res * res * 4 * 17 // 16  # and the pyramid
+    return total
+
+
+def _size(count: int) -> str:
+    """Bytes as 'N MiB' under a GiB, else 'N.N GiB'."""
+    return f"{count / 2**20:.0f} MiB" if count < 2**30 else f"{count / 2**30:.1f} GiB"
+
+
+def limit_note() -> str:
+    """' under a limit of N MiB of address space (ulimit -v)' when the process has one."""
+    try:
+        import resource
+
+        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
+    except (ImportError, OSError, ValueError):
+        return ""
+    if soft == resource.RLIM_INFINITY:
+        return ""
+    return f" under a limit of {_size(soft)} of address space (ulimit -v)"
+
+
+def out_of_memory(scene: Scene | None) -> str:
+    """One line for a render that ran out of memory: what the frame needs, when the scene
+    was read, and the process's limit."""
+    if scene is None:
+        return (f"BO2 Lighting ran out of memory reading the scene{limit_note()}; hide or "
+                "simplify objects, or render on a machine with more memory")
+    tris = sum(len(m.positions) for m in scene.meshes)
+    return (f"BO2 Lighting ran out of memory: {tris:,} triangles and "
+            f"{sum(1 for light in scene.lights if light.shadow)} shadow maps need about "
+            f"{_size(frame_bytes(scene))} beside Blender's own{limit_note()}; lower "
+            "the shadow resolution, hide or simplify objects, or render on a machine with more "
+            "memory")
