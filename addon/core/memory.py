@@ -9,11 +9,6 @@ memory runs out: Blender's own memory and the render's transient buffers come on
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
-if TYPE_CHECKING:
-    from .scene import Scene
-
 __all__ = ["frame_bytes", "limit_note", "out_of_memory"]
 
 _PER_TRIANGLE = 36 + 36 + 4 + 4 + 3  # positions, normals, material, instance, flags
@@ -21,8 +16,9 @@ _PER_INSTANCE = 16 * 8 + 6 * 4  # world_to_object float64, texture space float32
 _MAPS = {"POINT": 6, "AREA": 6, "SPOT": 1, "SUN": 4}  # faces or cascades at most
 
 
-def frame_bytes(scene: Scene) -> int:
-    """Bytes the render of ``scene`` keeps for its geometry and shadow maps (estimate)."""
+def frame_bytes(scene) -> int:
+    """Bytes the render of ``scene`` (a ``core.scene.Scene``) keeps for its geometry and
+    shadow maps (an estimate: sun lights count four cascades)."""
     total = 0
     for m in scene.meshes:
         tris = len(m.positions)
@@ -57,9 +53,9 @@ def limit_note() -> str:
     return f" under a limit of {_size(soft)} of address space (ulimit -v)"
 
 
-def out_of_memory(scene: Scene | None) -> str:
-    """One line for a render that ran out of memory: what the frame needs, when the scene
-    was read, and the process's limit."""
+def out_of_memory(scene) -> str:
+    """One line for a render that ran out of memory: what the frame of ``scene`` (a
+    ``core.scene.Scene``, or None before it was read) needs, and the process's limit."""
     if scene is None:
         return (f"BO2 Lighting ran out of memory reading the scene{limit_note()}; hide or "
                 "simplify objects, or render on a machine with more memory")

@@ -448,8 +448,7 @@ def test_clip_end_before_clip_start_sees_nothing_as_in_cycles(addon, capfd, kind
 def add_node_instances(material):
     """Geometry-nodes instances only (read at once with their instancer): a 4 x 4 grid of
     cubes, every other one mirrored and rotated, and a 3 x 3 grid of instances of an object
-    (Object Info), over a floor."""
-    scene = bpy.context.scene
+    (Object Info)."""
     tree = bpy.data.node_groups.new("Instances", "GeometryNodeTree")
     tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     nodes, links = tree.nodes, tree.links
