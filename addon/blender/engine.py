@@ -96,8 +96,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         except (extract.SceneError, kernels.KernelsUnavailable) as exc:
             self._fail(str(exc))
             return
-        except MemoryError:
-            message = memory.out_of_memory(frame)  # (None: while the scene was read)
+        except MemoryError as exc:
+            message = memory.out_of_memory(frame, exc)  # (frame None: while it was read)
             frame = None
             self._fail(message)
             return

@@ -14,8 +14,8 @@ import hashlib
 import bpy
 import numpy as np
 
+from ..core import memory, texture
 from ..core import scene as cs
-from ..core import texture
 from .materials import convert_material, load_image
 from .probes import load_probes
 
@@ -587,25 +587,10 @@ class SceneCache:
         return self.mat_ids[key]
 
 
-def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
-                  indirect: bool = False, cache: SceneCache | None = None):
-    """Translate the evaluated depsgraph into plain data.
-
-    settings: the engine's settings (``render_settings(scene)`` when None)
-    camera:   False for work that brings its own cameras (probe captures, the viewport): the
-              scene camera is neither read nor required, and a 1 x 1 placeholder stands in
-    indirect: light the scene with its baked probes and the world (``probes.load_probes``);
-              False renders direct light only
-    cache:    what an earlier extraction read and is still valid (``SceneCache``), updated
-    returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
-    """
-    warnings: list[str] = []
-    scene = depsgraph.scene
-    viewer = scene.camera if camera else None
-    camera = (extract_camera(depsgraph) if camera else
-              cs.Camera(world_to_camera=np.eye(4), projection=np.eye(4), width=1, height=1))
-    cache = SceneCache() if cache is None else cache
-    cache.refresh(warnings)
+def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: list[int]):
+    """``extract_scene``'s walk over the depsgraph's instances: (meshes, lights, object-space
+    data and batches by key, for ``cache``); ``triangles[0]`` counts the triangles read, those
+    of the batch being made included."""
     meshes: list[cs.MeshBatch] = []
     lights: list[cs.Light] = []
     objects: dict[tuple, tuple | None] = {}  # object-space data shared by instances
@@ -627,6 +612,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
                 digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
                 digest.update(parent.tobytes())
                 bkey = (*key, digest.digest(), holdout)
+                triangles[0] += len(local) * len(data[0])
                 batch = batches.get(bkey) or cache.batches.get(bkey)
                 if batch is None:
                     batch = _instanced_batch(data, local, parent, obj.name, holdout)
@@ -652,6 +638,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         holdout = bool(obj.is_holdout
                        or obj.original.holdout_get(view_layer=depsgraph.view_layer))
         bkey = (*key, matrix.tobytes(), holdout)
+        triangles[0] += len(data[0])
         batch = batches.get(bkey) or cache.batches.get(bkey)
         if batch is None:
             pos, nrm, uvs, mat_index, attributes, texspace = data
@@ -661,6 +648,33 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
                                  attributes=wattr, world_to_object=inverse, texspace=texspace)
         batches[bkey] = batch
         meshes.append(batch)
+    return meshes, lights, objects, batches
+
+
+def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
+                  indirect: bool = False, cache: SceneCache | None = None):
+    """Translate the evaluated depsgraph into plain data.
+
+    settings: the engine's settings (``render_settings(scene)`` when None)
+    camera:   False for work that brings its own cameras (probe captures, the viewport): the
+              scene camera is neither read nor required, and a 1 x 1 placeholder stands in
+    indirect: light the scene with its baked probes and the world (``probes.load_probes``);
+              False renders direct light only
+    cache:    what an earlier extraction read and is still valid (``SceneCache``), updated
+    returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
+    """
+    warnings: list[str] = []
+    scene = depsgraph.scene
+    viewer = scene.camera if camera else None
+    camera = (extract_camera(depsgraph) if camera else
+              cs.Camera(world_to_camera=np.eye(4), projection=np.eye(4), width=1, height=1))
+    cache = SceneCache() if cache is None else cache
+    cache.refresh(warnings)
+    triangles = [0]  # read so far, and those of the batch being made (out of memory)
+    try:
+        meshes, lights, objects, batches = _read_objects(depsgraph, cache, warnings, triangles)
+    except MemoryError:
+        raise memory.OutOfMemory(triangles[0]) from None
     cache.objects, cache.batches = objects, batches  # what is gone from the scene is dropped
     if viewer is not None and viewer.type == "CAMERA" \
             and viewer.data.clip_end <= viewer.data.clip_start:

@@ -9,11 +9,20 @@ memory runs out: Blender's own memory and the render's transient buffers come on
 
 from __future__ import annotations
 
-__all__ = ["frame_bytes", "limit_note", "out_of_memory"]
+__all__ = ["OutOfMemory", "frame_bytes", "limit_note", "out_of_memory"]
 
 _PER_TRIANGLE = 36 + 36 + 4 + 4 + 3  # positions, normals, material, instance, flags
 _PER_INSTANCE = 16 * 8 + 6 * 4  # world_to_object float64, texture space float32
 _MAPS = {"POINT": 6, "AREA": 6, "SPOT": 1, "SUN": 4}  # faces or cascades at most
+
+
+class OutOfMemory(MemoryError):
+    """Memory ran out while a scene of ``triangles`` triangles (so far, with the batch being
+    made) was read."""
+
+    def __init__(self, triangles: int) -> None:
+        super().__init__(f"{triangles:,} triangles")
+        self.triangles = int(triangles)
 
 
 def frame_bytes(scene) -> int:
@@ -53,15 +62,21 @@ def limit_note() -> str:
     return f" under a limit of {_size(soft)} of address space (ulimit -v)"
 
 
-def out_of_memory(scene) -> str:
+def out_of_memory(scene, error: MemoryError | None = None) -> str:
     """One line for a render that ran out of memory: what the frame of ``scene`` (a
-    ``core.scene.Scene``, or None before it was read) needs, and the process's limit."""
+    ``core.scene.Scene``, or None before it was read: then what ``error``, an
+    ``OutOfMemory``, counted) needs, and the process's limit."""
     if scene is None:
-        return (f"BO2 Lighting ran out of memory reading the scene{limit_note()}; hide or "
-                "simplify objects, or render on a machine with more memory")
+        read = ""
+        if isinstance(error, OutOfMemory):
+            read = (f": its {error.triangles:,} triangles need about "
+                    f"{_size(error.triangles * _PER_TRIANGLE)} beside Blender's own")
+        return (f"BO2 Lighting ran out of memory reading the scene{read}{limit_note()}; hide "
+                "or simplify objects, or render on a machine with more memory")
     tris = sum(len(m.positions) for m in scene.meshes)
-    return (f"BO2 Lighting ran out of memory: {tris:,} triangles and "
-            f"{sum(1 for light in scene.lights if light.shadow)} shadow maps need about "
+    maps = sum(1 for light in scene.lights if light.shadow)
+    return (f"BO2 Lighting ran out of memory: {tris:,} triangles and {maps} shadow "
+            f"map{'s' * (maps != 1)} need about "
             f"{_size(frame_bytes(scene))} beside Blender's own{limit_note()}; lower "
             "the shadow resolution, hide or simplify objects, or render on a machine with more "
             "memory")
