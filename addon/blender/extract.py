@@ -368,32 +368,49 @@ def _geometry(obj):
 
 
 _NESTING = 8  # instances of instances followed this deep
+# objects that may carry geometry-nodes instances (their own mesh, if any, is read too)
+_INSTANCERS = _GEOMETRY_TYPES | {"CURVES", "POINTCLOUD", "VOLUME", "GREASEPENCIL", "GPENCIL"}
 
 
-def _readable_at_once(obj, geometry=None, depth: int = 0) -> bool:
+def _readable_at_once(obj, depsgraph, geometry=None, depth: int = 0) -> bool:
     """Whether the geometry-nodes instances of ``obj`` (if any) can be read at once: every
-    reference, nested ones too, is a mesh or a geometry object (not a collection)."""
+    reference, nested ones too, is a mesh or an object that may hold geometry (not a
+    collection, a light, a camera)."""
     geometry = _geometry(obj) if geometry is None else geometry
     if geometry is None:
         return True
     cloud = geometry.instances_pointcloud()
     if cloud is None or not len(cloud.points):
         return True
+    if depth >= _NESTING:
+        return False
     for ref in geometry.instance_references():
         if isinstance(ref, bpy.types.Object):
-            if ref.type not in _GEOMETRY_TYPES:
+            if ref.type not in _INSTANCERS or not _readable_at_once(
+                    ref.evaluated_get(depsgraph), depsgraph, None, depth + 1):
                 return False
-        elif isinstance(ref, bpy.types.Collection) or depth >= _NESTING:
+        elif isinstance(ref, bpy.types.Collection):
             return False
-        elif not _readable_at_once(None, ref, depth + 1):
+        elif not _readable_at_once(None, depsgraph, ref, depth + 1):
             return False
     return True
 
 
-def _instance_matrices(geometry) -> list[tuple]:
-    """[(reference, matrices (N, 16) float32 column-major, in ``geometry``'s space)] of the
-    instances of a GeometrySet (``_readable_at_once``), nested instances flattened (their
-    matrices composed in float64): a reference is a geometry object or a GeometrySet."""
+def _compose(outer: np.ndarray, inner: np.ndarray) -> np.ndarray:
+    """(I J, 16) float32 column-major products outer_i @ inner_j of (I, 16) and (J, 16)."""
+    a = outer.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)
+    b = inner.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)
+    both = np.matmul(a[:, None], b[None])
+    return np.ascontiguousarray(both.transpose(0, 1, 3, 2).reshape(-1, 16), np.float32)
+
+
+def _instance_matrices(geometry, owner, depsgraph, shown: set) -> list[tuple]:
+    """[(reference, matrices (N, 16) float32 column-major in ``geometry``'s space, owner)] of
+    the instances of a GeometrySet (``_readable_at_once``), nested instances flattened (their
+    matrices composed in float64), and the own instances of an instanced object in ``shown``
+    (names of the objects the depsgraph shows; Blender leaves out those of a hidden one): a
+    reference is an object (its mesh) or a GeometrySet (its mesh); ``owner`` is the object
+    whose visibility and holdout apply (the instancer, or the instanced object)."""
     cloud = geometry.instances_pointcloud()
     if cloud is None or not len(cloud.points):
         return []
@@ -410,38 +427,45 @@ def _instance_matrices(geometry) -> list[tuple]:
         if not len(pick):
             continue
         mats = flat if len(pick) == count else flat[pick]
-        out.append((ref, mats))
-        if not isinstance(ref, bpy.types.Object):
-            for inner, inner_mats in _instance_matrices(ref):
-                outer = mats.reshape(-1, 4, 4).transpose(0, 2, 1).astype(np.float64)
-                both = np.matmul(outer[:, None], inner_mats.reshape(-1, 4, 4).transpose(
-                    0, 2, 1).astype(np.float64)[None])
-                out.append((inner, np.ascontiguousarray(
-                    both.transpose(0, 1, 3, 2).reshape(-1, 16), np.float32)))
+        if isinstance(ref, bpy.types.Object):
+            ref = ref.evaluated_get(depsgraph)
+            inner = _geometry(ref) if ref.original.name_full in shown else None
+            inner_owner = ref
+        else:
+            inner, inner_owner = ref, owner
+        out.append((ref, mats, inner_owner))
+        if inner is not None:
+            out += [(r, _compose(mats, m), o)
+                    for r, m, o in _instance_matrices(inner, inner_owner, depsgraph, shown)]
     return out
 
 
-def _instances(obj, depsgraph, cache: SceneCache, warnings):
+def _instances(obj, depsgraph, cache: SceneCache, warnings, shown: set):
     """The geometry-nodes instances of evaluated object ``obj``, read at once: one
-    (key, ``_object_data``, matrices (I, 16) float32, column-major, in ``obj``'s space) per
-    instanced mesh."""
+    (key, ``_object_data``, matrices (I, 16) float32, column-major, in ``obj``'s space,
+    the object whose visibility and holdout apply) per instanced mesh (``shown``: as
+    ``_instance_matrices``)."""
     geometry = _geometry(obj)
     if geometry is None:
         return []
     out = []
-    for k, (ref, local) in enumerate(_instance_matrices(geometry)):
-        key = (obj.name_full, "instances", k)
+    for k, (ref, local, owner) in enumerate(_instance_matrices(geometry, obj, depsgraph,
+                                                                shown)):
+        # an object's data is keyed as when read one by one (an edit of it forgets it)
+        key = ((ref.name_full, ref.data.as_pointer() if ref.data is not None else 0)
+               if isinstance(ref, bpy.types.Object) else (obj.name_full, "instances", k))
         if key not in cache.objects:
             if isinstance(ref, bpy.types.Object):
-                data = _object_data(ref.evaluated_get(depsgraph), cache, warnings)
+                data = _object_data(ref, cache, warnings) if ref.type in _GEOMETRY_TYPES \
+                    else None
             else:
                 mesh = ref.mesh
                 data = (None if mesh is None or not len(mesh.polygons) else
                         _mesh_data(mesh, list(mesh.materials), obj.name, cache, warnings))
             cache.objects[key] = data
-            cache.reads["mesh", obj.name_full] += 1
+            cache.reads["mesh", key[0]] += 1
         if cache.objects[key] is not None:
-            out.append((key, cache.objects[key], local))
+            out.append((key, cache.objects[key], local, owner))
     return out
 
 
@@ -597,27 +621,21 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
     batches: dict[tuple, cs.MeshBatch] = {}
     # Geometry-nodes instances are read at once with their instancer (a million instances
     # cost their matrices), unless an object instances otherwise: then one by one.
-    at_once = not any(_legacy_instancer(o) or not _readable_at_once(o)
+    at_once = not any(_legacy_instancer(o) or not _readable_at_once(o, depsgraph)
                       for o in depsgraph.objects)
+
+    def holdout_of(obj) -> bool:
+        return bool(obj.is_holdout or obj.original.holdout_get(view_layer=depsgraph.view_layer))
+
+    instancers, shown = [], set()  # (read after the walk, when every shown object is known)
     for inst in depsgraph.object_instances:
         if at_once and inst.is_instance:
             continue
         obj = inst.object
-        if at_once and obj.type in _GEOMETRY_TYPES and _visible(obj):
-            holdout = bool(obj.is_holdout
-                           or obj.original.holdout_get(view_layer=depsgraph.view_layer))
-            parent = _matrix(obj.matrix_world)
-            for key, data, local in _instances(obj, depsgraph, cache, warnings):
-                objects[key] = data
-                digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
-                digest.update(parent.tobytes())
-                bkey = (*key, digest.digest(), holdout)
-                triangles[0] += len(local) * len(data[0])
-                batch = batches.get(bkey) or cache.batches.get(bkey)
-                if batch is None:
-                    batch = _instanced_batch(data, local, parent, obj.name, holdout)
-                batches[bkey] = batch
-                meshes.append(batch)
+        if at_once:
+            shown.add(obj.original.name_full)
+            if obj.type in _INSTANCERS:
+                instancers.append(obj)
         if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
             continue
         if obj.type == "LIGHT":
@@ -635,8 +653,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
         if data is None:
             continue
         matrix = _matrix(inst.matrix_world)
-        holdout = bool(obj.is_holdout
-                       or obj.original.holdout_get(view_layer=depsgraph.view_layer))
+        holdout = holdout_of(obj)
         bkey = (*key, matrix.tobytes(), holdout)
         triangles[0] += len(data[0])
         batch = batches.get(bkey) or cache.batches.get(bkey)
@@ -648,6 +665,22 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
                                  attributes=wattr, world_to_object=inverse, texspace=texspace)
         batches[bkey] = batch
         meshes.append(batch)
+    for obj in instancers:
+        parent = _matrix(obj.matrix_world)
+        for key, data, local, owner in _instances(obj, depsgraph, cache, warnings, shown):
+            if not _visible(owner):
+                continue
+            holdout = holdout_of(owner)
+            objects[key] = data
+            digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
+            digest.update(parent.tobytes())
+            bkey = (*key, digest.digest(), holdout)
+            triangles[0] += len(local) * len(data[0])
+            batch = batches.get(bkey) or cache.batches.get(bkey)
+            if batch is None:
+                batch = _instanced_batch(data, local, parent, obj.name, holdout)
+            batches[bkey] = batch
+            meshes.append(batch)
     return meshes, lights, objects, batches
 
 

@@ -8,7 +8,8 @@ simple recursive form: past ``limit`` nested calls, the innermost call gives up 
 again. Each retry finds the deeper results memoized, so the graph is evaluated deepest first,
 in a topological order, with at most ``limit`` nested calls whatever its depth. The recursive
 functions must memoize their results and tolerate a call that stops part way (they are called
-again from the start).
+again from the start); a result they cannot memoize (a fallback that depends on the caller)
+is computed again where it is met, with ``limit`` levels of its own, so the retries end.
 """
 
 from __future__ import annotations
@@ -37,17 +38,25 @@ class Bounded:
 
     def __init__(self, call: Callable[[Hashable], object], limit: int = 64) -> None:
         self.call, self.limit, self.level = call, int(limit), 0
+        self.ceiling = self.limit  # the level past which a call is deferred
+        self.done: set = set()  # keys ``run`` computed from an empty stack
 
     @contextmanager
     def nested(self, key: Hashable) -> Iterator[None]:
-        """One nested call of ``key``: TooDeep(key) past the limit."""
-        if self.level >= self.limit:
-            raise TooDeep(key)
+        """One nested call of ``key``: TooDeep(key) past the limit, unless ``run`` computed it
+        before (a result the call could not memoize, such as a fallback): that one goes on
+        with ``limit`` more levels, as it did from the empty stack."""
+        ceiling = self.ceiling
+        if self.level >= ceiling:
+            if key not in self.done:
+                raise TooDeep(key)
+            self.ceiling = self.level + self.limit
         self.level += 1
         try:
             yield
         finally:
             self.level -= 1
+            self.ceiling = ceiling
 
     def run(self, key: Hashable):
         """``call(key)`` with every call that went too deep computed first (the deepest
@@ -61,6 +70,6 @@ class Bounded:
             except TooDeep as deep:
                 pending.append(deep.key)
                 continue
-            pending.pop()
+            self.done.add(pending.pop())
             if not pending:
                 return result

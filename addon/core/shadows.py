@@ -418,13 +418,14 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
                                    cutout, c, True)
         d = np.full((res, res), np.inf, np.float32)  # depth along the light of each texel
         hit = np.flatnonzero(frags.tri.reshape(-1) >= 0)
-        if len(hit):  # (its triangle's corners' depths, of the triangles seen only)
-            corners = np.asarray(tris[frags.tri.reshape(-1)[hit]], np.float64)
+        for lo in range(0, len(hit), 1 << 18):  # (the corners' depths of the triangles seen,
+            part = hit[lo:lo + (1 << 18)]         # a block of texels at a time)
+            corners = np.asarray(tris[frags.tri.reshape(-1)[part]], np.float64)
             zs = np.ascontiguousarray(affine.linear(corners, basis[2:])[..., 0])
-            out = np.empty((1, len(hit)), np.float32)
-            kernels.corner_sum(np.arange(len(hit), dtype=np.int32)[None], np.ascontiguousarray(
-                frags.bary.reshape(-1, 3)[hit][None]), zs, out)
-            d.reshape(-1)[hit] = out[0]
+            out = np.empty((1, len(part)), np.float32)
+            kernels.corner_sum(np.arange(len(part), dtype=np.int32)[None], np.ascontiguousarray(
+                frags.bary.reshape(-1, 3)[part][None]), zs, out)
+            d.reshape(-1)[part] = out[0]
         return d, _pyramid(d, d)
 
     def finish(cascades: list) -> ShadowMap:

@@ -448,7 +448,7 @@ def test_clip_end_before_clip_start_sees_nothing_as_in_cycles(addon, capfd, kind
 def add_node_instances(material):
     """Geometry-nodes instances only (read at once with their instancer): a 4 x 4 grid of
     cubes, every other one mirrored and rotated, and a 3 x 3 grid of instances of an object
-    (Object Info)."""
+    (Object Info) that instances a ball on its tip itself."""
     tree = bpy.data.node_groups.new("Instances", "GeometryNodeTree")
     tree.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
     nodes, links = tree.nodes, tree.links
@@ -480,6 +480,24 @@ def add_node_instances(material):
     cone = bpy.context.object
     cone.data.materials.append(material)
     cone.hide_render = True  # only its instances render
+    tip = bpy.data.node_groups.new("Tip", "GeometryNodeTree")  # the cone instances a ball
+    tip.interface.new_socket("Geometry", in_out="INPUT", socket_type="NodeSocketGeometry")
+    tip.interface.new_socket("Geometry", in_out="OUTPUT", socket_type="NodeSocketGeometry")
+    point = tip.nodes.new("GeometryNodePoints")
+    point.inputs["Position"].default_value = (0.0, 0.0, 0.07)
+    ball = tip.nodes.new("GeometryNodeMeshIcoSphere")
+    ball.inputs["Radius"].default_value = 0.025
+    ball_material = tip.nodes.new("GeometryNodeSetMaterial")
+    ball_material.inputs["Material"].default_value = material
+    on_tip = tip.nodes.new("GeometryNodeInstanceOnPoints")
+    tip.links.new(point.outputs[0], on_tip.inputs["Points"])
+    tip.links.new(ball.outputs["Mesh"], ball_material.inputs["Geometry"])
+    tip.links.new(ball_material.outputs[0], on_tip.inputs["Instance"])
+    both = tip.nodes.new("GeometryNodeJoinGeometry")
+    tip.links.new(tip.nodes.new("NodeGroupInput").outputs[0], both.inputs[0])
+    tip.links.new(on_tip.outputs["Instances"], both.inputs[0])
+    tip.links.new(both.outputs[0], tip.nodes.new("NodeGroupOutput").inputs[0])
+    cone.modifiers.new("Tip", "NODES").node_group = tip
     info = nodes.new("GeometryNodeObjectInfo")
     info.inputs["Object"].default_value = cone
     info.inputs["As Instance"].default_value = True
@@ -526,9 +544,10 @@ def test_geometry_node_instances_read_at_once_match_cycles(addon, monkeypatch):
     batches = {len(m.positions): m for m in core_scene.meshes}  # (and the cone itself: the
     assert batches[16 * 12].world_to_object.shape == (16, 4, 4)  # view layer's depsgraph
     assert batches[9 * 62].world_to_object.shape == (9, 4, 4)  # shows hidden_render objects)
+    assert batches[9 * 20].world_to_object.shape == (9, 4, 4)  # the balls on the cones' tips
     ours = render_pixels(scene, "BO2_LIGHTING", samples=16)
     cycles = render_pixels(scene, "CYCLES", samples=16)
-    monkeypatch.setattr(extract, "_readable_at_once", lambda obj: False)
+    monkeypatch.setattr(extract, "_readable_at_once", lambda *args: False)
     one_by_one = render_pixels(scene, "BO2_LIGHTING", samples=16)
     d = np.abs(ours - cycles)
     print(f"instances at once: coverage BO2 {ours[..., 3].sum():.1f} px, Cycles "

@@ -85,7 +85,9 @@ def check() -> None:
     try:
         import numba
         version = numba.__version__
-    except ModuleNotFoundError:
+    except ModuleNotFoundError as exc:
+        if exc.name != "numba":  # numba is there, something it needs is not (llvmlite)
+            raise KernelsUnavailable(_load_failure(exc)) from None
         version = None
     except Exception as exc:  # noqa: BLE001 - a broken llvmlite, a library that cannot map
         raise KernelsUnavailable(_load_failure(exc)) from None
