@@ -20,7 +20,7 @@ import numpy as np
 import pytest
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
-from util import bare_material, camera_of, render_pixels, set_world_color
+from util import bare_material, camera_of, principled, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import probes, viewport
 
@@ -34,14 +34,9 @@ LIGHTS = [("POINT", None), ("SPOT", None), ("SUN", None), ("AREA", "SQUARE"),
           ("AREA", "RECTANGLE"), ("AREA", "DISK"), ("AREA", "ELLIPSE")]
 
 
-def principled(name, color=(0.8, 0.8, 0.8), alpha=1.0):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    node = mat.node_tree.nodes["Principled BSDF"]
-    node.inputs["Base Color"].default_value = (*color, 1.0)
-    node.inputs["Roughness"].default_value = 1.0
-    node.inputs["Alpha"].default_value = alpha
+def matte(name, alpha=1.0):
+    """A rough grey Principled material of ``alpha``, rendered dithered (as BO2 does)."""
+    mat = principled(name, roughness=1.0, alpha=alpha)
     if hasattr(mat, "surface_render_method"):
         mat.surface_render_method = "DITHERED"
     return mat
@@ -65,7 +60,7 @@ def surface_material(name, kind):
 def striped_normal_map(name):
     """A Principled material whose normal comes from a Normal Map node reading stripes along
     U, every other one tilting the normal 45 degrees towards -X."""
-    mat = principled(name)
+    mat = matte(name)
     tree = mat.node_tree
     img = bpy.data.images.new(name, 16, 16, float_buffer=True)
     img.colorspace_settings.name = "Non-Color"
@@ -98,8 +93,8 @@ def build(tmp_path):
     scene.render.resolution_percentage = 100
     scene.render.film_transparent = True
     scene.view_settings.view_transform = "Standard"
-    plane(principled("Floor"), 6.0, (0.0, 0.0, 0.0))
-    veil, layers = principled("Veil", alpha=0.5), principled("Layers", alpha=0.5)
+    plane(matte("Floor"), 6.0, (0.0, 0.0, 0.0))
+    veil, layers = matte("Veil", alpha=0.5), matte("Layers", alpha=0.5)
     plane(veil, 0.8, VEIL)
     for c in LAYERS:
         plane(layers, 0.8, c)
@@ -112,7 +107,7 @@ def build(tmp_path):
     bpy.ops.mesh.primitive_cube_add(size=0.4, location=(0.0, -1.2, 0.2))
     bpy.context.object.data.materials.append(surface_material("Glow", "EMISSION"))
     plane(striped_normal_map("Striped"), 1.0, (-1.5, -1.6, 0.01))
-    plane(principled("Plain"), 1.0, (1.5, -1.6, 0.01))
+    plane(matte("Plain"), 1.0, (1.5, -1.6, 0.01))
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location = (0.0, -6.0, 3.5)
     direction = Vector((0.0, 0.5, 0.3)) - cam.location

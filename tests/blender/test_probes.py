@@ -7,7 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 import pytest
-from util import render_pixels, set_world_color
+from util import principled, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import probes
@@ -17,13 +17,7 @@ RES = 48
 
 
 def lambert(name, color):
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:
-        mat.use_nodes = True
-    node = mat.node_tree.nodes["Principled BSDF"]
-    node.inputs["Base Color"].default_value = (*color, 1.0)
-    node.inputs["Roughness"].default_value = 0.6
-    return mat
+    return principled(name, color, roughness=0.6)
 
 
 def room(tmp_path):

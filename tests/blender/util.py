@@ -58,6 +58,18 @@ def render_pixels(scene, engine: str, samples: int = 4, size=None) -> np.ndarray
     return np.ascontiguousarray(px)
 
 
+def principled(name: str, color=(0.8, 0.8, 0.8), roughness: float = 0.5, alpha: float = 1.0):
+    """A new material with its Principled BSDF's Base Color, Roughness and Alpha set."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:
+        mat.use_nodes = True
+    node = mat.node_tree.nodes["Principled BSDF"]
+    node.inputs["Base Color"].default_value = (*color, 1.0)
+    node.inputs["Roughness"].default_value = roughness
+    node.inputs["Alpha"].default_value = alpha
+    return mat
+
+
 def bare_material(name: str):
     """A new material whose node tree holds only its Material Output; returns (material, tree)."""
     mat = bpy.data.materials.new(name)
