@@ -536,10 +536,11 @@ class Projection:
 def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind, depth_plane):
     """``rasterize`` of a large input (an array or a ``Projection``) in chunks of ``_CHUNK``
     triangles, each set up for this sample offset only (triangles whose box holds no sample
-    are left out before the costly steps) and scanned into the same keys: key indices are
-    ``_MAX_PIECES`` t + the piece's index for triangle t, so keys compare (depth, triangle) as
-    in one set-up, and ``behind`` works across calls. The pixels a chunk wins are resolved
-    with its set-up before the next one."""
+    are left out before the costly steps) and scanned into the same keys: the key index of a
+    piece of the chunk starting at triangle t0 is ``_MAX_PIECES`` t0 + the piece's rank in
+    the chunk (pieces in triangle order), so keys compare (depth, triangle) as in one set-up
+    and ``behind`` works across calls. The pixels a chunk wins are resolved with its set-up
+    before the next one."""
     from .kernels import raster as kernels
 
     n_tri = len(clip)
