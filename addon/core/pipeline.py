@@ -276,7 +276,7 @@ def _clip(positions: np.ndarray, camera) -> np.ndarray | raster.Projection:
     triangles than a raster keeps at once, their ``raster.Projection`` (computed a chunk at a
     time when drawn: a million instances never hold them all)."""
     matrix = camera.projection @ camera.world_to_camera
-    if len(positions) > raster._SETUP_TRIANGLES:
+    if len(positions) > raster.SETUP_TRIANGLES:
         return raster.Projection(positions, matrix, np.float32)
     return raster.project(positions, matrix)
 

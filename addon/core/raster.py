@@ -453,7 +453,7 @@ def rasterize(
 
     width, height = int(width), int(height)
     if isinstance(clip, Projection):
-        if len(clip) > _SETUP_TRIANGLES:
+        if len(clip) > SETUP_TRIANGLES:
             return _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
                                      depth_plane)
         clip = clip.part(0, len(clip))
@@ -461,7 +461,7 @@ def rasterize(
     if clip.ndim != 3 or clip.shape[1:] != (3, 4):
         raise ValueError(f"clip must have shape (T, 3, 4), got {clip.shape}")
     n_tri = clip.shape[0]
-    if n_tri > _SETUP_TRIANGLES:
+    if n_tri > SETUP_TRIANGLES:
         return _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
                                  depth_plane)
     if cull is not None:
@@ -510,7 +510,7 @@ def rasterize(
 
 # Inputs of more triangles than this (whose set-up, some 350 bytes a triangle, could not be
 # kept for the next sample) are set up a chunk at a time, for one sample offset each
-_SETUP_TRIANGLES = _KEEP_BYTES // 350
+SETUP_TRIANGLES = _KEEP_BYTES // 350
 _CHUNK = 1 << 17
 _MAX_PIECES = 32  # pieces of one triangle clipped by the five planes, one split each at most
 

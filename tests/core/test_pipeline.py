@@ -245,11 +245,11 @@ def test_instanced_batches_and_the_memory_they_need():
     held += sum(m.depth.nbytes + m.mips.nbytes for m in frame.shadow_maps if m is not None)
     assert memory.frame_bytes(scene) == pytest.approx(held, rel=0.1)
     whole = pipeline.render_frame(scene, frame=frame)["Combined"]
-    saved = raster._SETUP_TRIANGLES, raster._CHUNK
+    saved = raster.SETUP_TRIANGLES, raster._CHUNK
     try:
-        raster._SETUP_TRIANGLES, raster._CHUNK = 100, 150
+        raster.SETUP_TRIANGLES, raster._CHUNK = 100, 150
         chunked = pipeline.render_frame(scene)["Combined"]
         assert isinstance(pipeline.prepare(scene).clip, raster.Projection)
     finally:
-        raster._SETUP_TRIANGLES, raster._CHUNK = saved
+        raster.SETUP_TRIANGLES, raster._CHUNK = saved
     assert np.abs(chunked - whole).mean() < 1e-3

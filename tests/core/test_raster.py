@@ -724,7 +724,7 @@ def test_large_inputs_in_chunks_give_the_same_fragments(monkeypatch, offset):
     whole = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset)
     whole_next = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset,
                                   behind=whole.keys)
-    monkeypatch.setattr(raster, "_SETUP_TRIANGLES", 1000)
+    monkeypatch.setattr(raster, "SETUP_TRIANGLES", 1000)
     monkeypatch.setattr(raster, "_CHUNK", 3000)
     parts = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset)
     parts_next = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset,
@@ -738,9 +738,9 @@ def test_large_inputs_in_chunks_give_the_same_fragments(monkeypatch, offset):
         np.testing.assert_allclose(a.depth[same], b.depth[same], rtol=1e-6)
     world = rng.uniform(-1.0, 1.0, (8000, 3, 3)).astype(np.float32) * [3, 3, 1] + [0, 0, -6]
     proj = perspective(np.radians(50.0), w / h, 0.5, 20.0)
-    monkeypatch.setattr(raster, "_SETUP_TRIANGLES", 10**9)
+    monkeypatch.setattr(raster, "SETUP_TRIANGLES", 10**9)
     direct = raster.rasterize(raster.project(world, proj, np.float64), w, h)
-    monkeypatch.setattr(raster, "_SETUP_TRIANGLES", 1000)
+    monkeypatch.setattr(raster, "SETUP_TRIANGLES", 1000)
     lazy = raster.rasterize(raster.Projection(world, proj), w, h)
     assert raster.coverage(direct).mean() > 0.5
     assert (direct.tri == lazy.tri).mean() > 0.999
