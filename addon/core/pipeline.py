@@ -358,7 +358,7 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
 
     clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``), or its ``raster.Projection``
     returns: (K, 3, 4) float32 clip coordinates and (K,) int64 indices into ``clip``, increasing
-             (for a Projection: the Projection of the tile, and no indices: every triangle)
+             (for a Projection: the Projection of the tile's triangles, and their indices)
     """
     from .kernels import raster as kernels
 
@@ -368,8 +368,8 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
         m = np.eye(4)
         m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
         m[1, 1], m[1, 3] = height / th, 1.0 - height / th + 2.0 * y0 / th
-        return (raster.Projection(clip.positions, m @ clip.matrix, clip.dtype),
-                np.zeros(0, np.int64))
+        tile = raster.Projection(clip.positions, m @ clip.matrix, clip.dtype).survivors()
+        return tile, tile.index
     clip = np.ascontiguousarray(clip, np.float32)
     out = np.empty_like(clip)
     index = np.empty(len(clip), np.int64)
@@ -501,8 +501,7 @@ def _margin(frame: Frame, tile):
     if frame.tiles is not None and key in frame.tiles:
         return frame.tiles[key]
     clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
-    whole = isinstance(clip, raster.Projection)  # every triangle, in frame order
-    cull = None if frame.cull is None else frame.cull if whole else frame.cull[index]
+    cull = None if frame.cull is None else frame.cull[index]
     margin = (m, clip, index, cull, None if frame.tiles is None else {})
     if frame.tiles is not None:
         frame.tiles[key] = margin

@@ -524,13 +524,31 @@ class Projection:
     positions: np.ndarray
     matrix: np.ndarray
     dtype: type = np.float64
+    index: np.ndarray | None = None  # (K,) int64 the triangles of ``positions`` (None: all)
 
     def __len__(self) -> int:
-        return len(self.positions)
+        return len(self.positions) if self.index is None else len(self.index)
 
     def part(self, lo: int, hi: int) -> np.ndarray:
-        """(hi - lo, 3, 4) clip coordinates of triangles lo to hi."""
-        return project(self.positions[lo:hi], self.matrix, self.dtype)
+        """(hi - lo, 3, 4) clip coordinates of triangles lo to hi (of ``index``)."""
+        rows = self.positions[lo:hi] if self.index is None else self.positions[self.index[lo:hi]]
+        return project(rows, self.matrix, self.dtype)
+
+    def survivors(self) -> Projection:
+        """This projection of the triangles that may touch the viewport only (``kernels.raster.
+        survivors``, a chunk at a time): ``index`` says which."""
+        from .kernels import raster as kernels
+
+        kept = []
+        for lo in range(0, len(self), _CHUNK):
+            part = self.part(lo, min(lo + _CHUNK, len(self)))
+            orig = np.empty(len(part), np.int64)
+            count, _ = kernels.survivors(part, orig)
+            kept.append(orig[:count] + lo)
+        index = np.concatenate(kept) if kept else np.zeros(0, np.int64)
+        if self.index is not None:
+            index = self.index[index]
+        return Projection(self.positions, self.matrix, self.dtype, index)
 
 
 def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind, depth_plane):
