@@ -5,8 +5,10 @@ routes it to a flag: the BO2 engine's render and the bake's captures stop at the
 (within a tile) and the command raises KeyboardInterrupt itself (``check``), keeping what it
 finished. A render that cannot poll (Cycles runs in C and does not return to Python before it
 ends) is ended by a watcher thread, woken by the signal's wakeup file descriptor: ``GRACE``
-seconds after Ctrl-C it prints ``bo2: interrupted`` and exits with 130, but never while a file
-is being written (``writing``). In the Blender UI nothing installs it and the flag stays down.
+seconds after Ctrl-C (later while a render still polls the request: it is stopping) it prints
+``bo2: interrupted`` and exits with 130, but never while a file is being written
+(``writing``) nor once the command settles to end by itself (``settle``). In the Blender
+UI nothing installs it and the flag stays down.
 """
 
 from __future__ import annotations
@@ -19,8 +21,10 @@ import threading
 import time
 
 GRACE = 0.8  # seconds the command has to stop by itself before it is ended
+PATIENCE = 20.0  # at most this long while it still polls the request (it is stopping)
 _requested = threading.Event()
-_files = threading.Lock()  # held while a file is written
+_files = threading.RLock()  # held while a file is written, and once the command settles
+_polled = [0.0]  # when the request was last seen by a poll (time.monotonic)
 _installed: list = []
 
 
@@ -38,6 +42,10 @@ def install(terminal: int = 2) -> None:
             pass
         _requested.set()
         time.sleep(GRACE)
+        since = time.monotonic()  # a render that polls is stopping by itself: wait for it
+        while (time.monotonic() - _polled[0] < GRACE
+               and time.monotonic() - since < PATIENCE):
+            time.sleep(0.05)
         with _files:
             os.write(terminal, b"\nbo2: interrupted\n")
             os._exit(130)
@@ -54,8 +62,12 @@ def installed() -> bool:
 
 
 def requested() -> bool:
-    """Whether Ctrl-C was pressed since ``install``."""
-    return _requested.is_set()
+    """Whether Ctrl-C was pressed since ``install`` (a poll that sees it keeps the deadline
+    away while it comes again within ``GRACE``: the command is stopping by itself)."""
+    if _requested.is_set():
+        _polled[0] = time.monotonic()
+        return True
+    return False
 
 
 def check() -> None:
@@ -65,7 +77,8 @@ def check() -> None:
 
 
 def settle() -> None:
-    """The command is ending by itself after Ctrl-C: the deadline no longer applies."""
+    """The command is ending by itself after Ctrl-C: the deadline no longer applies (the
+    files lock is kept by this thread; ``writing`` may still take it again)."""
     _files.acquire(blocking=False)
 
 

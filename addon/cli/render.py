@@ -172,6 +172,7 @@ def run(args) -> int:
                         say(f"bo2: warning: {blend.name}: {warning}", sys.stderr)
                 say(line, stream)
     except KeyboardInterrupt:  # the finished images stay; the summary says what was done
+        interrupt.settle()  # (ending by itself: the deadline must not cut the summary)
         if summary is not None:
             try:
                 _write_summary(summary, args, images, time.perf_counter() - start,
