@@ -97,9 +97,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             self._fail(str(exc))
             return
         except MemoryError as exc:
-            message = memory.out_of_memory(frame, exc)  # (frame None: while it was read)
-            frame = None
-            self._fail(message)
+            self._fail(memory.out_of_memory(frame, exc))  # (frame None: while it was read)
             return
         except Exception as exc:  # noqa: BLE001 - the UI gets one line, the console the trace
             traceback.print_exc(file=sys.stderr)
