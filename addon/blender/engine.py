@@ -2,11 +2,13 @@
 
 ``render()`` extracts the evaluated scene, runs ``core.pipeline.render_frame`` with Blender's
 progress and cancel callbacks, and writes the passes with ``foreach_set``. Any failure ends in
-one ``error_set`` message, never a traceback in the UI.
+one ``error_set`` message, never a traceback in the UI. The same ``render()`` draws Blender's
+material, light and world previews (``is_preview``) in the talk's model.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 import traceback
@@ -22,9 +24,10 @@ from . import extract, interrupt, passes, viewport
 class BO2RenderEngine(bpy.types.RenderEngine):
     bl_idname = "BO2_LIGHTING"
     bl_label = "BO2 Lighting"
-    bl_use_preview = False
+    bl_use_preview = True  # material, light and world previews: rendered by BO2 itself
     bl_use_postprocess = True
     bl_use_eevee_viewport = True  # Material Preview shading: EEVEE renders the BO2 groups
+    bl_use_shading_nodes_custom = False  # Blender's shader node trees: the Shader Editor works
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -61,8 +64,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         view = self._viewport
         if view is None:
             return
-        region = context.region
-        view.set_camera(viewport.region_camera(region, context.region_data))
+        region, space = context.region, context.space_data
+        view.set_shading(depsgraph, space)
+        view.session.set_view(getattr(space.shading, "bo2_lookdev_view", "COMBINED"))
+        scale = viewport.pixel_size(depsgraph.scene, context.preferences)
+        view.set_camera(viewport.region_camera(region, context.region_data, scale))
         busy = view.session.busy  # before the image: a last sample landing now is redrawn
         image = view.session.image()
         self.update_stats("BO2 Lighting", view.status())
@@ -80,8 +86,12 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
-            frame, warnings = extract.extract_scene(depsgraph, indirect=scene.bo2.use_indirect)
-            for message in warnings:
+            settings = extract.render_settings(scene)
+            if self.is_preview:
+                settings = preview_settings(settings)
+            frame, warnings = extract.extract_scene(depsgraph, settings,
+                                                    indirect=scene.bo2.use_indirect)
+            for message in warnings if not self.is_preview else ():
                 self._warn(message)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
@@ -136,6 +146,14 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             if name != "Combined" and passes.enabled(renderlayer, name):
                 self.register_pass(scene, renderlayer, passes.blender_name(name), p.channels,
                                    p.ids, p.kind)
+
+
+def preview_settings(settings):
+    """A material, light or world preview's settings: Blender's preview scene at a quick
+    quality (four samples, 512 px shadow maps), so a 128 px preview takes a fraction of a
+    second."""
+    return dataclasses.replace(settings, samples=min(settings.samples, 4),
+                               shadow_resolution=min(settings.shadow_resolution, 512))
 
 
 # The warnings of the final renders since ``headless.render_frame`` cleared them, in order, over

@@ -41,15 +41,6 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "added one at a time after a first image at a quarter of the resolution",
         default=8, min=1, max=1024, soft_max=64,
     )
-    lookdev_view: bpy.props.EnumProperty(
-        name="Look-Dev View",
-        description="What the viewport's Rendered shading shows: the image or one of its "
-        "passes (the talk's material parameters, the light by kind, which probe lights a "
-        "pixel)",
-        items=[(key, view.label, view.description, k)
-               for k, (key, view) in enumerate(viewport.VIEWS.items())],
-        default="COMBINED",
-    )
     shade_every_sample: bpy.props.BoolProperty(
         name="Shade Every Sample",
         description="Shade each anti-aliasing sample on its own instead of once per pixel and "
@@ -207,7 +198,7 @@ _PACKAGE = __package__.rpartition(".")[0].rpartition(".")[0]  # the extension's 
 
 
 class BO2Preferences(bpy.types.AddonPreferences):
-    """The add-on's preferences: defaults of new scenes and the viewport's resolution."""
+    """The add-on's preferences: defaults of new scenes."""
 
     bl_idname = _PACKAGE
 
@@ -224,21 +215,11 @@ class BO2Preferences(bpy.types.AddonPreferences):
         items=_BACKENDS,
         default="BO2",
     )
-    viewport_scale: bpy.props.EnumProperty(
-        name="Viewport Resolution",
-        description="Resolution of the viewport's Rendered shading relative to the viewport "
-        "(lower is faster; the image is stretched to the viewport)",
-        items=[("100", "100%", "Every viewport pixel"), ("50", "50%", "Half on each axis"),
-               ("25", "25%", "A quarter on each axis")],
-        default="100",
-    )
-
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(self, "bake_folder")
         layout.prop(self, "bake_backend")
-        layout.prop(self, "viewport_scale")
 
 
 class _Defaults:
@@ -247,7 +228,6 @@ class _Defaults:
 
     bake_folder = "//bo2_bake/"
     bake_backend = "BO2"
-    viewport_scale = "100"
 
 
 def preferences():
@@ -260,13 +240,35 @@ def preferences():
 CLASSES = [BO2SceneSettings, BO2ViewLayerSettings, BO2Preferences]
 
 
+def _redraw_view(self, context) -> None:
+    """The look-dev view changed: the viewport shows the new pass at its next draw."""
+    if context is not None and context.area is not None:
+        context.area.tag_redraw()
+
+
+def lookdev_property():
+    """The look-dev view of one 3D viewport (``SpaceView3D.shading.bo2_lookdev_view``): kept
+    with the viewport, as EEVEE's Render Pass, and not in the scene."""
+    return bpy.props.EnumProperty(
+        name="Look-Dev View",
+        description="What this viewport's Rendered shading shows: the image or one of its "
+        "passes (the talk's material parameters, the light by kind, which probe lights a "
+        "pixel)",
+        items=[(key, view.label, view.description, k)
+               for k, (key, view) in enumerate(viewport.VIEWS.items())],
+        default="COMBINED", update=_redraw_view,
+    )
+
+
 def attach() -> None:
-    """Add the pointer properties to the ID types."""
+    """Add the pointer properties to the ID types and the look-dev view to each viewport."""
     bpy.types.Scene.bo2 = bpy.props.PointerProperty(type=BO2SceneSettings)
     bpy.types.ViewLayer.bo2 = bpy.props.PointerProperty(type=BO2ViewLayerSettings)
+    bpy.types.View3DShading.bo2_lookdev_view = lookdev_property()
 
 
 def detach() -> None:
     """Remove what ``attach()`` added."""
     del bpy.types.Scene.bo2
     del bpy.types.ViewLayer.bo2
+    del bpy.types.View3DShading.bo2_lookdev_view

@@ -19,16 +19,19 @@ _STOCK_PANELS = (
     "RENDER_PT_color_management", "RENDER_PT_color_management_curves",
     "RENDER_PT_output", "RENDER_PT_encoding", "RENDER_PT_stamp", "RENDER_PT_post_processing",
     "DATA_PT_context_camera", "DATA_PT_lens", "DATA_PT_camera", "DATA_PT_camera_display",
-    "DATA_PT_context_light", "DATA_PT_light", "DATA_PT_spot",
+    "DATA_PT_context_light", "DATA_PT_preview", "DATA_PT_light_animation",
+    "DATA_PT_custom_props_light",
     "DATA_PT_context_mesh", "DATA_PT_normals", "DATA_PT_uv_texture", "DATA_PT_vertex_groups",
     "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_viewport",
-    "WORLD_PT_context_world", "VIEWLAYER_PT_layer",
-    "DATA_PT_context_lightprobe", "DATA_PT_lightprobe", "DATA_PT_lightprobe_display",
-    "DATA_PT_lightprobe_eevee", "DATA_PT_lightprobe_eevee_next", "DATA_PT_lightprobe_capture",
+    "WORLD_PT_context_world", "WORLD_PT_preview", "VIEWLAYER_PT_layer",
+    "DATA_PT_context_lightprobe", "DATA_PT_lightprobe_parallax",
     "DATA_PT_lightprobe_display_eevee", "DATA_PT_lightprobe_display_eevee_next",
+    "DATA_PT_lightprobe_animation",
     "EEVEE_WORLD_PT_surface", "WORLD_PT_custom_props", "WORLD_PT_animation",
     "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",
 )
+# Blender's Light and Probe panels are EEVEE's own (``DATA_PT_light`` draws only the type): the
+# light and light probe tabs are this module's panels, each setting once.
 # Leak controls of a Volume light probe that the bake and the look-up honour (Blender's own).
 _VOLUME_LEAK = ("dilation_threshold", "validity_threshold", "dilation_radius", "escape_bias",
                 "normal_bias", "view_bias", "facing_bias")
@@ -132,7 +135,10 @@ class RENDER_PT_bo2_viewport(_BO2Panel, bpy.types.Panel):
     def draw(self, context):
         layout = self.split_layout()
         layout.prop(context.scene.bo2, "viewport_samples")
-        layout.prop(context.scene.bo2, "lookdev_view")
+        layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
+        space = context.space_data
+        if space is not None and space.type == "VIEW_3D":
+            layout.prop(space.shading, "bo2_lookdev_view")
 
 
 class RENDER_PT_bo2_lookdev(_BO2Panel, bpy.types.Panel):
@@ -204,23 +210,66 @@ class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
         col.label(text=f"Gloss: {values['gloss']:.3f}  (power {8192 ** values['gloss']:.0f})")
 
 
-class DATA_PT_bo2_lightprobe(_BO2Panel, bpy.types.Panel):
-    bl_label = "BO2 Bake"
+class _LightProbePanel(_BO2Panel):
     bl_context = "data"
 
     @classmethod
     def poll(cls, context):
-        return (context.engine in cls.COMPAT_ENGINES and context.object is not None
-                and context.object.type == "LIGHT_PROBE")
+        return (context.engine in cls.COMPAT_ENGINES
+                and getattr(context, "lightprobe", None) is not None)
+
+
+class DATA_PT_bo2_lightprobe(_LightProbePanel, bpy.types.Panel):
+    """The probe's settings that BO2 Lighting honours, each once (Blender's are EEVEE's)."""
+
+    bl_label = "Probe"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        probe = context.lightprobe
+        col = layout.column()
+        if probe.type == "VOLUME":
+            col.prop(probe, "influence_distance", text="Distance")
+            sub = col.column(align=True)
+            sub.prop(probe, "resolution_x", text="Resolution X")
+            sub.prop(probe, "resolution_y", text="Y")
+            sub.prop(probe, "resolution_z", text="Z")
+            col = layout.column(heading="Leaks")
+            for name in _VOLUME_LEAK:
+                if hasattr(probe, name):
+                    col.prop(probe, name)
+            ignored = "Intensity, Falloff"
+        elif probe.type == "SPHERE":
+            col.prop(probe, "influence_type")
+            col.prop(probe, "influence_distance",
+                     text="Radius" if probe.influence_type == "ELIPSOID" else "Size")
+            col.prop(probe, "falloff")
+            ignored = "Intensity"
+        else:
+            col.label(text=f"{probe.type.title()} probes are not used by BO2 Lighting",
+                      icon="INFO")
+            return
+        sub = layout.column(align=True)
+        sub.prop(probe, "clip_start", text="Capture Clip Start")
+        if "clip_end" in probe.bl_rna.properties:
+            sub.prop(probe, "clip_end", text="End")
+        note = layout.row()
+        note.active = False
+        note.label(text=f"Not used by BO2 Lighting: {ignored}", icon="INFO")
+
+
+class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
+    """The probe's bake: its state and the buttons (the settings are the scene's)."""
+
+    bl_label = "BO2 Bake"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.lightprobe.type in probes.KINDS
 
     def draw(self, context):
         layout = self.split_layout()
         obj = context.object
-        probe = obj.data
-        if probe.type not in probes.KINDS:
-            layout.label(text=f"{probe.type.title()} probes are not baked by BO2 Lighting",
-                         icon="INFO")
-            return
         try:
             state = probes.bake_state(obj, probes.bake_folder(context.scene))
         except probes.BakeError as exc:
@@ -243,18 +292,156 @@ class DATA_PT_bo2_lightprobe(_BO2Panel, bpy.types.Panel):
         row = layout.row(align=True)
         row.operator("bo2.bake_probes", text="Bake", icon="RENDER_STILL").mode = "ACTIVE"
         row.operator("bo2.clear_probes", text="Clear", icon="TRASH").mode = "ACTIVE"
-        if probe.type == "VOLUME":
-            col = layout.column(heading="Leaks")
-            for name in _VOLUME_LEAK:
-                if hasattr(probe, name):
-                    col.prop(probe, name)
-        else:
-            layout.prop(probe, "clip_start", text="Capture Clip Start")
+
+
+class _LightPanel(_BO2Panel):
+    bl_context = "data"
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and getattr(context, "light", None) \
+            is not None
+
+
+class DATA_PT_bo2_light(_LightPanel, bpy.types.Panel):
+    """The light as BO2 Lighting renders it (Blender's full Light panel is EEVEE's)."""
+
+    bl_label = "Light"
+
+    def draw(self, context):
+        layout = self.layout
+        light = context.light
+        layout.row().prop(light, "type", expand=True)
+        layout = self.split_layout()
+        col = layout.column()
+        row = col.column(align=True, heading="Temperature").row(align=True)
+        row.prop(light, "use_temperature", text="")
+        sub = row.row()
+        sub.active = light.use_temperature
+        sub.prop(light, "temperature", text="")
+        col.prop(light, "color", text="Tint" if light.use_temperature else "Color")
+        layout.separator()
+        col = layout.column()
+        col.prop(light, "energy")
+        col.prop(light, "exposure")
+        col.prop(light, "normalize")
+        layout.separator()
+        col = layout.column()
+        if light.type in {"POINT", "SPOT"}:
+            col.prop(light, "shadow_soft_size", text="Radius")
+        elif light.type == "SUN":
+            col.prop(light, "angle")
+        elif light.type == "AREA":
+            col.prop(light, "shape")
+            sub = col.column(align=True)
+            if light.shape in {"SQUARE", "DISK"}:
+                sub.prop(light, "size")
+            else:
+                sub.prop(light, "size", text="Size X")
+                sub.prop(light, "size_y", text="Y")
+        note = layout.row()
+        note.active = False
+        note.label(text=f"Not used by BO2 Lighting: {', '.join(ignored_light_settings(light))}",
+                   icon="INFO")
+
+
+def ignored_light_settings(light) -> list[str]:
+    """The names of a light's settings BO2 Lighting does not render, as its panel says."""
+    names = ["Influence factors", "Custom Distance", "Light nodes"]
+    if light.type in {"POINT", "SPOT"}:
+        names.insert(0, "Soft Falloff (always a sphere light's falloff)")
+    return names
+
+
+class DATA_PT_bo2_light_shadow(_LightPanel, bpy.types.Panel):
+    bl_label = "Shadow"
+    bl_parent_id = "DATA_PT_bo2_light"
+
+    def draw_header(self, context):
+        self.layout.prop(context.light, "use_shadow", text="")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        layout.active = context.light.use_shadow
+        layout.prop(context.scene.bo2, "shadow_resolution")
+        size = {"SUN": "Angle", "AREA": "Size"}.get(context.light.type, "Radius")
+        note = layout.row()
+        note.active = False
+        note.label(text=f"Soft shadows: the penumbra follows the light's {size}", icon="INFO")
+
+
+class DATA_PT_bo2_light_beam(_LightPanel, bpy.types.Panel):
+    bl_label = "Beam Shape"
+    bl_parent_id = "DATA_PT_bo2_light"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.light.type == "SPOT"
+
+    def draw(self, context):
+        layout = self.split_layout()
+        light = context.light
+        layout.prop(light, "spot_size", text="Angle")
+        layout.prop(light, "spot_blend", text="Blend", slider=True)
+        layout.prop(light, "show_cone")
+
+
+class OBJECT_PT_bo2_visibility(_BO2Panel, bpy.types.Panel):
+    """The object's visibility as BO2 Lighting renders it."""
+
+    bl_label = "Visibility"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and context.object is not None
+
+    def draw(self, context):
+        layout = self.split_layout()
+        obj = context.object
+        layout.prop(obj, "hide_select", text="Selectable", toggle=False, invert_checkbox=True)
+        col = layout.column(heading="Show In")
+        col.prop(obj, "hide_viewport", text="Viewports", toggle=False, invert_checkbox=True)
+        col.prop(obj, "hide_render", text="Renders", toggle=False, invert_checkbox=True)
+        if obj.type in _GEOMETRY:
+            col = layout.column(heading="Ray Visibility")
+            col.prop(obj, "visible_camera", text="Camera", toggle=False)
+            col.prop(obj, "visible_shadow", text="Shadow", toggle=False)
+            col = layout.column(heading="Mask")
+            col.prop(obj, "is_holdout")
+
+
+_GEOMETRY = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD"}
+
+
+class MATERIAL_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
+    """The material settings BO2 Lighting honours."""
+
+    bl_label = "Settings"
+    bl_context = "material"
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+
+    def draw(self, context):
+        layout = self.split_layout()
+        mat = context.material
+        layout.prop(mat, "pass_index")
+        col = layout.column(heading="Backface Culling")
+        col.prop(mat, "use_backface_culling", text="Camera")
+        note = layout.row()
+        note.active = False
+        note.label(text="Transparency: dithered (alpha hashed), as EEVEE's Dithered",
+                   icon="INFO")
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes,
-           MATERIAL_PT_bo2_surface, DATA_PT_bo2_lightprobe]
+           OBJECT_PT_bo2_visibility, MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
+           DATA_PT_bo2_light, DATA_PT_bo2_light_shadow, DATA_PT_bo2_light_beam,
+           DATA_PT_bo2_lightprobe, DATA_PT_bo2_lightprobe_bake]
 
 
 def draw_render_menu(self, context):
@@ -269,7 +456,7 @@ def draw_view3d_header(self, context):
     space = context.space_data
     if context.engine == ENGINE_ID and space is not None and space.type == "VIEW_3D" \
             and space.shading.type == "RENDERED":
-        self.layout.prop(context.scene.bo2, "lookdev_view", text="")
+        self.layout.prop(space.shading, "bo2_lookdev_view", text="")
 
 
 def draw_probe_states() -> None:

@@ -13,9 +13,9 @@ import dataclasses
 import bpy
 import numpy as np
 
-from ..core import viewport
+from ..core import bake, viewport
 from ..core.scene import Camera
-from . import extract, probes, props
+from . import extract, probes, studio
 
 
 def changes(updates, cache: extract.SceneCache) -> set[str]:
@@ -185,6 +185,7 @@ class Viewport:
         self.hint = ""
         self._state = None  # the settings of the last render
         self._unsent: set[str] = set()  # changes of a failed extraction
+        self.shading = studio.SCENE  # the viewport's Scene World and Scene Lights toggles
 
     def _warn(self, message: str) -> None:
         if message not in self.warnings:
@@ -201,18 +202,26 @@ class Viewport:
             changed = changes(updates, self.cache) | self._unsent
         blender_scene = depsgraph.scene
         settings = blender_scene.bo2
-        self.session.set_view(settings.lookdev_view)
         if not changed:
             return set()
         render = dataclasses.replace(extract.render_settings(blender_scene), border=None,
                                      tile_size=viewport.TILE_SIZE)
+        studio_world = self.shading.world
         try:
             scene, warnings = extract.extract_scene(
-                depsgraph, render, camera=False, indirect=settings.use_indirect,
-                cache=self.cache)
+                depsgraph, render, camera=False,
+                indirect=settings.use_indirect and studio_world is None, cache=self.cache)
         except extract.SceneError as exc:
             self.error, self._unsent = str(exc), changed  # sent with the next update
             return set()
+        if studio_world is not None:  # the studio light replaces the world and the probes
+            scene = dataclasses.replace(
+                scene, world=studio_world,
+                probes=bake.world_probes(studio_world) if settings.use_indirect else None)
+            warnings = [w for w in warnings if not w.startswith("World ")]
+        if not self.shading.lights:
+            scene = dataclasses.replace(scene, lights=[])
+            warnings = [w for w in warnings if not w.startswith("The scene has no lights")]
         self.error, self._unsent = None, set()
         for message in warnings:
             self._warn(message)
@@ -228,6 +237,21 @@ class Viewport:
         self.scene = scene
         self._submit(changed)
         return changed
+
+    def set_shading(self, depsgraph, space) -> bool:
+        """Follow the Scene World and Scene Lights toggles of the viewport ``space``
+        (``studio.shading``), rendering anew when they changed; True when they did."""
+        try:
+            shading = studio.shading(space)
+        except extract.SceneError as exc:
+            self.error = str(exc)
+            return False
+        if shading.key == self.shading.key:
+            return False
+        self.shading = shading
+        self._unsent |= {"world", "probes", "lights"}
+        self.sync(depsgraph, ())
+        return True
 
     def set_camera(self, camera) -> bool:
         """Render through ``camera`` (``core.viewport.view_camera``) when it differs from the
@@ -268,13 +292,21 @@ class Viewport:
         _live.discard(self)
 
 
-def region_camera(region, region_data) -> Camera:
-    """The camera of a 3D viewport region (its view and window matrices), at the
-    preferences' Viewport Resolution."""
-    scale = int(props.preferences().viewport_scale) / 100.0
+def pixel_size(scene, preferences) -> int:
+    """Viewport pixels per rendered pixel: the scene's Pixel Size (``preview_pixel_size``, as
+    Cycles reads it); Automatic follows the interface's pixel size (HiDPI displays)."""
+    size = scene.render.preview_pixel_size
+    if size == "AUTO":
+        return max(1, round(float(preferences.system.pixel_size)))
+    return int(size)
+
+
+def region_camera(region, region_data, scale: int = 1) -> Camera:
+    """The camera of a 3D viewport region (its view and window matrices), one rendered pixel
+    per ``scale`` x ``scale`` viewport pixels (``pixel_size``)."""
     return viewport.view_camera(region_data.view_matrix, region_data.window_matrix,
-                                max(1, round(region.width * scale)),
-                                max(1, round(region.height * scale)),
+                                max(1, -(-region.width // scale)),
+                                max(1, -(-region.height // scale)),
                                 perspective=region_data.is_perspective)
 
 

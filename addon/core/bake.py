@@ -171,18 +171,21 @@ def world_key(world: World, size: int) -> tuple:
             np.asarray(world.rotation, np.float64).tobytes(), int(size))
 
 
-_world_cache: dict = {}
+_world_cache: dict = {}  # world_key -> (SH, chains), the newest last
+_WORLDS_KEPT = 4  # the scene's world and a few studio lights switched between
 
 
 def world_probes(world: World, size: int = 64) -> Probes:
     """Probes of the world alone, the fallback of every probe (SH (9, 3) and both chains of
-    its ``size`` cube), computed once while the world stays the same."""
+    its ``size`` cube), computed once per world (the last few worlds are kept)."""
     key = world_key(world, size)
-    if _world_cache.get("key") != key:
-        _world_cache.clear()
-        _world_cache["value"] = capture.filtered(capture.world_cube(world, size))
-        _world_cache["key"] = key
-    world_sh, world_mips = _world_cache["value"]
+    value = _world_cache.pop(key, None)
+    if value is None:
+        value = capture.filtered(capture.world_cube(world, size))
+    _world_cache[key] = value
+    while len(_world_cache) > _WORLDS_KEPT:
+        _world_cache.pop(next(iter(_world_cache)))
+    world_sh, world_mips = value
     color = None if world.texture is not None else np.asarray(world.color, np.float32)[:3]
     return Probes(world_sh=world_sh, world_mips=world_mips, world_color=color)
 

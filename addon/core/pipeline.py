@@ -381,14 +381,17 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
 
 
 def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(N, 3) world radiance seen through window positions x, y (N,)."""
+    """(N, 3) world radiance seen through window positions x, y (N,), times the background's
+    opacity."""
     world = scene.world
     if world.texture is None:
         return np.broadcast_to(np.asarray(world.color, np.float32), (len(x), 3))
     _, d = scene.camera.rays(x, y)
     d = affine.linear(d, world.rotation)
-    px = texture.sample(world.texture, texture.direction_to_equirect_uv(d))
-    return (px[:, :3] * np.float32(world.strength)).astype(np.float32)
+    px = texture.sample(world.texture, texture.direction_to_equirect_uv(d),
+                        world.background_lod or None)
+    scale = np.float32(world.strength * world.background_alpha)
+    return (px[:, :3] * scale).astype(np.float32)
 
 
 def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> material.Points:
@@ -671,7 +674,7 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
             elif not covered.all():
                 miss = ~covered
                 acc[miss, rgba.start:rgba.start + 3] += _background(scene, sx[miss], sy[miss])
-                acc[miss, rgba.start + 3] += 1.0
+                acc[miss, rgba.start + 3] += np.float32(scene.world.background_alpha)
         if first_tri is None:
             first_tri, fresh = tri, hit
             reuse_count += hit

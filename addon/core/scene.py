@@ -191,12 +191,17 @@ class World:
               mapping), radiance = texture * strength
     strength: multiplier of the texture
     rotation: (3, 3) world-to-texture rotation (a Mapping node's rotation), identity by default
+    background_lod: mip level of the texture the camera sees (a viewport's studio light blur);
+              the light it casts is unchanged
+    background_alpha: opacity of the background the camera sees (a studio light's)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
     texture: Texture | None = None
     strength: float = 1.0
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
+    background_lod: float = 0.0
+    background_alpha: float = 1.0
 
 
 @dataclass

@@ -69,7 +69,7 @@ def test_install_render_disable_remove(user_repo):
     site = (Path(bpy.utils.user_resource("EXTENSIONS", path=".local")) / "lib"
             / f"python{sys.version_info.major}.{sys.version_info.minor}" / "site-packages")
     found = {p.name for p in site.glob("*.dist-info")}
-    assert {"numba-0.62.1.dist-info", "llvmlite-0.45.1.dist-info",
+    assert {"numba-0.68.1.dist-info", "llvmlite-0.50.0.dist-info",
             "openexr-3.5.3.dist-info"} <= found, found
     import OpenEXR  # noqa: F401
 

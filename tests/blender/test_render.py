@@ -170,7 +170,7 @@ def test_a_foreign_numba_is_one_clear_error(addon, monkeypatch):
     fake = types.ModuleType("numba")
     fake.__version__, fake.__file__ = "0.60.0", "/other/extension/numba/__init__.py"
     monkeypatch.setitem(sys.modules, "numba", fake)
-    with pytest.raises(RuntimeError, match=r"needs numba 0\.62\.1.*found numba 0\.60\.0"):
+    with pytest.raises(RuntimeError, match=r"needs numba 0\.68\.1.*found numba 0\.60\.0"):
         render_pixels(scene, "BO2_LIGHTING", samples=1)
     monkeypatch.undo()
     assert render_pixels(scene, "BO2_LIGHTING", samples=1).shape[2] == 4

@@ -21,6 +21,7 @@ def snapshot() -> dict:
                   if "bo2" in name.lower() or name == "BO2RenderEngine"},
         "scene_prop": hasattr(bpy.types.Scene, "bo2"),
         "view_layer_prop": hasattr(bpy.types.ViewLayer, "bo2"),
+        "shading_prop": hasattr(bpy.types.View3DShading, "bo2_lookdev_view"),
         "compat": sorted(name for name in dir(bpy.types)
                          if ENGINE in (getattr(getattr(bpy.types, name), "COMPAT_ENGINES", None)
                                        or ())),
@@ -51,7 +52,7 @@ def test_register_unregister_reregister_leaves_nothing(empty_scene):
     assert not before["scene_prop"] and not before["compat"]
     bo2_lighting.register()
     on = snapshot()
-    assert on["scene_prop"] and on["view_layer_prop"]
+    assert on["scene_prop"] and on["view_layer_prop"] and on["shading_prop"]
     assert "RENDER_PT_format" in on["compat"] and "DATA_PT_bo2_lightprobe" in on["types"]
     assert {"TOPBAR_MT_render:draw_render_menu",
             "VIEW3D_HT_header:draw_view3d_header"} <= set(on["menus"])
@@ -178,7 +179,7 @@ def test_every_panel_draws_existing_properties(scene_with_everything):
         drawn |= {entry[1][1] for entry in log if entry[0] == "prop"}
         drawn |= {entry[1][0] for entry in log if entry[0] == "operator"}
     # what each panel is for shows up
-    assert {"samples", "viewport_samples", "lookdev_view", "normalization", "bake_folder",
+    assert {"samples", "viewport_samples", "normalization", "bake_folder",
             "dilation_threshold", "clip_start", "bo2.bake_probes", "material.bo2_convert",
             "bo2.compare_cycles"} <= drawn
     labels = [str(entry[2].get("text", "")) for entry in draw_all(contexts[1])
@@ -194,11 +195,13 @@ def test_other_engines_hide_the_panels(scene_with_everything):
 
 def test_menu_entries_draw(scene_with_everything):
     log = []
-    shading = types.SimpleNamespace(type="RENDERED")
+    shading = next(a.spaces[0].shading for s in bpy.data.screens for a in s.areas
+                   if a.type == "VIEW_3D")
+    shading.type = "RENDERED"
     ctx = context_for(space_data=types.SimpleNamespace(type="VIEW_3D", shading=shading))
     ui.draw_view3d_header(types.SimpleNamespace(layout=Recorder(log)), ctx)
     ui.draw_render_menu(types.SimpleNamespace(layout=Recorder(log)), ctx)
-    assert ("prop", ("BO2SceneSettings", "lookdev_view"), {"text": ""}) in log
+    assert ("prop", ("View3DShading", "bo2_lookdev_view"), {"text": ""}) in log
     assert any(entry[0] == "operator" and entry[1] == ("bo2.compare_cycles",) for entry in log)
     log.clear()
     shading.type = "SOLID"
@@ -209,7 +212,8 @@ def test_menu_entries_draw(scene_with_everything):
 def test_enum_identifiers_are_stable(addon):
     """Saved files store these identifiers: renaming one loses the user's choice."""
     s = bpy.types.Scene.bl_rna.properties["bo2"].fixed_type.properties
-    assert list(s["lookdev_view"].enum_items.keys()) == [
+    views = bpy.types.View3DShading.bl_rna.properties["bo2_lookdev_view"]
+    assert list(views.enum_items.keys()) == [
         "COMBINED", "ALBEDO", "SPECULAR_COLOR", "GLOSS", "NORMAL", "DIFFUSE_DIRECT",
         "GLOSSY_DIRECT", "DIFFUSE_INDIRECT", "GLOSSY_INDIRECT", "REFLECTION_PROBES",
         "IRRADIANCE_VOLUMES"]

@@ -5,6 +5,8 @@ Updates are caught with ``depsgraph_update_post`` (it receives the same ``Depsgr
 that ``RenderEngine.view_update`` reads). Drawing needs a GPU and is not run here.
 """
 
+import types
+
 import bpy
 import numpy as np
 import pytest
@@ -133,13 +135,15 @@ def test_viewport_through_the_scene_camera_matches_f12(view):
     assert np.abs(image.pixels[..., :3] - f12[..., :3]).mean() < 0.01
 
 
-def test_lookdev_view_and_viewport_samples_follow_the_scene(view, updates):
+def test_lookdev_view_and_viewport_samples(view, updates):
+    """The look-dev view is the viewport's own (its header's selector, read at each draw):
+    it shows the last passes without rendering; the scene's viewport samples render anew."""
     scene = bpy.context.scene
     build(scene)
     open_view(view, scene)
     renders = view.session.stats["renders"]
     updates.clear()
-    scene.bo2.lookdev_view = "ALBEDO"
+    view.session.set_view("ALBEDO")
     assert settle(view, updates) == set()  # shown from the last passes: no render
     assert view.session.view == "ALBEDO"
     assert view.session.stats["renders"] == renders
@@ -152,7 +156,7 @@ def test_lookdev_view_and_viewport_samples_follow_the_scene(view, updates):
     assert settle(view, updates) == {"settings"}
     assert view.session.image().samples == 3
     for key in core_viewport.VIEWS:
-        scene.bo2.lookdev_view = key
+        view.session.set_view(key)
         settle(view, updates)
         assert np.isfinite(view.session.image().pixels).all()
 
@@ -239,7 +243,7 @@ def test_hiding_instancing_and_renaming_reach_the_viewport(view, updates):
     mat.name = "Renamed"
     settle(view, updates)
     mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"].default_value = (1, 1, 0, 1)
-    scene.bo2.lookdev_view = "ALBEDO"
+    view.session.set_view("ALBEDO")
     settle(view, updates)
     pixels = view.session.image().pixels
     assert np.all(np.abs(pixels[..., :3] - [1.0, 1.0, 0.0]) < 0.01, axis=-1).sum() > 50
@@ -273,3 +277,85 @@ def test_warnings_show_in_the_status(view):
                             mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
     open_view(view, scene)
     assert "1 warning: Material 'Left': node 'Checker Texture'" in view.status()
+
+
+def studio_space(**overrides):
+    """A viewport in Rendered shading with Scene World off and Blender's "forest" HDRI."""
+    light = next(s for s in bpy.context.preferences.studio_lights
+                 if s.type == "WORLD" and s.name.startswith("forest"))
+    shading = dict(type="RENDERED", use_scene_world_render=False, use_scene_lights_render=True,
+                   selected_studio_light=light, studiolight_rotate_z=0.9,
+                   studiolight_intensity=1.5, studiolight_background_blur=0.0,
+                   studiolight_background_alpha=1.0)
+    shading.update(overrides)
+    return types.SimpleNamespace(shading=types.SimpleNamespace(**shading)), light
+
+
+def test_studio_light_lights_the_viewport_as_the_same_world_would(view):
+    """Scene World off: the viewport is lit by the studio HDRI, rotated and scaled as the
+    shading says, exactly as a scene whose world is that HDRI through a Mapping node renders
+    (Cycles builds its studio world the same way); Scene World on again restores the scene's
+    world and probes; Scene Lights off takes the lights away."""
+    scene = bpy.context.scene
+    build(scene)
+    scene.bo2.viewport_samples = 2
+    scene.bo2.use_indirect = True
+    open_view(view, scene)
+    own = view.session.image().pixels.copy()
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    space, light = studio_space()
+    assert view.set_shading(depsgraph, space)
+    assert not view.set_shading(depsgraph, space)  # the same toggles: nothing to do
+    assert view.session.wait(120)
+    studio = view.session.image().pixels.copy()
+    assert np.abs(studio - own).mean() > 0.02
+
+    # the scene's world made the studio light by hand: the same picture
+    tree = scene.world.node_tree
+    env = tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = bpy.data.images.load(light.path)
+    mapping = tree.nodes.new("ShaderNodeMapping")
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.9)
+    tree.links.new(tree.nodes.new("ShaderNodeTexCoord").outputs["Generated"],
+                   mapping.inputs["Vector"])
+    tree.links.new(mapping.outputs["Vector"], env.inputs["Vector"])
+    background = tree.nodes["Background"]
+    tree.links.new(env.outputs["Color"], background.inputs["Color"])
+    background.inputs["Strength"].default_value = 1.5
+    other = viewport.Viewport()
+    try:
+        open_view(other, scene)
+        by_hand = other.session.image().pixels
+    finally:
+        other.close()
+    assert np.abs(by_hand - studio).mean() < 0.01 * max(studio[..., :3].mean(), 0.05)
+
+    space, _ = studio_space(use_scene_lights_render=False)  # Scene Lights off: darker
+    assert view.set_shading(depsgraph, space)
+    assert view.session.wait(120)
+    assert view.session.image().pixels[..., :3].mean() < studio[..., :3].mean()
+    space, _ = studio_space(studiolight_background_alpha=0.0)  # a see-through background
+    assert view.set_shading(depsgraph, space)
+    assert view.session.wait(120)
+    alpha = view.session.image().pixels[..., 3]
+    sky = alpha == 0.0
+    assert 0 < sky.sum() < alpha.size * 0.5 and (studio[..., 3] == 1.0).all()
+
+    space.shading.use_scene_world_render = True  # back to the scene's world (the HDRI now)
+    assert view.set_shading(depsgraph, space)
+    assert view.session.wait(120)
+    assert np.abs(view.session.image().pixels - by_hand).max() < 1e-5
+
+
+def test_pixel_size_renders_fewer_pixels():
+    region = types.SimpleNamespace(width=301, height=200)
+    data = types.SimpleNamespace(view_matrix=np.eye(4), window_matrix=np.eye(4),
+                                 is_perspective=True)
+    assert (viewport.region_camera(region, data, 1).width,
+            viewport.region_camera(region, data, 2).width,
+            viewport.region_camera(region, data, 4).height) == (301, 151, 50)
+    scene = bpy.context.scene
+    scene.render.preview_pixel_size = "4"
+    assert viewport.pixel_size(scene, bpy.context.preferences) == 4
+    scene.render.preview_pixel_size = "AUTO"
+    assert viewport.pixel_size(scene, bpy.context.preferences) == 1  # no HiDPI headless

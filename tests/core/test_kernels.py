@@ -1,6 +1,7 @@
 """The kernels' set-up: numba's version checked with one clear message, compiled once into the
 cache folder (a fresh folder compiles and says so; the next process loads without a word)."""
 
+import importlib.metadata
 import subprocess
 import sys
 import types
@@ -17,9 +18,12 @@ def test_wrong_or_missing_numba_is_one_clear_message(monkeypatch):
     monkeypatch.setitem(sys.modules, "numba", fake)
     with pytest.raises(kernels.KernelsUnavailable) as info:
         kernels.check()
-    assert str(info.value) == (
-        "BO2 Lighting needs numba 0.62.1, bundled in the zip for your platform (reinstall the "
-        "extension from the zip of your platform); found numba 0.58.1 at /elsewhere/numba")
+    assert str(info.value).startswith(
+        f"BO2 Lighting needs numba {kernels.NUMBA_VERSION}, the version its zip bundles for this "
+        f"platform ({sys.platform} ")
+    assert str(info.value).endswith(
+        "found numba 0.58.1 at /elsewhere/numba. Reinstall the extension from the zip of your "
+        "platform")
     monkeypatch.setitem(sys.modules, "numba", None)  # import fails
     with pytest.raises(kernels.KernelsUnavailable, match=r"found none \(ModuleNotFoundError"):
         kernels.check()
@@ -28,13 +32,31 @@ def test_wrong_or_missing_numba_is_one_clear_message(monkeypatch):
 @pytest.mark.parametrize(("raised", "words"), [
     ("raise OSError('Could not find/load shared object file') from OSError("
      "'libllvmlite.so: failed to map segment from shared object')",
-     "BO2 Lighting ran out of memory loading its compiled kernels (numba 0.62.1: OSError: "
+     "BO2 Lighting ran out of memory loading its compiled kernels (numba {v}: OSError: "
      "libllvmlite.so: failed to map segment from shared object)"),
     ("raise MemoryError()", "ran out of memory loading its compiled kernels"),
     ("raise ImportError('libllvmlite.so: undefined symbol: LLVMPY_AddSymbol')",
-     "BO2 Lighting's numba 0.62.1 is installed but fails to load (ImportError: libllvmlite.so: "
+     "BO2 Lighting's numba {v} is installed but fails to load (ImportError: libllvmlite.so: "
      "undefined symbol: LLVMPY_AddSymbol); reinstall the extension"),
 ])
+def test_each_platform_accepts_the_numba_its_zip_bundles():
+    """The manifest's wheels: 0.62.1 for macOS Intel (numba's last there), 0.68.1 elsewhere."""
+    import tomllib
+    from pathlib import Path
+
+    manifest = tomllib.loads((Path(kernels.__file__).parents[3] / "blender_manifest.toml")
+                             .read_text())
+    tags = {"linux": "manylinux", "win32": "win_amd64", "darwin": "macosx"}
+    for system, machine, arch in (("linux", "x86_64", "x86_64"), ("win32", "AMD64", "amd64"),
+                                  ("darwin", "arm64", "arm64"), ("darwin", "x86_64", "x86_64")):
+        wanted = kernels.bundled_numba(system, machine)
+        numbas = {w.split("-")[1] for w in manifest["wheels"]
+                  if "/numba-" in w and tags[system] in w and w.endswith(f"{arch}.whl")}
+        assert numbas == {wanted}, (system, machine, numbas)
+    assert kernels.bundled_numba("darwin", "x86_64") == "0.62.1"
+    assert kernels.bundled_numba("linux", "x86_64") == "0.68.1"
+
+
 def test_a_numba_that_fails_to_load_is_not_called_missing(monkeypatch, tmp_path, raised, words):
     """A numba that is there but cannot load (out of memory under ulimit -v, a broken
     library) is told apart from a missing one, and memory is named when it is the cause."""
@@ -44,7 +66,7 @@ def test_a_numba_that_fails_to_load_is_not_called_missing(monkeypatch, tmp_path,
     monkeypatch.delitem(sys.modules, "numba")
     with pytest.raises(kernels.KernelsUnavailable) as info:
         kernels.check()
-    assert words in str(info.value)
+    assert words.format(v=importlib.metadata.version("numba")) in str(info.value)
     assert "needs numba" not in str(info.value)
 
 

@@ -8,9 +8,10 @@ own TBB, and numba's workqueue layer aborts the process on concurrent calls). Ea
 NumPy reference, the talk's formula in ``brdf.py``, ``env_brdf.py``, ``sh.py`` or the readable
 NumPy of the module that calls it, which a test holds it to.
 
-numba 0.62.1 with llvmlite 0.45.1 is bundled in the extension's zip as wheels (Python 3.11 and
-3.13, every platform); another extension can bring another numba into Blender's shared
-site-packages, so ``check()`` says exactly what was found.
+numba 0.68.1 with llvmlite 0.50.0 is bundled in the extension's zip as wheels (Python 3.11, 3.13
+and 3.14); the macOS Intel zip bundles numba 0.62.1 with llvmlite 0.45.1, the last release with
+wheels for it (``bundled_numba``). Another extension can bring another numba into Blender's
+shared site-packages, so ``check()`` says exactly what was found.
 
 Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``raster``
 (projection, set-up, scan conversion with the depth test, resolve; shadow-map pyramids),
@@ -24,13 +25,21 @@ from __future__ import annotations
 import errno
 import importlib.metadata
 import os
+import platform
 import sys
 from pathlib import Path
 
 from ..memory import limit_note
 
-NUMBA_VERSION = "0.62.1"
-LLVMLITE_VERSION = "0.45.1"
+
+def bundled_numba(system: str = sys.platform, machine: str = platform.machine()) -> str:
+    """The numba version the zip of this platform bundles: 0.62.1 on macOS Intel (its last
+    release there), else 0.68.1."""
+    intel_mac = system == "darwin" and machine.lower() in ("x86_64", "amd64", "i386")
+    return "0.62.1" if intel_mac else "0.68.1"
+
+
+NUMBA_VERSION = bundled_numba()
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
 MODULES = ("indirect", "raster", "shading", "shadows", "textures")
 
@@ -93,8 +102,9 @@ def check() -> None:
         raise KernelsUnavailable(_load_failure(exc)) from None
     if version != NUMBA_VERSION:
         raise KernelsUnavailable(
-            f"BO2 Lighting needs numba {NUMBA_VERSION}, bundled in the zip for your platform "
-            f"(reinstall the extension from the zip of your platform); found {_found()}")
+            f"BO2 Lighting needs numba {NUMBA_VERSION}, the version its zip bundles for this "
+            f"platform ({sys.platform} {platform.machine()}); found {_found()}. Reinstall the "
+            "extension from the zip of your platform")
 
 
 def default_cache_dir() -> Path:

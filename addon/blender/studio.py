@@ -1,0 +1,97 @@
+"""The viewport's Scene World and Scene Lights toggles in Rendered shading.
+
+With Scene World off, the scene is lit by the viewport's studio HDRI instead of its world and
+probes, as Cycles does: the HDRI's rotation and strength light it, its blur and opacity show in
+the background. The HDRI's texture is read once per file (``_textures``); its SH and
+prefiltered chain are computed once per HDRI and rotation (``core.bake.world_probes``).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..core import scene as cs
+from ..core import texture
+from . import extract, images
+
+_textures: dict[str, tuple] = {}  # path -> ((mtime_ns, size), Texture); a few HDRIs at most
+_KEEP = 4
+
+
+@dataclass(frozen=True)
+class Shading:
+    """What a viewport's shading toggles ask of the scene.
+
+    world:  the studio HDRI's world (None: the scene's own world and probes)
+    lights: the scene's lights are used
+    key:    equal for equal shading (a new key renders anew)
+    """
+
+    world: cs.World | None = None
+    lights: bool = True
+    key: tuple = field(default=())
+
+
+SCENE = Shading()
+
+
+def _read_exr(path: str) -> np.ndarray:
+    """(H, W, 3) float32 radiance of an OpenEXR file's first part, row 0 at the top."""
+    import OpenEXR
+
+    channels = OpenEXR.File(path).parts[0].channels
+    for name in ("RGBA", "RGB"):
+        if name in channels:
+            return np.asarray(channels[name].pixels, np.float32)[..., :3]
+    return np.stack([np.asarray(channels[c].pixels, np.float32) for c in "RGB"], -1)
+
+
+def studio_texture(path: str) -> texture.Texture:
+    """The studio HDRI at ``path`` as an equirectangular texture, read once per file version.
+    Raises ``OSError`` or the reader's error for a missing or unreadable file."""
+    st = os.stat(path)
+    stamp = (st.st_mtime_ns, st.st_size)
+    cached = _textures.get(path)
+    if cached is not None and cached[0] == stamp:
+        return cached[1]
+    if path.lower().endswith(".exr"):
+        pixels = _read_exr(path)
+    else:  # a user's own studio light (.hdr, ...): read by Blender
+        pixels = images.read_file(path, linear=True)[..., :3]
+    tex = texture.make_texture(pixels, srgb=False, extension="REPEAT", interpolation="Linear",
+                               name=os.path.basename(path))
+    _textures[path] = (stamp, tex)
+    while len(_textures) > _KEEP:
+        _textures.pop(next(iter(_textures)))
+    return tex
+
+
+def shading(space) -> Shading:
+    """The toggles of a 3D viewport ``space`` (``SpaceView3D``) in Rendered shading; ``SCENE``
+    when it shows the scene as it is."""
+    view = getattr(space, "shading", None)
+    if view is None or view.type != "RENDERED":
+        return SCENE
+    lights = bool(view.use_scene_lights_render)
+    if view.use_scene_world_render:
+        return SCENE if lights else Shading(lights=False, key=(False,))
+    light = view.selected_studio_light
+    path = light.path if light is not None else ""
+    rotate, strength = float(view.studiolight_rotate_z), float(view.studiolight_intensity)
+    blur, alpha = float(view.studiolight_background_blur), float(
+        view.studiolight_background_alpha)
+    key = (lights, path, rotate, strength, blur, alpha)
+    try:
+        tex = studio_texture(path)
+    except Exception as exc:  # noqa: BLE001 - a missing or damaged HDRI: its name, once
+        raise extract.SceneError(f"The studio light '{light.name}' cannot be read "
+                                 f"({type(exc).__name__}: {exc})") from None
+    levels = max(1.0, math.log2(max(tex.size[0], 1)) - 1.0)
+    world = cs.World(color=np.ones(3, np.float32) * strength, texture=tex, strength=strength,
+                     rotation=extract.euler_xyz(0.0, 0.0, rotate),
+                     background_lod=blur * levels, background_alpha=alpha)
+    return Shading(world=world, lights=lights, key=(*key, id(tex)))
