@@ -29,16 +29,6 @@ def test_wrong_or_missing_numba_is_one_clear_message(monkeypatch):
         kernels.check()
 
 
-@pytest.mark.parametrize(("raised", "words"), [
-    ("raise OSError('Could not find/load shared object file') from OSError("
-     "'libllvmlite.so: failed to map segment from shared object')",
-     "BO2 Lighting ran out of memory loading its compiled kernels (numba {v}: OSError: "
-     "libllvmlite.so: failed to map segment from shared object)"),
-    ("raise MemoryError()", "ran out of memory loading its compiled kernels"),
-    ("raise ImportError('libllvmlite.so: undefined symbol: LLVMPY_AddSymbol')",
-     "BO2 Lighting's numba {v} is installed but fails to load (ImportError: libllvmlite.so: "
-     "undefined symbol: LLVMPY_AddSymbol); reinstall the extension"),
-])
 def test_each_platform_accepts_the_numba_its_zip_bundles():
     """The manifest's wheels: 0.62.1 for macOS Intel (numba's last there), 0.68.1 elsewhere."""
     import tomllib
@@ -57,6 +47,16 @@ def test_each_platform_accepts_the_numba_its_zip_bundles():
     assert kernels.bundled_numba("linux", "x86_64") == "0.68.1"
 
 
+@pytest.mark.parametrize(("raised", "words"), [
+    ("raise OSError('Could not find/load shared object file') from OSError("
+     "'libllvmlite.so: failed to map segment from shared object')",
+     "BO2 Lighting ran out of memory loading its compiled kernels (numba {v}: OSError: "
+     "libllvmlite.so: failed to map segment from shared object)"),
+    ("raise MemoryError()", "ran out of memory loading its compiled kernels"),
+    ("raise ImportError('libllvmlite.so: undefined symbol: LLVMPY_AddSymbol')",
+     "BO2 Lighting's numba {v} is installed but fails to load (ImportError: libllvmlite.so: "
+     "undefined symbol: LLVMPY_AddSymbol); reinstall the extension"),
+])
 def test_a_numba_that_fails_to_load_is_not_called_missing(monkeypatch, tmp_path, raised, words):
     """A numba that is there but cannot load (out of memory under ulimit -v, a broken
     library) is told apart from a missing one, and memory is named when it is the cause."""
