@@ -1,13 +1,15 @@
 # Quick start: `make demo` (set up, build, run the main job), `make test` (the whole suite).
+# `make test-gui`: the walk through the artist's Blender in a real window (tests/gui);
+# `make docs-gui`: the same walk, its screenshots copied into docs/images.
 PYTHON ?= $(shell command -v python3.11 || command -v python3)
 VENV := .venv
 VENV45 := .venv45
 VENV52 := .venv52
 # Blender 5.2 LTS's bpy needs Python 3.13: PY313, else a python3.13 on PATH, else the interpreter
 # that PY313_SCRIPT prints (it builds and caches one); without any, the 5.2 leg is skipped.
-PY313_SCRIPT ?= ../shared/tools/python313.sh
+PY313_SCRIPT ?= tools/python313.sh
 
-.PHONY: demo test test52 venv venv45 venv52 build lint clean
+.PHONY: demo test test52 test-gui docs-gui venv venv45 venv52 build lint clean
 
 # $(call venv,FOLDER,PYTHON,EXTRA): a virtual environment with the project installed (editable),
 # its development tools and the bpy of EXTRA.
@@ -51,6 +53,13 @@ test52:
 	else \
 	  echo "make test: skipped the Blender 5.2 LTS tests: no working Python 3.13 (PY313, python3.13 on PATH, $(PY313_SCRIPT))"; \
 	fi
+
+# The walk in Debian's windowed Blender 5.2 (Python 3.14), from the Linux zip as a user installs it.
+test-gui: venv build
+	$(VENV)/bin/python tests/gui/run.py dist/bo2_lighting-*-linux_x64.zip
+
+docs-gui: venv build
+	$(VENV)/bin/python tests/gui/run.py dist/bo2_lighting-*-linux_x64.zip --docs docs/images
 
 clean:
 	rm -rf dist out build wheels *.egg-info

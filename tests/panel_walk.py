@@ -134,9 +134,11 @@ def shown(context, tab: str) -> list[tuple[type, list]]:
 
 
 def shown_properties(panels) -> list[str]:
-    """Every property the panels draw, as "Struct.property", once per time drawn."""
-    return [f"{entry[1][0]}.{entry[1][1]}" for _, log in panels for entry in log
-            if entry[0] == "prop"]
+    """Every property the panels draw, as "Struct.property" ("Struct.property[i]" for one
+    item of an array), once per time drawn."""
+    return [f"{entry[1][0]}.{entry[1][1]}"
+            + (f"[{entry[2]['index']}]" if entry[2].get("index", -1) >= 0 else "")
+            for _, log in panels for entry in log if entry[0] == "prop"]
 
 
 def duplicate_titles(panels) -> list[str]:

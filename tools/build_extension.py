@@ -4,7 +4,7 @@ Blender's validator.
 Usage: python tools/build_extension.py [--offline]
 
 1. Downloads the Python wheels listed in ``blender_manifest.toml`` (``wheels = [...]``: numba,
-   llvmlite and OpenEXR for Python 3.11 and 3.13 on every platform) into ``wheels/`` with
+   llvmlite and OpenEXR for Python 3.11, 3.13 and 3.14 on every platform) into ``wheels/`` with
    ``pip download --only-binary=:all: --platform TAG --python-version X.Y``; the manifest is the
    one list of bundled wheels, this script only fetches what it names.
 2. Builds ``dist/<id>-<version>-<platform>.zip`` for each of the manifest's ``platforms``
@@ -43,7 +43,13 @@ def read_manifest() -> dict:
 
 
 def fetch_wheels(manifest: dict, offline: bool) -> None:
-    """Download every wheel the manifest lists that is not in ``wheels/`` yet."""
+    """Download every wheel the manifest lists that is not in ``wheels/`` yet, and delete the
+    wheels it no longer lists (Blender's builder packs every wheel of the folder that fits a
+    platform)."""
+    listed = {(ROOT / rel).resolve() for rel in manifest.get("wheels", [])}
+    for old in (ROOT / "wheels").glob("*.whl"):
+        if old.resolve() not in listed:
+            old.unlink()
     for rel in manifest.get("wheels", []):
         path = (ROOT / rel).resolve()
         if path.exists():

@@ -253,9 +253,7 @@ class DATA_PT_bo2_lightprobe(_LightProbePanel, bpy.types.Panel):
         sub.prop(probe, "clip_start", text="Capture Clip Start")
         if "clip_end" in probe.bl_rna.properties:
             sub.prop(probe, "clip_end", text="End")
-        note = layout.row()
-        note.active = False
-        note.label(text=f"Not used by BO2 Lighting: {ignored}", icon="INFO")
+        _draw_ignored(layout, ignored.split(", "))
 
 
 class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
@@ -339,18 +337,24 @@ class DATA_PT_bo2_light(_LightPanel, bpy.types.Panel):
             else:
                 sub.prop(light, "size", text="Size X")
                 sub.prop(light, "size_y", text="Y")
-        note = layout.row()
-        note.active = False
-        note.label(text=f"Not used by BO2 Lighting: {', '.join(ignored_light_settings(light))}",
-                   icon="INFO")
+        _draw_ignored(layout, ignored_light_settings(light))
 
 
 def ignored_light_settings(light) -> list[str]:
     """The names of a light's settings BO2 Lighting does not render, as its panel says."""
     names = ["Influence factors", "Custom Distance", "Light nodes"]
     if light.type in {"POINT", "SPOT"}:
-        names.insert(0, "Soft Falloff (always a sphere light's falloff)")
+        names.insert(0, "Soft Falloff")
     return names
+
+
+def _draw_ignored(layout, names) -> None:
+    """A greyed note under a panel: the settings of its data that BO2 Lighting does not use."""
+    col = layout.column(align=True)
+    col.active = False
+    col.label(text="Not used by BO2 Lighting:", icon="INFO")
+    for name in names:
+        col.label(text=name, icon="BLANK1")
 
 
 class DATA_PT_bo2_light_shadow(_LightPanel, bpy.types.Panel):
@@ -367,7 +371,7 @@ class DATA_PT_bo2_light_shadow(_LightPanel, bpy.types.Panel):
         size = {"SUN": "Angle", "AREA": "Size"}.get(context.light.type, "Radius")
         note = layout.row()
         note.active = False
-        note.label(text=f"Soft shadows: the penumbra follows the light's {size}", icon="INFO")
+        note.label(text=f"Penumbra from the light's {size}", icon="INFO")
 
 
 class DATA_PT_bo2_light_beam(_LightPanel, bpy.types.Panel):
@@ -433,8 +437,7 @@ class MATERIAL_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
         col.prop(mat, "use_backface_culling", text="Camera")
         note = layout.row()
         note.active = False
-        note.label(text="Transparency: dithered (alpha hashed), as EEVEE's Dithered",
-                   icon="INFO")
+        note.label(text="Transparency: dithered, as EEVEE's Dithered", icon="INFO")
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,

@@ -1,0 +1,82 @@
+"""``make test-gui``: the walk through the artist's Blender (``walk.py``) in a real window.
+
+Usage: python tests/gui/run.py ZIP [--out out/gui] [--docs docs/images]
+
+Runs the windowed Blender that ``tools/gui_blender.sh`` provides with a fresh user folder (the
+zip is installed into it as a user would), prints each check, and exits 1 when one failed, 0
+when all passed. With ``--docs``, the screenshots the user guide shows are copied there too.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+# screenshot -> the user guide's picture
+DOCS = {"render_tab": "ui_render_tab.png", "spot_light_tab": "ui_light_tab.png",
+        "volume_probe_tab": "ui_probe_tab.png", "material_preview": "ui_material_tab.png",
+        "shader_editor": "ui_shader_editor.png", "viewport_rendered": "ui_viewport.png",
+        "viewport_studio_light": "ui_viewport_studio_light.png",
+        "viewport_lookdev_albedo": "ui_viewport_lookdev.png"}
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("zip", type=Path)
+    parser.add_argument("--out", type=Path, default=ROOT / "out" / "gui")
+    parser.add_argument("--docs", type=Path)
+    parser.add_argument("--timeout", type=float, default=1200.0)
+    args = parser.parse_args(argv)
+    runner = subprocess.run([str(ROOT / "tools" / "gui_blender.sh")], capture_output=True,
+                            text=True)
+    if runner.returncode != 0:
+        print(f"test-gui: no windowed Blender: {runner.stderr.strip()}", file=sys.stderr)
+        return 2 if runner.returncode == 2 else 1
+    out = args.out.resolve()
+    shutil.rmtree(out, ignore_errors=True)
+    out.mkdir(parents=True)
+    # inside the window's chroot only the working folder and /tmp are seen
+    with tempfile.TemporaryDirectory(prefix="bo2-gui-", dir="/tmp") as user:
+        zip_copy = Path(user) / args.zip.name
+        shutil.copy(args.zip, zip_copy)
+        env = {**os.environ, "BLENDER_USER_RESOURCES": str(Path(user) / "blender")}
+        cmd = [runner.stdout.strip(), "--factory-startup", "--python",
+               str(ROOT / "tests" / "gui" / "walk.py"), "--", str(zip_copy), str(out)]
+        try:
+            done = subprocess.run(cmd, cwd=ROOT, env=env, timeout=args.timeout,
+                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+            log = done.stdout
+        except subprocess.TimeoutExpired as exc:
+            log = (exc.stdout or b"").decode(errors="replace") if isinstance(
+                exc.stdout, bytes) else (exc.stdout or "")
+            log += f"\ntest-gui: the walk did not end within {args.timeout:.0f} s"
+    (out / "blender.log").write_text(log)
+    results = out / "results.json"
+    if not results.exists():
+        print(log[-3000:])
+        print("test-gui: the walk wrote no results (see out/gui/blender.log)", file=sys.stderr)
+        return 1
+    data = json.loads(results.read_text())
+    failed = [c for c in data["checks"] if not c["ok"]]
+    for c in data["checks"]:
+        print(f"{'ok  ' if c['ok'] else 'FAIL'} {c['check']}"
+              + (f"\n     {c['detail']}" if not c["ok"] else ""))
+    print(f"test-gui: {len(data['checks']) - len(failed)} of {len(data['checks'])} checks "
+          f"passed; screenshots in {out.relative_to(ROOT) if out.is_relative_to(ROOT) else out}")
+    if args.docs is not None:
+        for shot in data["screenshots"]:
+            name = shot.split("_", 1)[1].removesuffix(".png")
+            if name in DOCS:
+                shutil.copy(out / shot, args.docs / DOCS[name])
+    return 1 if failed or not data["checks"] else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,291 @@
+"""A walk through the artist's Blender, in a real window: run inside Blender by
+``tests/gui/run.py`` (``blender --factory-startup --python tests/gui/walk.py -- ZIP OUT``).
+
+Installs the extension's zip as a user does (Install from Disk), opens the demo room, picks BO2
+Lighting, and checks what the window shows: each Properties tab's panels (drawn into a recording
+layout with the editor's own context), the Shader Editor's tree, the previews, the viewport in
+Rendered shading (the scene's world, the studio light, a look-dev view). A screenshot of each
+step goes to OUT; the checks go to OUT/results.json, then Blender quits.
+"""
+
+import json
+import subprocess
+import sys
+import time
+import traceback
+from pathlib import Path
+
+import bpy
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+import panel_walk  # noqa: E402
+
+ARGS = sys.argv[sys.argv.index("--") + 1:]
+ZIP, OUT = Path(ARGS[0]).resolve(), Path(ARGS[1]).resolve()
+ROOM = Path(__file__).resolve().parents[2] / "demo_blends" / "room.blend"
+ENGINE = "BO2_LIGHTING"
+checks: list[dict] = []
+shots: list[str] = []
+
+
+def check(name: str, ok: bool, detail="") -> bool:
+    checks.append({"check": name, "ok": bool(ok), "detail": str(detail)[:2000]})
+    print(f"[walk] {'ok  ' if ok else 'FAIL'} {name} {detail if not ok else ''}", flush=True)
+    return ok
+
+
+def screenshot(name: str, area=None) -> None:
+    """The window as a PNG in OUT; with ``area``, that area alone (a Properties tab)."""
+    path = OUT / f"{len(shots):02d}_{name}.png"
+    crop = []
+    if area is not None:
+        top = window().height - area.y - area.height
+        crop = ["-crop", f"{area.width}x{area.height}+{area.x}+{top}"]
+    subprocess.run(["import", "-window", "root", *crop, str(path)], check=False)
+    shots.append(path.name)
+
+
+def window():
+    return bpy.context.window_manager.windows[0]
+
+
+def areas(kind: str):
+    screen = window().screen
+    return [a for a in screen.areas if a.type == kind]
+
+
+def biggest(kind: str):
+    return max(areas(kind), key=lambda a: a.width * a.height)
+
+
+def module(name: str):
+    """A module of the installed extension (``bl_ext.<repo>.bo2_lighting.addon...``)."""
+    found = [m for k, m in sys.modules.items() if k.endswith(f"bo2_lighting.{name}")
+             and k.startswith("bl_ext.")]
+    return found[0] if found else None
+
+
+def redraw():
+    for area in window().screen.areas:
+        area.tag_redraw()
+
+
+def tab_check(label: str, tab: str, wanted: set[str]) -> None:
+    """The Properties editor on ``tab`` (its own context): no title twice, no setting twice,
+    and every property of ``wanted`` ("Struct.property") shown."""
+    area = biggest("PROPERTIES")
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=area, region=region):
+        panels = panel_walk.shown(bpy.context, tab)
+    props = panel_walk.shown_properties(panels)
+    titles = [c.bl_label or c.__name__ for c, _ in panels]
+    check(f"{label}: panels shown", bool(panels), titles)
+    check(f"{label}: no title twice", not panel_walk.duplicate_titles(panels), titles)
+    twice = sorted({p for p in props if props.count(p) > 1})
+    check(f"{label}: no setting twice", not twice, twice)
+    missing = sorted(wanted - set(props))
+    check(f"{label}: shows {', '.join(sorted(w.split('.')[1] for w in wanted))}", not missing,
+          f"missing {missing}; shown {sorted(set(props))}")
+    screenshot(label.lower().replace(" ", "_"), area)
+
+
+def show_tab(obj, context_name: str):
+    """Make ``obj`` active and show its tab ``context_name`` (the editor offers an object's
+    tabs once it has drawn with that object active)."""
+    if obj is not None:
+        for o in bpy.context.view_layer.objects:
+            o.select_set(False)
+        obj.select_set(True)
+        bpy.context.view_layer.objects.active = obj
+        redraw()
+        yield 1.0
+    biggest("PROPERTIES").spaces.active.context = context_name
+    redraw()
+
+
+def walk():
+    """The steps; each ``yield`` gives the window that many seconds to draw."""
+    OUT.mkdir(parents=True, exist_ok=True)
+    yield 2.0
+    # 1. Install from Disk, as a user does
+    result = bpy.ops.extensions.package_install_files(filepath=str(ZIP), repo="user_default",
+                                                      enable_on_install=True)
+    check("the zip installs and enables", result == {"FINISHED"}, result)
+    engine = bpy.types.RenderEngine.bl_rna_get_subclass_py(ENGINE)
+    if not check("BO2 Lighting is a render engine", engine is not None):
+        return
+    import numba
+
+    site = Path(bpy.utils.user_resource("EXTENSIONS", path=".local"))
+    check("numba comes from the zip's wheels", Path(numba.__file__).is_relative_to(site),
+          f"numba {numba.__version__} at {numba.__file__}")
+    kernels = module("addon.core.kernels")
+    try:
+        kernels.check()
+        check("the kernels' numba is accepted", True)
+    except Exception as exc:  # noqa: BLE001
+        check("the kernels' numba is accepted", False, exc)
+
+    # 2. The demo room, BO2 picked
+    bpy.ops.wm.open_mainfile(filepath=str(ROOM))
+    yield 3.0
+    scene = bpy.context.scene
+    scene.render.engine = ENGINE
+    for kind in ("POINT", "SPOT", "SUN", "AREA"):  # one light of each type
+        if not any(o.type == "LIGHT" and o.data.type == kind for o in scene.objects):
+            obj = bpy.data.objects.new(f"Walk {kind.title()}", bpy.data.lights.new(kind, kind))
+            obj.location = (0.0, 0.0, 2.0)
+            scene.collection.objects.link(obj)
+    for kind in ("SPHERE", "VOLUME"):
+        if not any(o.type == "LIGHT_PROBE" and o.data.type == kind for o in scene.objects):
+            obj = bpy.data.objects.new(f"Walk {kind.title()}",
+                                       bpy.data.lightprobes.new(kind, kind))
+            scene.collection.objects.link(obj)
+    redraw()
+    yield 2.0
+
+    # 3. Every tab
+    yield from show_tab(None, "RENDER")
+    yield 1.5
+    tab_check("Render tab", "render", {"BO2SceneSettings.samples",
+                                       "BO2SceneSettings.shadow_resolution",
+                                       "RenderSettings.preview_pixel_size"})
+    yield from show_tab(None, "OUTPUT")
+    yield 1.0
+    tab_check("Output tab", "output", {"RenderSettings.resolution_x"})
+    yield from show_tab(None, "VIEW_LAYER")
+    yield 1.0
+    tab_check("View Layer tab", "view_layer", {"BO2ViewLayerSettings.use_pass_albedo"})
+    yield from show_tab(None, "WORLD")
+    yield 1.0
+    tab_check("World tab", "world", set())
+    mesh = next(o for o in scene.objects if o.type == "MESH" and o.active_material)
+    yield from show_tab(mesh, "OBJECT")
+    yield 1.0
+    tab_check("Object tab", "object", {"Object.visible_camera", "Object.is_holdout"})
+    camera = next(o for o in scene.objects if o.type == "CAMERA")
+    yield from show_tab(camera, "DATA")
+    yield 1.0
+    tab_check("Camera tab", "data", {"Camera.lens"})
+    light_props = {"Light.color", "Light.energy", "Light.exposure", "Light.normalize",
+                   "Light.use_temperature", "Light.use_shadow"}
+    own = {"POINT": {"shadow_soft_size"}, "SPOT": {"shadow_soft_size", "spot_size",
+                                                   "spot_blend"},
+           "SUN": {"angle"}, "AREA": {"shape", "size"}}
+    for kind, extra in own.items():
+        light = next(o for o in scene.objects if o.type == "LIGHT" and o.data.type == kind)
+        yield from show_tab(light, "DATA")
+        yield 1.5
+        rna = type(light.data).__name__
+        wanted = {p.replace("Light.", f"{rna}.") for p in light_props}
+        tab_check(f"{kind.title()} light tab", "data", wanted | {f"{rna}.{p}" for p in extra})
+    for kind in ("SPHERE", "VOLUME"):
+        probe = next(o for o in scene.objects if o.type == "LIGHT_PROBE"
+                     and o.data.type == kind)
+        yield from show_tab(probe, "DATA")
+        yield 1.5
+        rna = type(probe.data).__name__
+        tab_check(f"{kind.title()} probe tab", "data",
+                  {f"{rna}.influence_distance", f"{rna}.clip_start"})
+
+    # 4. The material tab, its preview, the Shader Editor
+    yield from show_tab(mesh, "MATERIAL")
+    material = mesh.active_material
+    material.preview_ensure()
+    redraw()
+    yield 1.0
+    tab_check("Material tab", "material", {"Material.pass_index",
+                                           "Material.use_backface_culling"})
+    with bpy.context.temp_override(window=window(), id=material):
+        bpy.ops.ed.lib_id_generate_preview()  # as the asset browser asks for one
+    start, lit = time.perf_counter(), {}
+    while time.perf_counter() - start < 120 and len(lit) < 2:
+        yield 0.5
+        preview = material.preview
+        for kind in ("icon", "image"):
+            w, h = getattr(preview, f"{kind}_size")
+            values = getattr(preview, f"{kind}_pixels_float")[:] if w * h else []
+            if kind not in lit and values and max(values[0::4]) > 0.02:
+                lit[kind] = (w, time.perf_counter() - start)
+    check("the material's icon and preview are rendered by BO2", len(lit) == 2,
+          f"{lit} (size px, seconds)")
+    screenshot("material_preview", biggest("PROPERTIES"))
+
+    view3d = biggest("VIEW_3D")
+    view3d.ui_type = "ShaderNodeTree"
+    redraw()
+    yield 2.0
+    space = view3d.spaces.active
+    check("the Shader Editor shows the material's tree with BO2 picked",
+          space.tree_type == "ShaderNodeTree" and space.node_tree == material.node_tree,
+          f"tree_type {space.tree_type}, node_tree {space.node_tree}")
+    screenshot("shader_editor")
+    view3d.ui_type = "VIEW_3D"
+    redraw()
+    yield 1.0
+
+    # 5. The viewport in Rendered shading
+    view3d = biggest("VIEW_3D")
+    view3d.spaces.active.region_3d.view_perspective = "CAMERA"
+    shading = view3d.spaces.active.shading
+    shading.type = "RENDERED"
+    viewports = module("addon.blender.viewport")
+    start, live = time.perf_counter(), None
+    while time.perf_counter() - start < 300:
+        yield 2.0
+        redraw()
+        live = next(iter(viewports._live), None) if viewports else None
+        image = live.session.image() if live is not None else None
+        if image is not None and image.final:
+            break
+    image = live.session.image() if live is not None else None
+    check("Rendered shading draws BO2's image", image is not None and image.samples > 0
+          and not (live.error or live.session.error),
+          f"after {time.perf_counter() - start:.1f} s: {live.status() if live else 'no view'}")
+    screenshot("viewport_rendered")
+    if live is None:
+        return
+
+    shading.use_scene_world_render = False  # the studio light
+    shading.studiolight_rotate_z = 1.0
+    redraw()
+    yield 6.0
+    check("Scene World off lights the viewport with the studio HDRI",
+          live.shading.world is not None and live.shading.world.texture is not None,
+          live.status())
+    screenshot("viewport_studio_light")
+    shading.use_scene_world_render = True
+    redraw()
+    yield 4.0
+    check("Scene World on restores the scene's world", live.shading.world is None)
+
+    shading.bo2_lookdev_view = "ALBEDO"  # the look-dev view: this viewport's own
+    redraw()
+    yield 3.0
+    check("the look-dev view is the viewport's", live.session.view == "ALBEDO"
+          and not hasattr(scene.bo2, "lookdev_view"), live.session.view)
+    screenshot("viewport_lookdev_albedo")
+    shading.bo2_lookdev_view = "COMBINED"
+
+
+def run(steps):
+    try:
+        delay = next(steps)
+    except StopIteration:
+        finish()
+        return None
+    except Exception:  # noqa: BLE001 - a failed step is a failed check, then the end
+        check("the walk runs to its end", False, traceback.format_exc())
+        finish()
+        return None
+    return delay
+
+
+def finish():
+    (OUT / "results.json").write_text(json.dumps({"checks": checks, "screenshots": shots},
+                                                 indent=1))
+    bpy.ops.wm.quit_blender()
+
+
+_steps = walk()
+bpy.app.timers.register(lambda: run(_steps), first_interval=3.0, persistent=True)
