@@ -113,7 +113,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             traceback.print_exc(file=sys.stderr)
             self._fail(f"BO2 Lighting failed: {type(exc).__name__}: {exc}")
             return
-        self.update_stats("BO2 Lighting", f"Done in {time.perf_counter() - start:.2f} s")
+        seconds = time.perf_counter() - start
+        if self.is_preview:
+            preview_seconds.append(seconds)
+            del preview_seconds[:-100]
+        self.update_stats("BO2 Lighting", f"Done in {seconds:.2f} s")
 
     def _warn(self, message: str) -> None:
         """One warning: the operator's report, and ``last_warnings`` for the command line."""
@@ -155,6 +159,9 @@ def preview_settings(settings):
     return dataclasses.replace(settings, samples=min(settings.samples, 4),
                                shadow_resolution=min(settings.shadow_resolution, 512))
 
+
+# How long the last previews took (material, light and world previews), newest last.
+preview_seconds: list[float] = []
 
 # The warnings of the final renders since ``headless.render_frame`` cleared them, in order, over
 # every view layer (``bo2 render`` prints them: Blender's own report printing is silenced there).

@@ -331,9 +331,12 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
     return cs.World(color=color * strength)
 
 
-def _visible(obj) -> bool:
-    """Render visibility that the depsgraph does not filter: the camera ray visibility."""
-    return bool(getattr(obj, "visible_camera", True))
+def _visibility(obj, view_layer) -> tuple[bool, bool, bool]:
+    """What the depsgraph does not filter of an object's render visibility: (holdout, seen by
+    the camera, casts shadows); ``MeshBatch``'s fields of the same names."""
+    holdout = bool(obj.is_holdout or obj.original.holdout_get(view_layer=view_layer))
+    return (holdout, bool(getattr(obj, "visible_camera", True)),
+            bool(getattr(obj, "visible_shadow", True)))
 
 
 def _object_data(obj, cache: SceneCache, warnings):
@@ -498,7 +501,7 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings, shown: set):
 
 
 def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
-                     holdout: bool) -> cs.MeshBatch:
+                     visibility: tuple[bool, bool, bool]) -> cs.MeshBatch:
     """One mesh placed by I instance matrices ``local`` (I, 16) (column-major) in the space of
     ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
     (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
@@ -537,7 +540,8 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
         wattr[key] = a
     return cs.MeshBatch(wpos, wn, np.tile(np.asarray(mat_index, np.int32), count),
                         uvs=None if uvs is None else repeated(np.asarray(uvs, np.float32)),
-                        name=name, holdout=holdout, attributes=wattr, world_to_object=inverse,
+                        name=name, holdout=visibility[0], camera=visibility[1],
+                        shadow=visibility[2], attributes=wattr, world_to_object=inverse,
                         texspace=texspace)
 
 
@@ -652,9 +656,6 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
     at_once = not any(_legacy_instancer(o) or not _readable_at_once(o, depsgraph)
                       for o in depsgraph.objects)
 
-    def holdout_of(obj) -> bool:
-        return bool(obj.is_holdout or obj.original.holdout_get(view_layer=depsgraph.view_layer))
-
     instancers, shown = [], set()  # (read after the walk, when every shown object is known)
     for inst in depsgraph.object_instances:
         if at_once and inst.is_instance:
@@ -669,7 +670,10 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
         if obj.type == "LIGHT":
             lights.append(_light(obj, _matrix(inst.matrix_world)))
             continue
-        if obj.type not in _GEOMETRY_TYPES or not _visible(obj):
+        if obj.type not in _GEOMETRY_TYPES:
+            continue
+        visibility = _visibility(obj, depsgraph.view_layer)
+        if not any(visibility[1:]):  # neither seen nor casting shadows
             continue
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
         if key not in objects:
@@ -681,32 +685,33 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
         if data is None:
             continue
         matrix = _matrix(inst.matrix_world)
-        holdout = holdout_of(obj)
-        bkey = (*key, matrix.tobytes(), holdout)
+        bkey = (*key, matrix.tobytes(), visibility)
         triangles[0] += len(data[0])
         batch = batches.get(bkey) or cache.batches.get(bkey)
         if batch is None:
             pos, nrm, uvs, mat_index, attributes, texspace = data
             wpos, wn, wuv, wattr = _to_world(pos, nrm, uvs, attributes, matrix)
             inverse = np.linalg.inv(matrix) if abs(np.linalg.det(matrix)) > 1e-30 else np.eye(4)
-            batch = cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name, holdout=holdout,
-                                 attributes=wattr, world_to_object=inverse, texspace=texspace)
+            batch = cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
+                                 holdout=visibility[0], camera=visibility[1],
+                                 shadow=visibility[2], attributes=wattr,
+                                 world_to_object=inverse, texspace=texspace)
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
         parent = _matrix(obj.matrix_world)
         for key, data, local, owner in _instances(obj, depsgraph, cache, warnings, shown):
-            if not _visible(owner):
+            visibility = _visibility(owner, depsgraph.view_layer)
+            if not any(visibility[1:]):
                 continue
-            holdout = holdout_of(owner)
             objects[key] = data
             digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
             digest.update(parent.tobytes())
-            bkey = (*key, digest.digest(), holdout)
+            bkey = (*key, digest.digest(), visibility)
             triangles[0] += len(local) * len(data[0])
             batch = batches.get(bkey) or cache.batches.get(bkey)
             if batch is None:
-                batch = _instanced_batch(data, local, parent, obj.name, holdout)
+                batch = _instanced_batch(data, local, parent, obj.name, visibility)
             batches[bkey] = batch
             meshes.append(batch)
     return meshes, lights, objects, batches

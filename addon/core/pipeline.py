@@ -130,6 +130,8 @@ class Frame:
     # Per-tile raster set-ups kept across renders of this very frame (the viewport), or None:
     # (tile, margin) -> (``_margin``'s tuple, ``raster.rasterize``'s ``keep`` dict)
     tiles: dict | None = None
+    seen: np.ndarray | None = None   # (T,) bool: the camera sees the triangle (None: all)
+    casts: np.ndarray | None = None  # (T,) bool: the triangle casts shadows (None: all)
 
 
 def _constant_tables(materials: list[Material]) -> dict:
@@ -218,6 +220,10 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                else np.zeros((0, 3, 2), np.float32))  # none: no zeros held for every corner
         has_uv = joined([np.full(len(m.positions), m.uvs is not None) for m in meshes], bool)
         holdout = joined([np.full(len(m.positions), m.holdout) for m in meshes], bool)
+        seen = (joined([np.full(len(m.positions), m.camera) for m in meshes], bool)
+                if not all(m.camera for m in meshes) else None)
+        casts = (joined([np.full(len(m.positions), m.shadow) for m in meshes], bool)
+                 if not all(m.shadow for m in meshes) else None)
         first = np.cumsum([0] + [len(w) for w in per_instance]).astype(np.int32)
         obj = joined([np.repeat(np.arange(first[k], first[k + 1], dtype=np.int32),
                                 len(m.positions) // len(w))
@@ -228,6 +234,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         uvs = np.zeros((0, 3, 2), np.float32)
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
+        seen = casts = None
     attributes = _concat_attributes(meshes)
     world_to_object = joined(per_instance, np.float64) if meshes else np.eye(4)[None]
     texspace = np.concatenate([
@@ -248,6 +255,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                  f"{flat} with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
+        seen, casts = (None if a is None else a[keep] for a in (seen, casts))
         normals = np.nan_to_num(normals[keep])
         uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
@@ -257,7 +265,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                   for k, a in attributes.items()}
 
     cam = scene.camera
-    clip = _clip(positions, cam)
+    clip = _clip(positions, cam, seen)
     cull_t = np.array([m.backface_culling for m in mats], bool)
     cull = cull_t[mat_index] if cull_t.any() else None
 
@@ -265,20 +273,27 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     fades = tables["fades"][mat_index]
     frame = Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                   [None] * len(scene.lights) if shadow_maps is None else shadow_maps,
-                  tables, attributes, obj, world_to_object, texspace, fades)
+                  tables, attributes, obj, world_to_object, texspace, fades, seen=seen,
+                  casts=casts)
     if shadow_maps is None:
         frame.shadow_maps = build_shadow_maps(frame, should_stop, fit_shadows)
     return frame
 
 
-def _clip(positions: np.ndarray, camera) -> np.ndarray | raster.Projection:
+def _clip(positions: np.ndarray, camera, seen: np.ndarray | None = None
+          ) -> np.ndarray | raster.Projection:
     """(T, 3, 4) float32 clip coordinates of the triangles through ``camera``; for more
     triangles than a raster keeps at once, their ``raster.Projection`` (computed a chunk at a
-    time when drawn: a million instances never hold them all)."""
+    time when drawn: a million instances never hold them all). Triangles the camera does not
+    see (``seen`` False) are left out: behind the camera, or out of the projection's index."""
     matrix = camera.projection @ camera.world_to_camera
     if len(positions) > raster.SETUP_TRIANGLES:
-        return raster.Projection(positions, matrix, np.float32)
-    return raster.project(positions, matrix)
+        index = None if seen is None else np.flatnonzero(seen)
+        return raster.Projection(positions, matrix, np.float32, index)
+    clip = raster.project(positions, matrix)
+    if seen is not None:
+        clip[~seen] = (0.0, 0.0, 0.0, -1.0)
+    return clip
 
 
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
@@ -294,9 +309,15 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
         if should_stop is not None and should_stop():
             raise Cancelled()
 
-    cutout = ((frame.fades, lambda t, b: _caster_alpha(frame, t, b)) if frame.fades.any()
-              else None)
-    plans = [shadows.shadow_map_jobs(light, frame.positions,
+    positions, fades, index = frame.positions, frame.fades, None
+    if frame.casts is not None:  # objects that cast no shadow are not in the maps
+        index = np.flatnonzero(frame.casts)
+        positions, fades = positions[index], fades[index]
+        if not len(positions):
+            return [None] * len(scene.lights)
+    cutout = ((fades, lambda t, b: _caster_alpha(frame, t if index is None else index[t], b))
+              if fades.any() else None)
+    plans = [shadows.shadow_map_jobs(light, positions,
                                      scene.camera if fit_shadows else None,
                                      resolution=scene.settings.shadow_resolution, cutout=cutout)
              for light in scene.lights]
@@ -319,7 +340,7 @@ def with_camera(frame: Frame, camera) -> Frame:
     """``frame`` seen through another camera: only the projection is redone (same geometry,
     materials and shadow maps)."""
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
-                               clip=_clip(frame.positions, camera),
+                               clip=_clip(frame.positions, camera, frame.seen),
                                tiles=None if frame.tiles is None else {})
 
 
@@ -368,7 +389,8 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
         m = np.eye(4)
         m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
         m[1, 1], m[1, 3] = height / th, 1.0 - height / th + 2.0 * y0 / th
-        tile = raster.Projection(clip.positions, m @ clip.matrix, clip.dtype).survivors()
+        tile = raster.Projection(clip.positions, m @ clip.matrix, clip.dtype,
+                                 clip.index).survivors()
         return tile, tile.index
     clip = np.ascontiguousarray(clip, np.float32)
     out = np.empty_like(clip)

@@ -129,6 +129,9 @@ class MeshBatch:
     uvs:       (T, 3, 2) float32 corner UVs of the active render UV map, or None
     name:      the object's name, for messages
     holdout:   the object cuts a hole: alpha 0 and no colour where it is visible
+    camera:    the camera sees it (False: it still casts shadows, as Blender's Camera ray
+               visibility)
+    shadow:    it casts shadows (Blender's Shadow ray visibility)
     attributes: corner values the materials read (``material.Program.requires``), by key:
                ("uv", map) (T, 3, 2); ("attribute", name) (T, 3, 4) RGBA (a float f as
                (f, f, f, 1), a vector as (x, y, z, 1)); ("tangent", map) (T, 3, 4) world
@@ -146,6 +149,8 @@ class MeshBatch:
     uvs: np.ndarray | None = None
     name: str = ""
     holdout: bool = False
+    camera: bool = True
+    shadow: bool = True
     attributes: dict = field(default_factory=dict)
     world_to_object: np.ndarray | None = None
     texspace: np.ndarray | None = None

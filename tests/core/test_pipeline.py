@@ -253,3 +253,32 @@ def test_instanced_batches_and_the_memory_they_need():
     finally:
         raster.SETUP_TRIANGLES, raster._CHUNK = saved
     assert np.abs(chunked - whole).mean() < 1e-3
+
+
+@pytest.mark.parametrize("many", [False, True])
+def test_camera_and_shadow_visibility(monkeypatch, many):
+    """A card above the floor under a sun straight down: seen and casting, it covers the
+    middle; unseen by the camera, the floor shows there and is in its shadow; casting no
+    shadow, it is seen and the floor around it is fully lit. ``many``: the projection path of
+    frames with very many triangles."""
+    if many:
+        monkeypatch.setattr(pipeline.raster, "SETUP_TRIANGLES", 1)
+    sun = Light("SUN", color=np.ones(3), direction=np.array([0.0, 0.0, -1.0]), shadow=True)
+    card = floor(size=1.0)
+    card.positions = card.positions + np.float32([0, 0, 1])
+    card.material = np.array([2, 2], np.int32)
+    bright = Material.talk(name="card", albedo=np.full(3, 0.9, np.float32),
+                           rf0=np.zeros(3, np.float32), gloss=0.0)
+
+    def render(camera, shadow):
+        scene = lambert_scene(sun)
+        scene.materials.append(bright)
+        card.camera, card.shadow = camera, shadow
+        scene.meshes.append(card)
+        return pipeline.render_frame(scene)["Combined"][H // 2, W // 2, 0]
+
+    lit_floor, lit_card = 0.6 / np.pi, 0.9 / np.pi
+    assert render(True, True) == pytest.approx(lit_card, rel=1e-3)
+    assert render(False, True) == pytest.approx(0.0, abs=1e-3)  # the floor, in shadow
+    assert render(True, False) == pytest.approx(lit_card, rel=1e-3)
+    assert render(False, False) == pytest.approx(lit_floor, rel=1e-3)
