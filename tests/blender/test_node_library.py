@@ -149,3 +149,14 @@ def test_constant_talk_values_invert_to_the_same_talk_values(values):
                                np.array([p["Specular Tint"][:3]]), np.array([[0.0]]))
     for a, b in zip((albedo, rf0, gloss), again, strict=True):
         np.testing.assert_allclose(b, a, atol=2e-3)
+
+
+def test_every_asset_has_a_preview_rendered_by_bo2(empty_scene):
+    """The Asset Browser's thumbnails: a 128 px sphere per group, lit (not Blender's icon)."""
+    for name, tree in load_library().items():
+        preview = tree.preview
+        assert preview is not None and tuple(preview.image_size) == (128, 128), name
+        px = np.array(preview.image_pixels_float[:]).reshape(128, 128, 4)
+        covered = px[..., 3] > 0.5
+        assert 0.3 < covered.mean() < 0.9, name  # the sphere, on a transparent film
+        assert px[covered, :3].std() > 0.05, name  # shaded, not flat

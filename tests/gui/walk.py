@@ -23,6 +23,7 @@ import panel_walk  # noqa: E402
 ARGS = sys.argv[sys.argv.index("--") + 1:]
 ZIP, OUT = Path(ARGS[0]).resolve(), Path(ARGS[1]).resolve()
 ROOM = Path(__file__).resolve().parents[2] / "demo_blends" / "room.blend"
+CHART = ROOM.with_name("material_spheres.blend")
 ENGINE = "BO2_LIGHTING"
 checks: list[dict] = []
 shots: list[str] = []
@@ -131,11 +132,13 @@ def walk():
     yield 3.0
     scene = bpy.context.scene
     scene.render.engine = ENGINE
-    for kind in ("POINT", "SPOT", "SUN", "AREA"):  # one light of each type
+    added = []  # one light of each type, removed after their tabs are seen
+    for kind in ("POINT", "SPOT", "SUN", "AREA"):
         if not any(o.type == "LIGHT" and o.data.type == kind for o in scene.objects):
             obj = bpy.data.objects.new(f"Walk {kind.title()}", bpy.data.lights.new(kind, kind))
             obj.location = (0.0, 0.0, 2.0)
             scene.collection.objects.link(obj)
+            added.append(obj)
     for kind in ("SPHERE", "VOLUME"):
         if not any(o.type == "LIGHT_PROBE" and o.data.type == kind for o in scene.objects):
             obj = bpy.data.objects.new(f"Walk {kind.title()}",
@@ -179,6 +182,7 @@ def walk():
         rna = type(light.data).__name__
         wanted = {p.replace("Light.", f"{rna}.") for p in light_props}
         tab_check(f"{kind.title()} light tab", "data", wanted | {f"{rna}.{p}" for p in extra})
+    bpy.data.batch_remove(added)
     for kind in ("SPHERE", "VOLUME"):
         probe = next(o for o in scene.objects if o.type == "LIGHT_PROBE"
                      and o.data.type == kind)
@@ -233,40 +237,39 @@ def walk():
     redraw()
     yield 1.0
 
-    # 5. The viewport in Rendered shading
+    # 5. Bake the probes from the Render tab's button, as an artist does
+    scene.bo2.bake_folder = str(OUT / "bake")
     view3d = biggest("VIEW_3D")
-    view3d.spaces.active.region_3d.view_perspective = "CAMERA"
-    shading = view3d.spaces.active.shading
-    shading.type = "RENDERED"
-    viewports = module("addon.blender.viewport")
-    start, live = time.perf_counter(), None
-    while time.perf_counter() - start < 300:
+    region = next(r for r in view3d.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=view3d, region=region):
+        started = bpy.ops.bo2.bake_probes("INVOKE_DEFAULT", mode="ALL")
+    operators = module("addon.blender.operators")
+    start = time.perf_counter()
+    while time.perf_counter() - start < 600:
         yield 2.0
-        redraw()
-        live = next(iter(viewports._live), None) if viewports else None
-        image = live.session.image() if live is not None else None
-        if image is not None and image.final:
+        if not operators.BO2_OT_bake_probes.running:
             break
+    probes = module("addon.blender.probes")
+    states = {o.name: probes.bake_state(o, probes.bake_folder(scene)).state
+              for o in probes.probe_objects(scene)}
+    check("Bake All bakes every probe", started == {"RUNNING_MODAL"}
+          and set(states.values()) == {"BAKED"},
+          f"{started}, {states} after {time.perf_counter() - start:.0f} s")
+
+    # 6. The viewport in Rendered shading, through the camera
+    viewports = module("addon.blender.viewport")
+    shading = rendered_view()
+    view = {}
+    yield from wait_final(viewports, view, 300)
+    live = view.get("live")
     image = live.session.image() if live is not None else None
     check("Rendered shading draws BO2's image", image is not None and image.samples > 0
           and not (live.error or live.session.error),
-          f"after {time.perf_counter() - start:.1f} s: {live.status() if live else 'no view'}")
+          f"after {view.get('seconds', 0):.1f} s: {live.status() if live else 'no view'}")
     screenshot("viewport_rendered")
     if live is None:
         return
-
-    shading.use_scene_world_render = False  # the studio light
-    shading.studiolight_rotate_z = 1.0
-    redraw()
-    yield 6.0
-    check("Scene World off lights the viewport with the studio HDRI",
-          live.shading.world is not None and live.shading.world.texture is not None,
-          live.status())
-    screenshot("viewport_studio_light")
-    shading.use_scene_world_render = True
-    redraw()
-    yield 4.0
-    check("Scene World on restores the scene's world", live.shading.world is None)
+    own = image.pixels
 
     shading.bo2_lookdev_view = "ALBEDO"  # the look-dev view: this viewport's own
     redraw()
@@ -275,6 +278,64 @@ def walk():
           and not hasattr(scene.bo2, "lookdev_view"), live.session.view)
     screenshot("viewport_lookdev_albedo")
     shading.bo2_lookdev_view = "COMBINED"
+
+    shading.use_scene_world_render = False  # the studio light
+    shading.studiolight_rotate_z = 1.0
+    yield from wait_final(viewports, view, 120)
+    studio = live.session.image()
+    check("Scene World off lights the viewport with the studio HDRI",
+          live.shading.world is not None and live.shading.world.texture is not None
+          and studio is not None and studio.pixels.shape == own.shape
+          and abs(float(studio.pixels.mean()) - float(own.mean())) > 1e-3, live.status())
+    shading.use_scene_world_render = True
+    yield from wait_final(viewports, view, 120)
+    back = live.session.image()
+    check("Scene World on restores the scene's world and probes", live.shading.world is None
+          and back is not None and abs(float(back.pixels.mean()) - float(own.mean())) < 1e-4)
+
+    # 7. Look-dev under the studio light, on the material chart (an open scene)
+    bpy.ops.wm.open_mainfile(filepath=str(CHART))
+    yield 3.0
+    bpy.context.scene.render.engine = ENGINE
+    shading = rendered_view()
+    shading.use_scene_world_render = False
+    shading.studiolight_rotate_z = 2.0
+    view = {}
+    yield from wait_final(viewports, view, 300)
+    live = view.get("live")
+    check("the material chart under the studio light", live is not None
+          and live.shading.world is not None, live.status() if live else "no view")
+    screenshot("viewport_studio_light")
+
+
+def rendered_view():
+    """The biggest 3D viewport in Rendered shading through the scene camera, overlays off;
+    its shading."""
+    area = biggest("VIEW_3D")
+    space = area.spaces.active
+    space.region_3d.view_perspective = "CAMERA"
+    space.overlay.show_overlays = False
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=area, region=region):
+        bpy.ops.view3d.view_center_camera()
+    space.shading.type = "RENDERED"
+    redraw()
+    return space.shading
+
+
+def wait_final(viewports, view: dict, timeout: float):
+    """Wait until a live BO2 viewport's image is final; ``view`` gets it ("live") and the
+    seconds it took."""
+    start = time.perf_counter()
+    yield 2.0
+    while time.perf_counter() - start < timeout:
+        redraw()
+        live = next(iter(viewports._live), None) if viewports else None
+        image = live.session.image() if live is not None else None
+        view["live"], view["seconds"] = live, time.perf_counter() - start
+        if image is not None and image.final and not live.session.busy:
+            return
+        yield 1.0
 
 
 def run(steps):
