@@ -100,9 +100,11 @@ def _label(cls) -> str:
 
 def shown(context, tab: str) -> list[tuple[type, list]]:
     """(panel class, its log) for every panel that ``context`` shows in Properties tab ``tab``
-    (``bl_context``: "render", "data", "material", ...), parents before children."""
+    (``bl_context``: "render", "data", "material", ...): the top-level panels in the editor's
+    order (``bl_order``, then registration), each sub-panel after its parent."""
     out, drawn, refused = [], set(), set()
-    panels = [c for c in properties_panels() if getattr(c, "bl_context", "") == tab]
+    panels = sorted((c for c in properties_panels() if getattr(c, "bl_context", "") == tab),
+                    key=lambda c: getattr(c, "bl_order", 0))  # as the editor orders them
     pending = True
     while pending:  # parents first, whatever the registration order
         pending = False

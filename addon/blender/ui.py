@@ -24,9 +24,7 @@ _STOCK_PANELS = (
     "DATA_PT_context_mesh", "DATA_PT_normals", "DATA_PT_uv_texture", "DATA_PT_vertex_groups",
     "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_viewport",
     "WORLD_PT_context_world", "WORLD_PT_preview", "VIEWLAYER_PT_layer",
-    "DATA_PT_context_lightprobe", "DATA_PT_lightprobe_parallax",
-    "DATA_PT_lightprobe_display_eevee", "DATA_PT_lightprobe_display_eevee_next",
-    "DATA_PT_lightprobe_animation",
+    "DATA_PT_context_lightprobe", "DATA_PT_lightprobe_animation",
     "EEVEE_WORLD_PT_surface", "WORLD_PT_custom_props", "WORLD_PT_animation",
     "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",
 )
@@ -256,6 +254,51 @@ class DATA_PT_bo2_lightprobe(_LightProbePanel, bpy.types.Panel):
         _draw_ignored(layout, ignored.split(", "))
 
 
+class DATA_PT_bo2_lightprobe_parallax(_LightProbePanel, bpy.types.Panel):
+    """A sphere probe's parallax proxy (the bake's and the look-up's box or sphere)."""
+
+    bl_label = "Custom Parallax"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.lightprobe.type == "SPHERE"
+
+    def draw_header(self, context):
+        self.layout.prop(context.lightprobe, "use_custom_parallax", text="")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        probe = context.lightprobe
+        layout.active = probe.use_custom_parallax
+        layout.prop(probe, "parallax_type")
+        layout.prop(probe, "parallax_distance",
+                    text="Radius" if probe.parallax_type == "ELIPSOID" else "Size")
+
+
+class DATA_PT_bo2_lightprobe_display(_LightProbePanel, bpy.types.Panel):
+    """How the probe draws in the viewport (Blender's settings)."""
+
+    bl_label = "Viewport Display"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.split_layout()
+        probe = context.lightprobe
+        if probe.type in {"VOLUME", "SPHERE"}:
+            row = layout.row(heading="Data")
+            row.prop(probe, "use_data_display", text="")
+            sub = row.row()
+            sub.active = probe.use_data_display
+            sub.prop(probe, "data_display_size", text="Size", slider=True)
+            layout.prop(probe, "show_clip")
+        layout.prop(probe, "show_influence")
+        if probe.type == "SPHERE":
+            sub = layout.column()
+            sub.active = probe.use_custom_parallax
+            sub.prop(probe, "show_parallax")
+
+
 class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
     """The probe's bake: its state and the buttons (the settings are the scene's)."""
 
@@ -444,7 +487,8 @@ CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes,
            OBJECT_PT_bo2_visibility, MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
            DATA_PT_bo2_light, DATA_PT_bo2_light_shadow, DATA_PT_bo2_light_beam,
-           DATA_PT_bo2_lightprobe, DATA_PT_bo2_lightprobe_bake]
+           DATA_PT_bo2_lightprobe, DATA_PT_bo2_lightprobe_parallax,
+           DATA_PT_bo2_lightprobe_display, DATA_PT_bo2_lightprobe_bake]
 
 
 def draw_render_menu(self, context):
@@ -464,12 +508,16 @@ def draw_view3d_header(self, context):
 
 def draw_probe_states() -> None:
     """3D viewport overlay (POST_PIXEL): each light probe's bake state beside it, when BO2
-    Lighting is the render engine (``viewport.probe_labels``)."""
+    Lighting is the render engine and the viewport shows its overlays
+    (``viewport.probe_labels``)."""
     import blf
     from bpy_extras.view3d_utils import location_3d_to_region_2d
 
     context = bpy.context
     if context.engine != ENGINE_ID or context.region_data is None:
+        return
+    space = context.space_data
+    if space is not None and not space.overlay.show_overlays:  # drawn as an overlay is
         return
     for obj, text, color in viewport.probe_labels(context.scene):
         if not obj.visible_get():

@@ -219,6 +219,23 @@ def test_holdout_and_backface_culling(addon):
     assert px[16, 4, 3] == 1.0
 
 
+def test_camera_and_shadow_ray_visibility_as_cycles(addon):
+    """A card above the floor in the sun: the Object > Visibility toggles change the picture as
+    they change Cycles' (camera off: the floor shows, in the card's shadow; shadow off: the
+    card shows and the floor beside it is lit)."""
+    scene = top_view_scene()
+    mat, node = lambert_material("White")
+    node.inputs["Base Color"].default_value = (0.5, 0.5, 0.5, 1.0)
+    add_plane(mat)
+    card_mat, card_node = lambert_material("Card")
+    card = add_plane(card_mat, size=1.0, location=(0.0, 0.0, 0.3))
+    for camera, shadow in ((True, True), (False, True), (True, False), (False, False)):
+        card.visible_camera, card.visible_shadow = camera, shadow
+        got = [render_pixels(scene, engine, samples=16)[16, 16, 0]
+               for engine in ("BO2_LIGHTING", "CYCLES")]
+        assert got[0] == pytest.approx(got[1], abs=0.03), (camera, shadow, got)
+
+
 def test_passes_reach_the_compositor(addon):
     scene = top_view_scene()
     view_layer = bpy.context.view_layer
