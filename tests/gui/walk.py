@@ -100,7 +100,13 @@ def show_tab(obj, context_name: str):
         bpy.context.view_layer.objects.active = obj
         redraw()
         yield 1.0
-    biggest("PROPERTIES").spaces.active.context = context_name
+    for _ in range(10):  # the editor offers the tab once it has drawn (slower under load)
+        try:
+            biggest("PROPERTIES").spaces.active.context = context_name
+            break
+        except TypeError:
+            redraw()
+            yield 1.0
     redraw()
 
 
