@@ -47,7 +47,9 @@ RUNNER
 }
 
 log=$(mktemp)
-{
+set +e  # a subshell with its own set -e, not in a || list (which would switch -e off)
+(
+  set -e
   command -v debootstrap >/dev/null || { apt-get update -qq && apt-get install -y -qq debootstrap; }
   if [ ! -x "$root/usr/bin/apt-get" ]; then
     rm -rf "$root"; mkdir -p "$root"
@@ -61,6 +63,12 @@ log=$(mktemp)
   touch "$root/.bo2-gui-ready"
   write_runner > "$runner"
   chmod +x "$runner"
-} >"$log" 2>&1 || { echo "gui_blender: building the windowed Blender failed:" >&2; tail -5 "$log" >&2; exit 1; }
+) >"$log" 2>&1
+status=$?
+set -e
+if [ "$status" -ne 0 ]; then
+  rm -f "$runner"
+  echo "gui_blender: building the windowed Blender failed:" >&2; tail -5 "$log" >&2; exit 1
+fi
 rm -f "$log"
 echo "$runner"

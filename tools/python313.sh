@@ -23,11 +23,17 @@ mirror=$(sed -n 's/^URIs: *\([^ ]*\).*/\1/p' /etc/apt/sources.list.d/*.sources 2
   2>/dev/null | grep -v security | head -1 || true)
 [ -n "$mirror" ] || { echo "python313: no Debian mirror in apt's sources" >&2; exit 2; }
 
+grep -qs '^ID=debian' /etc/os-release || { echo "python313: building one needs Debian's sources (not Debian here)" >&2; exit 2; }
+
 work=$(mktemp -d)
-{
-  # Debian 13 (trixie) ships CPython 3.13: its source package, from this machine's mirror
-  sources=/etc/apt/sources.list.d/bo2-python313-src.sources
-  [ -f "$sources" ] || printf 'Types: deb-src\nURIs: %s\nSuites: trixie\nComponents: main\nSigned-By: /usr/share/keyrings/debian-archive-keyring.gpg\n' \
+# Debian 13 (trixie) ships CPython 3.13: its source package, from this machine's mirror, through
+# an apt source that is removed again when the script ends
+sources=/etc/apt/sources.list.d/bo2-python313-src.sources
+trap 'rm -f "$sources"' EXIT
+set +e  # a subshell with its own set -e, not in a || list (which would switch -e off)
+(
+  set -e
+  printf 'Types: deb-src\nURIs: %s\nSuites: trixie\nComponents: main\nSigned-By: /usr/share/keyrings/debian-archive-keyring.gpg\n' \
     "$mirror" > "$sources"
   apt-get update -qq
   apt-get install -y -qq build-essential libssl-dev zlib1g-dev libbz2-dev liblzma-dev \
@@ -39,7 +45,10 @@ work=$(mktemp -d)
   ./configure --prefix="$prefix" --with-ensurepip=install
   make -j"$(nproc)"
   make install
-} >"$work/build.log" 2>&1 || { echo "python313: building CPython 3.13 failed:" >&2; tail -5 "$work/build.log" >&2; exit 1; }
+) >"$work/build.log" 2>&1
+status=$?
+set -e
+[ "$status" -eq 0 ] || { echo "python313: building CPython 3.13 failed:" >&2; tail -5 "$work/build.log" >&2; exit 1; }
 rm -rf "$work"
 works "$prefix/bin/python3.13" || { echo "python313: the built interpreter does not work" >&2; exit 1; }
 echo "$prefix/bin/python3.13"

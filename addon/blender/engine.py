@@ -65,7 +65,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         if view is None:
             return
         region, space = context.region, context.space_data
-        view.set_shading(depsgraph, space)
+        try:
+            view.set_shading(depsgraph, space)  # the Scene World / Scene Lights toggles
+        except Exception as exc:  # noqa: BLE001 - the viewport shows one line, the console the trace
+            traceback.print_exc(file=sys.stderr)
+            view.error = f"{type(exc).__name__}: {exc}"
         view.session.set_view(getattr(space.shading, "bo2_lookdev_view", "COMBINED"))
         scale = viewport.pixel_size(depsgraph.scene, context.preferences)
         view.set_camera(viewport.region_camera(region, context.region_data, scale))

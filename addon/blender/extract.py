@@ -215,31 +215,41 @@ def _to_world(pos, nrm, uvs, attributes: dict, matrix: np.ndarray):
     return (*contiguous, {k: np.ascontiguousarray(a, np.float32) for k, a in attributes.items()})
 
 
-def _emitter_area(data) -> float:
+def area_light_size(data, matrix: np.ndarray) -> np.ndarray:
+    """(2,) metres: an area light's Size (X) and Size Y (Size for squares and discs), times
+    its object's scale along X and Y, as Cycles sizes it."""
+    square = data.shape in {"SQUARE", "DISK"}
+    scale = np.linalg.norm(np.asarray(matrix, np.float64)[:3, :2], axis=0)
+    return np.array([data.size, data.size if square else data.size_y]) * scale
+
+
+def _emitter_area(data, matrix: np.ndarray) -> float:
     """The area Cycles divides a light's power by when Normalize is on: a sphere's surface
     (point, spot), the disc of the sun's cone on the unit sphere, an area light's surface
-    (m^2); 1 for a light of no size. Measured against Cycles in ``test_lights``."""
+    (m^2). Measured against Cycles (``test_lights``): a light of no size has 1, but a point or
+    spot of radius 0 has 4."""
     if data.type in {"POINT", "SPOT"}:
-        area = 4.0 * np.pi * float(data.shadow_soft_size) ** 2
-    elif data.type == "SUN":
+        radius = float(data.shadow_soft_size)
+        return 4.0 * np.pi * radius ** 2 if radius > 0.0 else 4.0
+    if data.type == "SUN":
         area = np.pi * np.sin(float(data.angle) / 2.0) ** 2
     else:
-        square = data.shape in {"SQUARE", "DISK"}
-        area = float(data.size) * float(data.size if square else data.size_y)
+        area = float(np.prod(area_light_size(data, matrix)))
         area *= np.pi / 4.0 if data.shape in {"DISK", "ELLIPSE"} else 1.0
     return area if area > 0.0 else 1.0
 
 
-def light_color(data) -> np.ndarray:
-    """(3,) float32 colour times power of a Blender light, as Cycles reads it: Color (times
-    the blackbody colour of Temperature when it is on) x Power x 2^Exposure; with Normalize
-    off, times the light's area as well (its power then grows with its size)."""
+def light_color(data, matrix: np.ndarray) -> np.ndarray:
+    """(3,) float32 colour times power of a Blender light placed by ``matrix`` (4, 4), as
+    Cycles reads it: Color (times the blackbody colour of Temperature when it is on) x Power x
+    2^Exposure; with Normalize off, times the light's area as well (its power then grows with
+    its size)."""
     color = np.array(data.color[:3], np.float64)
     if getattr(data, "use_temperature", False):
         color *= np.array(data.temperature_color[:3], np.float64)
     power = float(data.energy) * 2.0 ** float(getattr(data, "exposure", 0.0))
     if not getattr(data, "normalize", True):
-        power *= _emitter_area(data)
+        power *= _emitter_area(data, matrix)
     return (color * power).astype(np.float32)
 
 
@@ -249,7 +259,7 @@ def _light(obj, matrix: np.ndarray) -> cs.Light:
     axis = axis / max(np.linalg.norm(axis), 1e-20)
     light = cs.Light(
         kind=data.type,
-        color=light_color(data),
+        color=light_color(data, matrix),
         position=matrix[:3, 3].copy(),
         direction=axis,
         shadow=bool(data.use_shadow),
@@ -263,8 +273,7 @@ def _light(obj, matrix: np.ndarray) -> cs.Light:
     elif data.type == "SUN":
         light.radius = float(data.angle)
     elif data.type == "AREA":
-        square = data.shape in {"SQUARE", "DISK"}
-        light.size = np.array([data.size, data.size if square else data.size_y])
+        light.size = area_light_size(data, matrix)
     return light
 
 

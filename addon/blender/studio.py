@@ -70,28 +70,38 @@ def studio_texture(path: str) -> texture.Texture:
     return tex
 
 
-def shading(space) -> Shading:
-    """The toggles of a 3D viewport ``space`` (``SpaceView3D``) in Rendered shading; ``SCENE``
-    when it shows the scene as it is."""
+def key(space) -> tuple:
+    """What decides ``shading(space)``, read without loading anything: equal keys, equal
+    shading."""
     view = getattr(space, "shading", None)
     if view is None or view.type != "RENDERED":
-        return SCENE
+        return ()
     lights = bool(view.use_scene_lights_render)
     if view.use_scene_world_render:
-        return SCENE if lights else Shading(lights=False, key=(False,))
+        return () if lights else (False,)
     light = view.selected_studio_light
-    path = light.path if light is not None else ""
-    rotate, strength = float(view.studiolight_rotate_z), float(view.studiolight_intensity)
-    blur, alpha = float(view.studiolight_background_blur), float(
-        view.studiolight_background_alpha)
-    key = (lights, path, rotate, strength, blur, alpha)
+    return (lights, light.path if light is not None else "",
+            float(view.studiolight_rotate_z), float(view.studiolight_intensity),
+            float(view.studiolight_background_blur), float(view.studiolight_background_alpha))
+
+
+def shading(space) -> Shading:
+    """The toggles of a 3D viewport ``space`` (``SpaceView3D``) in Rendered shading; ``SCENE``
+    when it shows the scene as it is. Raises ``extract.SceneError`` when the studio light
+    cannot be read."""
+    wanted = key(space)
+    if len(wanted) < 2:
+        return Shading(lights=not wanted, key=wanted) if wanted else SCENE
+    lights, path, rotate, strength, blur, alpha = wanted
+    if not path:
+        raise extract.SceneError("No studio light is selected for the viewport's world")
     try:
         tex = studio_texture(path)
     except Exception as exc:  # noqa: BLE001 - a missing or damaged HDRI: its name, once
-        raise extract.SceneError(f"The studio light '{light.name}' cannot be read "
+        raise extract.SceneError(f"The studio light {os.path.basename(path)} cannot be read "
                                  f"({type(exc).__name__}: {exc})") from None
     levels = max(1.0, math.log2(max(tex.size[0], 1)) - 1.0)
     world = cs.World(color=np.ones(3, np.float32) * strength, texture=tex, strength=strength,
                      rotation=extract.euler_xyz(0.0, 0.0, rotate),
                      background_lod=blur * levels, background_alpha=alpha)
-    return Shading(world=world, lights=lights, key=(*key, id(tex)))
+    return Shading(world=world, lights=lights, key=wanted)

@@ -134,9 +134,9 @@ class RENDER_PT_bo2_viewport(_BO2Panel, bpy.types.Panel):
         layout = self.split_layout()
         layout.prop(context.scene.bo2, "viewport_samples")
         layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
-        space = context.space_data
-        if space is not None and space.type == "VIEW_3D":
-            layout.prop(space.shading, "bo2_lookdev_view")
+        note = layout.row()
+        note.active = False
+        note.label(text="Look-dev view: each viewport's header", icon="INFO")
 
 
 class RENDER_PT_bo2_lookdev(_BO2Panel, bpy.types.Panel):

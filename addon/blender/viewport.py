@@ -13,7 +13,7 @@ import dataclasses
 import bpy
 import numpy as np
 
-from ..core import bake, viewport
+from ..core import viewport
 from ..core.scene import Camera
 from . import extract, probes, studio
 
@@ -186,6 +186,8 @@ class Viewport:
         self._state = None  # the settings of the last render
         self._unsent: set[str] = set()  # changes of a failed extraction
         self.shading = studio.SCENE  # the viewport's Scene World and Scene Lights toggles
+        self._shading_key: tuple = ()  # ``studio.key`` of the toggles last seen
+        self._world_light = False  # the studio light's world alone lights the scene
 
     def _warn(self, message: str) -> None:
         if message not in self.warnings:
@@ -214,10 +216,10 @@ class Viewport:
         except extract.SceneError as exc:
             self.error, self._unsent = str(exc), changed  # sent with the next update
             return set()
-        if studio_world is not None:  # the studio light replaces the world and the probes
-            scene = dataclasses.replace(
-                scene, world=studio_world,
-                probes=bake.world_probes(studio_world) if settings.use_indirect else None)
+        # the studio light replaces the world and the probes (made on the render thread)
+        self._world_light = studio_world is not None and bool(settings.use_indirect)
+        if studio_world is not None:
+            scene = dataclasses.replace(scene, world=studio_world, probes=None)
             warnings = [w for w in warnings if not w.startswith("World ")]
         if not self.shading.lights:
             scene = dataclasses.replace(scene, lights=[])
@@ -240,15 +242,17 @@ class Viewport:
 
     def set_shading(self, depsgraph, space) -> bool:
         """Follow the Scene World and Scene Lights toggles of the viewport ``space``
-        (``studio.shading``), rendering anew when they changed; True when they did."""
+        (``studio.shading``), rendering anew when they changed; True when they did. A studio
+        light that cannot be read shows its error until the toggles change again."""
+        wanted = studio.key(space)
+        if wanted == self._shading_key:
+            return False
+        self._shading_key = wanted
         try:
-            shading = studio.shading(space)
+            self.shading = studio.shading(space)
         except extract.SceneError as exc:
             self.error = str(exc)
             return False
-        if shading.key == self.shading.key:
-            return False
-        self.shading = shading
         self._unsent |= {"world", "probes", "lights"}
         self.sync(depsgraph, ())
         return True
@@ -264,7 +268,8 @@ class Viewport:
 
     def _submit(self, changed) -> None:
         if self.scene is not None and self.camera is not None:
-            self.session.update(dataclasses.replace(self.scene, camera=self.camera), changed)
+            self.session.update(dataclasses.replace(self.scene, camera=self.camera), changed,
+                                world_light=self._world_light)
 
     def status(self) -> str:
         """The viewport's status text: the error, or the samples done, the probe hint and

@@ -26,6 +26,7 @@ here touches the disk, so a bake that is stopped early leaves the previous files
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 
@@ -172,6 +173,7 @@ def world_key(world: World, size: int) -> tuple:
 
 
 _world_cache: dict = {}  # world_key -> (SH, chains), the newest last
+_world_lock = threading.Lock()  # renders, previews and the viewport ask at once
 _WORLDS_KEPT = 4  # the scene's world and a few studio lights switched between
 
 
@@ -179,12 +181,13 @@ def world_probes(world: World, size: int = 64) -> Probes:
     """Probes of the world alone, the fallback of every probe (SH (9, 3) and both chains of
     its ``size`` cube), computed once per world (the last few worlds are kept)."""
     key = world_key(world, size)
-    value = _world_cache.pop(key, None)
-    if value is None:
-        value = capture.filtered(capture.world_cube(world, size))
-    _world_cache[key] = value
-    while len(_world_cache) > _WORLDS_KEPT:
-        _world_cache.pop(next(iter(_world_cache)))
+    with _world_lock:
+        value = _world_cache.pop(key, None)
+        if value is None:
+            value = capture.filtered(capture.world_cube(world, size))
+        _world_cache[key] = value
+        while len(_world_cache) > _WORLDS_KEPT:
+            _world_cache.pop(next(iter(_world_cache)))
     world_sh, world_mips = value
     color = None if world.texture is not None else np.asarray(world.color, np.float32)[:3]
     return Probes(world_sh=world_sh, world_mips=world_mips, world_color=color)

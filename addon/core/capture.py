@@ -98,8 +98,11 @@ class Capture:
         cams = [face_camera(position, face, size, near, far) for face in range(6)]
         if self._frame is None:
             scene = dataclasses.replace(self.scene, camera=cams[0])
-            self._frame = pipeline.prepare(scene, self.warn, self.should_stop,
-                                           shadow_maps=[None] * len(scene.lights))
+            frame = pipeline.prepare(scene, self.warn, self.should_stop,
+                                     shadow_maps=[None] * len(scene.lights))
+            # objects hidden from the camera are still in the light a probe gathers, as in
+            # Cycles' indirect light: the captures see them
+            self._frame = dataclasses.replace(frame, seen=None)
         return cams
 
 

@@ -403,8 +403,8 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
 
 
 def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """(N, 3) world radiance seen through window positions x, y (N,), times the background's
-    opacity."""
+    """(N, 3) world radiance seen through window positions x, y (N,); a texture's times the
+    background's opacity (``World.background_alpha``, a studio light's)."""
     world = scene.world
     if world.texture is None:
         return np.broadcast_to(np.asarray(world.color, np.float32), (len(x), 3))

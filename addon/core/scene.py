@@ -129,8 +129,8 @@ class MeshBatch:
     uvs:       (T, 3, 2) float32 corner UVs of the active render UV map, or None
     name:      the object's name, for messages
     holdout:   the object cuts a hole: alpha 0 and no colour where it is visible
-    camera:    the camera sees it (False: it still casts shadows, as Blender's Camera ray
-               visibility)
+    camera:    the camera sees it (False: it still casts shadows and is in the probes'
+               captures, as Blender's Camera ray visibility)
     shadow:    it casts shadows (Blender's Shadow ray visibility)
     attributes: corner values the materials read (``material.Program.requires``), by key:
                ("uv", map) (T, 3, 2); ("attribute", name) (T, 3, 4) RGBA (a float f as

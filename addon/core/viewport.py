@@ -21,7 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import pipeline
+from . import bake, pipeline
 from .passes import EMPTY_DEPTH
 from .scene import Camera, Scene
 
@@ -163,9 +163,12 @@ class Session:
 
     # ---- the host's side (any thread) --------------------------------------------------
 
-    def update(self, scene: Scene, changed) -> int:
+    def update(self, scene: Scene, changed, world_light: bool = False) -> int:
         """Render ``scene`` anew; ``changed`` names what differs from the last update (a subset
-        of ``CHANGES``; anything on the first update). Returns the update's number."""
+        of ``CHANGES``; anything on the first update). With ``world_light``, the scene is lit
+        by its world alone: the world's probes (``bake.world_probes``, about a second for a
+        new HDRI) are made on the render thread, not the caller's. Returns the update's
+        number."""
         changed = frozenset(changed)
         unknown = changed - CHANGES
         if unknown:
@@ -175,7 +178,7 @@ class Session:
             if self._pending is not None:  # not started yet: both changes apply
                 changed |= self._pending[1]
             self._updates += 1
-            self._pending = (scene, changed)
+            self._pending = (scene, changed, world_light)
             self._error = None
             self._cond.notify_all()
             return self._updates
@@ -184,6 +187,8 @@ class Session:
         """Show look-dev view ``view`` (a key of ``VIEWS``): re-derived from the last passes."""
         if view not in VIEWS:
             raise ValueError(f"unknown view {view!r}; expected one of {sorted(VIEWS)}")
+        if view == self.view:  # every redraw asks: no lock when nothing changes
+            return
         with self._publishing:
             with self._cond:
                 if view == self.view:
@@ -245,14 +250,17 @@ class Session:
                 self._cond.wait_for(lambda: self._closed or self._pending is not None)
                 if self._closed:
                     return
-                (scene, changed), self._pending = self._pending, None
+                (scene, changed, world_light), self._pending = self._pending, None
                 number, self._busy = self._updates, True
             try:
+                if world_light:
+                    scene = dataclasses.replace(scene, probes=bake.world_probes(scene.world))
                 self._render(scene, changed, number)
             except pipeline.Cancelled:
                 with self._cond:  # what this update changed still waits to be applied
                     if self._pending is not None:
-                        self._pending = (self._pending[0], self._pending[1] | changed)
+                        self._pending = (self._pending[0], self._pending[1] | changed,
+                                         self._pending[2])
             except Exception as exc:  # noqa: BLE001 - shown in the viewport, the trace logged
                 traceback.print_exc()
                 self._frame = None  # the next update starts afresh

@@ -9,11 +9,13 @@ from util import add_ortho_camera, render_pixels, set_world_color
 
 SHAPES = {
     "POINT": {"shadow_soft_size": 0.5},
+    "POINT_NO_RADIUS": {"shadow_soft_size": 0.0},
     "SPOT": {"shadow_soft_size": 0.25, "spot_size": 2.0},
     "SUN": {"angle": 0.6},
     "AREA_RECTANGLE": {"shape": "RECTANGLE", "size": 2.0, "size_y": 0.75},
     "AREA_DISK": {"shape": "DISK", "size": 1.5},
 }
+SCALES = {"AREA_RECTANGLE": (1.5, 0.8, 1.0)}  # Cycles sizes an area light by its object too
 
 
 def brightness(scene, engine: str) -> float:
@@ -28,12 +30,13 @@ def test_temperature_exposure_and_normalize_as_cycles(addon, kind):
     set_world_color(scene)
     bpy.ops.mesh.primitive_plane_add(size=20.0)
     add_ortho_camera(scene, 2.0, height=5.0)
-    data = bpy.data.lights.new("Light", kind.split("_")[0])
+    data = bpy.data.lights.new("Light", kind.split("_")[0])  # POINT_NO_RADIUS: a point
     for name, value in SHAPES[kind].items():
         setattr(data, name, value)
     data.energy = 2.0 if data.type == "SUN" else 100.0
     light = bpy.data.objects.new("Light", data)
     light.location = (0.0, 0.0, 3.0)
+    light.scale = SCALES.get(kind, (1.0, 1.0, 1.0))
     scene.collection.objects.link(light)
 
     ratios = {}

@@ -5,6 +5,7 @@ Updates are caught with ``depsgraph_update_post`` (it receives the same ``Depsgr
 that ``RenderEngine.view_update`` reads). Drawing needs a GPU and is not run here.
 """
 
+import threading
 import types
 
 import bpy
@@ -13,6 +14,7 @@ import pytest
 from util import camera_of, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import viewport
+from bo2_lighting.addon.core import bake as core_bake
 from bo2_lighting.addon.core import pipeline
 from bo2_lighting.addon.core import viewport as core_viewport
 
@@ -291,7 +293,7 @@ def studio_space(**overrides):
     return types.SimpleNamespace(shading=types.SimpleNamespace(**shading)), light
 
 
-def test_studio_light_lights_the_viewport_as_the_same_world_would(view):
+def test_studio_light_lights_the_viewport_as_the_same_world_would(view, monkeypatch):
     """Scene World off: the viewport is lit by the studio HDRI, rotated and scaled as the
     shading says, exactly as a scene whose world is that HDRI through a Mapping node renders
     (Cycles builds its studio world the same way); Scene World on again restores the scene's
@@ -302,6 +304,10 @@ def test_studio_light_lights_the_viewport_as_the_same_world_would(view):
     scene.bo2.use_indirect = True
     open_view(view, scene)
     own = view.session.image().pixels.copy()
+    threads = []  # where the HDRI's SH and chains are made: not on Blender's thread
+    real = core_bake.world_probes
+    monkeypatch.setattr(core_bake, "world_probes", lambda world, *args: (
+        threads.append(threading.current_thread()), real(world, *args))[1])
     depsgraph = bpy.context.evaluated_depsgraph_get()
     space, light = studio_space()
     assert view.set_shading(depsgraph, space)
@@ -309,6 +315,7 @@ def test_studio_light_lights_the_viewport_as_the_same_world_would(view):
     assert view.session.wait(120)
     studio = view.session.image().pixels.copy()
     assert np.abs(studio - own).mean() > 0.02
+    assert threads and threading.main_thread() not in threads
 
     # the scene's world made the studio light by hand: the same picture
     tree = scene.world.node_tree

@@ -215,3 +215,15 @@ def test_surfaces_build_no_shadow_maps():
     assert grab._frame.shadow_maps[0] is not None
     fresh = capture.Capture(scene).cube(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
     np.testing.assert_array_equal(later, fresh)
+
+
+def test_captures_see_objects_the_camera_does_not():
+    """A probe gathers the light of objects hidden from the camera (Camera ray visibility off),
+    as Cycles' indirect light does: the capture inside a camera-invisible box sees its walls."""
+    scene = scene_of(cube(inward=True), grey())
+    scene.world.color = np.full(3, 1.0, np.float32)
+    seen = capture.Capture(scene).cube(np.zeros(3), 8, 0.01, 100.0)
+    scene.meshes[0].camera = False
+    hidden = capture.Capture(scene).cube(np.zeros(3), 8, 0.01, 100.0)
+    np.testing.assert_array_equal(hidden, seen)
+    assert seen.max() < 0.5  # the walls, not the bright world

@@ -13,6 +13,7 @@ import argparse
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -49,13 +50,14 @@ def main(argv=None) -> int:
         env = {**os.environ, "BLENDER_USER_RESOURCES": str(Path(user) / "blender")}
         cmd = [runner.stdout.strip(), "--factory-startup", "--python",
                str(ROOT / "tests" / "gui" / "walk.py"), "--", str(zip_copy), str(out)]
+        # its own process group: a walk that hangs is ended with everything it started
+        proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE,
+                                stderr=subprocess.STDOUT, text=True, start_new_session=True)
         try:
-            done = subprocess.run(cmd, cwd=ROOT, env=env, timeout=args.timeout,
-                                  stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-            log = done.stdout
-        except subprocess.TimeoutExpired as exc:
-            log = (exc.stdout or b"").decode(errors="replace") if isinstance(
-                exc.stdout, bytes) else (exc.stdout or "")
+            log, _ = proc.communicate(timeout=args.timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            log, _ = proc.communicate()
             log += f"\ntest-gui: the walk did not end within {args.timeout:.0f} s"
     (out / "blender.log").write_text(log)
     results = out / "results.json"

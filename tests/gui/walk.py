@@ -309,8 +309,10 @@ def walk():
     view = {}
     yield from wait_final(viewports, view, 300)
     live = view.get("live")
-    check("the material chart under the studio light", live is not None
-          and live.shading.world is not None, live.status() if live else "no view")
+    image = live.session.image() if live is not None else None
+    check("the material chart under the studio light", image is not None and image.final
+          and live.shading.world is not None and not (live.error or live.session.error),
+          live.status() if live else "no view")
     screenshot("viewport_studio_light")
 
 
