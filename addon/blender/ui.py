@@ -410,7 +410,7 @@ class DATA_PT_bo2_light_shadow(_LightPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.split_layout()
         layout.active = context.light.use_shadow
-        layout.prop(context.scene.bo2, "shadow_resolution")
+        layout.prop(context.scene.bo2, "shadow_resolution", text="Resolution (Scene)")
         size = {"SUN": "Angle", "AREA": "Size"}.get(context.light.type, "Radius")
         note = layout.row()
         note.active = False
