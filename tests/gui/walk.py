@@ -277,6 +277,14 @@ def walk():
         return
     own = image.pixels
 
+    region = next(r for r in biggest("VIEW_3D").regions if r.type == "WINDOW")
+    scene.render.preview_pixel_size = "4"  # Blender's Pixel Size: a pixel per 4 x 4
+    yield from wait_final(viewports, view, 120)
+    check("Pixel Size 4 renders a quarter of the viewport's width",
+          live.camera.width == -(-region.width // 4), f"{live.camera.width} of {region.width}")
+    scene.render.preview_pixel_size = "AUTO"
+    yield from wait_final(viewports, view, 120)
+
     shading.bo2_lookdev_view = "ALBEDO"  # the look-dev view: this viewport's own
     redraw()
     yield 3.0
