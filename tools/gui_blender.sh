@@ -15,7 +15,7 @@
 set -euo pipefail
 root=${BO2_GUI_ROOT:-${XDG_CACHE_HOME:-$HOME/.cache}/bo2/blender-gui}
 runner="$root.run"
-packages="blender python3-numpy python3-requests xvfb xauth x11-utils imagemagick libgl1-mesa-dri"
+packages="blender python3-numpy python3-requests python3-cattr python3-attr xvfb xauth x11-utils imagemagick libgl1-mesa-dri"
 apt_opts="-o Acquire::Check-Valid-Until=false -o Acquire::Retries=3"
 
 if [ -x "$runner" ] && [ -x "$root/usr/bin/blender" ] && [ -f "$root/.bo2-gui-ready" ]; then
