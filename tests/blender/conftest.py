@@ -1,7 +1,13 @@
 """Blender tests run against the real ``bpy`` module; each starts from factory settings."""
 
+import sys
+from pathlib import Path
+
 import bpy
 import pytest
+
+# ``tests/panel_walk.py`` is shared with the walk in a real window (``tests/gui``)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
 
 @pytest.fixture

@@ -2,15 +2,11 @@
 (Blender's own that opt in, and the add-on's) drawn into a recording layout. The same walk runs
 in a real window (``tests/gui``); here a stand-in context plays the Properties editor's."""
 
-import sys
 import types
-from pathlib import Path
 
 import bpy
+import panel_walk
 import pytest
-
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
-import panel_walk  # noqa: E402
 
 ENGINE = "BO2_LIGHTING"
 

@@ -5,6 +5,7 @@ import types
 
 import bpy
 import pytest
+from panel_walk import PanelProxy, Recorder
 from util import bare_material
 
 import bo2_lighting
@@ -80,50 +81,6 @@ def test_a_library_the_user_added_is_kept(empty_scene):
 
 # ---- panels against a recording layout -------------------------------------------------
 
-class Recorder:
-    """A layout that records what a panel draws and checks that every property it names
-    exists on its data, and every operator (and each property set on it) exists."""
-
-    def __init__(self, log):
-        self.log = log
-
-    def __getattr__(self, name):  # layout methods not checked: row(), label(), ...
-        if name.startswith("__"):
-            raise AttributeError(name)
-
-        def method(*args, **kwargs):
-            self.log.append((name, args, kwargs))
-            return Recorder(self.log)
-        return method
-
-    def __setattr__(self, name, value):  # use_property_split, active, alert, ...
-        if name == "log":
-            object.__setattr__(self, name, value)
-
-    def prop(self, data, name, **kwargs):
-        assert data is not None, f"prop({name!r}) on None"
-        assert name in data.bl_rna.properties, f"{type(data).__name__} has no property {name!r}"
-        self.log.append(("prop", (type(data).__name__, name), kwargs))
-        return Recorder(self.log)
-
-    def operator(self, idname, **kwargs):
-        module, op = idname.split(".")
-        rna = getattr(getattr(bpy.ops, module), op).get_rna_type()
-        self.log.append(("operator", (idname,), kwargs))
-        return OperatorProps(rna)
-
-
-class OperatorProps:
-    def __init__(self, rna):
-        object.__setattr__(self, "rna", rna)
-
-    def __setattr__(self, name, value):
-        assert name in self.rna.properties, f"{self.rna.identifier} has no property {name!r}"
-        prop = self.rna.properties[name]
-        if prop.type == "ENUM":
-            assert value in prop.enum_items.keys(), f"{name} = {value!r}"
-
-
 def context_for(**kwargs):
     scene = bpy.context.scene
     base = dict(scene=scene, view_layer=bpy.context.view_layer, engine=ENGINE, object=None,
@@ -138,13 +95,10 @@ def draw_all(context) -> list:
     for cls in ui.CLASSES:
         if hasattr(cls, "poll") and not cls.poll(context):
             continue
-        panel = types.SimpleNamespace(layout=Recorder(log))
+        panel = PanelProxy(cls, log)
         if hasattr(cls, "draw_header"):
             cls.draw_header(panel, context)
-        cls.draw(types.SimpleNamespace(layout=Recorder(log),
-                                       split_layout=lambda p=panel: p.layout,
-                                       draw_talk_values=getattr(cls, "draw_talk_values", None)),
-                 context)
+        cls.draw(panel, context)
     return log
 
 
