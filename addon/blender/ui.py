@@ -42,10 +42,12 @@ class _BO2Panel:
     bl_space_type = "PROPERTIES"
     bl_region_type = "WINDOW"
     COMPAT_ENGINES = {ENGINE_ID}
+    needs = ""  # the context member the panel draws ("object", "light", ...), if any
 
     @classmethod
     def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES
+        return context.engine in cls.COMPAT_ENGINES and (
+            not cls.needs or getattr(context, cls.needs, None) is not None)
 
     def split_layout(self):
         """The panel's layout with labels beside the values, as Blender's own panels."""
@@ -167,10 +169,7 @@ class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):
 class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
     bl_label = "Surface"
     bl_context = "material"
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES and context.object is not None
+    needs = "object"
 
     def draw(self, context):
         layout = self.layout
@@ -210,11 +209,7 @@ class MATERIAL_PT_bo2_surface(_BO2Panel, bpy.types.Panel):
 
 class _LightProbePanel(_BO2Panel):
     bl_context = "data"
-
-    @classmethod
-    def poll(cls, context):
-        return (context.engine in cls.COMPAT_ENGINES
-                and getattr(context, "lightprobe", None) is not None)
+    needs = "lightprobe"
 
 
 class DATA_PT_bo2_lightprobe(_LightProbePanel, bpy.types.Panel):
@@ -337,11 +332,7 @@ class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
 
 class _LightPanel(_BO2Panel):
     bl_context = "data"
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES and getattr(context, "light", None) \
-            is not None
+    needs = "light"
 
 
 class DATA_PT_bo2_light(_LightPanel, bpy.types.Panel):
@@ -439,10 +430,7 @@ class OBJECT_PT_bo2_visibility(_BO2Panel, bpy.types.Panel):
     bl_label = "Visibility"
     bl_context = "object"
     bl_options = {"DEFAULT_CLOSED"}
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES and context.object is not None
+    needs = "object"
 
     def draw(self, context):
         layout = self.split_layout()
@@ -467,10 +455,7 @@ class MATERIAL_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
 
     bl_label = "Settings"
     bl_context = "material"
-
-    @classmethod
-    def poll(cls, context):
-        return context.engine in cls.COMPAT_ENGINES and context.material is not None
+    needs = "material"
 
     def draw(self, context):
         layout = self.split_layout()
