@@ -22,10 +22,9 @@ if [ -x "$runner" ] && [ -x "$root/usr/bin/blender" ] && [ -f "$root/.bo2-gui-re
   echo "$runner"; exit 0
 fi
 [ "$(id -u)" -eq 0 ] || { echo "gui_blender: needs root (chroot, mounts)" >&2; exit 2; }
-mirror=$(sed -n 's/^URIs: *\([^ ]*\).*/\1/p' /etc/apt/sources.list.d/*.sources 2>/dev/null \
-  | grep -v security | head -1 || true)
-[ -n "$mirror" ] || mirror=$(sed -n 's/^deb \(\[[^]]*\] \)\?\([^ ]*\) .*/\2/p' /etc/apt/sources.list \
-  2>/dev/null | grep -v security | head -1 || true)
+# shellcheck source=tools/debian_mirror.sh
+. "$(dirname "$0")/debian_mirror.sh"
+mirror=$(debian_mirror)
 [ -n "$mirror" ] || { echo "gui_blender: no Debian mirror in apt's sources" >&2; exit 2; }
 
 # The runner: the chroot's Blender under xvfb-run, with cwd and /tmp mounted at their paths in

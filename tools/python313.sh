@@ -17,10 +17,9 @@ if [ -x "$prefix/bin/python3.13" ] && works "$prefix/bin/python3.13"; then
   echo "$prefix/bin/python3.13"; exit 0
 fi
 [ "$(id -u)" -eq 0 ] || { echo "python313: no Python 3.13, and building one needs root" >&2; exit 2; }
-mirror=$(sed -n 's/^URIs: *\([^ ]*\).*/\1/p' /etc/apt/sources.list.d/*.sources 2>/dev/null \
-  | grep -v security | head -1 || true)
-[ -n "$mirror" ] || mirror=$(sed -n 's/^deb \(\[[^]]*\] \)\?\([^ ]*\) .*/\2/p' /etc/apt/sources.list \
-  2>/dev/null | grep -v security | head -1 || true)
+# shellcheck source=tools/debian_mirror.sh
+. "$(dirname "$0")/debian_mirror.sh"
+mirror=$(debian_mirror)
 [ -n "$mirror" ] || { echo "python313: no Debian mirror in apt's sources" >&2; exit 2; }
 
 grep -qs '^ID=debian' /etc/os-release || { echo "python313: building one needs Debian's sources (not Debian here)" >&2; exit 2; }
