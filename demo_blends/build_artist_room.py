@@ -14,7 +14,18 @@ import sys
 from pathlib import Path
 
 import bpy
-from scene_kit import ball, camera, closed_room, empty_scene, light, principled, probe, sky, slab
+from scene_kit import (
+    ball,
+    camera,
+    closed_room,
+    empty_scene,
+    light,
+    principled,
+    probe,
+    save,
+    sky,
+    slab,
+)
 
 HERE = Path(__file__).resolve().parent
 WALL = 0.2
@@ -52,9 +63,7 @@ def build(out: Path) -> None:
     scene.bo2.bake_volume_face_size = "16"
 
     camera(18, (2.6, -2.1, 1.5), (80, 0, 55))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    bpy.ops.wm.save_as_mainfile(filepath=str(out))
-    print(f"wrote {out}")
+    save(out)
 
 
 if __name__ == "__main__":

@@ -15,7 +15,18 @@ import sys
 from pathlib import Path
 
 import bpy
-from scene_kit import ball, camera, closed_room, empty_scene, light, principled, probe, sky, slab
+from scene_kit import (
+    ball,
+    camera,
+    closed_room,
+    empty_scene,
+    light,
+    principled,
+    probe,
+    save,
+    sky,
+    slab,
+)
 
 HERE = Path(__file__).resolve().parent
 WALL = 0.2  # thickness, metres
@@ -58,9 +69,7 @@ def build(out: Path) -> None:
     scene.bo2.bake_bounces = 3
 
     camera(16, (2.7, -2.2, 1.6), (82, 0, 62))
-    out.parent.mkdir(parents=True, exist_ok=True)
-    bpy.ops.wm.save_as_mainfile(filepath=str(out))
-    print(f"wrote {out}")
+    save(out)
 
 
 if __name__ == "__main__":

@@ -145,3 +145,10 @@ def camera(lens, location, rotation_deg):
     bpy.context.scene.collection.objects.link(cam)
     bpy.context.scene.camera = cam
     return cam
+
+
+def save(out):
+    """Save the open file as ``out`` (a Path; its folder made), and say so."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    bpy.ops.wm.save_as_mainfile(filepath=str(out))
+    print(f"wrote {out}")
