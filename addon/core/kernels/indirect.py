@@ -197,7 +197,7 @@ def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_
     rf0 (3,), n.v clamped to [nv_min, 1], in float64 (slides "Black Ops: environment map
     'Fresnel'", "Final approximation"; docs/env_brdf.md for the fit): float32 E into ``out``.
     ``table`` (2, G, N) holds the parts a0, a1 over ``table_gloss`` (G,) x ``table_nv`` (N,);
-    ``fit`` (11,) is (cx, dx, cy, dy, cz, dz, k, b, cw, dw, s), ``env_brdf.FIT_A0 + FIT_A1``."""
+    ``fit`` (10,) is (cx, dx, cy, dy, cz, dz, k, cw, dw, s), ``env_brdf.FIT_A0 + FIT_A1``."""
     g = _clamp(np.float64(gloss), 0.0, 1.0)
     nv = _clamp(np.float64(n_dot_v), nv_min, 1.0)
     a0 = a1 = 0.0
@@ -212,9 +212,9 @@ def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_
         a0 = tx * min(ty, np.exp2(-9.28 * nv)) + tz
         a1 = g * 0.25 + 0.75
     elif model == FIT:
-        m = min(fit[2] * g + fit[3], np.exp2(fit[6] * nv + fit[7]))
+        m = min(fit[2] * g + fit[3], np.exp2(fit[6] * nv))
         a0 = (fit[0] * g + fit[1]) * m + (fit[4] * g + fit[5])
-        a1 = min(fit[10] * m + (fit[8] * g + fit[9]), 1.0)
+        a1 = min(fit[9] * m + (fit[7] * g + fit[8]), 1.0)
     for c in range(3):
         f0 = _clamp(np.float64(rf0[c]), 0.0, 1.0)
         if model == ENV_BO1:
@@ -222,7 +222,7 @@ def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_
             e = f0 + (1.0 - f0) * (t * t) * (t * t) * t / (4.0 - 3.0 * g)
         elif model == TABLE:
             e = a0 * (1.0 - f0) + a1 * f0
-        else:  # BO2 and the fit: the shader's saturate (the fit's a0 dips below 0 by 0.006)
+        else:  # BO2 and the fit: the shader's saturate (the fit's a0 dips below 0 by 0.012)
             e = _clamp(a0 + f0 * (a1 - a0), 0.0, 1.0)
         out[c] = np.float32(e)
 
@@ -240,7 +240,7 @@ _INDIRECT = nb.void(
     nb.boolean, nb.float32[::1], nb.int64,  # scalar SH, tint; world colour?, colour, normalization
     nb.float64[::1],  # eps, largest normalization ratio, smallest n.v of the environment BRDF
     nb.int64, nb.float64[:, :, ::1], nb.float64[::1], nb.float64[::1],  # environment BRDF,
-    nb.float64[::1],  # its table (2, G, N) over gloss (G,) and n.v (N,); its fit (11,)
+    nb.float64[::1],  # its table (2, G, N) over gloss (G,) and n.v (N,); its fit (10,)
     nb.float32[:, ::1], nb.float32[:, ::1],  # out: diffuse, specular (N, 3)
 )
 
