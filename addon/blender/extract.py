@@ -580,6 +580,8 @@ def render_settings(scene) -> cs.RenderSettings:
         prefilter=str(s.prefilter),
         film_transparent=bool(scene.render.film_transparent),
         shadow_resolution=int(s.shadow_resolution),
+        sky_directions=int(s.sky_directions),
+        sky_resolution=int(s.sky_resolution),
         threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)
         border=render_border(scene, width, height),
     )

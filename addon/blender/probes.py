@@ -96,7 +96,7 @@ def spec(obj) -> bake.ProbeSpec:
         name=obj.name, kind=KINDS[data.type],
         local_to_world=np.array(obj.matrix_world, np.float64),
         influence=float(data.influence_distance),
-        falloff=0.0 if volume else float(data.falloff),
+        falloff=float(getattr(data, "falloff", 1.0)),  # a volume has none since 4.2: 1
         resolution=((int(data.resolution_x), int(data.resolution_y), int(data.resolution_z))
                     if volume else None),
         clip_start=float(data.clip_start), clip_end=float(getattr(data, "clip_end", 1e4)),

@@ -53,6 +53,21 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         items=[(str(n), f"{n} px", "") for n in (256, 512, 1024, 2048, 4096)],
         default="1024",
     )
+    sky_directions: bpy.props.EnumProperty(
+        name="World Occlusion",
+        description="The world lights a point in proportion to the sky it sees: a dome of "
+        "shadow maps, one per direction, occludes the world's light in renders and bakes "
+        "(Off: the world reaches every point, as if nothing stood around it)",
+        items=[("0", "Off", "The world's light reaches every point")]
+        + [(str(n), f"{n} Directions", "") for n in (16, 32, 64, 128, 256)],
+        default="32",
+    )
+    sky_resolution: bpy.props.EnumProperty(
+        name="Occlusion Resolution",
+        description="Size of each shadow map of the world's dome",
+        items=[(str(n), f"{n} px", "") for n in (128, 256, 512)],
+        default="256",
+    )
     specular_model: bpy.props.EnumProperty(
         name="Direct Specular",
         description="Terms of the direct specular BRDF (slide 'Black Ops: Microfacet BRDF' and "
@@ -71,7 +86,8 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
             ("bo2", "BO2", "Slide 'Final approximation': the analytic EnvironmentBRDF of the "
              "talk"),
             ("fit", "Fit", "Our fit to the ground truth: BO2's curve refitted, two operations "
-             "more, lower error everywhere (docs/env_brdf.md)"),
+             "more, lower maximum, mean and relative error than BO2 for dielectrics and metals "
+             "(docs/env_brdf.md)"),
             ("table", "Ground Truth (Table)",
              "The numerically integrated environment BRDF, looked up in a 64 x 64 table"),
         ],

@@ -99,6 +99,10 @@ class RENDER_PT_bo2_indirect(_BO2Panel, bpy.types.Panel):
         col.prop(settings, "normalization")
         col.prop(settings, "prefilter")
         col.prop(settings, "env_brdf")
+        col.prop(settings, "sky_directions")
+        sub = col.column()
+        sub.active = settings.sky_directions != "0"
+        sub.prop(settings, "sky_resolution")
 
 
 class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):

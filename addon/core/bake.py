@@ -7,12 +7,13 @@ another renderer), and turns them into what the renderer reads: SH (``sh.project
 point and, for reflection probes, the BO2 cosine-power and BO1 angular Gaussian prefiltered
 chains (``capture.filtered``; slides "Black Ops: environment map pre-filtering").
 
-Bounces: the first bounce's captures see direct light, emission and the world, which lights
-surfaces outside the probes' regions (an open scene's ground) but nothing inside them (a closed
-room must not be lit by a sky it cannot see): ``first_bounce``. Each further bounce captures the
-scene lit by the previous bounce's probes, diffuse and specular (a metal in a capture reflects
-the previous bounce's reflection probes), so bounce n adds light that has bounced n times and
-the sum converges (a closed box: the geometric series of its albedo).
+Bounces: the first bounce's captures see direct light, emission and the world, whose light
+reaches each captured surface in proportion to the sky it sees (``sky``: an open scene's ground
+is lit by all of it, a closed room only through its openings; no rule about where a surface
+lies decides it). Each further bounce captures the scene lit by the previous bounce's probes,
+diffuse and specular (a metal in a capture reflects the previous bounce's reflection probes),
+and by the world's seen light where they leave weight, so bounce n adds light that has bounced
+n times and the sum converges (a closed box: the geometric series of its albedo).
 
 Irradiance volumes without leaks, as EEVEE's (``VolumeSettings``): before the first bounce,
 each sample's surroundings are looked at (``SurfacesFn``); a sample that sees mostly back faces
@@ -37,7 +38,7 @@ from .probes import IrradianceVolume, Probes, ReflectionProbe, grid_spacing, vol
 from .scene import World
 
 __all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate", "escape",
-           "first_bounce", "metadata", "world_key", "world_probes"]
+           "metadata", "world_key", "world_probes"]
 
 KINDS = ("reflection", "irradiance")
 FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
@@ -84,9 +85,9 @@ class ProbeSpec:
     kind:           "reflection" (a sphere: centre, influence radius and falloff) or
                     "irradiance" (a volume: the grid spans the local cube [-1, 1]^3)
     local_to_world: (4, 4) float64 object matrix
-    influence:      reflection: influence radius; irradiance: distance outside the box over
-                    which the volume fades; metres
-    falloff:        reflection: fraction of the radius over which the influence fades
+    influence:      reflection: influence radius, metres; irradiance: distance outside the box
+                    over which the volume fades, in its local units (Blender's Distance)
+    falloff:        fraction of the influence over which it fades (Blender's Falloff)
     resolution:     irradiance: samples along local x, y, z
     clip_start, clip_end: clip distances of the captures, metres
     proxy:          reflection: the parallax proxy, "none", "sphere" or "box"
@@ -147,7 +148,7 @@ class ProbeSpec:
         return IrradianceVolume(
             self.name, m, res, coeffs.reshape(*res, 9, 3), float(self.influence),
             None if validity is None else np.asarray(validity, np.float32).reshape(res),
-            float(v.normal_bias), float(v.view_bias), float(v.facing_bias))
+            float(v.normal_bias), float(v.view_bias), float(v.facing_bias), float(self.falloff))
 
 
 @dataclass
@@ -191,23 +192,6 @@ def world_probes(world: World, size: int = 64) -> Probes:
     world_sh, world_mips = value
     color = None if world.texture is not None else np.asarray(world.color, np.float32)[:3]
     return Probes(world_sh=world_sh, world_mips=world_mips, world_color=color)
-
-
-def first_bounce(world: World, specs: list[ProbeSpec]) -> Probes:
-    """Indirect light of the first bounce's captures: the world's probes, with every probe to
-    bake present but black, so that the world lights surfaces outside the probes' regions and
-    nothing lights those inside them (later bounces fill them in)."""
-    probes = world_probes(world)
-    black_chain = [np.zeros((6, 1, 1, 3), np.float32)]
-    for spec in specs:
-        if spec.kind == "reflection":
-            probes.reflection.append(spec.probe(np.zeros((1, 9, 3), np.float32),
-                                                {"bo2": black_chain, "bo1": black_chain}))
-        else:
-            black = ProbeSpec(spec.name, spec.kind, spec.local_to_world, spec.influence,
-                              resolution=(1, 1, 1))
-            probes.volumes.append(black.probe(np.zeros((1, 9, 3), np.float32), None))
-    return probes
 
 
 def check(specs: list[ProbeSpec]) -> tuple[list[ProbeSpec], list[str]]:
@@ -352,7 +336,7 @@ class Bake:
                     break
                 done += 1
                 yield done / total
-        lighting = first_bounce(self.world, self.specs)
+        lighting = world_probes(self.world)
         results: list[BakedProbe] = []
         for _ in range(max(1, self.bounces)):
             results = []

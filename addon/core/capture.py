@@ -57,7 +57,7 @@ class Capture:
         cams = self._cameras(position, size, near, far)
         if not self._shadowed:
             self._frame.shadow_maps = pipeline.build_shadow_maps(self._frame, self.should_stop,
-                                                                 fit_shadows=False)
+                                                                 fit_shadows=False, sky=True)
             self._shadowed = True
         frame = dataclasses.replace(self._frame, scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
@@ -98,8 +98,8 @@ class Capture:
         cams = [face_camera(position, face, size, near, far) for face in range(6)]
         if self._frame is None:
             scene = dataclasses.replace(self.scene, camera=cams[0])
-            frame = pipeline.prepare(scene, self.warn, self.should_stop,
-                                     shadow_maps=[None] * len(scene.lights))
+            maps = [None] * pipeline.shadow_map_count(scene, sky=True)
+            frame = pipeline.prepare(scene, self.warn, self.should_stop, shadow_maps=maps)
             # objects hidden from the camera are still in the light a probe gathers, as in
             # Cycles' indirect light: the captures see them
             self._frame = dataclasses.replace(frame, seen=None)

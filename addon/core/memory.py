@@ -27,7 +27,7 @@ class OutOfMemory(MemoryError):
 
 def frame_bytes(scene) -> int:
     """Bytes the render of ``scene`` (a ``core.scene.Scene``) keeps for its geometry and
-    shadow maps (an estimate: sun lights count four cascades)."""
+    shadow maps, the sky's dome included (an estimate: sun lights count four cascades)."""
     total = 0
     for m in scene.meshes:
         tris = len(m.positions)
@@ -41,6 +41,9 @@ def frame_bytes(scene) -> int:
     for light in scene.lights:
         if light.shadow:
             total += _MAPS.get(light.kind, 6) * res * res * 4 * 17 // 16  # and the pyramid
+    if scene.meshes and scene.probes is not None:  # the world's dome of maps (``core.sky``)
+        sky = int(scene.settings.sky_resolution)
+        total += max(0, int(scene.settings.sky_directions)) * sky * sky * 4 * 17 // 16
     return total
 
 

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import affine, material, probes, raster, shade, shadows, texture
+from . import sky as sky_light
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
 
@@ -133,6 +134,21 @@ class Frame:
     seen: np.ndarray | None = None   # (T,) bool: the camera sees the triangle (None: all)
     casts: np.ndarray | None = None  # (T,) bool: the triangle casts shadows (None: all)
 
+    @property
+    def sky(self) -> sky_light.Sky | None:
+        """The world's dome of shadow maps (``sky``): the maps after the lights' ones."""
+        extra = self.shadow_maps[len(self.scene.lights):]
+        return sky_light.Sky(extra) if extra else None
+
+
+def shadow_map_count(scene: Scene, sky: bool | None = None) -> int:
+    """Shadow maps a frame of ``scene`` holds: one per light, then the sky's dome
+    (``settings.sky_directions``) when ``sky`` (None: when the scene has indirect light) and
+    there is geometry."""
+    sky = scene.probes is not None if sky is None else sky
+    dome = scene.settings.sky_directions if sky and scene.meshes else 0
+    return len(scene.lights) + max(0, int(dome))
+
 
 def _constant_tables(materials: list[Material]) -> dict:
     """Per-material constants of the materials whose program is constant, and which vary."""
@@ -197,8 +213,8 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
             fit_shadows: bool = True) -> Frame:
     """Concatenate the meshes, project them, and build every light's shadow map.
 
-    shadow_maps: reuse these (one per light, from an earlier ``prepare`` of the same geometry
-                 and lights) instead of building them
+    shadow_maps: reuse these (one per light, then the sky's: ``shadow_map_count``, from an
+                 earlier ``prepare`` of the same geometry and lights) instead of building them
     fit_shadows: fit sun cascades to this camera's view; False covers every caster with one
                  cascade (for views in every direction, e.g. a probe's six faces)
     """
@@ -272,7 +288,7 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     tables = _constant_tables(mats)
     fades = tables["fades"][mat_index]
     frame = Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
-                  [None] * len(scene.lights) if shadow_maps is None else shadow_maps,
+                  [None] * shadow_map_count(scene) if shadow_maps is None else shadow_maps,
                   tables, attributes, obj, world_to_object, texspace, fades, seen=seen,
                   casts=casts)
     if shadow_maps is None:
@@ -297,13 +313,15 @@ def _clip(positions: np.ndarray, camera, seen: np.ndarray | None = None
 
 
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
-                      fit_shadows: bool = True) -> list:
+                      fit_shadows: bool = True, sky: bool | None = None) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
-    every face and cascade of every light rendered at once on the render's threads.
-    Arguments as ``prepare``."""
+    then the sky's dome (``sky.dome_lights``, one cascade over every caster at
+    ``settings.sky_resolution``): ``shadow_map_count`` maps, every face and cascade rendered
+    at once on the render's threads. Arguments as ``prepare`` and ``shadow_map_count``."""
     scene = frame.scene
+    count = shadow_map_count(scene, sky)
     if not len(frame.positions):
-        return [None] * len(scene.lights)
+        return [None] * count
 
     def poll() -> None:
         if should_stop is not None and should_stop():
@@ -314,15 +332,19 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
         index = np.flatnonzero(frame.casts)
         positions, fades = positions[index], fades[index]
         if not len(positions):
-            return [None] * len(scene.lights)
+            return [None] * count
     cutout = ((fades, lambda t, b: _caster_alpha(frame, t if index is None else index[t], b))
               if fades.any() else None)
-    plans = [shadows.shadow_map_jobs(light, positions,
-                                     scene.camera if fit_shadows else None,
-                                     resolution=scene.settings.shadow_resolution, cutout=cutout)
+    s = scene.settings
+    plans = [shadows.shadow_map_jobs(light, positions, scene.camera if fit_shadows else None,
+                                     resolution=s.shadow_resolution, cutout=cutout)
              for light in scene.lights]
+    plans += [shadows.shadow_map_jobs(light, positions, scene.camera if fit_shadows else None,
+                                      resolution=s.sky_resolution,
+                                      cutout=cutout, max_filter=sky_light.MAX_FILTER)
+              for light in sky_light.dome_lights(count - len(scene.lights))]
     done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
-                              thread_count(scene.settings), poll, threading.Event())))
+                              thread_count(s), poll, threading.Event())))
     return [finish([next(done) for _ in jobs]) for jobs, finish in plans]
 
 
@@ -599,8 +621,9 @@ def _dither(frame: Frame, tile, margin, offset, sample: int, layer0):
     return tri, bary, depth, sx, sy
 
 
-def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
-    """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,).
+def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None) -> np.ndarray:
+    """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,);
+    ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon.
 
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
@@ -622,7 +645,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
     diffuse = np.zeros((len(tri), 3), np.float32)
     specular = np.zeros((len(tri), 3), np.float32)
     model = scene.settings.specular_model
-    for light, smap in zip(scene.lights, frame.shadow_maps, strict=True):
+    for light, smap in zip(scene.lights, frame.shadow_maps[:len(scene.lights)], strict=True):
         # The geometric normal decides what faces the light (a shading normal may not).
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
         if not lit.any():
@@ -632,8 +655,13 @@ def _shade_points(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
                          diffuse, specular, visibility=vis)
     if scene.probes is not None:
         s = scene.settings
+        sky = frame.sky
+        seen = None if sky is None else (lambda k: sky_light.visibility(
+            sky, scene.probes.world_sh, p[k], n[k], geo[k],
+            poll=None if tick is None else lambda: tick(0.0)))
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
-                                              mat.gloss, s.normalization, s.prefilter, s.env_brdf)
+                                              mat.gloss, s.normalization, s.prefilter, s.env_brdf,
+                                              sky=seen)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]
@@ -725,7 +753,8 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         block = slice(lo, lo + SHADE_BLOCK)
         tick(len(pixel[block]) / count)
         shading.splat(acc, pixel[block], weight[block],
-                      _shade_points(frame, tri[block], bary[block], sx[block], sy[block]))
+                      _shade_points(frame, tri[block], bary[block], sx[block], sy[block],
+                                    tick))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color

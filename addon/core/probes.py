@@ -4,8 +4,13 @@ The talk's indirect lighting (Lazarov 2013):
 
 - Indirect diffuse: albedo / pi times the irradiance at the shading normal, from order-3 SH
   light probes (Ramamoorthi & Hanrahan 2001). Irradiance volumes (Blender's Volume light probes)
-  hold one SH per grid sample; a point inside a volume gets the trilinear blend of the eight
-  samples around it, blended with the world's SH outside the volume's influence.
+  hold one SH per grid sample of the light that reached it (the sky too, as far as the sample
+  sees it); a point gets the trilinear blend of the eight samples around it, fading outside
+  the volume's box as Blender's (``IrradianceVolume.weight``). Where the volumes leave weight
+  the world lights the point, times the fraction of the world's light that the point itself
+  sees (``sky``): a wall just outside a volume's box is lit by the sky through the room's
+  openings only, the ground under an object outdoors darkens, and a point leaving a volume
+  blends from its light to the world's seen light without a seam.
 - Indirect specular: the prefiltered cube map of the nearest reflection probes (Blender's Sphere
   light probes) along the reflection vector at lod = nMips - gloss nMips (slide "Black Ops:
   environment map pre-filtering"), normalized to the local lighting, times the environment BRDF
@@ -21,8 +26,9 @@ The talk's indirect lighting (Lazarov 2013):
   The ratio is bounded by ``MAX_NORMALIZATION`` so that a probe that captured (nearly) no light
   in some direction cannot blow a pixel up.
 
-The world is the fallback of both: its SH and its prefiltered cube map are used with the weight
-that the probes leave (1 - the sum of their weights, when that is positive).
+The world's prefiltered cube map is the reflections' fallback, with the weight that the
+reflection probes leave (1 - the sum of their weights, when that is positive); with the "bo1"
+and "bo2" normalizations it is dimmed where the world's light is occluded, as the pixel's SH is.
 
 References
 ----------
@@ -35,6 +41,7 @@ References
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -57,6 +64,8 @@ NORMALIZATIONS = ("none", "bo1", "bo2")
 PREFILTERS = ("bo1", "bo2")
 MAX_NORMALIZATION = 16.0
 _EPS = 1e-6
+# the fraction of the world's light that reaches the points of these indices: (k,) -> (k,)
+SkyFn = Callable[[np.ndarray], np.ndarray]
 
 
 @dataclass
@@ -99,7 +108,9 @@ class IrradianceVolume:
     local_to_world: (4, 4) float64: the grid spans the local cube [-1, 1]^3
     resolution:     (3,) samples along local x, y, z
     sh:             float32 (X, Y, Z, 9, 3) radiance SH at the samples
-    influence:      distance outside the box, metres, over which the volume's weight fades to 0
+    influence:      distance outside the box in local units (the box's half size is 1), over
+                    which the volume's weight fades to 0 (Blender's Distance)
+    falloff:        the fraction of ``influence`` over which it fades (Blender's Falloff)
     validity:       float32 (X, Y, Z) in [0, 1], or None (all valid): a sample of validity 0 (in
                     geometry, and no valid neighbour to take its light from:
                     ``core.bake.dilate``) is left out of the blend
@@ -120,20 +131,22 @@ class IrradianceVolume:
     normal_bias: float = 0.0
     view_bias: float = 0.0
     facing_bias: float | None = None
+    falloff: float = 1.0
 
     def _local(self, points: np.ndarray) -> np.ndarray:
         inv = affine.inverse(self.local_to_world)
         return affine.transform(points.astype(np.float64), inv).astype(np.float32)
 
     def weight(self, points: np.ndarray) -> np.ndarray:
-        """(N,) influence in [0, 1]: 1 inside the box, fading to 0 ``influence`` metres out."""
+        """(N,) influence in [0, 1]: 1 inside the box; outside, Blender's: fading linearly
+        over the last ``falloff`` of ``influence``, both measured in the volume's local space
+        (the box is [-1, 1]^3), to 0 at ``influence`` from the box."""
         q = self._local(points)
-        scale = np.linalg.norm(np.asarray(self.local_to_world)[:3, :3], axis=0)  # metres/unit
-        outside = np.maximum(np.abs(q) - 1.0, 0.0) * scale.astype(np.float32)
-        dist = np.linalg.norm(outside, axis=-1)
+        dist = np.linalg.norm(np.maximum(np.abs(q) - 1.0, 0.0), axis=-1)
         if self.influence <= 0.0:
             return (dist <= 0.0).astype(np.float32)
-        return np.clip(1.0 - dist / self.influence, 0.0, 1.0).astype(np.float32)
+        fac = 1.0 / max(float(self.falloff), 1e-4)
+        return np.clip(fac * (1.0 - dist / self.influence), 0.0, 1.0).astype(np.float32)
 
     def sample_sh(self, points: np.ndarray, normals: np.ndarray | None = None,
                   view: np.ndarray | None = None) -> np.ndarray:
@@ -229,10 +242,12 @@ class Probes:
 
 
 def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = None,
-              view: np.ndarray | None = None) -> np.ndarray:
+              view: np.ndarray | None = None, sky: SkyFn | None = None) -> np.ndarray:
     """SH at each point (N, 3), (N, 9, 3): the volumes' blend (``sample_sh``, with the unit
     shading ``normals`` and directions to the eye ``view`` (N, 3)), the world where they leave
-    weight; (9, 3), the world's, when no volume reaches any point."""
+    weight, times the fraction of its light that reaches the point (``sky`` of the indices of
+    those points; None: all of it); (9, 3), the world's, when no volume reaches any point and
+    there is no ``sky``."""
     n = len(points)
     total = np.zeros(n, np.float32)
     acc = None
@@ -247,11 +262,18 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
                 None if view is None else view[k])
             total[k] += w[k]
     world_sh = np.asarray(probes.world_sh, np.float32)
-    if acc is None:
+    if acc is None and sky is None:
         return world_sh
+    if acc is None:
+        acc = np.zeros((n, 9, 3), np.float32)
     over = total > 1.0
     acc[over] /= total[over, None, None]
-    acc += np.maximum(1.0 - total, 0.0)[:, None, None] * world_sh[None]
+    share = np.maximum(1.0 - total, 0.0)
+    if sky is not None:
+        k = np.flatnonzero(share > 0.0)
+        if k.size:
+            share[k] *= np.asarray(sky(k), np.float32)
+    acc += share[:, None, None] * world_sh[None]
     return acc
 
 
@@ -296,6 +318,7 @@ def indirect(
     normalization: str = "bo2",
     prefilter: str = "bo2",
     env_model: str = "bo2",
+    sky: SkyFn | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.
 
@@ -305,6 +328,8 @@ def indirect(
     normalization: one of ``NORMALIZATIONS``; prefilter: one of ``PREFILTERS``;
     env_model:   one of ``env_brdf.MODELS`` but "truth" (a quadrature per point: tools and
                  tests call ``env_brdf`` for it; "table" is its look-up)
+    sky:         the fraction of the world's light that reaches the points of given indices
+                 (k,) -> (k,) in [0, 1] (``sky.visibility``), or None: all of it
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
     from .kernels import indirect as kernels
@@ -321,7 +346,7 @@ def indirect(
     n = len(points)
     pixel_sh = np.asarray(_pixel_sh(
         probes, points, np.broadcast_to(np.asarray(normals, np.float32), (n, 3)),
-        np.broadcast_to(np.asarray(view, np.float32), (n, 3))), np.float32)
+        np.broadcast_to(np.asarray(view, np.float32), (n, 3)), sky), np.float32)
     pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
                                     else pixel_sh[None])
     chains, offsets, sides, levels = _packed_chains(probes, prefilter)

@@ -223,6 +223,9 @@ class RenderSettings:
     prefilter:      prefiltered chain of the reflections, one of ``probes.PREFILTERS``
     film_transparent: background alpha 0 instead of the world colour
     shadow_resolution: shadow map size in texels (per cube face or cascade)
+    sky_directions: directions of the dome of shadow maps through which the world's light is
+                    occluded (``sky``); 0 lets it reach every point
+    sky_resolution: size of each of the dome's shadow maps, texels
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
     threads:        tiles and shadow-map faces rendered at once (the kernels release the
                     GIL); 0 = one per CPU core
@@ -239,6 +242,8 @@ class RenderSettings:
     prefilter: str = "bo2"
     film_transparent: bool = False
     shadow_resolution: int = 1024
+    sky_directions: int = 32
+    sky_resolution: int = 256
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None

@@ -131,6 +131,8 @@ class ShadowMap:
     splits:     (F + 1,) float64 camera view depths bounding the cascades, metres (sun)
     min_mips:   the first column of ``mips`` as one (F, side, side) view per level
     min_depth:  least value of the maps (nearest caster), metres
+    max_filter: widest filter radius, metres (suns; the world's dome keeps its soft shadows
+                from reaching past the walls of a room); 0: an eighth of the map
     mips:       (M, 3) float32 reduction pyramid of the maps, levels l = MIP_FIRST_LEVEL, ...
                 until one texel, each (F, ceil(res / 2^l), ceil(res / 2^l)) blocks of 2^l x 2^l
                 texels flattened (level, face, row, column): per block the least distance from the
@@ -154,6 +156,7 @@ class ShadowMap:
     splits: np.ndarray = field(default_factory=lambda: np.zeros(0))
     min_mips: list[np.ndarray] = field(default_factory=list)
     min_depth: float = 0.0
+    max_filter: float = 0.0
     mips: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
     kernel_args: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
@@ -374,7 +377,8 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
     return np.array(rects), splits
 
 
-def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None):
+def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None,
+              max_filter: float = 0.0):
     """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
     # Blender's largest angle is pi (in float32, a little above): keep the half angle below
@@ -443,6 +447,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
             splits=splits,
             mips=_flatten_pyramids([pyramid for _, pyramid in cascades]),
             min_depth=float(depth.min()) if depth.size else np.inf,
+            max_filter=max_filter,
         )
 
     return [lambda c=c: cascade(c) for c in range(len(rects))], finish
@@ -450,13 +455,14 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
 
 def shadow_map_jobs(
     light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024,
-    cutout=None,
+    cutout=None, max_filter: float = 0.0,
 ) -> tuple[list[Callable[[], object]], Callable[[list], ShadowMap | None]]:
     """The work of ``build_shadow_map`` as independent jobs (one per cube face or cascade, to
     run on any threads) and the function that assembles their results, in order, into the
     ShadowMap (None when the light casts no shadow). Arguments as ``build_shadow_map``, and
     cutout: None, or (fades (T,) bool, alpha(tri (N,), bary (N, 3)) -> (N,)): casters that may
-    be transparent and their alpha at texels (``_rasterize_casters``)."""
+    be transparent and their alpha at texels (``_rasterize_casters``); max_filter: a sun's
+    widest filter radius, metres (``ShadowMap.max_filter``)."""
     if not light.shadow:
         return [], lambda results: None
     res = max(1, int(resolution))
@@ -464,7 +470,7 @@ def shadow_map_jobs(
     tris = np.ascontiguousarray(tris.reshape(-1, 3, 3),
                                 tris.dtype if tris.dtype == np.float32 else np.float64)
     if light.kind == "SUN":
-        return _sun_jobs(light, tris, camera, res, cutout)
+        return _sun_jobs(light, tris, camera, res, cutout, max_filter)
     return _perspective_jobs(light, tris, res, cutout)
 
 
@@ -566,6 +572,9 @@ def _packed(sm: ShadowMap) -> tuple:
     fp[kernels.P_MIN_DEPTH] = sm.min_depth
     fp[kernels.P_SLACK] = _SLACK + 1e-6 * res
     fp[kernels.P_CAP] = 0.125 * res
+    if ortho and sm.max_filter > 0.0 and len(sm.rects):
+        texel = 2.0 * float(np.min(np.reshape(sm.rects, (-1, 3))[:, 2])) / res
+        fp[kernels.P_CAP] = min(fp[kernels.P_CAP], max(sm.max_filter / texel, 1.0))
     fp[kernels.P_NEAR_FLOOR] = max(sm.near, 1e-12)
     fp[kernels.P_OX : kernels.P_OZ + 1] = sm.origin
     fp[kernels.P_HALF_INV] = 0.5 * inv - 1.0

@@ -285,7 +285,9 @@ class Session:
         old = self._frame
         rebuild = old is None or bool(changed & {"geometry", "lights"})
         if not rebuild and changed & {"materials", "settings"}:
-            if scene.settings.shadow_resolution != old.scene.settings.shadow_resolution:
+            new, was = scene.settings, old.scene.settings
+            if (new.shadow_resolution, new.sky_directions, new.sky_resolution) != (
+                    was.shadow_resolution, was.sky_directions, was.sky_resolution):
                 rebuild = True
         frame = None
         if not rebuild and "materials" in changed:
@@ -296,8 +298,8 @@ class Session:
                 self.stats["material_tables"] += 1
         if rebuild:
             self._frame = None
-            maps = [None] * len(scene.lights)
-            if old is not None and len(old.shadow_maps) == len(scene.lights):
+            maps = [None] * pipeline.shadow_map_count(scene)
+            if old is not None and len(old.shadow_maps) == len(maps):
                 maps = old.shadow_maps
             quick = pipeline.prepare(scene, self.warn, should_stop, shadow_maps=maps,
                                      fit_shadows=False)

@@ -52,16 +52,22 @@ def test_capture_points():
         bake.ProbeSpec("X", "cubemap", np.eye(4), 1.0)
 
 
-def test_first_bounce_lights_outside_the_probes_only():
+def test_the_first_bounce_is_lit_by_the_world_alone():
+    """No probe region decides where the sky reaches: the first captures are lit by the world
+    (occluded by what each surface sees, in the captures' frames), with no probe present."""
     world = World(color=np.full(3, 0.5, np.float32))
-    lighting = bake.first_bounce(world, [sphere(), volume()])
-    np.testing.assert_allclose(lighting.world_sh[0], C00 * 0.5, rtol=1e-3)
-    (refl,) = lighting.reflection
-    (vol,) = lighting.volumes
-    assert refl.name == "Sphere" and refl.radius == 3.0 and refl.falloff == 0.25
-    assert not refl.sh.any() and not any(m.any() for m in refl.mips["bo2"] + refl.mips["bo1"])
-    assert vol.name == "Volume" and vol.resolution == (1, 1, 1) and not vol.sh.any()
-    np.testing.assert_allclose(vol.local_to_world, box())
+    lit = []
+
+    def capture(position, size, near, far, probes):
+        lit.append((probes.world_sh[0].copy(), len(probes.reflection), len(probes.volumes)))
+        return constant_cube(size, 1.0)
+
+    list(bake.Bake([sphere(), volume()], world, capture, bounces=1, face_size=4,
+                   volume_face_size=4).steps())
+    assert len(lit) == 3
+    for world_sh, reflection, volumes in lit:
+        np.testing.assert_allclose(world_sh, C00 * 0.5, rtol=1e-3)
+        assert reflection == volumes == 0
 
 
 def test_each_bounce_sees_the_previous_ones_probes():
@@ -71,7 +77,8 @@ def test_each_bounce_sees_the_previous_ones_probes():
 
     def capture(position, size, near, far, probes):
         assert near >= 1e-3 and far >= 2.0 * near
-        incoming = probes.volumes[0].sh[0, 0, 0, 0, 0] / C00  # the previous bounce's radiance
+        # the previous bounce's radiance (the first bounce: the world's, black)
+        incoming = probes.volumes[0].sh[0, 0, 0, 0, 0] / C00 if probes.volumes else 0.0
         seen.append(incoming)
         return constant_cube(size, emission + rho * incoming)
 

@@ -52,8 +52,14 @@ def test_volume_trilinear_blend_and_influence():
     pts = np.array([[-1, 0, 0], [0, 0, 0], [1, 0, 0], [2.5, 0, 0], [3.5, 0, 0]], np.float32)
     got = vol.sample_sh(pts)[:, 0, 0]
     np.testing.assert_allclose(got, [1.0, 2.0, 3.0, 3.0, 3.0], rtol=1e-6)
-    # weight 1 inside the box (|x| <= 2), fading over 1 m outside it
-    np.testing.assert_allclose(vol.weight(pts), [1, 1, 1, 0.5, 0], atol=1e-6)
+    # weight 1 inside the box (|x| <= 2); outside, Blender's rule: Distance in local units
+    # (x is scaled by 2: 1 local unit = 2 m), fading linearly over all of it (Falloff 1)
+    np.testing.assert_allclose(vol.weight(pts), [1, 1, 1, 0.75, 0.25], atol=1e-6)
+    # Falloff 0.5: full weight over the first half of the Distance, 0 at its end
+    vol.falloff = 0.5
+    far = np.array([[2.5, 0, 0], [3.5, 0, 0], [4.0, 0, 0], [0, 1.5, 0], [0, 1.75, 0]],
+                   np.float32)
+    np.testing.assert_allclose(vol.weight(far), [1, 0.5, 0, 1, 0.5], atol=1e-6)
     positions = cp.volume_sample_positions(vol.local_to_world, res)
     np.testing.assert_allclose(positions.reshape(-1, 3), [[-1, 0, 0], [1, 0, 0]], atol=1e-12)
 
@@ -87,7 +93,8 @@ def test_normalizations_follow_the_slides():
     probe = cp.ReflectionProbe("R", np.zeros(3), 10.0, 0.1, {"bo2": mips, "bo1": mips}, lit)
     shadow_volume = cp.IrradianceVolume("V", np.eye(4) * 10, (1, 1, 1),
                                         shadowed.reshape(1, 1, 1, 9, 3), influence=1.0)
-    probes = cp.Probes(world_sh=lit, world_mips={"bo2": mips, "bo1": mips},
+    # a black world: the pixel's lighting is the volume's alone (the world's is added to it)
+    probes = cp.Probes(world_sh=lit * 0.0, world_mips={"bo2": mips, "bo1": mips},
                        reflection=[probe], volumes=[shadow_volume])
     normals = np.array([[0, 0, 1], [0, 0, -1]], np.float32)  # facing the light, facing away
     pts = np.zeros((2, 3), np.float32)

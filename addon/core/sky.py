@@ -1,0 +1,104 @@
+"""The world as a light that must be seen: how much of the sky's light reaches a point.
+
+Probe light carries its own occlusion (a capture sees the walls), but the world's light, the
+fallback where no probe reaches, does not: a wall just outside a volume's box would be lit as
+if it stood outdoors. Here the sky is a dome of ``directions`` distant lights, each the cell of
+the sphere around one of ``dome`` directions (a Fibonacci sphere: cells of equal solid angle
+4 pi / K), with a shadow map each (``shadows``, an orthographic map over every caster, filtered
+with PCSS as a sun whose angular diameter spans the cell, so neighbouring cells' shadows blend
+into one soft sky shadow). The visible fraction of the world's light at a point of normal n is
+
+    V(p, n) = sum_k  L_k max(0, n . w_k) v_k(p)  /  sum_k  L_k max(0, n . w_k),
+
+L_k the world's radiance (luminance) towards w_k (its SH, ``sh.basis``), v_k the shadow map's
+visibility; the world's SH irradiance at the point is scaled by it (``probes.indirect``). An
+open scene keeps its sky (V = 1 where nothing stands over the point), a closed room gets sky
+only through its openings, the ground under an object darkens. This is the dome-of-lights form
+of ambient occlusion from a distant environment (Zhukov et al. 1998, "An ambient light
+illumination model"; shadow-map domes: e.g. Sloan et al., "Image-based proxy accumulation
+for real-time soft global illumination", 2007), weighted by the world's radiance so that a
+bright zenith counts for more than a dark horizon.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import sh, shadows
+from .scene import Light
+
+__all__ = ["Sky", "dome", "dome_lights", "visibility"]
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+MAX_FILTER = 0.25  # metres: the dome's widest shadow filter (``shadows.ShadowMap``)
+
+
+def dome(count: int) -> np.ndarray:
+    """(count, 3) float64 unit directions towards the sky, a Fibonacci sphere: every
+    direction stands for a cell of solid angle 4 pi / count (none for count 0)."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def cell_angle(count: int) -> float:
+    """Angular diameter, radians, of the cap of solid angle 4 pi / count (one cell)."""
+    return float(2.0 * np.arccos(np.clip(1.0 - 2.0 / count, -1.0, 1.0)))
+
+
+def dome_lights(count: int) -> list[Light]:
+    """The dome as ``count`` sun lights (shadow casting, of the cell's angular diameter),
+    shining from each ``dome`` direction; their colour is unused."""
+    if count <= 0:
+        return []
+    angle = cell_angle(count)
+    return [Light("SUN", np.ones(3, np.float32), direction=-d, radius=angle, name=f"sky {k}")
+            for k, d in enumerate(dome(count))]
+
+
+@dataclass
+class Sky:
+    """The dome's shadow maps (``dome_lights``, in order; None where nothing casts)."""
+
+    maps: list
+
+    @property
+    def directions(self) -> np.ndarray:
+        """(K, 3) float64 unit directions towards the sky."""
+        return dome(len(self.maps))
+
+
+def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.ndarray,
+               geo: np.ndarray, poll: Callable[[], None] | None = None) -> np.ndarray:
+    """(N,) float32 in [0, 1]: the fraction of the world's light (SH ``world_sh`` (9, 3) of its
+    radiance) that reaches points (N, 3) of unit shading ``normals`` and geometric normals
+    ``geo`` (N, 3); 1 where the world sends no light towards the normal's hemisphere.
+    ``poll`` is called before each map (it may raise to stop)."""
+    n = len(points)
+    if not sky.maps or not n:
+        return np.ones(n, np.float32)
+    dirs = sky.directions
+    radiance = sh.basis(dirs) @ np.asarray(world_sh, np.float64)  # (K, 3)
+    weight_k = np.maximum(radiance @ LUMINANCE, 0.0).astype(np.float32)
+    cos = np.maximum(np.asarray(normals, np.float32) @ dirs.T.astype(np.float32), 0.0)
+    weights = cos * weight_k[None]  # (N, K)
+    total = weights.sum(1)
+    seen = np.zeros(n, np.float32)
+    for k, smap in enumerate(sky.maps):
+        if poll is not None:
+            poll()
+        where = weights[:, k] > 0.0
+        if smap is None or not where.any():
+            seen += weights[:, k]
+            continue
+        v = shadows.shadow_visibility(smap, points, geo, where=where)
+        seen += weights[:, k] * v
+    out = np.ones(n, np.float32)
+    lit = total > 1e-12
+    out[lit] = np.clip(seen[lit] / total[lit], 0.0, 1.0)
+    return out
