@@ -20,7 +20,7 @@ import numpy as np
 
 from .. import version
 from ..core import bake, capture, cubemap, probe_file
-from . import extract, images, interrupt, probes
+from . import extract, images, interrupt, probes, worlds
 from .probes import BakeError
 
 
@@ -107,6 +107,7 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     start = time.perf_counter()
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False, samples=int(settings.bake_samples))
+    worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
     core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False)
     for obj in objs:
         if obj.data.type != "SPHERE":

@@ -30,7 +30,7 @@ import bpy
 from ..core import compare as core
 from ..core import imaging
 from ..core.passes import PASSES
-from . import images, interrupt, passes
+from . import images, interrupt, passes, worlds
 
 # key -> (engine identifier, label, EXR file name)
 ENGINES = {"bo2": ("BO2_LIGHTING", "BO2 Lighting", "bo2.exr"),
@@ -200,6 +200,8 @@ class Comparison:
     def begin(self, key: str) -> None:
         """Make ``key``'s engine the scene's, ready to render."""
         self.scene.render.engine = ENGINES[key][0]
+        if key == "bo2":  # a world of any nodes: rendered by Cycles first
+            worlds.ensure(self.scene)
 
     def finish(self, key: str, seconds: float) -> None:
         """Save the Render Result of ``key``'s render and note its time and settings."""

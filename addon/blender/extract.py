@@ -16,6 +16,7 @@ import numpy as np
 
 from ..core import memory, texture
 from ..core import scene as cs
+from . import worlds
 from .materials import convert_material, load_image
 from .probes import load_probes
 
@@ -306,10 +307,23 @@ def _environment(node, world_name: str, warnings: list[str]):
 
 
 def extract_world(scene, warnings: list[str]) -> cs.World:
-    """The background: the Background node's colour or equirectangular texture, times strength."""
+    """The background: the Background node's colour or equirectangular texture, times strength;
+    any other tree, its equirect rendered by Cycles (``worlds``), or its viewport colour with a
+    warning when it is not rendered."""
     world = scene.world
     if world is None:
         return cs.World(color=np.zeros(3, np.float32))
+    if not worlds.direct(world):
+        tex = worlds.lookup(scene, world)
+        if tex is not None:
+            return cs.World(color=np.asarray(tex.mips[-1][0, 0, :3], np.float32), texture=tex)
+        reason = worlds.problem(world)
+        warnings.append(f"World '{world.name}' cannot be evaluated ({reason}); its viewport "
+                        "colour is used" if reason else
+                        f"World '{world.name}' has not been evaluated since it changed (its "
+                        "nodes are rendered by Cycles before a bake or a render of the bo2 "
+                        "command, or with World > Evaluate); its viewport colour is used")
+        return cs.World(color=np.array(world.color[:3], np.float32))
     tree = world.node_tree
     # World.use_nodes is deprecated (always on) from Blender 5.0.
     if tree is None or (bpy.app.version < (5, 0, 0) and not world.use_nodes):

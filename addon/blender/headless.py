@@ -149,9 +149,11 @@ def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:
     Raises ``images.ImageError`` when the image cannot be written."""
     import bpy
 
-    from . import engine, images, interrupt
+    from . import engine, images, interrupt, worlds
 
     engine.last_warnings.clear()
+    if scene.render.engine == "BO2_LIGHTING":
+        worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
     start = time.perf_counter()
     bpy.ops.render.render(write_still=False)
     seconds = time.perf_counter() - start

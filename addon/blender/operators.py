@@ -14,7 +14,7 @@ import time
 import bpy
 
 from ..core import compare as core_compare
-from . import bake, compare, convert, node_groups, probes
+from . import bake, compare, convert, node_groups, probes, worlds
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
           ("SELECTED", "Selected", "The selected light probes"),
@@ -421,5 +421,29 @@ class MATERIAL_OT_bo2_convert(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class BO2_OT_evaluate_world(bpy.types.Operator):
+    """Render the world's nodes with Cycles into the equirect BO2 Lighting reads (done by
+    itself before bakes, after edits in the viewport and before renders of the bo2 command)"""
+
+    bl_idname = "bo2.evaluate_world"
+    bl_label = "Evaluate World"
+    bl_options = {"REGISTER"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene.world is not None
+
+    def execute(self, context):
+        scene = context.scene
+        if not worlds.ensure(scene):
+            self.report({"ERROR"}, f"World '{scene.world.name}' cannot be evaluated "
+                        f"({worlds.problem(scene.world) or 'Cycles failed'})")
+            return {"CANCELLED"}
+        scene.world.update_tag()
+        self.report({"INFO"}, f"World '{scene.world.name}' evaluated")
+        return {"FINISHED"}
+
+
 CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_compare_cycles,
-           NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new, MATERIAL_OT_bo2_convert]
+           BO2_OT_evaluate_world, NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new,
+           MATERIAL_OT_bo2_convert]

@@ -8,7 +8,7 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import convert, node_groups, passes, probes, viewport
+from . import convert, node_groups, passes, probes, viewport, worlds
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -472,12 +472,39 @@ class MATERIAL_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
         note.label(text="Transparency: dithered, as EEVEE's Dithered", icon="INFO")
 
 
+class WORLD_PT_bo2_light(_BO2Panel, bpy.types.Panel):
+    """How BO2 Lighting reads the world: directly, or rendered by Cycles (any nodes)."""
+
+    bl_label = "World Light"
+    bl_context = "world"
+    needs = "world"
+
+    def draw(self, context):
+        layout = self.layout
+        scene, world = context.scene, context.world
+        if worlds.direct(world):
+            layout.label(text="Read directly: a colour or an equirect HDRI", icon="CHECKMARK")
+            return
+        reason = worlds.problem(world)
+        if reason is not None:
+            box = layout.box()
+            box.alert = True
+            box.label(text=f"Cannot be evaluated: {reason}", icon="ERROR")
+            box.label(text="The viewport colour lights the scene")
+            return
+        ready = worlds.lookup(scene, world) is not None
+        layout.label(text="Nodes rendered by Cycles into an equirect" if ready else
+                     "Changed since it was rendered: the viewport colour stands in",
+                     icon="CHECKMARK" if ready else "INFO")
+        layout.operator("bo2.evaluate_world", icon="WORLD")
+
+
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes,
            OBJECT_PT_bo2_visibility, MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
            DATA_PT_bo2_light, DATA_PT_bo2_light_shadow, DATA_PT_bo2_light_beam,
            DATA_PT_bo2_lightprobe, DATA_PT_bo2_lightprobe_parallax,
-           DATA_PT_bo2_lightprobe_display, DATA_PT_bo2_lightprobe_bake]
+           DATA_PT_bo2_lightprobe_display, DATA_PT_bo2_lightprobe_bake, WORLD_PT_bo2_light]
 
 
 def draw_render_menu(self, context):

@@ -15,7 +15,7 @@ import numpy as np
 
 from ..core import viewport
 from ..core.scene import Camera
-from . import extract, probes, studio
+from . import extract, probes, studio, worlds
 
 
 def changes(updates, cache: extract.SceneCache) -> set[str]:
@@ -236,6 +236,10 @@ class Viewport:
         self.session.samples = int(settings.viewport_samples)
         if changed & {"probes", "settings", "world"} or self.scene is None:
             self.hint = probe_hint(blender_scene)
+        world = blender_scene.world
+        if "world" in changed and world is not None and not worlds.direct(world) \
+                and worlds.lookup(blender_scene, world) is None:
+            worlds.schedule(blender_scene)  # rendered by Cycles once the edits rest
         self.scene = scene
         self._submit(changed)
         return changed

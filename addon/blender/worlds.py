@@ -1,0 +1,293 @@
+"""Any world node tree as the engine's world: rendered once by Cycles into an equirect.
+
+The engine reads a world of one colour, or one equirectangular Environment Texture (with a
+Mapping node's rotation), directly (``extract.extract_world``). Any other tree (a Sky Texture,
+a gradient, two HDRIs mixed, a strength driven by nodes) is rendered by Cycles into a
+``WIDTH`` x ``WIDTH / 2`` equirectangular image (a panoramic camera in a scene of its own that
+holds nothing but the world), once per content of the tree (``digest``: its nodes, their
+settings and inputs, links, images and node groups), and that image is the world: the
+captures, the frames and the viewport read it as they read an Environment Texture.
+
+Blender renders one thing at a time, so the image is made at safe points (``ensure``): before
+a bake, before each frame of the ``bo2`` command and of a comparison, from a timer after the
+world changes in the viewport, and by the World panel's button. It is kept in memory and
+written beside the bakes (``<bake folder>/world_<digest>.exr``, replaced atomically), where a
+render started some other way (a farm's ``blender -b -f``) finds it.
+
+A tree Cycles cannot evaluate here (a Script node, an image that is missing) is not rendered:
+the world's viewport colour stands in, with one warning.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import math
+import os
+import tempfile
+from collections import OrderedDict
+from pathlib import Path
+
+import bpy
+import numpy as np
+
+from ..core import texture
+from . import images, probes
+
+__all__ = ["WIDTH", "WorldError", "digest", "direct", "ensure", "lookup", "problem"]
+
+WIDTH = 1024  # of the equirect; its height is half
+SAMPLES = 16
+KEPT = 4  # worlds kept in memory
+_memory: OrderedDict[str, texture.Texture] = OrderedDict()
+
+
+class WorldError(Exception):
+    """The world's tree cannot be rendered; one-line message."""
+
+
+def _output(tree):
+    return next((n for n in tree.nodes if n.type == "OUTPUT_WORLD" and n.is_active_output),
+                None)
+
+
+def direct(world) -> bool:
+    """Whether the engine reads ``world`` itself: no tree, or a Background node whose colour
+    is its own or one equirectangular Environment Texture's (through a Mapping node or a
+    Texture Coordinate node at most) and whose strength is its own."""
+    tree = world.node_tree
+    if tree is None or (bpy.app.version < (5, 0, 0) and not world.use_nodes):
+        return True
+    out = _output(tree)
+    links = out.inputs["Surface"].links if out is not None else ()
+    if not links:
+        return True
+    node = links[0].from_node
+    if node.type != "BACKGROUND" or node.inputs["Strength"].is_linked:
+        return False
+    color = node.inputs["Color"].links
+    if not color:
+        return True
+    src = color[0].from_node
+    if src.type != "TEX_ENVIRONMENT" or src.projection != "EQUIRECTANGULAR":
+        return False
+    vec = src.inputs["Vector"].links
+    if not vec:
+        return True
+    mapping = vec[0].from_node
+    if mapping.type == "TEX_COORD":
+        return True
+    return (mapping.type == "MAPPING" and mapping.vector_type in {"POINT", "VECTOR"}
+            and not any(s.is_linked for s in mapping.inputs))
+
+
+def _nodes_of(tree, seen=None):
+    """Every node of ``tree`` and of the node groups it uses, once each."""
+    seen = set() if seen is None else seen
+    if tree.name_full in seen:
+        return
+    seen.add(tree.name_full)
+    for node in tree.nodes:
+        yield node
+        if getattr(node, "node_tree", None) is not None:
+            yield from _nodes_of(node.node_tree, seen)
+
+
+def problem(world) -> str | None:
+    """Why Cycles cannot render ``world``'s tree here, or None."""
+    for node in _nodes_of(world.node_tree):
+        if node.type == "SCRIPT":
+            return f"node '{node.name}' is a Script node (OSL)"
+        image = getattr(node, "image", None)
+        if node.type in {"TEX_ENVIRONMENT", "TEX_IMAGE"} and not node.mute:
+            if image is None:
+                return f"node '{node.name}' has no image"
+            if image.source == "FILE" and image.packed_file is None:
+                path = Path(bpy.path.abspath(image.filepath, library=image.library))
+                if not path.is_file():
+                    return f"image '{image.name}' of node '{node.name}' is missing ({path})"
+    return None
+
+
+def _value(value):
+    if isinstance(value, (bool, int, float, str)):
+        return value
+    if hasattr(value, "__len__") and not isinstance(value, bpy.types.ID):
+        with contextlib.suppress(TypeError):
+            return [_value(v) for v in value]
+    if isinstance(value, bpy.types.Image):
+        path = Path(bpy.path.abspath(value.filepath, library=value.library))
+        stamp = (path.stat().st_mtime_ns, path.stat().st_size) if path.is_file() else None
+        return ["image", value.name_full, value.source, str(path), stamp,
+                value.packed_file.size if value.packed_file else None,
+                value.colorspace_settings.name, bool(value.is_dirty)]
+    if isinstance(value, bpy.types.ID):
+        return ["id", value.name_full]
+    return repr(value)
+
+
+def digest(world) -> str:
+    """A digest of what ``world``'s light depends on: every node of its tree and of the groups
+    it uses (type, settings, unlinked inputs' values), the links, the images (file, date,
+    size, colour space)."""
+    parts = []
+    for node in _nodes_of(world.node_tree):
+        props = []
+        for prop in node.bl_rna.properties:
+            if prop.is_readonly and prop.type != "POINTER" or prop.identifier in {
+                    "name", "label", "location", "width", "height", "select", "color",
+                    "use_custom_color", "show_options", "show_preview", "show_texture",
+                    "hide", "width_hidden", "location_absolute", "warning_propagation"}:
+                continue
+            with contextlib.suppress(AttributeError, TypeError):
+                props.append((prop.identifier, _value(getattr(node, prop.identifier))))
+        inputs = [(s.identifier, None if s.is_linked or not hasattr(s, "default_value")
+                   else _value(s.default_value)) for s in node.inputs]
+        parts.append((node.id_data.name_full, node.name, node.bl_idname, props, inputs,
+                      bool(node.mute)))
+    trees = {n.id_data for n in _nodes_of(world.node_tree)}
+    for tree in sorted(trees, key=lambda t: t.name_full):
+        for link in tree.links:
+            parts.append((tree.name_full, link.from_node.name, link.from_socket.identifier,
+                          link.to_node.name, link.to_socket.identifier, bool(link.is_muted)))
+    text = repr(parts).encode()
+    return hashlib.blake2b(text, digest_size=12).hexdigest()
+
+
+def _path(scene, key: str) -> Path:
+    return probes.bake_folder(scene) / f"world_{key}.exr"
+
+
+def _keep(key: str, tex: texture.Texture) -> texture.Texture:
+    _memory[key] = tex
+    _memory.move_to_end(key)
+    while len(_memory) > KEPT:
+        _memory.popitem(last=False)
+    return tex
+
+
+def _texture(pixels: np.ndarray, name: str) -> texture.Texture:
+    return texture.make_texture(pixels, srgb=False, extension="REPEAT",
+                                interpolation="Linear", name=name)
+
+
+def lookup(scene, world) -> texture.Texture | None:
+    """The rendered equirect of ``world``'s tree as it is now, from memory or from the bake
+    folder; None when it was not rendered (``ensure``)."""
+    key = digest(world)
+    if key in _memory:
+        _memory.move_to_end(key)
+        return _memory[key]
+    path = _path(scene, key)
+    if not path.is_file():
+        return None
+    try:
+        import OpenEXR
+
+        part = OpenEXR.File(str(path)).parts[0]
+        pixels = np.asarray(part.channels["RGB"].pixels, np.float32)
+    except Exception:  # noqa: BLE001 - a damaged file is rendered again by ``ensure``
+        return None
+    if pixels.ndim != 3 or pixels.shape[2] != 3:
+        return None
+    return _keep(key, _texture(pixels, f"{world.name} (rendered)"))
+
+
+def _write(path: Path, pixels: np.ndarray, key: str) -> None:
+    import OpenEXR
+
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".exr", dir=path.parent)
+    os.close(fd)
+    try:
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "bo2.world": key}
+        OpenEXR.File(header, {"RGB": np.ascontiguousarray(pixels, np.float32)}).write(tmp)
+        os.replace(tmp, path)
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+
+
+def render(world, width: int = WIDTH) -> np.ndarray:
+    """(width / 2, width, 3) float32 radiance of ``world``'s tree, Environment Texture mapping
+    (row 0 at the top, ``sh.equirect_directions``), rendered by Cycles in a scene of its own.
+    Not during a render (Blender renders one thing at a time)."""
+    reason = problem(world)
+    if reason is not None:
+        raise WorldError(reason)
+    scene = bpy.data.scenes.new("BO2 World")
+    cam_data = bpy.data.cameras.new("BO2 World")
+    cam = bpy.data.objects.new("BO2 World", cam_data)
+    try:
+        scene.world = world
+        scene.collection.objects.link(cam)
+        scene.camera = cam
+        cam_data.type = "PANO"
+        if hasattr(cam_data, "panorama_type"):
+            cam_data.panorama_type = "EQUIRECTANGULAR"
+        else:  # Blender 4.5 keeps it in Cycles' settings
+            cam_data.cycles.panorama_type = "EQUIRECTANGULAR"
+        # Cycles' equirect camera looks along its local -Z: this rotation lines its image up
+        # with an Environment Texture's (azimuth from +X towards +Y, left to right reversed)
+        cam.rotation_euler = (math.pi / 2, 0.0, -math.pi / 2)
+        r = scene.render
+        r.engine = "CYCLES"
+        r.resolution_x, r.resolution_y, r.resolution_percentage = width, width // 2, 100
+        r.filter_size = 1.0
+        scene.cycles.samples = SAMPLES
+        scene.cycles.device = "CPU"
+        scene.view_settings.view_transform = "Standard"
+        with tempfile.TemporaryDirectory() as tmp:
+            path = Path(tmp) / "world.exr"
+            bpy.ops.render.render(scene=scene.name)
+            images.save_render_result(scene, path, "OPEN_EXR", "32")
+            pixels = images.read_file(path)[..., :3]
+    finally:
+        bpy.data.objects.remove(cam)
+        bpy.data.cameras.remove(cam_data)
+        bpy.data.scenes.remove(scene)
+    if not np.isfinite(pixels).all():
+        pixels = np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0)
+    return np.ascontiguousarray(np.maximum(pixels, 0.0), np.float32)
+
+
+def ensure(scene) -> bool:
+    """Render ``scene``'s world when the engine cannot read it itself and its tree as it is
+    now was not rendered yet; returns whether an image is ready (or not needed). A tree that
+    cannot be rendered is left to ``extract.extract_world``, which says why."""
+    world = scene.world
+    if world is None or direct(world):
+        return True
+    if lookup(scene, world) is not None:
+        return True
+    try:
+        pixels = render(world)
+    except (WorldError, images.ImageError, RuntimeError):
+        return False
+    key = digest(world)
+    _keep(key, _texture(pixels, f"{world.name} (rendered)"))
+    with contextlib.suppress(OSError):  # the memory copy serves this session
+        _write(_path(scene, key), pixels, key)
+    return True
+
+
+_pending: dict[str, object] = {}  # scene name -> its timer function
+
+
+def schedule(scene, delay: float = 0.5) -> None:
+    """Render ``scene``'s world ``delay`` seconds after its last change (the viewport: a slider
+    dragged renders once it rests), then tag the world so that the viewport reads it."""
+    name = scene.name_full
+    old = _pending.pop(name, None)
+    if old is not None and bpy.app.timers.is_registered(old):
+        bpy.app.timers.unregister(old)
+
+    def run():
+        _pending.pop(name, None)
+        target = bpy.data.scenes.get(name)
+        if target is not None and target.world is not None and ensure(target):
+            target.world.update_tag()
+        return None
+
+    _pending[name] = run
+    bpy.app.timers.register(run, first_interval=delay)
