@@ -594,6 +594,9 @@ def render_settings(scene) -> cs.RenderSettings:
         prefilter=str(s.prefilter),
         film_transparent=bool(scene.render.film_transparent),
         shadow_resolution=int(s.shadow_resolution),
+        ambient_occlusion=bool(s.use_ambient_occlusion),
+        ao_distance=float(s.ao_distance),
+        specular_occlusion=bool(s.use_specular_occlusion),
         sky_directions=int(s.sky_directions),
         sky_resolution=int(s.sky_resolution),
         threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)

@@ -24,6 +24,7 @@ FLAGS = {
     "DiffInd": "use_pass_diffuse_indirect",
     "GlossInd": "use_pass_glossy_indirect",
     "Emit": "use_pass_emit",
+    "AO": "use_pass_ambient_occlusion",
     "Albedo": "bo2.use_pass_albedo",
     "Specular Color": "bo2.use_pass_specular_color",
     "Gloss": "bo2.use_pass_gloss",
@@ -34,7 +35,7 @@ CYCLES_COLOR = {"DiffCol": "RGB", "GlossCol": "RGB"}  # Cycles' colour passes: c
 RENAMED_IN_5 = {"DiffDir": "Diffuse Direct", "GlossDir": "Glossy Direct", "Emit": "Emission",
                 "IndexMA": "Material Index", "DiffInd": "Diffuse Indirect",
                 "GlossInd": "Glossy Indirect", "DiffCol": "Diffuse Color",
-                "GlossCol": "Glossy Color"}
+                "GlossCol": "Glossy Color", "AO": "Ambient Occlusion"}
 
 
 def readable_name(name: str) -> str:

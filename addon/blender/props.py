@@ -53,6 +53,23 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         items=[(str(n), f"{n} px", "") for n in (256, 512, 1024, 2048, 4096)],
         default="1024",
     )
+    use_ambient_occlusion: bpy.props.BoolProperty(
+        name="Ambient Occlusion",
+        description="Contact occlusion of probe and world light: the frame's own surfaces "
+        "within Distance darken corners, contacts and what stands under furniture "
+        "(ground-truth-based ambient occlusion)",
+        default=True,
+    )
+    ao_distance: bpy.props.FloatProperty(
+        name="Distance", description="How far surfaces occlude the indirect light",
+        default=0.25, min=0.0, soft_max=5.0, subtype="DISTANCE", unit="LENGTH",
+    )
+    use_specular_occlusion: bpy.props.BoolProperty(
+        name="Specular Occlusion",
+        description="Occlude reflections as well, from the ambient occlusion, the view angle "
+        "and the gloss (Lagarde and de Rousiers 2014)",
+        default=True,
+    )
     sky_directions: bpy.props.EnumProperty(
         name="World Occlusion",
         description="The world lights a point in proportion to the sky it sees: a dome of "

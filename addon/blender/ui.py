@@ -103,6 +103,11 @@ class RENDER_PT_bo2_indirect(_BO2Panel, bpy.types.Panel):
         sub = col.column()
         sub.active = settings.sky_directions != "0"
         sub.prop(settings, "sky_resolution")
+        col.prop(settings, "use_ambient_occlusion")
+        sub = col.column()
+        sub.active = settings.use_ambient_occlusion
+        sub.prop(settings, "ao_distance")
+        sub.prop(settings, "use_specular_occlusion")
 
 
 class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):

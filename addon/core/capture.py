@@ -44,7 +44,10 @@ class Capture:
 
     def __init__(self, scene: Scene, warn: Callable[[str], None] | None = None,
                  should_stop: Callable[[], bool] | None = None):
-        settings = dataclasses.replace(scene.settings, film_transparent=False, border=None)
+        # no contact occlusion: a few texels per face cannot hold it, and the probes' light is
+        # occluded at the look-up (``occlusion``)
+        settings = dataclasses.replace(scene.settings, film_transparent=False, border=None,
+                                       ambient_occlusion=False)
         self.scene = dataclasses.replace(scene, settings=settings, probes=None)
         self.warn, self.should_stop = warn, should_stop
         self._frame = None  # the geometry, prepared once for every view

@@ -57,6 +57,7 @@ PASSES: dict[str, Pass] = {p.name: p for p in (
     Pass("DiffInd", "RGB", "COLOR", "light"),
     Pass("GlossInd", "RGB", "COLOR", "light"),
     Pass("Emit", "RGB", "COLOR", "light"),
+    Pass("AO", "RGB", "COLOR", "light"),
     Pass("Albedo", "RGB", "COLOR", "material"),
     Pass("Specular Color", "RGB", "COLOR", "material"),
     Pass("Gloss", "X", "VALUE", "material"),

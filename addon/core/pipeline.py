@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import affine, material, probes, raster, shade, shadows, texture
+from . import affine, material, occlusion, probes, raster, shade, shadows, texture
 from . import sky as sky_light
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
@@ -621,9 +621,10 @@ def _dither(frame: Frame, tile, margin, offset, sample: int, layer0):
     return tri, bary, depth, sx, sy
 
 
-def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None) -> np.ndarray:
+def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.ndarray:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,);
-    ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon.
+    ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon;
+    ``view``: the tile's ``_view_buffer`` (its surfaces occlude the indirect light), or None.
 
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
@@ -653,18 +654,28 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None) -> np.ndarray:
         vis = None if smap is None else shadows.shadow_visibility(smap, p, geo, where=lit)
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
                          diffuse, specular, visibility=vis)
+    ao = np.ones(len(tri), np.float32)
     if scene.probes is not None:
         s = scene.settings
+        if view is not None:
+            ao = _ambient(frame, view, p, n, sx, sy)
         sky = frame.sky
-        seen = None if sky is None else (lambda k: sky_light.visibility(
+        # the world's light is occluded by the darker of the dome and the contact occlusion
+        # (both see the near surfaces: not their product), the probes' by the latter
+        seen = None if sky is None else (lambda k: np.minimum(sky_light.visibility(
             sky, scene.probes.world_sh, p[k], n[k], geo[k],
-            poll=None if tick is None else lambda: tick(0.0)))
+            poll=None if tick is None else lambda: tick(0.0)) / np.maximum(ao[k], 1e-3), 1.0))
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf,
                                               sky=seen)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]
+        if view is not None:
+            diff_ind *= occlusion.multi_bounce(ao, mat.albedo)
+            if s.specular_occlusion:
+                n_dot_v = np.einsum("nk,nk->n", n, v)
+                gloss_ind *= occlusion.specular(ao, n_dot_v, mat.gloss)[:, None]
     else:
         diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
     out = np.empty((len(tri), SAMPLED_WIDTH), np.float32)
@@ -674,7 +685,50 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None) -> np.ndarray:
                     f32(diff_ind, np.float32), f32(gloss_ind, np.float32),
                     *(f32(a, np.float32) for a in (mat.emission, mat.albedo, mat.rf0,
                                                    mat.gloss)))
+    out[:, SAMPLED["AO"]] = ao[:, None]
     return out
+
+
+def _view_buffer(frame: Frame, tile) -> tuple[np.ndarray, int, int]:
+    """The surfaces around a tile for its ambient occlusion (``occlusion``): (view-space
+    positions (H, W, 3) float32 at the pixel centres of the tile grown by
+    ``occlusion.REACH`` pixels, NaN where nothing is drawn; the buffer's origin x, y in the
+    frame, pixels)."""
+    cam = frame.scene.camera
+    x0, y0, x1, y1 = tile
+    m = occlusion.REACH
+    grown = (x0 - m, y0 - m, x1 + m, y1 + m)
+    gw, gh = x1 - x0 + 2 * m, y1 - y0 + 2 * m
+    clip, index = tile_clip(frame.clip, cam.width, cam.height, grown)
+    cull = None if frame.cull is None else frame.cull[index]
+    proj = np.asarray(cam.projection, np.float64)
+    frags = raster.rasterize(clip, gw, gh, cull=cull, sample_offset=(0.5, 0.5),
+                             depth_plane=None if cam.orthographic else (proj[2, 2], proj[2, 3]))
+    tri = frags.tri.reshape(-1)
+    out = np.full((gh * gw, 3), np.nan, np.float32)
+    hit = np.flatnonzero(tri >= 0)
+    if hit.size:
+        t = tri[hit] if not len(index) else index.take(tri[hit], mode="clip")
+        if frame.holdout.any():  # holdout objects hide nothing's light
+            keep = ~frame.holdout[t]
+            hit, t = hit[keep], t[keep]
+        world = np.einsum("nk,nkc->nc", frags.bary.reshape(-1, 3)[hit], frame.positions[t])
+        out[hit] = affine.transform(world.astype(np.float64), cam.world_to_camera)
+    return out.reshape(gh, gw, 3), x0 - m, y0 - m
+
+
+def _ambient(frame: Frame, view, p, n, sx, sy) -> np.ndarray:
+    """(N,) ambient occlusion of points p (N, 3) of unit normals n at window positions sx, sy
+    among the surfaces of ``view`` (``_view_buffer``)."""
+    cam, s = frame.scene.camera, frame.scene.settings
+    buffer, ox, oy = view
+    w2c = np.asarray(cam.world_to_camera, np.float64)
+    pv = affine.transform(np.asarray(p, np.float64), w2c)
+    nv = material._unit(affine.linear(np.asarray(n, np.float64), w2c[:3, :3]))
+    proj = np.asarray(cam.projection, np.float64)
+    scale = 0.5 * proj[1, 1] * cam.height  # pixels per metre (at depth 1: perspective)
+    pixels = np.column_stack([np.asarray(sx, np.float64) - ox, np.asarray(sy, np.float64) - oy])
+    return occlusion.ambient(buffer, pv, nv, pixels, s.ao_distance, scale, cam.orthographic)
 
 
 SHADE_BLOCK = 1 << 16  # points shaded at once (bounds the shading's temporaries)
@@ -749,12 +803,15 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     count = len(pixel)
     if not count:
         tick()
+    s = scene.settings
+    view = (_view_buffer(frame, tile) if count and scene.probes is not None
+            and s.ambient_occlusion and s.ao_distance > 0.0 else None)
     for lo in range(0, count, SHADE_BLOCK):
         block = slice(lo, lo + SHADE_BLOCK)
         tick(len(pixel[block]) / count)
         shading.splat(acc, pixel[block], weight[block],
                       _shade_points(frame, tri[block], bary[block], sx[block], sy[block],
-                                    tick))
+                                    tick, view))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color

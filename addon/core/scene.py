@@ -223,6 +223,9 @@ class RenderSettings:
     prefilter:      prefiltered chain of the reflections, one of ``probes.PREFILTERS``
     film_transparent: background alpha 0 instead of the world colour
     shadow_resolution: shadow map size in texels (per cube face or cascade)
+    ambient_occlusion: contact occlusion of probe and world light (``occlusion``)
+    ao_distance:    how far surfaces occlude, metres
+    specular_occlusion: reflections occluded as well (from the ambient occlusion)
     sky_directions: directions of the dome of shadow maps through which the world's light is
                     occluded (``sky``); 0 lets it reach every point
     sky_resolution: size of each of the dome's shadow maps, texels
@@ -242,6 +245,9 @@ class RenderSettings:
     prefilter: str = "bo2"
     film_transparent: bool = False
     shadow_resolution: int = 1024
+    ambient_occlusion: bool = True
+    ao_distance: float = 0.25
+    specular_occlusion: bool = True
     sky_directions: int = 32
     sky_resolution: int = 256
     tile_size: int = 256

@@ -89,10 +89,11 @@ def test_a_skylight_lets_in_its_view_factor(half, height):
     assert abs(got[1] - got[0]) < 0.05  # smooth: no patch of one direction's shadow
 
 
-def brute_force(point, slabs, world_sh=None, n_theta=256, n_phi=512) -> float:
+def brute_force(point, slabs, world_sh=None, n_theta=256, n_phi=512, radius=np.inf) -> float:
     """The fraction of the world's light (uniform, or of radiance SH ``world_sh``) reaching an
     upward-facing point among boxes: a midpoint quadrature of the cosine-weighted hemisphere
-    with a ray-box test per direction."""
+    with a ray-box test per direction (a box farther than ``radius`` along the ray hides
+    nothing)."""
     t = (np.arange(n_theta) + 0.5) / n_theta * (np.pi / 2)
     f = (np.arange(n_phi) + 0.5) / n_phi * (2 * np.pi)
     t, f = np.meshgrid(t, f, indexing="ij")
@@ -108,7 +109,7 @@ def brute_force(point, slabs, world_sh=None, n_theta=256, n_phi=512) -> float:
             b = (np.asarray(hi) - o) / d
             near = np.nanmax(np.minimum(a, b), axis=1)
             far = np.nanmin(np.maximum(a, b), axis=1)
-            hit |= (far >= np.maximum(near, 0.0))
+            hit |= (far >= np.maximum(near, 0.0)) & (np.maximum(near, 0.0) <= radius)
     return float((w * ~hit).sum() / w.sum())
 
 

@@ -13,7 +13,8 @@ and 3.14); the macOS Intel zip bundles numba 0.62.1 with llvmlite 0.45.1, the la
 wheels for it (``bundled_numba``). Another extension can bring another numba into Blender's
 shared site-packages, so ``check()`` says exactly what was found.
 
-Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``raster``
+Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``occlusion``
+(ground-truth-based ambient occlusion), ``raster``
 (projection, set-up, scan conversion with the depth test, resolve; shadow-map pyramids),
 ``shading`` (direct light: incidence and the talk's BRDF; the shaded points' surface; the
 passes' assembly and accumulation), ``shadows`` (the shadow filter, point by point),
@@ -41,7 +42,7 @@ def bundled_numba(system: str = sys.platform, machine: str = platform.machine())
 
 NUMBA_VERSION = bundled_numba()
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
-MODULES = ("indirect", "raster", "shading", "shadows", "textures")
+MODULES = ("indirect", "occlusion", "raster", "shading", "shadows", "textures")
 
 __all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
            "is_cached", "load"]
