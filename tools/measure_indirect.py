@@ -3,8 +3,9 @@
 Usage: python tools/measure_indirect.py OUT_DIR [BLEND ...] [--bounces N] [--cycles-samples N]
                                         [--cycles-bounces N] [--reuse-cycles] [--no-leak-fixes]
 
-For each .blend (default: the demo room and the closed room of ``demo_blends``): bakes its
-probes with BO2 Lighting into OUT_DIR/<name>/bake, renders BO2 Lighting and Cycles (full global
+For each .blend (default: the demo room, the closed room, the artist's room and the outdoor
+scene of ``demo_blends``): bakes its probes, if it has any, with BO2 Lighting into
+OUT_DIR/<name>/bake, renders BO2 Lighting and Cycles (full global
 illumination: ``--cycles-bounces`` total, diffuse and glossy bounces, 32 by default, 0 for the
 scene's own; the scene's Cycles samples or ``--cycles-samples``) through ``bo2 compare``'s
 comparison, and prints
@@ -14,6 +15,14 @@ comparison, and prints
 - the metal surfaces' Combined mean relative error: the pixels whose material has a Pass Index
   of 1 in Cycles' Material Index pass (given here to every material whose Principled BSDF has
   a Metallic of 0.5 or more);
+
+- the same with the world's light on both sides ("world's light included"): Cycles counts the
+  world's light that reaches a surface unscattered as direct (Diffuse Direct), BO2 as indirect
+  with the probes' (the talk's split), so Cycles' part of it, its Diffuse Direct less that of
+  a render of the lamps alone (no world, no bounce: ``cycles_lamps.exr``), is added to Cycles'
+  side; over every pixel, then over the pixels within ``CONTACT`` of a contact (a ball of that
+  radius resting on the surface, at Cycles' Position and Normal, touches another surface);
+- the Combined pass's mean relative error under objects (the same with a ball of ``UNDER``);
 
 the relative errors over blocks of ``BLOCK`` x ``BLOCK`` pixels averaged (both engines alike),
 so that Cycles' noise, which averaging divides by ``BLOCK``, stays well below the figures (the
@@ -49,7 +58,8 @@ from bo2_lighting.addon.blender import images as blender_images
 from bo2_lighting.addon.core import compare, imaging
 
 ROOT = Path(__file__).resolve().parents[1]
-BLENDS = [ROOT / "demo_blends" / "room.blend", ROOT / "demo_blends" / "closed_room.blend"]
+BLENDS = [ROOT / "demo_blends" / f"{name}.blend"
+          for name in ("room", "closed_room", "artist_room", "outdoor")]
 METAL_INDEX = 1
 BLOCK = 4
 CONTACT = 0.05  # metres: a pixel within this of another surface is at a contact

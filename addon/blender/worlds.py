@@ -53,8 +53,9 @@ def _output(tree):
 
 def direct(world) -> bool:
     """Whether the engine reads ``world`` itself: no tree, or a Background node whose colour
-    is its own or one equirectangular Environment Texture's (through a Mapping node or a
-    Texture Coordinate node at most) and whose strength is its own."""
+    is its own or one equirectangular Environment Texture's, looked up along the view direction
+    (a Texture Coordinate node, then a Mapping node's rotation, at most) and whose strength is
+    its own."""
     tree = world.node_tree
     if tree is None or (bpy.app.version < (5, 0, 0) and not world.use_nodes):
         return True
@@ -75,10 +76,27 @@ def direct(world) -> bool:
     if not vec:
         return True
     mapping = vec[0].from_node
-    if mapping.type == "TEX_COORD":
+    if _direction(vec[0]):
         return True
-    return (mapping.type == "MAPPING" and mapping.vector_type in {"POINT", "VECTOR"}
-            and not any(s.is_linked for s in mapping.inputs))
+    if mapping.type != "MAPPING" or mapping.vector_type not in {"POINT", "VECTOR"}:
+        return False
+    inputs = mapping.inputs
+    if any(s.is_linked for s in inputs if s.identifier != "Vector"):
+        return False
+    if mapping.vector_type == "POINT" and any(inputs["Location"].default_value):
+        return False  # a moved look-up point is not a rotation
+    scale = list(inputs["Scale"].default_value)
+    if min(scale) <= 0.0 or max(scale) != min(scale):
+        return False  # a non-uniform scale bends directions
+    links = inputs["Vector"].links
+    return not links or _direction(links[0])
+
+
+def _direction(link) -> bool:
+    """Whether ``link`` carries the view direction: a Texture Coordinate node's Generated or
+    Object output (the world's own default)."""
+    return link.from_node.type == "TEX_COORD" and link.from_socket.identifier in {
+        "Generated", "Object"}
 
 
 def _nodes_of(tree, seen=None):
@@ -154,8 +172,13 @@ def digest(world) -> str:
     return hashlib.blake2b(text, digest_size=12).hexdigest()
 
 
-def _path(scene, key: str) -> Path:
-    return probes.bake_folder(scene) / f"world_{key}.exr"
+def _path(scene, key: str) -> Path | None:
+    """Where the rendered world of digest ``key`` is kept: in the bake folder; None when the
+    scene has none yet (an unsaved file with a relative folder: memory only)."""
+    try:
+        return probes.bake_folder(scene) / f"world_{key}.exr"
+    except probes.BakeError:
+        return None
 
 
 def _keep(key: str, tex: texture.Texture) -> texture.Texture:
@@ -179,7 +202,7 @@ def lookup(scene, world) -> texture.Texture | None:
         _memory.move_to_end(key)
         return _memory[key]
     path = _path(scene, key)
-    if not path.is_file():
+    if path is None or not path.is_file():
         return None
     try:
         import OpenEXR
@@ -266,8 +289,10 @@ def ensure(scene) -> bool:
         return False
     key = digest(world)
     _keep(key, _texture(pixels, f"{world.name} (rendered)"))
-    with contextlib.suppress(OSError):  # the memory copy serves this session
-        _write(_path(scene, key), pixels, key)
+    path = _path(scene, key)
+    if path is not None:
+        with contextlib.suppress(OSError):  # the memory copy serves this session
+            _write(path, pixels, key)
     return True
 
 

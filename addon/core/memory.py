@@ -78,6 +78,8 @@ def out_of_memory(scene, error: MemoryError | None = None) -> str:
                 "or simplify objects, or render on a machine with more memory")
     tris = sum(len(m.positions) for m in scene.meshes)
     maps = sum(1 for light in scene.lights if light.shadow)
+    if scene.meshes and scene.probes is not None:  # the world's dome (``core.sky``)
+        maps += max(0, int(scene.settings.sky_directions))
     return (f"BO2 Lighting ran out of memory: {tris:,} triangles and {maps} shadow "
             f"map{'s' * (maps != 1)} need about "
             f"{_size(frame_bytes(scene))} beside Blender's own{limit_note()}; lower "

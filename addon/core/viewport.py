@@ -62,6 +62,9 @@ VIEWS: dict[str, View] = {
                               "Which reflection probe lights each pixel (grey: the world)"),
     "IRRADIANCE_VOLUMES": View("Irradiance Volume Influence", "volumes", True,
                                "Which irradiance volume lights each pixel (grey: the world)"),
+    # new views go last: files store a view by its number
+    "AMBIENT_OCCLUSION": View("Ambient Occlusion", "AO", True,
+                              "Contact occlusion of probe and world light (1: open)"),
 }
 
 # Distinct colours for probes 0, 1, ... (repeating), and the world's grey.

@@ -170,7 +170,7 @@ def test_enum_identifiers_are_stable(addon):
     assert list(views.enum_items.keys()) == [
         "COMBINED", "ALBEDO", "SPECULAR_COLOR", "GLOSS", "NORMAL", "DIFFUSE_DIRECT",
         "GLOSSY_DIRECT", "DIFFUSE_INDIRECT", "GLOSSY_INDIRECT", "REFLECTION_PROBES",
-        "IRRADIANCE_VOLUMES"]
+        "IRRADIANCE_VOLUMES", "AMBIENT_OCCLUSION"]
     assert list(s["bake_backend"].enum_items.keys()) == ["DEFAULT", "BO2", "CYCLES"]
     assert list(s["normalization"].enum_items.keys()) == ["none", "bo1", "bo2"]
     assert list(s["prefilter"].enum_items.keys()) == ["bo1", "bo2"]
