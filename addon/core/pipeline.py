@@ -315,9 +315,9 @@ def _clip(positions: np.ndarray, camera, seen: np.ndarray | None = None
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
                       fit_shadows: bool = True, sky: bool | None = None) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
-    then the sky's dome (``sky.dome_lights``, one cascade over every caster at
-    ``settings.sky_resolution``): ``shadow_map_count`` maps, every face and cascade rendered
-    at once on the render's threads. Arguments as ``prepare`` and ``shadow_map_count``."""
+    then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
+    fitted as the lights' are): ``shadow_map_count`` maps, every face and cascade rendered at
+    once on the render's threads. Arguments as ``prepare`` and ``shadow_map_count``."""
     scene = frame.scene
     count = shadow_map_count(scene, sky)
     if not len(frame.positions):
@@ -709,7 +709,7 @@ def _view_buffer(frame: Frame, tile) -> tuple[np.ndarray, int, int]:
     hit = np.flatnonzero(tri >= 0)
     if hit.size:
         t = tri[hit] if not len(index) else index.take(tri[hit], mode="clip")
-        if frame.holdout.any():  # holdout objects hide nothing's light
+        if frame.holdout.any():  # holdout objects are holes, not occluders
             keep = ~frame.holdout[t]
             hit, t = hit[keep], t[keep]
         world = np.einsum("nk,nkc->nc", frags.bary.reshape(-1, 3)[hit], frame.positions[t])

@@ -4,20 +4,21 @@ Probe light carries its own occlusion (a capture sees the walls), but the world'
 fallback where no probe reaches, does not: a wall just outside a volume's box would be lit as
 if it stood outdoors. Here the sky is a dome of ``directions`` distant lights, each the cell of
 the sphere around one of ``dome`` directions (a Fibonacci sphere: cells of equal solid angle
-4 pi / K), with a shadow map each (``shadows``, an orthographic map over every caster, filtered
-with PCSS as a sun whose angular diameter spans the cell, so neighbouring cells' shadows blend
-into one soft sky shadow). The visible fraction of the world's light at a point of normal n is
+4 pi / K), with a shadow map each (``shadows``: a sun's, fitted to the camera's view in a frame
+and to every caster in a capture), filtered with PCSS as a sun whose angular diameter spans the
+cell, so that neighbouring cells' shadows blend into one soft sky shadow, but never wider than
+``MAX_FILTER`` (a wider filter would reach past the walls of a room and see the sky outside).
+The visible fraction of the world's light at a point of normal n is
 
     V(p, n) = sum_k  L_k max(0, n . w_k) v_k(p)  /  sum_k  L_k max(0, n . w_k),
 
 L_k the world's radiance (luminance) towards w_k (its SH, ``sh.basis``), v_k the shadow map's
 visibility; the world's SH irradiance at the point is scaled by it (``probes.indirect``). An
 open scene keeps its sky (V = 1 where nothing stands over the point), a closed room gets sky
-only through its openings, the ground under an object darkens. This is the dome-of-lights form
-of ambient occlusion from a distant environment (Zhukov et al. 1998, "An ambient light
-illumination model"; shadow-map domes: e.g. Sloan et al., "Image-based proxy accumulation
-for real-time soft global illumination", 2007), weighted by the world's radiance so that a
-bright zenith counts for more than a dark horizon.
+only through its openings, the ground under an object darkens. This is ambient occlusion from a
+distant environment (obscurances: Zhukov, Iones, Kronin, "An ambient light illumination model",
+Eurographics Rendering Workshop 1998) evaluated with one shadow map per direction, weighted by
+the world's radiance so that a bright zenith counts for more than a dark horizon.
 """
 
 from __future__ import annotations
@@ -32,7 +33,6 @@ from .scene import Light
 
 __all__ = ["Sky", "dome", "dome_lights", "visibility"]
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 MAX_FILTER = 0.25  # metres: the dome's widest shadow filter (``shadows.ShadowMap``)
 
 
@@ -84,7 +84,7 @@ def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.n
         return np.ones(n, np.float32)
     dirs = sky.directions
     radiance = sh.basis(dirs) @ np.asarray(world_sh, np.float64)  # (K, 3)
-    weight_k = np.maximum(radiance @ LUMINANCE, 0.0).astype(np.float32)
+    weight_k = np.maximum(radiance @ sh.LUMINANCE_REC709, 0.0).astype(np.float32)
     cos = np.maximum(np.asarray(normals, np.float32) @ dirs.T.astype(np.float32), 0.0)
     weights = cos * weight_k[None]  # (N, K)
     total = weights.sum(1)
