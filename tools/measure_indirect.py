@@ -31,7 +31,8 @@ block mean of the metals: over their pixels in the block);
 and writes OUT_DIR/<name>/ the comparison's files plus ``indirect.png``: BO2's and Cycles'
 Diffuse Indirect side by side. ``--reuse-cycles`` keeps a Cycles render already in the folder.
 ``--no-leak-fixes`` bakes the volumes without validity, escape and dilation and looks them up
-without biases (the behaviour before them).
+without biases (the behaviour before them). ``--set NAME=VALUE`` sets one of the scene's BO2
+settings first (``--set use_ambient_occlusion=False``, ``--set "sky_directions='64'"``).
 
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
 and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
@@ -43,6 +44,7 @@ of before | after | Cycles, and ``metals.png``, the metals' part of the Combined
 from __future__ import annotations
 
 import argparse
+import ast
 import json
 import shutil
 import sys
@@ -153,6 +155,9 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         c.max_bounces = c.diffuse_bounces = c.glossy_bounces = args.cycles_bounces
     if not leak_fixes:
         no_leak_fixes(scene)
+    for item in args.set:  # NAME=VALUE of the scene's BO2 settings, as Python literals
+        name, _, value = item.partition("=")
+        setattr(scene.bo2, name, ast.literal_eval(value))
     for mat in bpy.data.materials:
         nodes = mat.node_tree.nodes if mat.node_tree else []
         if any(n.type == "BSDF_PRINCIPLED" and n.inputs["Metallic"].default_value >= 0.5
@@ -283,6 +288,8 @@ def main() -> int:
     parser.add_argument("--before-after", action="store_true")
     parser.add_argument("--before-bounces", type=int, default=1)
     parser.add_argument("--docs", action="store_true")
+    parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a BO2 setting of the scene, e.g. use_specular_occlusion=False")
     args = parser.parse_args()
     bo2_lighting.register()
     for blend in args.blends or BLENDS:

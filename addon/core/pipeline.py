@@ -660,14 +660,21 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
         if view is not None:
             ao = _ambient(frame, view, p, n, sx, sy)
         sky = frame.sky
-        # the world's light is occluded by the darker of the dome and the contact occlusion
-        # (both see the near surfaces: not their product), the probes' by the latter
-        seen = None if sky is None else (lambda k: np.minimum(sky_light.visibility(
-            sky, scene.probes.world_sh, p[k], n[k], geo[k],
-            poll=None if tick is None else lambda: tick(0.0)) / np.maximum(ao[k], 1e-3), 1.0))
+        rho = (mat.albedo @ np.float32([0.2126, 0.7152, 0.0722]))[:, None]
+
+        def seen(k):
+            """The world's light is occluded by the darker of the dome and the contact
+            occlusion (both see the near surfaces: not their product), with what bounces off
+            the occluders put back as for the latter (``occlusion.multi_bounce``); divided by
+            the contact occlusion's, which all indirect light gets."""
+            vis = sky_light.visibility(sky, scene.probes.world_sh, p[k], n[k], geo[k],
+                                       poll=None if tick is None else lambda: tick(0.0))
+            both = occlusion.multi_bounce(np.minimum(vis, ao[k]), rho[k])[:, 0]
+            return both / np.maximum(occlusion.multi_bounce(ao[k], rho[k])[:, 0], 1e-3)
+
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf,
-                                              sky=seen)
+                                              sky=None if sky is None else seen)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]
