@@ -36,9 +36,11 @@ settings first (``--set use_ambient_occlusion=False``, ``--set "sky_directions='
 
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
 and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
-former default), and writes ``before_after.png``: the Combined and the Diffuse Indirect passes
-of before | after | Cycles, and ``metals.png``, the metals' part of the Combined pass enlarged;
-``--docs`` copies them to ``docs/images/indirect_<scene>.png`` and ``metals_<scene>.png``.
+former default), or with the ``--before-set NAME=VALUE`` settings, and writes
+``before_after.png``: the Combined and the Diffuse Indirect passes (Cycles' with the world's
+light it counts as direct) of before | after | Cycles, and ``metals.png``, the metals' part
+of the Combined pass enlarged; ``--docs`` copies them to ``docs/images/indirect_<scene>.png``
+and ``metals_<scene>.png``.
 """
 
 from __future__ import annotations
@@ -139,9 +141,11 @@ def no_leak_fixes(scene) -> None:
 
 
 def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = True,
-            reuse_cycles: bool = False) -> dict:
+            reuse_cycles: bool = False, settings: tuple = ()) -> dict:
     """Bake, render both engines into ``out`` and measure (the module docstring); the figures,
-    and the passes of both engines under "bo2" and "cycles"."""
+    and the passes of both engines under "bo2" and "cycles", and Cycles' diffuse light of the
+    world that reaches a surface unscattered under "world_direct". ``settings``: NAME=VALUE
+    items of the scene's BO2 settings, after ``--set``'s."""
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
     scene.render.engine = "BO2_LIGHTING"
@@ -155,7 +159,7 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         c.max_bounces = c.diffuse_bounces = c.glossy_bounces = args.cycles_bounces
     if not leak_fixes:
         no_leak_fixes(scene)
-    for item in args.set:  # NAME=VALUE of the scene's BO2 settings, as Python literals
+    for item in [*args.set, *settings]:  # NAME=VALUE of BO2 settings, as Python literals
         name, _, value = item.partition("=")
         setattr(scene.bo2, name, ast.literal_eval(value))
     for mat in bpy.data.materials:
@@ -221,7 +225,7 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         "bo2_seconds": job.info["bo2"]["render_seconds"],
         "cycles_seconds": job.info["cycles"]["render_seconds"],
         "cycles_samples": job.info["cycles"]["samples"],
-        "bo2": bo2, "cycles": cyc,
+        "bo2": bo2, "cycles": cyc, "world_direct": world_direct,
     }
     return figures
 
@@ -239,22 +243,30 @@ def line(name: str, f: dict) -> str:
 
 
 def before_after(blend: Path, out: Path, args) -> None:
-    after = measure(blend, out / "after", args, args.bounces)
+    after = measure(blend, out / "after", args, args.bounces, reuse_cycles=args.reuse_cycles)
     (out / "before").mkdir(parents=True, exist_ok=True)
-    for name in ("cycles.exr", "cycles_info.json"):
+    for name in ("cycles.exr", "cycles_info.json", "cycles_lamps.exr"):
         shutil.copyfile(out / "after" / name, out / "before" / name)
-    before = measure(blend, out / "before", args, args.before_bounces, leak_fixes=False,
-                     reuse_cycles=True)
+    if args.before_set:  # before: the same bake with these settings
+        before = measure(blend, out / "before", args, args.bounces, reuse_cycles=True,
+                         settings=tuple(args.before_set))
+        told = ", ".join(args.before_set)
+    else:  # before: no leak fixes, fewer bounces
+        before = measure(blend, out / "before", args, args.before_bounces, leak_fixes=False,
+                         reuse_cycles=True)
+        told = (f"{args.before_bounces} bounce{'s' if args.before_bounces != 1 else ''}, "
+                "no leak fixes")
     print(line(f"{blend.stem} before", before), flush=True)
     print(line(f"{blend.stem} after", after), flush=True)
     rows = []
     for name, color in (("Combined", None), ("DiffInd", "DiffCol")):
-        images = [before["bo2"][name][..., :3], after["bo2"][name][..., :3],
-                  after["cycles"][name][..., :3] * (after["cycles"][color] if color else 1.0)]
+        cycles = after["cycles"][name][..., :3] * (after["cycles"][color] if color else 1.0)
+        if color:  # with the world's light that Cycles counts as direct (``measure``)
+            cycles = cycles + after["world_direct"]
+        images = [before["bo2"][name][..., :3], after["bo2"][name][..., :3], cycles]
         what = "" if name == "Combined" else " Diffuse Indirect"
         rows.append(imaging.panels(blender_images.to_display(bpy.context.scene, images), (
-            (f"before{what}: {args.before_bounces} "
-             f"bounce{'s' if args.before_bounces != 1 else ''}, no leak fixes", f"before{what}"),
+            (f"before{what}: {told}", f"before{what}"),
             (f"after{what}", "after"), (f"Cycles{what}", "Cycles"))))
     picture = np.concatenate(rows, 0)
     imaging.write_png(out / "before_after.png", picture)
@@ -287,6 +299,8 @@ def main() -> int:
     parser.add_argument("--no-leak-fixes", action="store_true")
     parser.add_argument("--before-after", action="store_true")
     parser.add_argument("--before-bounces", type=int, default=1)
+    parser.add_argument("--before-set", action="append", default=[], metavar="NAME=VALUE",
+                        help="--before-after: before is the same bake with these settings")
     parser.add_argument("--docs", action="store_true")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="a BO2 setting of the scene, e.g. use_specular_occlusion=False")
