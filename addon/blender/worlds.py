@@ -127,12 +127,11 @@ def problem(world) -> str | None:
     return None
 
 
-def _value(value):
-    if isinstance(value, (bool, int, float, str)):
+def _value(value, depth: int = 0):
+    """A comparable form of a node's setting: values as they are, images by file, other
+    data-blocks by name, a ramp's or a curve's points by their own settings."""
+    if value is None or isinstance(value, (bool, int, float, str)):
         return value
-    if hasattr(value, "__len__") and not isinstance(value, bpy.types.ID):
-        with contextlib.suppress(TypeError):
-            return [_value(v) for v in value]
     if isinstance(value, bpy.types.Image):
         path = Path(bpy.path.abspath(value.filepath, library=value.library))
         stamp = (path.stat().st_mtime_ns, path.stat().st_size) if path.is_file() else None
@@ -141,6 +140,13 @@ def _value(value):
                 value.colorspace_settings.name, bool(value.is_dirty)]
     if isinstance(value, bpy.types.ID):
         return ["id", value.name_full]
+    if depth > 4:
+        return None
+    if isinstance(value, bpy.types.bpy_struct):  # a colour ramp, a curve mapping, ...
+        return [(p.identifier, _value(getattr(value, p.identifier, None), depth + 1))
+                for p in value.bl_rna.properties if p.identifier not in {"rna_type", "select"}]
+    with contextlib.suppress(TypeError):  # vectors, colours, collections
+        return [_value(v, depth + 1) for v in value]
     return repr(value)
 
 

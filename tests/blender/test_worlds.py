@@ -116,6 +116,12 @@ def test_the_digest_follows_the_content_and_bad_trees_fall_back(addon, empty_sce
     assert worlds.digest(world) != key
     world.node_tree.nodes["Math.001"].inputs[0].default_value = 0.75
     assert worlds.digest(world) == key
+    ramp = world.node_tree.nodes["Color Ramp"].color_ramp.elements[1]
+    was = tuple(ramp.color)
+    ramp.color = (0.2, 0.45, 0.9, 1.0)  # a colour of the ramp
+    assert worlds.digest(world) != key
+    ramp.color = was
+    assert worlds.digest(world) == key
     # a missing image: not rendered, the viewport colour with one warning that says why
     env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
     env.image = bpy.data.images.new("gone", 4, 2)
