@@ -96,7 +96,7 @@ def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.n
         if smap is None or not where.any():
             seen += weights[:, k]
             continue
-        v = shadows.shadow_visibility(smap, points, geo, where=where)
+        v = shadows.shadow_visibility(smap, points, geo, where=where, jitter=False)
         seen += weights[:, k] * v
     out = np.ones(n, np.float32)
     lit = total > 1e-12

@@ -19,6 +19,7 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 SLICES = 8
 STEPS = 8
+MIN_SPAN = 4.0  # pixels: a radius that covers fewer finds nothing
 HALF_PI = 0.5 * math.pi
 
 
@@ -57,7 +58,7 @@ def gtao(view, points, normals, pixels, params, out):
             vx, vy, vz = -px / d, -py / d, -pz / d
             span = radius * scale / -pz
         span = min(span, reach)
-        if span < 1.0:  # the radius covers less than a pixel: nothing to find
+        if span < MIN_SPAN:  # a few pixels: too coarse to tell an occluder from noise
             out[i] = 1.0
             continue
         # lifted off its own surface by a pixel's footprint: the buffer holds the surface at
