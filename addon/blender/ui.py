@@ -102,7 +102,7 @@ class RENDER_PT_bo2_indirect(_BO2Panel, bpy.types.Panel):
         col.prop(settings, "sky_directions")
         sub = col.column()
         sub.active = settings.sky_directions != "0"
-        sub.prop(settings, "sky_resolution")
+        sub.prop(settings, "sky_resolution", text="Resolution")
         col.prop(settings, "use_ambient_occlusion")
         sub = col.column()
         sub.active = settings.use_ambient_occlusion
