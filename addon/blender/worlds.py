@@ -161,7 +161,8 @@ def digest(world) -> str:
             if prop.is_readonly and prop.type != "POINTER" or prop.identifier in {
                     "name", "label", "location", "width", "height", "select", "color",
                     "use_custom_color", "show_options", "show_preview", "show_texture",
-                    "hide", "width_hidden", "location_absolute", "warning_propagation"}:
+                    "hide", "width_hidden", "location_absolute", "warning_propagation",
+                    "parent"}:  # how the editor shows the node, not what it computes
                 continue
             with contextlib.suppress(AttributeError, TypeError):
                 props.append((prop.identifier, _value(getattr(node, prop.identifier))))

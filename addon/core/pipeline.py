@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import affine, material, occlusion, probes, raster, shade, shadows, texture
+from . import affine, material, occlusion, probes, raster, sh, shade, shadows, texture
 from . import sky as sky_light
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
@@ -660,7 +660,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
         if view is not None:
             ao = _ambient(frame, view, p, n, sx, sy)
         sky = frame.sky
-        rho = (mat.albedo @ np.float32([0.2126, 0.7152, 0.0722]))[:, None]
+        rho = (mat.albedo @ sh.LUMINANCE_REC709.astype(np.float32))[:, None]
 
         def seen(k):
             """The world's light is occluded by the darker of the dome and the contact

@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from test_volume_leaks import cube as box
 
 from bo2_lighting.addon.core import bake, pipeline, sh, sky
 from bo2_lighting.addon.core.scene import (
@@ -15,22 +16,6 @@ from bo2_lighting.addon.core.scene import (
     Scene,
     World,
 )
-
-
-def box(lo, hi) -> np.ndarray:
-    """(12, 3, 3) float32 triangles of an axis-aligned box."""
-    lo, hi = np.asarray(lo, np.float64), np.asarray(hi, np.float64)
-    c, h, e = (lo + hi) / 2, (hi - lo) / 2, np.eye(3)
-    tris = []
-    for ax in range(3):
-        u, v = e[(ax + 1) % 3] * h[(ax + 1) % 3], e[(ax + 2) % 3] * h[(ax + 2) % 3]
-        for s in (1.0, -1.0):
-            f = c + s * e[ax] * h[ax]
-            q = [f - u - v, f + u - v, f + u + v, f - u + v]
-            if s < 0:
-                q = q[::-1]
-            tris += [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
-    return np.array(tris, np.float32)
 
 
 def frame_of(slabs, directions=128) -> pipeline.Frame:
