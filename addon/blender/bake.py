@@ -108,7 +108,8 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False, samples=int(settings.bake_samples))
     worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
-    core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False)
+    core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False,
+                                                 should_stop=interrupt.requested)
     for obj in objs:
         if obj.data.type != "SPHERE":
             continue

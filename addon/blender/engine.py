@@ -93,16 +93,17 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             settings = extract.render_settings(scene)
             if self.is_preview:
                 settings = preview_settings(settings)
+            should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731
             frame, warnings = extract.extract_scene(depsgraph, settings,
-                                                    indirect=scene.bo2.use_indirect)
+                                                    indirect=scene.bo2.use_indirect,
+                                                    should_stop=should_stop)
             for message in warnings if not self.is_preview else ():
                 self._warn(message)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
             tiles = pipeline.render_tiles(
                 frame, progress=self.update_progress,
-                should_stop=lambda: self.test_break() or interrupt.requested(),
-                warn=self._warn)
+                should_stop=should_stop, warn=self._warn)
             for tile, layers in tiles:
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
         except pipeline.Cancelled:

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import collections
 import hashlib
+from collections.abc import Callable
 
 import bpy
 import numpy as np
 
-from ..core import memory, texture
+from ..core import memory, pipeline, texture
 from ..core import scene as cs
 from . import worlds
 from .materials import convert_material, load_image
@@ -671,7 +672,8 @@ class SceneCache:
         return self.mat_ids[key]
 
 
-def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: list[int]):
+def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: list[int],
+                  should_stop: Callable[[], bool] | None = None):
     """``extract_scene``'s walk over the depsgraph's instances: (meshes, lights, object-space
     data and batches by key, for ``cache``); ``triangles[0]`` counts the triangles read, those
     of the batch being made included."""
@@ -688,6 +690,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
     for inst in depsgraph.object_instances:
         if at_once and inst.is_instance:
             continue
+        if should_stop is not None and should_stop():
+            raise pipeline.Cancelled()
         obj = inst.object
         if at_once:
             shown.add(obj.original.name_full)
@@ -727,6 +731,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
+        if should_stop is not None and should_stop():
+            raise pipeline.Cancelled()
         parent = _matrix(obj.matrix_world)
         for key, data, local, owner in _instances(obj, depsgraph, cache, warnings, shown):
             visibility = _visibility(owner, depsgraph.view_layer)
@@ -746,7 +752,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
 
 
 def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
-                  indirect: bool = False, cache: SceneCache | None = None):
+                  indirect: bool = False, cache: SceneCache | None = None,
+                  should_stop: Callable[[], bool] | None = None):
     """Translate the evaluated depsgraph into plain data.
 
     settings: the engine's settings (``render_settings(scene)`` when None)
@@ -755,6 +762,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     indirect: light the scene with its baked probes and the world (``probes.load_probes``);
               False renders direct light only
     cache:    what an earlier extraction read and is still valid (``SceneCache``), updated
+    should_stop: polled before each object is read; True raises ``pipeline.Cancelled``
     returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
     """
     warnings: list[str] = []
@@ -766,7 +774,8 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     cache.refresh(warnings)
     triangles = [0]  # read so far, and those of the batch being made (out of memory)
     try:
-        meshes, lights, objects, batches = _read_objects(depsgraph, cache, warnings, triangles)
+        meshes, lights, objects, batches = _read_objects(depsgraph, cache, warnings, triangles,
+                                                         should_stop)
     except MemoryError:
         raise memory.OutOfMemory(triangles[0]) from None
     cache.objects, cache.batches = objects, batches  # what is gone from the scene is dropped

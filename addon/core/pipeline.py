@@ -336,13 +336,16 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
     cutout = ((fades, lambda t, b: _caster_alpha(frame, t if index is None else index[t], b))
               if fades.any() else None)
     s = scene.settings
-    plans = [shadows.shadow_map_jobs(light, positions, scene.camera if fit_shadows else None,
-                                     resolution=s.shadow_resolution, cutout=cutout)
-             for light in scene.lights]
-    plans += [shadows.shadow_map_jobs(light, positions, scene.camera if fit_shadows else None,
-                                      resolution=s.sky_resolution,
-                                      cutout=cutout, max_filter=sky_light.MAX_FILTER)
-              for light in sky_light.dome_lights(count - len(scene.lights))]
+    view = scene.camera if fit_shadows else None
+    plans = []
+    for light in scene.lights:
+        poll()
+        plans.append(shadows.shadow_map_jobs(light, positions, view,
+                                             resolution=s.shadow_resolution, cutout=cutout))
+    for light in sky_light.dome_lights(count - len(scene.lights)):
+        poll()
+        plans.append(shadows.shadow_map_jobs(light, positions, view, resolution=s.sky_resolution,
+                                             cutout=cutout, max_filter=sky_light.MAX_FILTER))
     done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
                               thread_count(s), poll, threading.Event())))
     return [finish([next(done) for _ in jobs]) for jobs, finish in plans]
