@@ -24,10 +24,16 @@ from . import extract, images, interrupt, probes, worlds
 from .probes import BakeError
 
 
-def cycles_cube(scene, position, size: int, near: float, far: float) -> np.ndarray:
+def cycles_cube(scene, position, size: int, near: float, far: float,
+                kind: str = "reflection") -> np.ndarray:
     """(6, size, size, 3) radiance at ``position`` rendered by Cycles (full global
-    illumination): one square 90-degree render per face of ``cubemap.FACES``."""
+    illumination): one square 90-degree render per face of ``cubemap.FACES``. The objects
+    hidden from probes of ``kind`` (Object > Visibility > Light Probes) are hidden from its
+    camera rays, as from the BO2 capture."""
     from mathutils import Matrix
+
+    flag = "hide_probe_sphere" if kind == "reflection" else "hide_probe_volume"
+    hidden = [o for o in scene.objects if getattr(o, flag, False) and o.visible_camera]
 
     cam_data = bpy.data.cameras.new("BO2 Probe Capture")
     cam_data.angle = np.pi / 2
@@ -41,6 +47,8 @@ def cycles_cube(scene, position, size: int, near: float, far: float) -> np.ndarr
     out = np.empty((6, size, size, 3), np.float32)
     try:
         scene.camera, r.engine = cam, "CYCLES"
+        for obj in hidden:
+            obj.visible_camera = False
         scene.cycles.samples = int(scene.bo2.bake_cycles_samples)
         r.resolution_x = r.resolution_y = size
         r.resolution_percentage, r.use_border, r.film_transparent = 100, False, False
@@ -57,6 +65,8 @@ def cycles_cube(scene, position, size: int, near: float, far: float) -> np.ndarr
     finally:
         (scene.camera, r.engine, r.resolution_x, r.resolution_y, r.resolution_percentage,
          r.use_border, r.film_transparent, scene.cycles.samples) = saved
+        for obj in hidden:
+            obj.visible_camera = True
         bpy.data.objects.remove(cam)
         bpy.data.cameras.remove(cam_data)
     return out
@@ -118,7 +128,8 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
         reach = 2.0 * float(obj.data.influence_distance)
         inside = [name for name in enclosing_objects(scene, depsgraph,
                                                      obj.matrix_world.translation)
-                  if scene.objects[name].dimensions.length < reach]
+                  if scene.objects[name].dimensions.length < reach
+                  and not scene.objects[name].hide_probe_sphere]  # not in its captures
         if inside:
             warnings.append(f"Light probe '{obj.name}' seems to be inside object "
                             f"{', '.join(repr(n) for n in inside)}: its captures see the "
@@ -137,8 +148,8 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     if backend == "BO2":
         grab = captures.cube
     else:
-        def grab(position, size, near, far, _probes):
-            return cycles_cube(scene, position, size, near, far)
+        def grab(position, size, near, far, _probes, kind):
+            return cycles_cube(scene, position, size, near, far, kind)
     job = bake.Bake(specs, core_scene.world, grab,
                     bounces=1 if backend == "CYCLES" else max(1, int(settings.bake_bounces)),
                     face_size=face_size,

@@ -355,12 +355,15 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
     return cs.World(color=color * strength)
 
 
-def _visibility(obj, view_layer) -> tuple[bool, bool, bool]:
+def _visibility(obj, view_layer) -> tuple[bool, bool, bool, bool, bool]:
     """What the depsgraph does not filter of an object's render visibility: (holdout, seen by
-    the camera, casts shadows); ``MeshBatch``'s fields of the same names."""
+    the camera, casts shadows, seen by Sphere probes, by Volume probes); ``MeshBatch``'s
+    fields of the same names."""
     holdout = bool(obj.is_holdout or obj.original.holdout_get(view_layer=view_layer))
     return (holdout, bool(getattr(obj, "visible_camera", True)),
-            bool(getattr(obj, "visible_shadow", True)))
+            bool(getattr(obj, "visible_shadow", True)),
+            not getattr(obj, "hide_probe_sphere", False),
+            not getattr(obj, "hide_probe_volume", False))
 
 
 def _object_data(obj, cache: SceneCache, warnings):
@@ -525,7 +528,7 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings, shown: set):
 
 
 def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
-                     visibility: tuple[bool, bool, bool]) -> cs.MeshBatch:
+                     visibility: tuple[bool, ...]) -> cs.MeshBatch:
     """One mesh placed by I instance matrices ``local`` (I, 16) (column-major) in the space of
     ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
     (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
@@ -565,7 +568,8 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
     return cs.MeshBatch(wpos, wn, np.tile(np.asarray(mat_index, np.int32), count),
                         uvs=None if uvs is None else repeated(np.asarray(uvs, np.float32)),
                         name=name, holdout=visibility[0], camera=visibility[1],
-                        shadow=visibility[2], attributes=wattr, world_to_object=inverse,
+                        shadow=visibility[2], sphere_probes=visibility[3],
+                        volume_probes=visibility[4], attributes=wattr, world_to_object=inverse,
                         texspace=texspace)
 
 
@@ -705,7 +709,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
         if obj.type not in _GEOMETRY_TYPES:
             continue
         visibility = _visibility(obj, depsgraph.view_layer)
-        if not any(visibility[1:]):  # neither seen nor casting shadows
+        if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
             continue
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
         if key not in objects:
@@ -726,7 +730,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
             inverse = np.linalg.inv(matrix) if abs(np.linalg.det(matrix)) > 1e-30 else np.eye(4)
             batch = cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
                                  holdout=visibility[0], camera=visibility[1],
-                                 shadow=visibility[2], attributes=wattr,
+                                 shadow=visibility[2], sphere_probes=visibility[3],
+                                 volume_probes=visibility[4], attributes=wattr,
                                  world_to_object=inverse, texspace=texspace)
         batches[bkey] = batch
         meshes.append(batch)

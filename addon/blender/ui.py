@@ -452,6 +452,9 @@ class OBJECT_PT_bo2_visibility(_BO2Panel, bpy.types.Panel):
             col = layout.column(heading="Ray Visibility")
             col.prop(obj, "visible_camera", text="Camera", toggle=False)
             col.prop(obj, "visible_shadow", text="Shadow", toggle=False)
+            col = layout.column(heading="Light Probes")
+            col.prop(obj, "hide_probe_volume", text="Volume", toggle=False, invert_checkbox=True)
+            col.prop(obj, "hide_probe_sphere", text="Sphere", toggle=False, invert_checkbox=True)
             col = layout.column(heading="Mask")
             col.prop(obj, "is_holdout")
 

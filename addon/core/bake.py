@@ -43,9 +43,9 @@ __all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate
 KINDS = ("reflection", "irradiance")
 FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
 
-# capture(position (3,) metres, face size, near, far, probes lighting the view) ->
+# capture(position (3,) metres, face size, near, far, probes lighting the view, probe kind) ->
 # (6, size, size, 3) float32 radiance (faces of ``cubemap.FACES``)
-CaptureFn = Callable[[np.ndarray, int, float, float, Probes], np.ndarray]
+CaptureFn = Callable[[np.ndarray, int, float, float, Probes, str], np.ndarray]
 # surfaces(position (3,) metres, face size, near, far) -> ``capture.Surfaces``
 SurfacesFn = Callable[[np.ndarray, int, float, float], "capture.Surfaces"]
 
@@ -346,7 +346,7 @@ class Bake:
                 pos, ratios, moved = placed.get(k, (spec.points, None, 0))
                 coeffs, chains = [], None
                 for p in pos:
-                    cube = self.capture(p, size, *self._clip(spec), lighting)
+                    cube = self.capture(p, size, *self._clip(spec), lighting, spec.kind)
                     if spec.kind == "reflection":
                         c, chains = capture.filtered(cube)
                     else:

@@ -52,34 +52,38 @@ class Capture:
         self.warn, self.should_stop = warn, should_stop
         self._frame = None  # the geometry, prepared once for every view
         self._shadowed = False  # its shadow maps built (``cube`` needs them, ``surfaces`` not)
+        self._seen: dict = {}  # per probe kind: ``Frame.seen`` of its captures
 
     def cube(self, position, size: int, near: float, far: float,
-             probes: Probes | None = None) -> np.ndarray:
+             probes: Probes | None = None, kind: str = "reflection") -> np.ndarray:
         """(6, size, size, 3) float32 radiance seen from ``position`` (3,), metres, between
-        the clip distances ``near`` and ``far`` (metres), lit indirectly by ``probes``."""
+        the clip distances ``near`` and ``far`` (metres), lit indirectly by ``probes``, for a
+        probe of ``kind`` ("reflection": a Sphere probe's, "irradiance": a Volume's; the
+        objects hidden from such probes are not seen, ``MeshBatch.sphere_probes``)."""
         cams = self._cameras(position, size, near, far)
         if not self._shadowed:
             self._frame.shadow_maps = pipeline.build_shadow_maps(self._frame, self.should_stop,
                                                                  fit_shadows=False, sky=True)
             self._shadowed = True
-        frame = dataclasses.replace(self._frame, scene=dataclasses.replace(
+        frame = dataclasses.replace(self._frame, seen=self._seen[kind], scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
         faces = pipeline.render_views(frame.scene, cams, should_stop=self.should_stop,
                                       frame=frame)
         return np.stack([face["Combined"][..., :3] for face in faces])
 
     def surfaces(self, position, size: int, near: float, far: float) -> Surfaces:
-        """What surrounds ``position`` (3,), metres: the surfaces seen in a ``size`` cube
-        between the clip distances, and whether they show their fronts (one ray per texel
-        centre, weighted by its solid angle). Faces of backface-culled materials are seen
-        from the front only, as in a render."""
+        """What surrounds ``position`` (3,), metres: the surfaces a Volume probe's capture
+        sees in a ``size`` cube between the clip distances, and whether they show their
+        fronts (one ray per texel centre, weighted by its solid angle). Faces of
+        backface-culled materials are seen from the front only, as in a render."""
         cams = self._cameras(position, size, near, far)
+        frame = dataclasses.replace(self._frame, seen=self._seen["irradiance"])
         directions = cubemap.texel_directions(size).reshape(6, -1, 3)
         weight = cubemap.texel_solid_angles(size).reshape(-1)
         front = back = 0.0
         nearest = (np.inf, None)
         for face, cam in enumerate(cams):
-            tri, depth, normals = pipeline.nearest_faces(pipeline.with_camera(self._frame, cam))
+            tri, depth, normals = pipeline.nearest_faces(pipeline.with_camera(frame, cam))
             hit = np.flatnonzero(tri >= 0)
             d = directions[face, hit]
             behind = np.einsum("nk,nk->n", normals, d) > 0.0  # the ray meets a back face
@@ -104,7 +108,11 @@ class Capture:
             maps = [None] * pipeline.shadow_map_count(scene, sky=True)
             frame = pipeline.prepare(scene, self.warn, self.should_stop, shadow_maps=maps)
             # objects hidden from the camera are still in the light a probe gathers, as in
-            # Cycles' indirect light: the captures see them
+            # Cycles' indirect light: the captures see them, unless hidden from that kind
+            meshes = scene.meshes
+            self._seen = {
+                "reflection": pipeline.mesh_flags(frame, [m.sphere_probes for m in meshes]),
+                "irradiance": pipeline.mesh_flags(frame, [m.volume_probes for m in meshes])}
             self._frame = dataclasses.replace(frame, seen=None)
         return cams
 

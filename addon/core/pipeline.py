@@ -296,6 +296,17 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     return frame
 
 
+def mesh_flags(frame: Frame, values) -> np.ndarray | None:
+    """(T,) bool per triangle of ``frame``: ``values[k]`` of ``frame.scene.meshes[k]``, the
+    batch it came from; None when every value is True."""
+    if all(values):
+        return None
+    counts = [1 if m.world_to_object is None else len(np.reshape(m.world_to_object, (-1, 16)))
+              for m in frame.scene.meshes]  # instances per batch, as ``frame.obj`` counts them
+    batch = np.searchsorted(np.cumsum(counts), frame.obj, side="right")
+    return np.asarray(values, bool)[batch]
+
+
 def _clip(positions: np.ndarray, camera, seen: np.ndarray | None = None
           ) -> np.ndarray | raster.Projection:
     """(T, 3, 4) float32 clip coordinates of the triangles through ``camera``; for more

@@ -132,6 +132,8 @@ class MeshBatch:
     camera:    the camera sees it (False: it still casts shadows and is in the probes'
                captures, as Blender's Camera ray visibility)
     shadow:    it casts shadows (Blender's Shadow ray visibility)
+    sphere_probes, volume_probes: the captures of Sphere, of Volume probes see it (Blender's
+               Object > Visibility > Light Probes; False: it still casts shadows there)
     attributes: corner values the materials read (``material.Program.requires``), by key:
                ("uv", map) (T, 3, 2); ("attribute", name) (T, 3, 4) RGBA (a float f as
                (f, f, f, 1), a vector as (x, y, z, 1)); ("tangent", map) (T, 3, 4) world
@@ -151,6 +153,8 @@ class MeshBatch:
     holdout: bool = False
     camera: bool = True
     shadow: bool = True
+    sphere_probes: bool = True
+    volume_probes: bool = True
     attributes: dict = field(default_factory=dict)
     world_to_object: np.ndarray | None = None
     texspace: np.ndarray | None = None

@@ -89,6 +89,32 @@ def test_bake_writes_one_file_per_probe(addon, tmp_path):
     assert (near_red[:, 0] / near_red[:, 1]).mean() > (far[:, 0] / far[:, 1]).mean()
 
 
+def test_objects_hidden_from_light_probes_are_not_baked(addon, tmp_path, capfd):
+    """Object > Visibility > Light Probes: the red wall hidden from Sphere probes leaves the
+    reflection probe's light and keeps the volume's; hidden from Volume probes, the reverse.
+    (The chrome ball the reflection probe sits in is hidden from Sphere probes throughout, as
+    an artist hides an object from the probe at its centre: no warning that it is inside.)"""
+    scene = room(tmp_path)
+    wall = next(o for o in scene.objects if o.type == "MESH" and o.location.y == 2)
+    scene.objects["Sphere"].hide_probe_sphere = True
+    scene.bo2.bake_bounces = 1  # each kind's captures lit by the world alone: independent
+
+    def redness():
+        folder = bake(scene)
+        return [float(sh[:, 0, 0].mean() / sh[:, 0, 1].mean())
+                for sh in (probe_file.read(folder / f"{name}.exr")[1]
+                           for name in ("Reflection", "Irradiance"))]
+
+    seen = redness()
+    wall.hide_probe_sphere = True
+    no_sphere = redness()
+    wall.hide_probe_sphere, wall.hide_probe_volume = False, True
+    no_volume = redness()
+    assert no_sphere[0] < seen[0] - 0.1 and no_sphere[1] == pytest.approx(seen[1], rel=1e-4)
+    assert no_volume[1] < seen[1] - 0.1 and no_volume[0] == pytest.approx(seen[0], rel=1e-4)
+    assert "inside object" not in capfd.readouterr().out
+
+
 def test_baked_probes_bring_the_render_closer_to_cycles(addon, tmp_path):
     """World light alone, then the baked probes (the floor's and walls' bounce, the red wall's
     colour on the floor): each step closer to Cycles' global illumination."""

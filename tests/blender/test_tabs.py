@@ -115,7 +115,8 @@ def test_every_tab_draws(studio):
     assert "BO2ViewLayerSettings.use_pass_albedo" in props
     tab(scene, "world")
     _, props = tab(scene, "object", objs["MESH"])
-    assert {"Object.visible_camera", "Object.visible_shadow", "Object.is_holdout"} <= set(props)
+    assert {"Object.visible_camera", "Object.visible_shadow", "Object.is_holdout",
+            "Object.hide_probe_volume", "Object.hide_probe_sphere"} <= set(props)
     _, props = tab(scene, "data", objs["CAMERA"])
     assert "Camera.lens" in props
     panels, props = tab(scene, "material", objs["MESH"])

@@ -58,7 +58,7 @@ def test_the_first_bounce_is_lit_by_the_world_alone():
     world = World(color=np.full(3, 0.5, np.float32))
     lit = []
 
-    def capture(position, size, near, far, probes):
+    def capture(position, size, near, far, probes, kind):
         lit.append((probes.world_sh[0].copy(), len(probes.reflection), len(probes.volumes)))
         return constant_cube(size, 1.0)
 
@@ -75,7 +75,7 @@ def test_each_bounce_sees_the_previous_ones_probes():
     emission, rho, bounces = 1.0, 0.5, 4
     seen = []
 
-    def capture(position, size, near, far, probes):
+    def capture(position, size, near, far, probes, kind):
         assert near >= 1e-3 and far >= 2.0 * near
         # the previous bounce's radiance (the first bounce: the world's, black)
         incoming = probes.volumes[0].sh[0, 0, 0, 0, 0] / C00 if probes.volumes else 0.0
@@ -97,7 +97,7 @@ def test_each_bounce_sees_the_previous_ones_probes():
 
 
 def test_reflection_probe_chains_and_metadata():
-    job = bake.Bake([sphere()], World(), lambda p, size, n, f, probes: constant_cube(size, 2.0),
+    job = bake.Bake([sphere()], World(), lambda p, size, *_: constant_cube(size, 2.0),
                     bounces=1, face_size=8)
     steps = list(job.steps())
     assert steps == [1.0]
@@ -120,7 +120,7 @@ def test_reflection_probe_chains_and_metadata():
 
 
 def test_a_cancelled_bake_has_no_results():
-    job = bake.Bake([volume((2, 2, 2))], World(), lambda p, s, n, f, probes: constant_cube(s, 1),
+    job = bake.Bake([volume((2, 2, 2))], World(), lambda p, s, *_: constant_cube(s, 1),
                     bounces=2, volume_face_size=2)
     steps = job.steps()
     assert next(steps) == 1 / 16

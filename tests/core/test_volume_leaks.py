@@ -227,3 +227,31 @@ def test_captures_see_objects_the_camera_does_not():
     hidden = capture.Capture(scene).cube(np.zeros(3), 8, 0.01, 100.0)
     np.testing.assert_array_equal(hidden, seen)
     assert seen.max() < 0.5  # the walls, not the bright world
+
+
+def test_objects_hidden_from_a_kind_of_probe():
+    """Object > Visibility > Light Probes: a block hidden from Sphere probes is not in their
+    captures (the floor under it shows there) yet still shades the floor it stands on; the
+    Volume captures and the volumes' surfaces see it."""
+    floor = cube((-3.0, -3.0, -1.3), (3.0, 3.0, -1.0))
+    block = cube((-0.5, -0.5, -0.9), (0.5, 0.5, 0.0))
+    normals = [np.repeat(np.cross(t[:, 1] - t[:, 0], t[:, 2] - t[:, 0])[:, None], 3, 1)
+               for t in (floor, block)]
+    meshes = [MeshBatch(t, (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32),
+                        np.zeros(len(t), np.int32), name=name, sphere_probes=name != "block")
+              for t, n, name in zip((floor, block), normals, ("floor", "block"), strict=True)]
+    light = Light(kind="SUN", color=np.full(3, 3.0, np.float32),
+                  direction=np.array([0.0, 0.0, -1.0]), shadow=True)
+    scene = dataclasses.replace(scene_of(floor, grey()), meshes=meshes, lights=[light])
+    scene.world.color = np.zeros(3, np.float32)
+    grab = capture.Capture(scene)
+    above = np.array([0.0, 0.0, 1.0])
+    down = 5  # the face looking along -Z (``cubemap.FACES``)
+    sphere = grab.cube(above, 16, 0.01, 100.0)[down]
+    volume = grab.cube(above, 16, 0.01, 100.0, kind="irradiance")[down]
+    centre = (slice(6, 10), slice(6, 10))  # straight down: the block's top, 1 m away
+    lit = 0.5 / math.pi * 3.0  # a lit floor or top: albedo / pi x irradiance
+    np.testing.assert_allclose(volume[centre].mean(), lit, rtol=0.05)  # the block's top
+    assert sphere[centre].max() < 0.05 * lit  # the floor beneath it, in its shadow
+    assert sphere[0, 0].mean() > 0.5 * lit  # the floor beyond the shadow is lit
+    assert grab.surfaces(np.array([0.0, 0.0, -0.5]), 16, 0.01, 100.0).front_ratio == 0.0
