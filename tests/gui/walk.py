@@ -171,7 +171,8 @@ def walk():
     mesh = next(o for o in scene.objects if o.type == "MESH" and o.active_material)
     yield from show_tab(mesh, "OBJECT")
     yield 1.0
-    tab_check("Object tab", "object", {"Object.visible_camera", "Object.is_holdout"})
+    tab_check("Object tab", "object", {"Object.visible_camera", "Object.is_holdout",
+                                       "Object.hide_probe_sphere", "Object.hide_probe_volume"})
     camera = next(o for o in scene.objects if o.type == "CAMERA")
     yield from show_tab(camera, "DATA")
     yield 1.0
@@ -322,6 +323,35 @@ def walk():
           and live.shading.world is not None and not (live.error or live.session.error),
           live.status() if live else "no view")
     screenshot("viewport_studio_light")
+
+    # 8. A world of nodes (a gradient): rendered by Cycles after the edit, then read as a world
+    world = bpy.data.worlds.new("Walk Gradient")
+    nt = world.node_tree
+    coords, split = nt.nodes.new("ShaderNodeTexCoord"), nt.nodes.new("ShaderNodeSeparateXYZ")
+    ramp = nt.nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.35, 0.2, 0.1, 1.0)
+    ramp.color_ramp.elements[1].color = (0.3, 0.55, 1.0, 1.0)
+    nt.links.new(coords.outputs["Generated"], split.inputs[0])
+    nt.links.new(split.outputs["Z"], ramp.inputs["Fac"])
+    nt.links.new(ramp.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    bpy.context.scene.world = world
+    shading.use_scene_world_render = True
+    worlds = module("addon.blender.worlds")
+    start = time.perf_counter()
+    while worlds.lookup(bpy.context.scene, world) is None and time.perf_counter() - start < 60:
+        yield 1.0
+    check("a world of nodes is rendered by Cycles after the edit",
+          worlds.lookup(bpy.context.scene, world) is not None and not worlds.direct(world))
+    yield from wait_final(viewports, view, 300)
+    live = view.get("live")
+    image = live.session.image() if live is not None else None
+    check("the viewport reads it", image is not None and image.final
+          and live.scene is not None and live.scene.world.texture is not None,
+          live.status() if live else "no view")
+    screenshot("viewport_world_of_nodes")
+    yield from show_tab(None, "WORLD")
+    yield 1.0
+    tab_check("World tab (nodes)", "world", set())
 
 
 def rendered_view():
