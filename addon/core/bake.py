@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -338,15 +338,21 @@ class Bake:
                 yield done / total
         lighting = world_probes(self.world)
         results: list[BakedProbe] = []
+        # the volumes first: a bounce's reflection probes see the surfaces lit by this
+        # bounce's volumes, as a frame does (the same number of diffuse bounces)
+        order = sorted(range(len(self.specs)), key=lambda k: self.specs[k].kind != "irradiance")
         for _ in range(max(1, self.bounces)):
-            results = []
+            found: dict[int, BakedProbe] = {}
             baked = world_probes(self.world)
-            for k, spec in enumerate(self.specs):
+            for k in order:
+                spec = self.specs[k]
                 size = self.face_size if spec.kind == "reflection" else self.volume_face_size
                 pos, ratios, moved = placed.get(k, (spec.points, None, 0))
+                seen = lighting if spec.kind == "irradiance" else replace(
+                    lighting, volumes=list(baked.volumes))
                 coeffs, chains = [], None
                 for p in pos:
-                    cube = self.capture(p, size, *self._clip(spec), lighting, spec.kind)
+                    cube = self.capture(p, size, *self._clip(spec), seen, spec.kind)
                     if spec.kind == "reflection":
                         c, chains = capture.filtered(cube)
                     else:
@@ -361,9 +367,10 @@ class Bake:
                                                spec.volume)
                     coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
                 result = BakedProbe(spec, coeffs, chains, size, validity, moved)
-                results.append(result)
+                found[k] = result
                 probe = spec.probe(result.coeffs, chains, validity)
                 (baked.reflection if spec.kind == "reflection" else baked.volumes).append(probe)
+            results = [found[k] for k in range(len(self.specs))]
             lighting = baked
         self.results = results
 

@@ -53,21 +53,31 @@ def test_capture_points():
 
 
 def test_the_first_bounce_is_lit_by_the_world_alone():
-    """No probe region decides where the sky reaches: the first captures are lit by the world
-    (occluded by what each surface sees, in the captures' frames), with no probe present."""
+    """No probe region decides where the sky reaches: the first volume captures are lit by the
+    world (occluded by what each surface sees, in the captures' frames), with no probe present;
+    a reflection probe is captured after the volumes, lit by this bounce's volumes, as a frame
+    is (its surfaces have as many diffuse bounces as the frame's)."""
     world = World(color=np.full(3, 0.5, np.float32))
     lit = []
 
     def capture(position, size, near, far, probes, kind):
-        lit.append((probes.world_sh[0].copy(), len(probes.reflection), len(probes.volumes)))
-        return constant_cube(size, 1.0)
+        lit.append((kind, probes.world_sh[0].copy(), len(probes.reflection),
+                    [float(v.sh[0, 0, 0, 0, 0]) for v in probes.volumes]))
+        return constant_cube(size, 1.0 + len(lit))
 
-    list(bake.Bake([sphere(), volume()], world, capture, bounces=1, face_size=4,
-                   volume_face_size=4).steps())
-    assert len(lit) == 3
-    for world_sh, reflection, volumes in lit:
+    job = bake.Bake([sphere(), volume()], world, capture, bounces=2, face_size=4,
+                    volume_face_size=4)
+    list(job.steps())
+    assert [k for k, *_ in lit] == ["irradiance"] * 2 + ["reflection"] + ["irradiance"] * 2 + [
+        "reflection"]
+    for _, world_sh, *_ in lit:
         np.testing.assert_allclose(world_sh, C00 * 0.5, rtol=1e-3)
-        assert reflection == volumes == 0
+    assert lit[0][2:] == lit[1][2:] == (0, [])  # the first volumes: the world alone
+    last = float(job.results[1].coeffs[0, 0, 0])  # the volume's first sample, 2nd bounce
+    assert lit[2][2] == 0 and len(lit[2][3]) == 1  # the 1st bounce's volume, no reflection
+    assert lit[3][2] == 1 and lit[5][2] == 1  # then the previous bounce's reflection
+    assert lit[5][3] == [pytest.approx(last)] and lit[2][3] != lit[5][3]  # this bounce's
+    assert [r.spec.kind for r in job.results] == ["reflection", "irradiance"]  # specs' order
 
 
 def test_each_bounce_sees_the_previous_ones_probes():
