@@ -13,7 +13,10 @@ is lit by all of it, a closed room only through its openings; no rule about wher
 lies decides it). Each further bounce captures the scene lit by the previous bounce's probes,
 diffuse and specular (a metal in a capture reflects the previous bounce's reflection probes),
 and by the world's seen light where they leave weight, so bounce n adds light that has bounced
-n times and the sum converges (a closed box: the geometric series of its albedo).
+n times and the sum converges (a closed box: the geometric series of its albedo). Within a
+bounce the volumes are captured first, and the reflection probes' captures take their diffuse
+light from this bounce's volumes: a surface a metal reflects has as many diffuse bounces as
+the same surface in a frame.
 
 Irradiance volumes without leaks, as EEVEE's (``VolumeSettings``): before the first bounce,
 each sample's surroundings are looked at (``SurfacesFn``); a sample that sees mostly back faces
