@@ -91,13 +91,14 @@ def test_bake_writes_one_file_per_probe(addon, tmp_path):
 
 def test_objects_hidden_from_light_probes_are_not_baked(addon, tmp_path, capfd):
     """Object > Visibility > Light Probes: the red wall hidden from Sphere probes leaves the
-    reflection probe's light and keeps the volume's; hidden from Volume probes, the reverse.
+    reflection probe's light and keeps the volume's; hidden from Volume probes, it leaves the
+    volume's light and the reflection probe still sees it.
     (The chrome ball the reflection probe sits in is hidden from Sphere probes throughout, as
     an artist hides an object from the probe at its centre: no warning that it is inside.)"""
     scene = room(tmp_path)
     wall = next(o for o in scene.objects if o.type == "MESH" and o.location.y == 2)
     scene.objects["Sphere"].hide_probe_sphere = True
-    scene.bo2.bake_bounces = 1  # each kind's captures lit by the world alone: independent
+    scene.bo2.bake_bounces = 1  # the volume's captures lit by the world alone
 
     def redness():
         folder = bake(scene)
@@ -111,7 +112,7 @@ def test_objects_hidden_from_light_probes_are_not_baked(addon, tmp_path, capfd):
     wall.hide_probe_sphere, wall.hide_probe_volume = False, True
     no_volume = redness()
     assert no_sphere[0] < seen[0] - 0.1 and no_sphere[1] == pytest.approx(seen[1], rel=1e-4)
-    assert no_volume[1] < seen[1] - 0.1 and no_volume[0] == pytest.approx(seen[0], rel=1e-4)
+    assert no_volume[1] < seen[1] - 0.1 and no_volume[0] > no_sphere[0] + 0.1  # still seen
     assert "inside object" not in capfd.readouterr().out
 
 
