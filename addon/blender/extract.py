@@ -680,7 +680,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
                   should_stop: Callable[[], bool] | None = None):
     """``extract_scene``'s walk over the depsgraph's instances: (meshes, lights, object-space
     data and batches by key, for ``cache``); ``triangles[0]`` counts the triangles read, those
-    of the batch being made included."""
+    of the batch being made included; ``should_stop`` as ``extract_scene``'s."""
     meshes: list[cs.MeshBatch] = []
     lights: list[cs.Light] = []
     objects: dict[tuple, tuple | None] = {}  # object-space data shared by instances
@@ -691,11 +691,14 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
                       for o in depsgraph.objects)
 
     instancers, shown = [], set()  # (read after the walk, when every shown object is known)
+    def poll() -> None:
+        if should_stop is not None and should_stop():
+            raise pipeline.Cancelled()
+
     for inst in depsgraph.object_instances:
         if at_once and inst.is_instance:
             continue
-        if should_stop is not None and should_stop():
-            raise pipeline.Cancelled()
+        poll()
         obj = inst.object
         if at_once:
             shown.add(obj.original.name_full)
@@ -736,8 +739,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
-        if should_stop is not None and should_stop():
-            raise pipeline.Cancelled()
+        poll()
         parent = _matrix(obj.matrix_world)
         for key, data, local, owner in _instances(obj, depsgraph, cache, warnings, shown):
             visibility = _visibility(owner, depsgraph.view_layer)
