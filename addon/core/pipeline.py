@@ -31,6 +31,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import affine, material, occlusion, probes, raster, sh, shade, shadows, texture
+from . import lightmap as lightmap_light
 from . import sky as sky_light
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
 from .scene import Material, Scene
@@ -133,6 +134,11 @@ class Frame:
     tiles: dict | None = None
     seen: np.ndarray | None = None   # (T,) bool: the camera sees the triangle (None: all)
     casts: np.ndarray | None = None  # (T,) bool: the triangle casts shadows (None: all)
+    # lightmaps (``MeshBatch.lightmap``): per triangle the index of its lightmap in
+    # ``lightmaps`` (T,) int32, -1 none, and its lightmap UVs (T, 3, 2); None without any
+    lightmap: np.ndarray | None = None
+    lightmap_uvs: np.ndarray | None = None
+    lightmaps: list | None = None
 
     @property
     def sky(self) -> sky_light.Sky | None:
@@ -251,6 +257,15 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
         seen = casts = None
+    lit = ([k for k, m in enumerate(meshes) if m.lightmap is not None]
+           if scene.settings.lightmaps else [])
+    lightmap = lightmap_uvs = None
+    if lit:
+        lightmap = joined([np.full(len(m.positions), lit.index(k) if k in lit else -1, np.int32)
+                           for k, m in enumerate(meshes)], np.int32)
+        lightmap_uvs = joined([m.lightmap.uvs if k in lit else
+                               np.zeros((len(m.positions), 3, 2), np.float32)
+                               for k, m in enumerate(meshes)], np.float32)
     attributes = _concat_attributes(meshes)
     world_to_object = joined(per_instance, np.float64) if meshes else np.eye(4)[None]
     texspace = np.concatenate([
@@ -271,7 +286,8 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
                  f"{flat} with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
-        seen, casts = (None if a is None else a[keep] for a in (seen, casts))
+        seen, casts, lightmap, lightmap_uvs = (None if a is None else a[keep] for a in (
+            seen, casts, lightmap, lightmap_uvs))
         normals = np.nan_to_num(normals[keep])
         uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
@@ -290,7 +306,8 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
     frame = Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                   [None] * shadow_map_count(scene) if shadow_maps is None else shadow_maps,
                   tables, attributes, obj, world_to_object, texspace, fades, seen=seen,
-                  casts=casts)
+                  casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
+                  lightmaps=[meshes[k].lightmap for k in lit] or None)
     if shadow_maps is None:
         frame.shadow_maps = build_shadow_maps(frame, should_stop, fit_shadows)
     return frame
@@ -686,14 +703,18 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
             both = occlusion.multi_bounce(np.minimum(vis, ao[k]), rho[k])[:, 0]
             return both / np.maximum(occlusion.multi_bounce(ao[k], rho[k])[:, 0], 1e-3)
 
+        baked = _lightmap_sh(frame, tri, bary)
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf,
-                                              sky=None if sky is None else seen)
+                                              sky=None if sky is None else seen, baked=baked)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]
         if view is not None:
-            diff_ind *= occlusion.multi_bounce(ao, mat.albedo)
+            bounce = occlusion.multi_bounce(ao, mat.albedo)
+            if baked is not None:  # a lightmap holds its surface's occlusion already
+                bounce[baked[0]] = 1.0
+            diff_ind *= bounce
             if s.specular_occlusion:
                 n_dot_v = np.einsum("nk,nk->n", n, v)
                 gloss_ind *= occlusion.specular(ao, n_dot_v, mat.gloss)[:, None]
@@ -708,6 +729,24 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
                                                    mat.gloss)))
     out[:, SAMPLED["AO"]] = ao[:, None]
     return out
+
+
+def _lightmap_sh(frame: Frame, tri, bary) -> tuple[np.ndarray, np.ndarray] | None:
+    """The lightmapped points among those on triangles ``tri`` (N,) at weights ``bary``
+    (N, 3): their indices (K,) and the SH (K, 9, 3) of the light their lightmap holds
+    (``lightmap.as_sh``), or None when none is lightmapped."""
+    if frame.lightmap is None:
+        return None
+    which = frame.lightmap[tri]
+    k = np.flatnonzero(which >= 0)
+    if not k.size:
+        return None
+    uv = np.einsum("nk,nkc->nc", bary[k], frame.lightmap_uvs[tri[k]])
+    out = np.zeros((k.size, 9, 3), np.float32)
+    for m in np.unique(which[k]):
+        sel = np.flatnonzero(which[k] == m)
+        out[sel] = lightmap_light.as_sh(lightmap_light.sample(frame.lightmaps[m].image, uv[sel]))
+    return k, out
 
 
 def _view_buffer(frame: Frame, tile) -> tuple[np.ndarray, int, int]:

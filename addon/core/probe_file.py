@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "ProbeFileError", "read", "size_bound", "write", "write_all"]
+__all__ = ["FORMAT", "ProbeFileError", "read", "replace_all", "size_bound", "write", "write_all"]
 
 FORMAT = 1
 """Layout version stored in the metadata; files of another version are refused."""
@@ -58,20 +58,26 @@ def write(path: str | os.PathLike, meta: dict, sh: np.ndarray,
 
 def write_all(files: list[tuple]) -> None:
     """Write several probes, all or nothing: ``files`` is a list of (path, meta, sh, mips) as
-    ``write`` takes them. On any failure every old file is back in place, no new file is, no
-    temporary file stays, and the error is raised."""
-    paths = [Path(f[0]) for f in files]
+    ``write`` takes them (``replace_all``)."""
+    replace_all([(f[0], lambda tmp, f=f: _encode(tmp, *f[1:])) for f in files])
+
+
+def replace_all(writes: list[tuple]) -> None:
+    """Write several files, all or nothing: ``writes`` is a list of (path, encode), encode
+    writing the file's bytes to the temporary path it is given. On any failure every old file
+    is back in place, no new file is, no temporary file stays, and the error is raised."""
+    paths = [Path(w[0]) for w in writes]
     for path in paths:
         if path.is_dir():
-            raise ProbeFileError(f"{path}: a folder stands where the probe file goes")
+            raise ProbeFileError(f"{path}: a folder stands where the file goes")
     pid = os.getpid()
     temporary = [p.with_name(f".{p.name}.{pid}.tmp") for p in paths]
     aside = [p.with_name(f".{p.name}.{pid}.old") for p in paths]
     placed: list[int] = []
     try:
-        for (path, meta, sh, mips), tmp in zip(files, temporary, strict=True):
+        for (path, encode), tmp in zip(writes, temporary, strict=True):
             Path(path).parent.mkdir(parents=True, exist_ok=True)
-            _encode(tmp, meta, sh, mips)
+            encode(tmp)
         for k, (path, tmp, old) in enumerate(zip(paths, temporary, aside, strict=True)):
             placed.append(k)
             if path.exists():

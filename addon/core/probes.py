@@ -319,6 +319,7 @@ def indirect(
     prefilter: str = "bo2",
     env_model: str = "bo2",
     sky: SkyFn | None = None,
+    baked: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.
 
@@ -330,6 +331,8 @@ def indirect(
                  tests call ``env_brdf`` for it; "table" is its look-up)
     sky:         the fraction of the world's light that reaches the points of given indices
                  (k,) -> (k,) in [0, 1] (``sky.visibility``), or None: all of it
+    baked:       (indices (K,), SH (K, 9, 3)): these points' SH is given (their lightmaps',
+                 ``lightmap.as_sh``) rather than looked up in the volumes, or None
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
     from .kernels import indirect as kernels
@@ -344,11 +347,21 @@ def indirect(
         raise ValueError(f"unknown environment BRDF {env_model!r} for shading; expected one of: "
                          f"{', '.join(kernels.ENV_MODELS)}")
     n = len(points)
-    pixel_sh = np.asarray(_pixel_sh(
-        probes, points, np.broadcast_to(np.asarray(normals, np.float32), (n, 3)),
-        np.broadcast_to(np.asarray(view, np.float32), (n, 3)), sky), np.float32)
-    pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
-                                    else pixel_sh[None])
+    normals3 = np.broadcast_to(np.asarray(normals, np.float32), (n, 3))
+    view3 = np.broadcast_to(np.asarray(view, np.float32), (n, 3))
+    if baked is None:
+        pixel_sh = np.asarray(_pixel_sh(probes, points, normals3, view3, sky), np.float32)
+        pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
+                                        else pixel_sh[None])
+    else:
+        where, given = baked
+        rest = np.setdiff1d(np.arange(n), where)
+        pixel_sh = np.empty((n, 9, 3), np.float32)
+        pixel_sh[where] = given
+        if rest.size:
+            pixel_sh[rest] = _pixel_sh(probes, np.asarray(points)[rest], normals3[rest],
+                                       view3[rest], None if sky is None else
+                                       (lambda k: sky(rest[k])))
     chains, offsets, sides, levels = _packed_chains(probes, prefilter)
     shs = [p.sh for p in probes.reflection] + [probes.world_sh]
     tinted = [sh.to_tinted(np.asarray(c, np.float64)) for c in shs]

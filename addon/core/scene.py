@@ -143,6 +143,8 @@ class MeshBatch:
                instances read at once): the triangles are then instance by instance, T / I
                each
     texspace:  (2, 3) Generated coordinates are (p_object - texspace[0]) / texspace[1]
+    lightmap:  its baked ``lightmap.Lightmap`` (the diffuse indirect light of its surface), or
+               None: the probes light it
     """
 
     positions: np.ndarray
@@ -158,6 +160,7 @@ class MeshBatch:
     attributes: dict = field(default_factory=dict)
     world_to_object: np.ndarray | None = None
     texspace: np.ndarray | None = None
+    lightmap: object | None = None
 
 
 @dataclass
@@ -238,6 +241,8 @@ class RenderSettings:
                     GIL); 0 = one per CPU core
     border:         optional (x0, y0, x1, y1) pixel region to render, top-left origin,
                     x1 and y1 exclusive (Blender's render border)
+    lightmaps:      objects with a baked lightmap take their diffuse indirect light from it
+                    (``lightmap``); False: from the probes, as every other object
     """
 
     samples: int = 4
@@ -257,6 +262,7 @@ class RenderSettings:
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None
+    lightmaps: bool = True
 
 
 @dataclass

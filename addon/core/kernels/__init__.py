@@ -42,7 +42,7 @@ def bundled_numba(system: str = sys.platform, machine: str = platform.machine())
 
 NUMBA_VERSION = bundled_numba()
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
-MODULES = ("indirect", "occlusion", "raster", "shading", "shadows", "textures")
+MODULES = ("indirect", "lightmap", "occlusion", "raster", "shading", "shadows", "textures")
 
 __all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
            "is_cached", "load"]

@@ -1,0 +1,350 @@
+"""Lightmap baking: texels, direct light, gathers through a BVH, clean-up (``lightmap``).
+
+The method and its references are in ``lightmap``'s docstring; this module renders: it reads
+the scene through a prepared frame (``pipeline.prepare``: materials, shadow maps) and writes
+nothing to disk (the host writes the results with ``lightmap_file``), so a bake that is
+stopped leaves the previous files as they were.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import affine, pipeline, shade, shadows
+from . import probes as probe_light
+from .capture import face_camera, world_cube
+from .cubemap import FACES, _pad
+from .lightmap import (
+    SH_SCALE_C0,
+    SH_SCALE_C1,
+    Lightmap,
+    LightmapError,
+    Settings,
+    Target,
+    denoise,
+    dilate,
+    seams,
+    stitch,
+    uv_islands,
+)
+from .scene import Scene
+
+__all__ = ["bake", "geometry_key", "light_key"]
+
+_FACES = np.array(FACES)  # writable, as the kernel takes it
+
+
+
+@dataclass
+class _Texels:
+    """The texels of one target that lie on its surface."""
+
+    at: np.ndarray        # (M,) flat texel index
+    tri: np.ndarray       # (M,) int64 triangle of the frame
+    p: np.ndarray         # (M, 3) float32
+    n: np.ndarray         # (M, 3) unit interpolated normal
+    geo: np.ndarray       # (M, 3) unit face normal
+    chart: np.ndarray     # (H, W) int64 chart id of each texel, -1 none
+
+
+def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Per mesh batch the index of its first triangle in a prepared frame's arrays, and per
+    concatenated triangle its index in the frame (-1: dropped as broken, ``pipeline.prepare``)."""
+    counts = [len(m.positions) for m in scene.meshes]
+    first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+    if not scene.meshes:
+        return first, np.zeros(0, np.int64)
+    keep, _, _ = pipeline._broken(np.concatenate([m.positions for m in scene.meshes]))
+    index = np.where(keep, np.cumsum(keep) - 1, -1)
+    return first, index
+
+
+def _texels(target: Target, frame, first, index) -> _Texels:
+    from .kernels import lightmap as kernels
+
+    w, h = target.width, target.height
+    tri = np.full(w * h, -1, np.int32)
+    bary = np.zeros((w * h, 3), np.float32)
+    uvs = np.ascontiguousarray(target.uvs, np.float32)
+    kernels.texels(uvs, w, h, kernels.SUBSAMPLES, tri, bary)
+    at = np.flatnonzero(tri >= 0)
+    global_tri = index[first[target.mesh] + tri[at]]
+    ok = global_tri >= 0
+    at, global_tri, b = at[ok], global_tri[ok], bary[at[ok]]
+    q = frame.positions[global_tri]
+    p = np.einsum("nk,nkc->nc", b, q).astype(np.float32)
+    geo = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+    geo /= np.maximum(np.linalg.norm(geo, axis=1, keepdims=True), 1e-30)
+    n = np.einsum("nk,nkc->nc", b, frame.normals[global_tri])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    flip = np.einsum("nc,nc->n", n, geo) < 0.0  # a shading normal facing away: the face's
+    n[flip] = geo[flip]
+    # charts: connected texels of one UV island; charts of the layout are not kept, so texels
+    # are grouped by their triangle's chart of the layout the UVs make
+    chart = np.full(w * h, -1, np.int64)
+    chart[at] = uv_islands(target.uvs)[tri[at]]
+    return _Texels(at, global_tri, p, n.astype(np.float32), geo.astype(np.float32),
+                   chart.reshape(h, w))
+
+
+def _direct(frame, p, n, geo) -> np.ndarray:
+    """(N, 3) irradiance of the scene's lights at points p with normals n, face normals geo,
+    shadowed by the frame's maps."""
+    out = np.zeros((len(p), 3), np.float32)
+    for light, smap in zip(frame.scene.lights, frame.shadow_maps, strict=False):
+        l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
+        if not lit.any():
+            continue
+        vis = np.ones(len(p), np.float32) if smap is None else shadows.shadow_visibility(
+            smap, p, geo, where=lit)
+        cos = np.maximum(np.einsum("nk,nk->n", n, l_dir), 0.0)
+        out += irradiance * (cos * vis * lit)[:, None]
+    return out
+
+
+def _surface(frame, tri, p, n, geo, bary=None):
+    """Albedo and emission (N, 3) of the frame's surfaces at the points."""
+    if bary is None:
+        q = frame.positions[tri].astype(np.float64)
+        e1, e2, d = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0], p - q[:, 0]
+        d00, d01, d11 = (e1 * e1).sum(1), (e1 * e2).sum(1), (e2 * e2).sum(1)
+        d20, d21 = (d * e1).sum(1), (d * e2).sum(1)
+        den = np.maximum(d00 * d11 - d01 * d01, 1e-30)
+        v = (d11 * d20 - d01 * d21) / den
+        w = (d00 * d21 - d01 * d20) / den
+        bary = np.stack([1 - v - w, v, w], 1).astype(np.float32)
+    zero = np.zeros(len(tri), np.float32)
+    s = pipeline._materials(frame, np.asarray(tri, np.int64), bary, p, n, geo, n, zero, zero,
+                            shifts=False)
+    return np.asarray(s.albedo, np.float32), np.asarray(s.emission, np.float32)
+
+
+def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray) -> np.ndarray:
+    """(T, 3, 3) radiance of the corners (moved 5% in) of the frame's triangles ``dynamic``
+    (bool (T,)), lit directly and by the probes; 0 elsewhere."""
+    out = np.zeros((len(frame.positions), 3, 3), np.float32)
+    tri = np.flatnonzero(dynamic)
+    if not len(tri):
+        return out
+    q = frame.positions[tri]
+    centre = q.mean(1, keepdims=True)
+    p = (q + 0.05 * (centre - q)).reshape(-1, 3).astype(np.float32)
+    t3 = np.repeat(tri, 3)
+    geo = np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0])
+    geo = np.repeat(geo / np.maximum(np.linalg.norm(geo, axis=1, keepdims=True), 1e-30), 3, 0)
+    n = frame.normals[tri].reshape(-1, 3)
+    n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
+    geo, n = geo.astype(np.float32), n.astype(np.float32)
+    albedo, emission = _surface(frame, t3, p, n, geo)
+    e = _direct(frame, p, n, geo)
+    radiance = emission + albedo * e / np.float32(np.pi)
+    if scene.probes is not None:
+        diffuse, _ = probe_light.indirect(scene.probes, p, n, n, albedo,
+                                          np.zeros_like(albedo), np.zeros(len(p), np.float32))
+        radiance += diffuse
+    out[tri] = radiance.reshape(-1, 3, 3)
+    return out
+
+
+def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
+         progress: Callable[[float], None] | None = None,
+         should_stop: Callable[[], bool] | None = None,
+         warn: Callable[[str], None] | None = None) -> list[Lightmap]:
+    """Bake the lightmaps of ``targets`` (``Target``) in ``scene``: one ``Lightmap`` each,
+    in order. ``scene.probes`` lights the objects without a lightmap that the rays meet.
+    Raises ``pipeline.Cancelled`` when ``should_stop`` says so; nothing is written here."""
+    from .kernels import lightmap as kernels
+
+    settings = settings or Settings()
+
+    def poll():
+        if should_stop is not None and should_stop():
+            raise pipeline.Cancelled()
+
+    def report(fraction):
+        if progress is not None:
+            progress(min(max(fraction, 0.0), 1.0))
+
+    base = dataclasses.replace(scene, camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0),
+                               settings=dataclasses.replace(scene.settings, border=None))
+    base = dataclasses.replace(base, probes=None)
+    frame = pipeline.prepare(base, warn, should_stop, fit_shadows=False)
+    frame.scene = dataclasses.replace(frame.scene, probes=scene.probes)
+    first, index = _frame_index(scene)
+    poll()
+    texels = []
+    for target in targets:
+        poll()
+        if target.width * target.height <= 0:
+            raise LightmapError(f"{target.name}: an empty lightmap")
+        texels.append(_texels(target, frame, first, index))
+    report(0.05)
+    # per frame triangle: its lightmap and lightmap UVs
+    tri_map = np.full(len(frame.positions), -1, np.int32)
+    tri_uv = np.zeros((len(frame.positions), 3, 2), np.float32)
+    for k, target in enumerate(targets):
+        local = index[first[target.mesh]:first[target.mesh] + len(target.uvs)]
+        ok = local >= 0
+        tri_map[local[ok]] = k
+        tri_uv[local[ok]] = target.uvs[ok]
+    sizes = np.array([t.width * t.height for t in targets], np.int64)
+    map_base = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
+    map_width = np.array([t.width for t in targets], np.int64)
+    map_height = np.array([t.height for t in targets], np.int64)
+    # what each texel is: albedo, emission and direct light, once
+    albedo, emission, direct = [], [], []
+    for tx in texels:
+        poll()
+        a, e = _surface(frame, tx.tri, tx.p, tx.n, tx.geo)
+        albedo.append(a)
+        emission.append(e)
+        direct.append(_direct(frame, tx.p, tx.n, tx.geo))
+    report(0.1)
+    corner = _corner_radiance(frame, scene, tri_map < 0)
+    tris = np.ascontiguousarray(frame.positions, np.float32)
+    order = np.empty(len(tris), np.int32)
+    bounds = np.empty((max(2 * len(tris), 1), 6), np.float32)
+    links = np.empty((max(2 * len(tris), 1), 4), np.int32)
+    if len(tris):
+        kernels.build_bvh(tris, order, bounds, links)
+    world = scene.world
+    if world.texture is None:
+        cube = np.zeros(1, np.float32)
+        cube_size = 0
+    else:
+        cube_size = 32
+        cube = _pad(world_cube(world, cube_size)).reshape(-1).astype(np.float32)
+    color = np.asarray(world.color, np.float32).reshape(-1)[:3].copy()
+    extent = np.ptp(tris.reshape(-1, 3), axis=0) if len(tris) else np.ones(3)
+    reach = float(np.linalg.norm(extent)) * 2.0 + 1.0
+    params = np.array([1e-4 * max(float(extent.max()), 1.0), reach])
+    indirect = [np.zeros((len(tx.at), 3), np.float32) for tx in texels]
+    sh = [np.zeros((len(tx.at), 4, 3), np.float32) for tx in texels]
+    bounces = max(1, int(settings.bounces))
+    total_rays = sum(len(tx.at) for tx in texels) * bounces
+    done = [0]
+    lock = threading.Lock()
+    threads = pipeline.thread_count(scene.settings)
+    for bounce in range(bounces):
+        # the radiance every lightmapped surface leaves, from the last gather
+        radiance = np.zeros((int(sizes.sum()), 3), np.float32)
+        for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
+            image = np.zeros((target.height * target.width, 3), np.float32)
+            image[tx.at] = emission[k] + albedo[k] * (direct[k] + indirect[k]) / np.float32(np.pi)
+            valid = np.zeros(target.height * target.width, bool)
+            valid[tx.at] = True
+            image = dilate(image.reshape(target.height, target.width, 3),
+                           valid.reshape(target.height, target.width), passes=4)
+            radiance[map_base[k]:map_base[k] + sizes[k]] = image.reshape(-1, 3)
+        jobs = []
+        for k, tx in enumerate(texels):
+            for lo in range(0, len(tx.at), 2048):
+                jobs.append((k, lo, min(lo + 2048, len(tx.at))))
+        new_e = [np.zeros_like(a) for a in indirect]
+        new_sh = [np.zeros_like(a) for a in sh]
+        back = [np.zeros(len(tx.at), np.float32) for tx in texels]
+        stop = threading.Event()
+
+        def job(k, lo, hi, radiance=radiance, new_e=new_e, new_sh=new_sh, back=back,
+                stop=stop):
+            def run():
+                if stop.is_set():
+                    raise pipeline.Cancelled()
+                tx = texels[k]
+                e = np.empty((hi - lo, 3), np.float32)
+                s = np.empty((hi - lo, 4, 3), np.float32)
+                b = np.empty(hi - lo, np.float32)
+                kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], int(settings.rays),
+                               params, tris, order, bounds, links, tri_map, tri_uv, corner,
+                               map_base, map_width, map_height, radiance, cube, cube_size,
+                               color, _FACES, e, s, b)
+                new_e[k][lo:hi], new_sh[k][lo:hi], back[k][lo:hi] = e, s, b
+                with lock:
+                    done[0] += hi - lo
+            return run
+
+        for _ in pipeline._ordered([job(*j) for j in jobs], threads,
+                                   lambda: (poll(), report(0.1 + 0.85 * done[0] / max(
+                                       total_rays, 1))), stop):
+            pass
+        indirect, sh = new_e, new_sh
+        del bounce
+    out = []
+    for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
+        poll()
+        out.append(_finish(scene, target, tx, indirect[k], sh[k], settings))
+    report(1.0)
+    return out
+
+
+def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, settings: Settings
+            ) -> Lightmap:
+    """One target's texels made an image: directional or not, denoised, stitched, dilated."""
+    h, w = target.height, target.width
+    if settings.directional:
+        # Y00 set so the irradiance at the texel's normal is the gathered one
+        l1 = np.einsum("nk,nkc->nc", tx.n[:, [1, 2, 0]], sh[:, 1:4]) * (SH_SCALE_C1 * 2.0 / 3.0
+                                                                          * np.pi)
+        sh = sh.copy()
+        sh[:, 0] = (irradiance - l1) / (np.pi * SH_SCALE_C0)
+        values = sh.reshape(-1, 12)
+    else:
+        values = irradiance
+    c = values.shape[1]
+    image = np.zeros((h * w, c), np.float32)
+    image[tx.at] = values
+    valid = np.zeros(h * w, bool)
+    valid[tx.at] = True
+    image, valid = image.reshape(h, w, c), valid.reshape(h, w)
+    if settings.denoise:
+        pos = np.zeros((h * w, 3), np.float32)
+        nor = np.zeros((h * w, 3), np.float32)
+        pos[tx.at], nor[tx.at] = tx.p, tx.n
+        image = denoise(image, tx.chart, pos.reshape(h, w, 3), nor.reshape(h, w, 3))
+    image = dilate(image, valid, passes=max(8, settings.padding * 2))
+    mesh = scene.meshes[target.mesh]
+    image = stitch(image, seams(mesh.positions, target.uvs))
+    if not settings.directional:
+        image = np.maximum(image, 0.0)
+    return Lightmap(np.ascontiguousarray(image, np.float32),
+                    np.ascontiguousarray(target.uvs, np.float32))
+
+
+# ---------------------------------------------------------------------------------------------
+# Keys
+
+
+def geometry_key(positions: np.ndarray, world_to_object: np.ndarray | None = None) -> str:
+    """A digest of an object's triangles in its own space (its lightmap UVs stay valid while
+    this holds), 16 hex digits."""
+    p = np.asarray(positions, np.float64)
+    if world_to_object is not None:
+        m = np.asarray(world_to_object, np.float64).reshape(-1, 4, 4)[0]
+        p = affine.transform(p.reshape(-1, 3), m).reshape(p.shape)
+    q = np.round(p * 1e4).astype(np.int64)
+    return hashlib.sha256(q.tobytes()).hexdigest()[:16]
+
+
+def light_key(scene: Scene) -> str:
+    """A digest of what lights the lightmaps: every triangle's place, the lights, the world's
+    colour and strength (any change makes the scene's lightmaps stale), 16 hex digits."""
+    h = hashlib.sha256()
+    for m in scene.meshes:
+        h.update(np.round(np.asarray(m.positions, np.float64) * 1e4).astype(np.int64).tobytes())
+        h.update(np.asarray(m.material, np.int32).tobytes())
+    for light in scene.lights:
+        h.update(repr((light.kind, np.round(np.asarray(light.color, np.float64), 5).tolist(),
+                       np.round(np.asarray(light.position, np.float64), 4).tolist(),
+                       np.round(np.asarray(light.direction, np.float64), 4).tolist(),
+                       round(light.radius, 5), round(light.spot_size, 5), light.shadow))
+                 .encode())
+    w = scene.world
+    h.update(repr((np.round(np.asarray(w.color, np.float64), 5).tolist(), round(w.strength, 5),
+                   None if w.texture is None else w.texture.name)).encode())
+    return h.hexdigest()[:16]
