@@ -1,10 +1,11 @@
-"""Baking Blender's light probes: the scene extracted once, ``core.bake`` run with a capture by
-the engine's pipeline or by Cycles, the files written when every probe is done.
+"""Baking Blender's light probes and lightmaps: the scene extracted once, ``core.bake`` run with
+a capture by the engine's pipeline or by Cycles (``core.lightmap_bake`` for lightmaps), the
+files written when every probe (lightmap) is done.
 
-``bake_steps`` is the whole bake as a generator of progress fractions, so that the modal
-operator runs it a step per timer tick (Esc stops it between steps) and ``bo2 bake`` runs it in
-a loop. Nothing is written until every probe is done: a cancelled or failed bake leaves the
-previous files untouched, and each file is replaced atomically.
+``bake_steps`` (``lightmap_steps``) is the whole bake as a generator of progress fractions,
+so that the modal operator runs it a step per timer tick (Esc stops it between steps) and
+``bo2 bake`` runs it in a loop. Nothing is written until every probe is done: a cancelled or
+failed bake leaves the previous files untouched, and each file is replaced atomically.
 """
 
 from __future__ import annotations
@@ -19,8 +20,9 @@ import bpy
 import numpy as np
 
 from .. import version
-from ..core import bake, capture, cubemap, probe_file
-from . import extract, images, interrupt, probes, worlds
+from ..core import bake, capture, cubemap, lightmap_bake, lightmap_file, probe_file
+from ..core import lightmap as core_lightmap
+from . import extract, images, interrupt, lightmaps, probes, worlds
 from .probes import BakeError
 
 
@@ -174,6 +176,112 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise BakeError(f"Could not write the bake into {folder} ({reason}); the previous "
                         "bake files are as they were") from None
+    yield 1.0
+
+
+# --------------------------------------------------------------------------------------------
+# lightmaps
+
+
+def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[dict]]:
+    """The bake's ``core_lightmap.Target`` per object of ``objs`` that can have one, and per target
+    what its file records (UV map, density); ``warn(message)`` for each object left out or
+    laid out anew. Raises BakeError when none can, or when they would take more memory than
+    the cap."""
+    s = lightmaps.settings(scene)
+    targets, notes = [], []
+    for obj in objs:
+        k = lightmaps.batch_index(core_scene, obj.name)
+        if k is None:
+            warn(f"Object '{obj.name}' has no faces that render: no lightmap")
+            continue
+        positions = core_scene.meshes[k].positions
+        finite = np.isfinite(positions).all(axis=(1, 2))
+        area = 0.5 * np.linalg.norm(np.cross(positions[finite, 1] - positions[finite, 0],
+                                             positions[finite, 2] - positions[finite, 0]),
+                                    axis=1).sum()
+        if not area > 1e-10:
+            warn(f"Object '{obj.name}' has no surface area: no lightmap")
+            continue
+        if not finite.all():
+            warn(f"Object '{obj.name}': {int((~finite).sum())} triangles with NaN or infinite "
+                 "vertices are left out of its lightmap")
+        d = lightmaps.density(obj, scene)
+        name = lightmaps.uv_map(obj)
+        uvs = None if name is None else lightmaps.artist_uvs(obj, depsgraph, name, len(positions))
+        if uvs is not None:
+            width, height = core_lightmap.size_for(uvs[finite], positions[finite], d,
+                                              s.max_resolution)
+            bad = core_lightmap.overlaps(uvs, width, height)
+            outside = (uvs < 0.0).any() or (uvs > 1.0).any()
+            if bad or outside or not np.isfinite(uvs).all():
+                why = (f"{bad} texels where charts overlap" if bad else
+                       "coordinates outside 0..1")
+                warn(f"Object '{obj.name}': UV map '{name}' has {why}; a layout is made "
+                     "for its lightmap instead")
+                uvs = None
+        if uvs is None:
+            safe = np.where(finite[:, None, None], positions, 0.0)
+            uvs, width, height, d = core_lightmap.layout(safe, d, s.padding, s.max_resolution)
+            name = ""
+        targets.append(core_lightmap.Target(obj.name, k, uvs, width, height))
+        notes.append({"uv_map": name, "texels_per_metre": round(d, 4)})
+    if not targets:
+        raise BakeError("No static mesh object can have a lightmap")
+    need = sum(core_lightmap.memory_bytes(t.width, t.height, s.directional) for t in targets)
+    if need > s.memory_cap:
+        raise BakeError(f"The lightmaps would take {need / 2**20:.0f} MiB, more than the "
+                        f"{s.memory_cap / 2**20:.0f} MiB cap: lower Texels per Metre or Max "
+                        "Resolution")
+    return targets, notes
+
+
+def lightmap_steps(scene, depsgraph, objs, report=None):
+    """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1]; the files
+    are written at the end, all or nothing (closing it early writes nothing).
+    ``report(message)`` receives warnings."""
+    def warn(message: str) -> None:
+        if report is not None:
+            report(message)
+
+    if not objs:
+        raise BakeError("No static mesh objects to bake lightmaps for")
+    out = probes.writable_folder(scene) / lightmaps.FOLDER
+    start = time.perf_counter()
+    rs = dataclasses.replace(extract.render_settings(scene), border=None,
+                             film_transparent=False)
+    worlds.ensure(scene)
+    # the probes light the dynamic objects that the texels see
+    core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False, indirect=True,
+                                                 lightmaps=False,
+                                                 should_stop=interrupt.requested)
+    for w in warnings:
+        warn(w)
+    targets, notes = lightmap_plan(scene, depsgraph, core_scene, objs, warn)
+    s = lightmaps.settings(scene)
+    results: list = []
+    yield from lightmap_bake.steps(core_scene, targets, s, results,
+                                   should_stop=interrupt.requested, warn=warn)
+    stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+    light = lightmap_bake.light_key(core_scene)
+    files = []
+    for target, note, result in zip(targets, notes, results, strict=True):
+        meta = {"object": target.name, **note, "width": target.width, "height": target.height,
+                "rays": s.rays, "bounces": s.bounces, "directional": s.directional,
+                "denoise": s.denoise, "backend": "BO2",
+                "geometry_key": lightmap_bake.geometry_key(
+                    core_scene.meshes[target.mesh].positions),
+                "light_key": light, "bake_time": stamp,
+                "seconds": round(time.perf_counter() - start, 3), "version": version()}
+        files.append((lightmaps.path(out, target.name), meta, result))
+    interrupt.check()
+    try:
+        with interrupt.writing():
+            lightmap_file.write_all(files)
+    except (OSError, probe_file.ProbeFileError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise BakeError(f"Could not write the lightmaps into {out} ({reason}); the previous "
+                        "lightmaps are as they were") from None
     yield 1.0
 
 

@@ -17,6 +17,7 @@ import numpy as np
 
 from ..core import memory, pipeline, texture
 from ..core import scene as cs
+from . import lightmaps as baked_lightmaps
 from . import worlds
 from .materials import convert_material, load_image
 from .probes import load_probes
@@ -760,7 +761,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
 
 def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
                   indirect: bool = False, cache: SceneCache | None = None,
-                  should_stop: Callable[[], bool] | None = None):
+                  should_stop: Callable[[], bool] | None = None, lightmaps: bool = True):
     """Translate the evaluated depsgraph into plain data.
 
     settings: the engine's settings (``render_settings(scene)`` when None)
@@ -770,6 +771,8 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
               False renders direct light only
     cache:    what an earlier extraction read and is still valid (``SceneCache``), updated
     should_stop: polled before each object is read; True raises ``pipeline.Cancelled``
+    lightmaps: with ``indirect``, static objects take their baked lightmaps
+              (``lightmaps.attach``)
     returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
     """
     warnings: list[str] = []
@@ -794,7 +797,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     if not lights:
         warnings.append("The scene has no lights: only emission and the world are visible")
     world = extract_world(scene, warnings)
-    return cs.Scene(
+    core = cs.Scene(
         camera=camera,
         meshes=meshes,
         materials=list(cache.materials),
@@ -802,4 +805,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         world=world,
         settings=settings or render_settings(scene),
         probes=load_probes(scene, world, warnings) if indirect else None,
-    ), warnings
+    )
+    if indirect and lightmaps:
+        baked_lightmaps.attach(scene, core, warnings)
+    return core, warnings

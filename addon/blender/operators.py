@@ -1,10 +1,11 @@
-"""The add-on's operators: light probe bakes, Compare with Cycles, BO2 Material nodes.
+"""The add-on's operators: light probe and lightmap bakes, Compare with Cycles, BO2 Material
+nodes.
 
-Light probes: Bake All, Bake Selected and Clear. Invoked from the UI, a bake is modal: it runs
-one capture per timer tick, shows its progress in the status bar (the window manager's progress
-cursor and the header text), and Esc or right click cancels it cleanly (nothing written,
-previous bakes untouched). Run from a script (``EXEC_DEFAULT``) it bakes to the end at once.
-Both report the time taken.
+Light probes and lightmaps: Bake All, Bake Selected and Clear. Invoked from the UI, a bake is
+modal: it runs one step (a capture, a block of texels) per timer tick, shows its progress in
+the status bar (the window manager's progress cursor and the header text), and Esc or right
+click cancels it cleanly (nothing written, previous bakes untouched). Run from a script
+(``EXEC_DEFAULT``) it bakes to the end at once. Both report the time taken.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ import time
 import bpy
 
 from ..core import compare as core_compare
-from . import bake, compare, convert, node_groups, probes, worlds
+from . import bake, compare, convert, lightmaps, node_groups, probes, worlds
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
           ("SELECTED", "Selected", "The selected light probes"),
@@ -42,50 +43,43 @@ def _busy() -> str | None:
     """Why a bake cannot start now (a render or another bake is running), or None."""
     if bpy.app.is_job_running("RENDER"):
         return "A render is running: wait for it, or cancel it, before baking"
-    if BO2_OT_bake_probes.running:
+    if _ModalBake.running:
         return "A bake is running: wait for it, or press Esc to cancel it"
     return None
 
 
-class BO2_OT_bake_probes(bpy.types.Operator):
-    """Bake the light probes for BO2 Lighting: SH irradiance and prefiltered cube maps"""
+class _ModalBake:
+    """A bake run a step per timer tick (Esc cancels, nothing written) or, from a script, to
+    the end at once. Subclasses give ``what`` (messages) and ``_start(context)``: (the
+    generator of progress fractions, the number of things baked); raising BakeError."""
 
-    bl_idname = "bo2.bake_probes"
-    bl_label = "Bake Light Probes"
-    bl_options = {"REGISTER"}
-
-    mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
+    what = "light probes"
 
     _timer = None
     _steps = None
-    _start = 0.0
+    _start_time = 0.0
     _count = 0
 
-    running = False  # a modal bake is in progress (one at a time)
+    running = False  # a modal bake is in progress (one at a time, of either kind)
 
     @classmethod
     def poll(cls, context):
         return context.scene is not None
 
     def _begin(self, context) -> bool:
-        scene = context.scene
         try:
             busy = _busy()
             if busy:
                 raise probes.BakeError(busy)
-            objs = _objects(context, self.mode)
-            probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
+            self._steps, self._count = self._start(context)
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return False
-        depsgraph = context.evaluated_depsgraph_get()
-        self._steps = bake.bake_steps(scene, depsgraph, objs, probes.capture_backend(scene),
-                                      report=lambda m: self.report({"WARNING"}, m))
-        self._start, self._count = time.perf_counter(), len(objs)
+        self._start_time = time.perf_counter()
         return True
 
     def _step(self) -> float | None:
-        """Advance one capture; the progress fraction, or None when done."""
+        """Advance one step; the progress fraction, or None when done."""
         try:
             return next(self._steps)
         except StopIteration:
@@ -93,9 +87,8 @@ class BO2_OT_bake_probes(bpy.types.Operator):
 
     def _finished(self, context) -> None:
         context.scene.update_tag()  # viewports read the new bakes
-        seconds = time.perf_counter() - self._start
-        self.report({"INFO"}, f"Baked {self._count} light probe{'s' * (self._count != 1)} "
-                    f"in {seconds:.1f} s")
+        seconds = time.perf_counter() - self._start_time
+        self.report({"INFO"}, f"Baked {self._count} {self.what} in {seconds:.1f} s")
 
     def execute(self, context):
         if not self._begin(context):
@@ -116,11 +109,11 @@ class BO2_OT_bake_probes(bpy.types.Operator):
         self._timer = wm.event_timer_add(0.01, window=context.window)
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
-        type(self).running = True
+        _ModalBake.running = True
         return {"RUNNING_MODAL"}
 
     def _end(self, context) -> None:
-        type(self).running = False
+        _ModalBake.running = False
         wm = context.window_manager
         if self._timer is not None:
             wm.event_timer_remove(self._timer)
@@ -157,8 +150,84 @@ class BO2_OT_bake_probes(bpy.types.Operator):
         context.window_manager.progress_update(int(fraction * 1000))
         if context.workspace is not None:
             context.workspace.status_text_set(
-                f"Baking light probes: {fraction * 100:.0f}%  (Esc to cancel)")
+                f"Baking {self.what}: {fraction * 100:.0f}%  (Esc to cancel)")
         return {"RUNNING_MODAL"}
+
+
+class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
+    """Bake the light probes for BO2 Lighting: SH irradiance and prefiltered cube maps"""
+
+    bl_idname = "bo2.bake_probes"
+    bl_label = "Bake Light Probes"
+    bl_options = {"REGISTER"}
+
+    mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
+
+    def _start(self, context):
+        scene = context.scene
+        objs = _objects(context, self.mode)
+        probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
+        self.what = f"light probe{'s' * (len(objs) != 1)}"
+        steps = bake.bake_steps(scene, context.evaluated_depsgraph_get(), objs,
+                                probes.capture_backend(scene),
+                                report=lambda m: self.report({"WARNING"}, m))
+        return steps, len(objs)
+
+
+_LIGHTMAP_MODES = [("ALL", "All", "Every static mesh object"),
+                   ("SELECTED", "Selected", "The selected static mesh objects")]
+
+
+def _lightmap_objects(context, mode: str) -> list:
+    """The static mesh objects of ``mode``; raises BakeError when there are none."""
+    objs = lightmaps.lightmap_objects(context.scene, selected_only=mode == "SELECTED")
+    if not objs:
+        raise probes.BakeError("No static mesh objects"
+                               + (" among the selected objects" if mode == "SELECTED" else "")
+                               + " (Object > BO2 Lightmap sets what is static)")
+    return objs
+
+
+class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
+    """Bake the lightmaps of static objects for BO2 Lighting: the diffuse indirect light of
+    their surfaces, per texel"""
+
+    bl_idname = "bo2.bake_lightmaps"
+    bl_label = "Bake Lightmaps"
+    bl_options = {"REGISTER"}
+
+    mode: bpy.props.EnumProperty(name="Objects", items=_LIGHTMAP_MODES, default="ALL")
+
+    def _start(self, context):
+        scene = context.scene
+        objs = _lightmap_objects(context, self.mode)
+        probes.writable_folder(scene)
+        self.what = f"lightmap{'s' * (len(objs) != 1)}"
+        steps = bake.lightmap_steps(scene, context.evaluated_depsgraph_get(), objs,
+                                    report=lambda m: self.report({"WARNING"}, m))
+        return steps, len(objs)
+
+
+class BO2_OT_clear_lightmaps(bpy.types.Operator):
+    """Delete the lightmap files of static objects (the probes light them instead)"""
+
+    bl_idname = "bo2.clear_lightmaps"
+    bl_label = "Clear Lightmaps"
+    bl_options = {"REGISTER"}
+
+    mode: bpy.props.EnumProperty(name="Objects", items=_LIGHTMAP_MODES, default="ALL")
+
+    def execute(self, context):
+        try:
+            if _busy():
+                raise probes.BakeError(_busy().replace("baking", "clearing lightmaps"))
+            count = lightmaps.clear(context.scene, _lightmap_objects(context, self.mode))
+        except probes.BakeError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        context.scene.update_tag()
+        self.report({"INFO"}, f"Deleted {count} lightmap file{'s' * (count != 1)}")
+        return {"FINISHED"}
 
 
 class BO2_OT_clear_probes(bpy.types.Operator):
@@ -444,6 +513,6 @@ class BO2_OT_evaluate_world(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_compare_cycles,
-           BO2_OT_evaluate_world, NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new,
-           MATERIAL_OT_bo2_convert]
+CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_bake_lightmaps,
+           BO2_OT_clear_lightmaps, BO2_OT_compare_cycles, BO2_OT_evaluate_world,
+           NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new, MATERIAL_OT_bo2_convert]

@@ -1,4 +1,5 @@
-"""Settings stored in .blend files: one PropertyGroup per ID type (``scene.bo2``)."""
+"""Settings stored in .blend files: one PropertyGroup per ID type (``scene.bo2``,
+``object.bo2``)."""
 
 import bpy
 
@@ -200,6 +201,85 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         description="Path-tracing samples per pixel of the captures (Cycles backend)",
         default=64, min=1, max=65536, soft_max=4096,
     )
+    use_lightmaps: bpy.props.BoolProperty(
+        name="Lightmaps",
+        description="Static objects with a baked lightmap take their diffuse indirect light "
+        "from it (and the BO2 normalization its irradiance); off: from the probes",
+        default=True,
+    )
+    lightmap_density: bpy.props.FloatProperty(
+        name="Texels per Metre",
+        description="Density of the lightmaps the bake lays out (an object can ask for its own)",
+        default=20.0, min=0.1, max=1000.0, soft_max=200.0,
+    )
+    lightmap_max_resolution: bpy.props.EnumProperty(
+        name="Max Resolution",
+        description="No lightmap is larger than this on a side; a larger object gets a lower "
+        "density",
+        items=[(str(n), f"{n} px", "") for n in (128, 256, 512, 1024, 2048, 4096)],
+        default="1024",
+    )
+    lightmap_padding: bpy.props.IntProperty(
+        name="Padding",
+        description="Texels between the charts of a layout the bake makes (the lightmap is "
+        "dilated into them, so bilinear look-ups and mips do not bleed)",
+        default=2, min=1, max=16,
+    )
+    lightmap_rays: bpy.props.IntProperty(
+        name="Rays",
+        description="Rays per texel and bounce of the BO2 lightmap bake (more: less noise)",
+        default=64, min=4, max=4096, soft_max=1024,
+    )
+    lightmap_bounces: bpy.props.IntProperty(
+        name="Bounces",
+        description="Gathers of the lightmap bake: the first sees direct light, emission and "
+        "the world; each further one adds a bounce",
+        default=3, min=1, max=16,
+    )
+    lightmap_directional: bpy.props.BoolProperty(
+        name="Directional",
+        description="Store the L1 SH of the incoming light per texel (4 x RGB) so normal maps "
+        "keep their relief under baked light (beyond the talk: as Bakery's SH and Godot's "
+        "directional lightmaps)",
+        default=False,
+    )
+    lightmap_denoise: bpy.props.BoolProperty(
+        name="Denoise",
+        description="Filter each chart with a joint-bilateral filter guided by position and "
+        "normal (it never crosses a chart's edge)",
+        default=True,
+    )
+
+
+class BO2ObjectSettings(bpy.types.PropertyGroup):
+    """Lightmap settings of one object (``object.bo2``)."""
+
+    lightmap_mode: bpy.props.EnumProperty(
+        name="Lightmap",
+        description="Whether the object gets a lightmap",
+        items=[("AUTO", "Auto", "Static when it has no animation and no armature"),
+               ("STATIC", "Static", "Baked into a lightmap"),
+               ("DYNAMIC", "Dynamic", "Lit by the probes, no lightmap")],
+        default="AUTO",
+    )
+    lightmap_uv: bpy.props.StringProperty(
+        name="Lightmap UV",
+        description="The object's UV map laid out for its lightmap (charts that do not "
+        "overlap); empty: the map named LightmapUV, else a layout the bake makes (your UV "
+        "maps stay as they are)",
+        default="",
+    )
+    lightmap_density: bpy.props.FloatProperty(
+        name="Texels per Metre",
+        description="This object's lightmap density; 0: the scene's",
+        default=0.0, min=0.0, max=1000.0, soft_max=200.0,
+    )
+    use_lightmap: bpy.props.BoolProperty(
+        name="Use Lightmap",
+        description="Render with its baked lightmap (off: the probes light it, as a dynamic "
+        "object)",
+        default=True,
+    )
 
 
 class BO2ViewLayerSettings(bpy.types.PropertyGroup):
@@ -226,6 +306,7 @@ def _tagging(cls):
 
 
 _tagging(BO2SceneSettings)
+_tagging(BO2ObjectSettings)
 
 _PACKAGE = __package__.rpartition(".")[0].rpartition(".")[0]  # the extension's module name
 
@@ -270,7 +351,7 @@ def preferences():
         else _Defaults
 
 
-CLASSES = [BO2SceneSettings, BO2ViewLayerSettings, BO2Preferences]
+CLASSES = [BO2SceneSettings, BO2ObjectSettings, BO2ViewLayerSettings, BO2Preferences]
 
 
 def _redraw_view(self, context) -> None:
@@ -296,6 +377,7 @@ def lookdev_property():
 def attach() -> None:
     """Add the pointer properties to the ID types and the look-dev view to each viewport."""
     bpy.types.Scene.bo2 = bpy.props.PointerProperty(type=BO2SceneSettings)
+    bpy.types.Object.bo2 = bpy.props.PointerProperty(type=BO2ObjectSettings)
     bpy.types.ViewLayer.bo2 = bpy.props.PointerProperty(type=BO2ViewLayerSettings)
     bpy.types.View3DShading.bo2_lookdev_view = lookdev_property()
 
@@ -303,5 +385,6 @@ def attach() -> None:
 def detach() -> None:
     """Remove what ``attach()`` added."""
     del bpy.types.Scene.bo2
+    del bpy.types.Object.bo2
     del bpy.types.ViewLayer.bo2
     del bpy.types.View3DShading.bo2_lookdev_view

@@ -8,7 +8,7 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import convert, node_groups, passes, probes, viewport, worlds
+from . import convert, lightmaps, node_groups, passes, probes, viewport, worlds
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -134,6 +134,37 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         col = layout.column()
         col.active = backend == "CYCLES"
         col.prop(settings, "bake_cycles_samples")
+
+
+class RENDER_PT_bo2_lightmaps(_BO2Panel, bpy.types.Panel):
+    bl_label = "Lightmaps"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_bo2_settings"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.bo2, "use_lightmaps", text="")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        settings = context.scene.bo2
+        row = layout.row(align=True)
+        row.operator("bo2.bake_lightmaps", text="Bake All", icon="RENDER_STILL").mode = "ALL"
+        row.operator("bo2.bake_lightmaps", text="Bake Selected").mode = "SELECTED"
+        layout.operator("bo2.clear_lightmaps", text="Clear Lightmaps", icon="TRASH").mode = "ALL"
+        layout.prop(settings, "lightmap_density")
+        layout.prop(settings, "lightmap_max_resolution")
+        layout.prop(settings, "lightmap_padding")
+        layout.prop(settings, "lightmap_rays")
+        layout.prop(settings, "lightmap_bounces")
+        layout.prop(settings, "lightmap_directional")
+        layout.prop(settings, "lightmap_denoise")
+        objs = lightmaps.lightmap_objects(context.scene)
+        texels, size = lightmaps.estimate(context.scene, objs)
+        col = layout.column(align=True)
+        col.label(text=f"{len(objs)} static object{'s' * (len(objs) != 1)}, about "
+                  f"{texels / 1e6:.2f} M texels", icon="INFO")
+        col.label(text=f"About {size / 2**20:.1f} MiB in a frame")
 
 
 class RENDER_PT_bo2_viewport(_BO2Panel, bpy.types.Panel):
@@ -462,6 +493,44 @@ class OBJECT_PT_bo2_visibility(_BO2Panel, bpy.types.Panel):
 _GEOMETRY = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD"}
 
 
+class OBJECT_PT_bo2_lightmap(_BO2Panel, bpy.types.Panel):
+    """The object's lightmap: static or not, its UV map, density and bake."""
+
+    bl_label = "BO2 Lightmap"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+    needs = "object"
+
+    @classmethod
+    def poll(cls, context):
+        return super().poll(context) and context.object.type == "MESH"
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.bo2, "use_lightmap", text="")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        obj = context.object
+        settings = obj.bo2
+        layout.prop(settings, "lightmap_mode")
+        static = lightmaps.is_static(obj)
+        col = layout.column()
+        col.active = static
+        col.prop_search(settings, "lightmap_uv", obj.data, "uv_layers", text="UV Map")
+        col.prop(settings, "lightmap_density")
+        if not static:
+            layout.label(text="Dynamic: the probes light it", icon="INFO")
+            return
+        uv = lightmaps.uv_map(obj)
+        col.label(text=f"Layout: UV map '{uv}'" if uv else "Layout: made by the bake",
+                  icon="UV")
+        state, text = lightmaps.state(obj, context.scene)
+        row = layout.row()
+        row.alert = state == "DAMAGED"
+        row.label(text=f"Baked: {text}" if state == "BAKED" else f"Lightmap: {text}",
+                  icon="CHECKMARK" if state == "BAKED" else "ERROR")
+
+
 class MATERIAL_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
     """The material settings BO2 Lighting honours."""
 
@@ -508,8 +577,9 @@ class WORLD_PT_bo2_light(_BO2Panel, bpy.types.Panel):
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
-           RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev, VIEWLAYER_PT_bo2_passes,
-           OBJECT_PT_bo2_visibility, MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
+           RENDER_PT_bo2_lightmaps, RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev,
+           VIEWLAYER_PT_bo2_passes, OBJECT_PT_bo2_visibility, OBJECT_PT_bo2_lightmap,
+           MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
            DATA_PT_bo2_light, DATA_PT_bo2_light_shadow, DATA_PT_bo2_light_beam,
            DATA_PT_bo2_lightprobe, DATA_PT_bo2_lightprobe_parallax,
            DATA_PT_bo2_lightprobe_display, DATA_PT_bo2_lightprobe_bake, WORLD_PT_bo2_light]

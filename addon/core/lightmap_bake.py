@@ -11,12 +11,12 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from . import affine, pipeline, shade, shadows
+from . import pipeline, shade, shadows
 from . import probes as probe_light
 from .capture import face_camera, world_cube
 from .cubemap import FACES, _pad
@@ -35,7 +35,7 @@ from .lightmap import (
 )
 from .scene import Scene
 
-__all__ = ["bake", "geometry_key", "light_key"]
+__all__ = ["bake", "geometry_key", "light_key", "steps"]
 
 _FACES = np.array(FACES)  # writable, as the kernel takes it
 
@@ -157,8 +157,22 @@ def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
          should_stop: Callable[[], bool] | None = None,
          warn: Callable[[str], None] | None = None) -> list[Lightmap]:
     """Bake the lightmaps of ``targets`` (``Target``) in ``scene``: one ``Lightmap`` each,
-    in order. ``scene.probes`` lights the objects without a lightmap that the rays meet.
-    Raises ``pipeline.Cancelled`` when ``should_stop`` says so; nothing is written here."""
+    in order (``steps`` run to the end). ``progress`` gets the finished fraction; raises
+    ``pipeline.Cancelled`` when ``should_stop`` says so."""
+    results: list[Lightmap] = []
+    for fraction in steps(scene, targets, settings, results, should_stop, warn):
+        if progress is not None:
+            progress(fraction)
+    return results
+
+
+def steps(scene: Scene, targets: list[Target], settings: Settings | None, results: list,
+          should_stop: Callable[[], bool] | None = None,
+          warn: Callable[[str], None] | None = None) -> Iterator[float]:
+    """``bake`` as a generator of progress fractions in [0, 1], each after a short step;
+    the lightmaps are appended to ``results`` at the end. ``scene.probes`` lights the
+    objects without a lightmap that the rays meet. Closing it early stops the work; nothing
+    is written here."""
     from .kernels import lightmap as kernels
 
     settings = settings or Settings()
@@ -166,10 +180,6 @@ def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
     def poll():
         if should_stop is not None and should_stop():
             raise pipeline.Cancelled()
-
-    def report(fraction):
-        if progress is not None:
-            progress(min(max(fraction, 0.0), 1.0))
 
     base = dataclasses.replace(scene, camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0),
                                settings=dataclasses.replace(scene.settings, border=None))
@@ -184,7 +194,7 @@ def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
         if target.width * target.height <= 0:
             raise LightmapError(f"{target.name}: an empty lightmap")
         texels.append(_texels(target, frame, first, index))
-    report(0.05)
+    yield 0.05
     # per frame triangle: its lightmap and lightmap UVs
     tri_map = np.full(len(frame.positions), -1, np.int32)
     tri_uv = np.zeros((len(frame.positions), 3, 2), np.float32)
@@ -205,7 +215,7 @@ def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
         albedo.append(a)
         emission.append(e)
         direct.append(_direct(frame, tx.p, tx.n, tx.geo))
-    report(0.1)
+    yield 0.1
     corner = _corner_radiance(frame, scene, tri_map < 0)
     tris = np.ascontiguousarray(frame.positions, np.float32)
     order = np.empty(len(tris), np.int32)
@@ -269,18 +279,16 @@ def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
                     done[0] += hi - lo
             return run
 
-        for _ in pipeline._ordered([job(*j) for j in jobs], threads,
-                                   lambda: (poll(), report(0.1 + 0.85 * done[0] / max(
-                                       total_rays, 1))), stop):
-            pass
+        for _ in pipeline._ordered([job(*j) for j in jobs], threads, poll, stop):
+            yield 0.1 + 0.85 * done[0] / max(total_rays, 1)
         indirect, sh = new_e, new_sh
         del bounce
     out = []
     for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
         poll()
         out.append(_finish(scene, target, tx, indirect[k], sh[k], settings))
-    report(1.0)
-    return out
+    results.extend(out)
+    yield 1.0
 
 
 def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, settings: Settings
@@ -320,14 +328,10 @@ def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, settings:
 # Keys
 
 
-def geometry_key(positions: np.ndarray, world_to_object: np.ndarray | None = None) -> str:
-    """A digest of an object's triangles in its own space (its lightmap UVs stay valid while
-    this holds), 16 hex digits."""
-    p = np.asarray(positions, np.float64)
-    if world_to_object is not None:
-        m = np.asarray(world_to_object, np.float64).reshape(-1, 4, 4)[0]
-        p = affine.transform(p.reshape(-1, 3), m).reshape(p.shape)
-    q = np.round(p * 1e4).astype(np.int64)
+def geometry_key(positions: np.ndarray) -> str:
+    """A digest of an object's triangles ``positions`` (T, 3, 3), world space, to 0.1 mm: its
+    lightmap was baked for these, 16 hex digits."""
+    q = np.round(np.asarray(positions, np.float64) * 1e4).astype(np.int64)
     return hashlib.sha256(q.tobytes()).hexdigest()[:16]
 
 
@@ -338,6 +342,7 @@ def light_key(scene: Scene) -> str:
     for m in scene.meshes:
         h.update(np.round(np.asarray(m.positions, np.float64) * 1e4).astype(np.int64).tobytes())
         h.update(np.asarray(m.material, np.int32).tobytes())
+    h.update(repr(sorted({m.name for m in scene.materials})).encode())
     for light in scene.lights:
         h.update(repr((light.kind, np.round(np.asarray(light.color, np.float64), 5).tolist(),
                        np.round(np.asarray(light.position, np.float64), 4).tolist(),

@@ -272,7 +272,7 @@ def test_bake_bad_input_is_one_clear_message(scene_with_everything, tmp_path, ca
         expected = "is a file, not a folder"
     else:
         from bo2_lighting.addon.blender import operators
-        operators.BO2_OT_bake_probes.running = True
+        operators._ModalBake.running = True
         expected = "A bake is running"
     files = sorted(p.name for p in tmp_path.iterdir())
     try:
@@ -280,7 +280,7 @@ def test_bake_bad_input_is_one_clear_message(scene_with_everything, tmp_path, ca
             bpy.ops.bo2.bake_probes(**kwargs)
     finally:
         from bo2_lighting.addon.blender import operators
-        operators.BO2_OT_bake_probes.running = False
+        operators._ModalBake.running = False
     assert sorted(p.name for p in tmp_path.iterdir()) == files  # nothing changed
 
 

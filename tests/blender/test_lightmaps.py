@@ -1,0 +1,179 @@
+"""Lightmaps end to end in Blender: which objects are static, layouts (the object's own map or
+one made by the bake), Bake Lightmaps, rendering with them, stale and damaged files, cancel."""
+
+import math
+
+import bpy
+import numpy as np
+import pytest
+from util import principled, set_world_color
+
+from bo2_lighting.addon.blender import bake as blender_bake
+from bo2_lighting.addon.blender import extract, lightmaps
+from bo2_lighting.addon.core import lightmap_file, pipeline
+
+
+def room(tmp_path):
+    """An open box (floor, three walls) with a block on the floor, a sun through the open
+    side and a blue sky; saved, so that '//bo2_bake/' is next to the file."""
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 40
+    scene.render.resolution_percentage = 100
+    set_world_color(scene, (0.3, 0.4, 0.6))
+    for name, size, loc, rot in [("Floor", 4, (0, 0, 0), (0, 0, 0)),
+                                 ("Back", 4, (0, 2, 1), (math.pi / 2, 0, 0)),
+                                 ("Left", 4, (-2, 0, 1), (0, math.pi / 2, 0))]:
+        bpy.ops.mesh.primitive_plane_add(size=size, location=loc, rotation=rot)
+        bpy.context.object.name = name
+        bpy.context.object.data.materials.append(principled(f"M{name}", (0.7, 0.7, 0.7), 0.8))
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.4, 0.6, 0.4))
+    bpy.context.object.name = "Block"
+    bpy.context.object.data.materials.append(principled("Red", (0.8, 0.1, 0.1), 0.8))
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 3.0
+    sun.rotation_euler = (math.radians(40), 0, math.radians(-30))
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location, cam.rotation_euler = (2.5, -3.5, 2.5), (math.radians(60), 0, math.radians(35))
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    scene.render.engine = "BO2_LIGHTING"
+    scene.bo2.lightmap_density = 8.0
+    scene.bo2.lightmap_rays = 32
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "room.blend"))
+    return scene
+
+
+def test_static_objects_follow_the_setting_and_animation(addon, tmp_path):
+    scene = room(tmp_path)
+    names = [o.name for o in lightmaps.lightmap_objects(scene)]
+    assert names == ["Back", "Block", "Floor", "Left"]
+    block = scene.objects["Block"]
+    block.keyframe_insert("location", frame=1)
+    assert not lightmaps.is_static(block)  # animated: dynamic on Auto
+    block.bo2.lightmap_mode = "STATIC"
+    assert lightmaps.is_static(block)
+    scene.objects["Floor"].bo2.lightmap_mode = "DYNAMIC"
+    assert "Floor" not in [o.name for o in lightmaps.lightmap_objects(scene)]
+    texels, size = lightmaps.estimate(scene, lightmaps.lightmap_objects(scene))
+    # three 2 x 2 m planes at 8 texels per metre, with the charts' area and padding
+    assert 3 * 16 * 16 < texels < 3 * 40 * 40 and size == texels * 12
+
+
+def test_bake_and_render_with_lightmaps(addon, tmp_path):
+    scene = room(tmp_path)
+    floor = scene.objects["Floor"]
+    # the floor's own lightmap UV map, laid out by hand: used as it is
+    uv = floor.data.uv_layers.new(name="LightmapUV")
+    assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
+    folder = tmp_path / "bo2_bake" / "lightmaps"
+    assert sorted(p.name for p in folder.iterdir()) == ["Back.exr", "Block.exr", "Floor.exr",
+                                                       "Left.exr"]
+    meta, lm = lightmap_file.read(folder / "Floor.exr")
+    assert meta["uv_map"] == "LightmapUV" and meta["object"] == "Floor"
+    assert np.allclose(lm.uvs.reshape(-1, 2).min(0), 0.0, atol=1e-6)  # the plane's own 0..1
+    del uv
+    meta, lm = lightmap_file.read(folder / "Block.exr")
+    assert meta["uv_map"] == ""  # the cube's UV map overlaps nothing but has no LightmapUV
+    assert np.isfinite(lm.image).all() and lm.image.min() >= 0.0
+    # the floor's lightmap is darker beside the block's base than in the open
+    _, floor_lm = lightmap_file.read(folder / "Floor.exr")
+    from bo2_lighting.addon.core import lightmap
+
+    def floor_at(x, y):  # the plane's UVs: (x + 2) / 4, (y + 2) / 4
+        return lightmap.sample(floor_lm.image, np.array([[(x + 2) / 4, (y + 2) / 4]]))[0]
+
+    assert floor_at(0.4, 0.15)[1] < 0.8 * floor_at(-1.0, -1.5)[1]
+    # the render reads them: its Diffuse Indirect differs from the probes'
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    core, warnings = extract.extract_scene(depsgraph, indirect=True)
+    assert all(m.lightmap is not None for m in core.meshes), warnings
+    assert not any("stale" in w for w in warnings)
+    with_maps = pipeline.render_frame(core)["DiffInd"]
+    core.settings.lightmaps = False
+    without = pipeline.render_frame(core)["DiffInd"]
+    assert np.isfinite(with_maps).all()
+    assert np.abs(with_maps - without).mean() > 0.01 * without.mean()
+    # the scene toggle and the object's own
+    scene.bo2.use_lightmaps = False
+    core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
+    assert all(m.lightmap is None for m in core.meshes)
+    scene.bo2.use_lightmaps = True
+    scene.objects["Left"].bo2.use_lightmap = False
+    core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
+    assert [m.name for m in core.meshes if m.lightmap is None] == ["Left"]
+
+
+def test_stale_damaged_and_misfit_lightmaps_are_reported(addon, tmp_path):
+    scene = room(tmp_path)
+    assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
+    scene.objects["Sun"].data.energy = 5.0
+    core, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
+    assert any("are stale" in w for w in warnings)
+    assert all(m.lightmap is not None for m in core.meshes)  # used until re-baked
+    folder = tmp_path / "bo2_bake" / "lightmaps"
+    (folder / "Left.exr").write_bytes(b"not an exr")
+    bpy.ops.object.select_all(action="DESELECT")
+    block = scene.objects["Block"]
+    block.modifiers.new("Sub", "SUBSURF")
+    core, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
+    lit = {m.name: m.lightmap is not None for m in core.meshes}
+    assert lit == {"Floor": True, "Back": True, "Left": False, "Block": False}
+    assert any("'Left'" in w and "not a readable lightmap" in w for w in warnings)
+    assert any("'Block' was baked for 12 triangles" in w for w in warnings)
+    assert lightmaps.state(scene.objects["Left"], scene)[0] == "DAMAGED"
+    assert lightmaps.state(scene.objects["Floor"], scene)[0] == "BAKED"
+
+
+def test_cancelled_bake_keeps_the_previous_lightmaps(addon, tmp_path):
+    scene = room(tmp_path)
+    assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
+    folder = tmp_path / "bo2_bake" / "lightmaps"
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    scene.objects["Sun"].data.energy = 9.0
+    steps = blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
+                                        lightmaps.lightmap_objects(scene))
+    fractions = [next(steps) for _ in range(3)]
+    steps.close()
+    assert fractions == sorted(fractions) and fractions[-1] < 1.0
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+
+
+def test_bad_input_is_one_message(addon, tmp_path):
+    scene = room(tmp_path)
+    # a flat object: no area
+    mesh = bpy.data.meshes.new("Flat")
+    mesh.from_pydata([(0, 0, 0), (1, 0, 0), (2, 0, 0)], [], [(0, 1, 2)])
+    flat = bpy.data.objects.new("Flat", mesh)
+    scene.collection.objects.link(flat)
+    warnings = []
+    steps = blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
+                                        [flat, scene.objects["Floor"]], report=warnings.append)
+    for _ in steps:
+        pass
+    assert any("'Flat'" in w and ("no surface area" in w or "no faces" in w) for w in warnings)
+    # an overlapping UV map named for the lightmap: refused, laid out anew
+    floor = scene.objects["Floor"]
+    uv = floor.data.uv_layers.new(name="LightmapUV")
+    for loop, corner in zip(uv.uv, [(0, 0), (1, 0), (1, 1), (0.8, 0.2)], strict=True):
+        loop.vector = corner  # the second triangle folds back over the first
+    warnings = []
+    for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), [floor],
+                                         report=warnings.append):
+        pass
+    assert any("UV map 'LightmapUV'" in w and "a layout is made" in w for w in warnings)
+    meta, _ = lightmap_file.read(tmp_path / "bo2_bake" / "lightmaps" / "Floor.exr")
+    assert meta["uv_map"] == ""
+    # a density beyond the memory cap
+    scene.bo2.lightmap_density = 1000.0
+    scene.bo2.lightmap_max_resolution = "4096"
+    scene.bo2.lightmap_directional = True
+    with pytest.raises(blender_bake.BakeError, match="MiB, more than"):
+        for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
+                                             lightmaps.lightmap_objects(scene)):
+            pass
+    # an unwritable folder
+    scene.bo2.lightmap_density = 8.0
+    scene.bo2.bake_folder = str(tmp_path / "room.blend")  # a file, not a folder
+    with pytest.raises(RuntimeError, match="is a file, not a folder"):
+        bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL")
