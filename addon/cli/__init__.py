@@ -7,6 +7,7 @@
     bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
     bo2 sh IMAGE [--json]
     bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles]
+    bo2 bake SCENE.blend --lightmaps [NAME ...]
     bo2 compare SCENE.blend -o DIR [--frame N] [--samples N] [--cycles-samples N]
                                    [--resolution WxH]
     bo2 version
@@ -204,16 +205,20 @@ def build_parser() -> argparse.ArgumentParser:
     sh_cmd.add_argument("--json", action="store_true", help="print a JSON object")
     sh_cmd.set_defaults(func=sh.run)
     bake_cmd = sub.add_parser(
-        "bake", help="bake the light probes of a .blend file",
+        "bake", help="bake the light probes or lightmaps of a .blend file",
         description="Bake the Sphere and Volume light probes of a .blend file (SH irradiance and "
         "prefiltered cube maps) into its bake folder (the scene's Bake Folder, '//bo2_bake/' "
-        "by default), one OpenEXR file per probe. Nothing is written unless every probe "
-        "finishes.")
+        "by default), one OpenEXR file per probe; with --lightmaps, the lightmaps of its static "
+        "objects into its 'lightmaps' folder. Nothing is written unless every one finishes.")
     bake_cmd.add_argument("scene", help=".blend file")
     bake_cmd.add_argument("--probes", nargs="+", metavar="NAME",
                           help="only these light probe objects (default: all)")
     bake_cmd.add_argument("--backend", choices=("bo2", "cycles"), default="bo2",
                           help="captures rendered by BO2 Lighting (default) or Cycles")
+    bake_cmd.add_argument("--lightmaps", nargs="*", metavar="NAME",
+                          help="bake the lightmaps of the static mesh objects instead of the "
+                          "probes (these objects only, if named); bake the probes first, "
+                          "they light the dynamic objects the lightmaps see")
     bake_cmd.set_defaults(func=bake.run)
     compare_cmd = sub.add_parser(
         "compare", help="render a frame with BO2 Lighting and Cycles and compare them",

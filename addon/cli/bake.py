@@ -1,5 +1,5 @@
-"""``bo2 bake``: the light probes of a .blend file baked into its bake folder, with a progress
-bar."""
+"""``bo2 bake``: the light probes (or lightmaps) of a .blend file baked into its bake folder,
+with a progress bar."""
 
 from __future__ import annotations
 
@@ -14,20 +14,25 @@ from .terminal import progress_bar, quiet_blender, stderr_copy
 
 
 def run(args) -> int:
-    """Bake the light probes of a .blend file into its bake folder."""
+    """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
     scene = load_blend(Path(args.scene))
-    from ..blender import bake, probes
+    from ..blender import bake, lightmaps, probes
 
-    objs = probes.probe_objects(scene)
-    if args.probes:
-        names = {o.name for o in objs}
-        unknown = [n for n in args.probes if n not in names]
-        if unknown:
-            raise CommandError(f"no Sphere or Volume light probe named {', '.join(unknown)} "
-                               f"(have: {', '.join(sorted(names)) or 'none'})")
-        objs = [o for o in objs if o.name in args.probes]
-    if not objs:
-        raise CommandError(f"{args.scene}: the scene has no Sphere or Volume light probes")
+    lightmapping = args.lightmaps is not None
+    if lightmapping:
+        if args.probes:
+            raise CommandError("--probes and --lightmaps: bake the probes first, then the "
+                               "lightmaps, with two commands")
+        objs = _named(lightmaps.lightmap_objects(scene), args.lightmaps, "static mesh object")
+        if not objs:
+            raise CommandError(f"{args.scene}: the scene has no static mesh objects")
+        what = "lightmap"
+    else:
+        objs = _named(probes.probe_objects(scene), args.probes,
+                      "Sphere or Volume light probe")
+        if not objs:
+            raise CommandError(f"{args.scene}: the scene has no Sphere or Volume light probes")
+        what = "probe"
     start = time.perf_counter()
     warnings: list[str] = []
     terminal = stderr_copy()  # the progress bar passes Blender's silencing
@@ -35,8 +40,12 @@ def run(args) -> int:
         folder = probes.bake_folder(scene)
         depsgraph = headless.depsgraph()
         with quiet_blender():
-            steps = bake.bake_steps(scene, depsgraph, objs, args.backend.upper(),
-                                    report=warnings.append)
+            if lightmapping:
+                folder = folder / lightmaps.FOLDER
+                steps = bake.lightmap_steps(scene, depsgraph, objs, report=warnings.append)
+            else:
+                steps = bake.bake_steps(scene, depsgraph, objs, args.backend.upper(),
+                                        report=warnings.append)
             try:
                 for fraction in steps:
                     interrupt.check()  # closing the generator writes nothing
@@ -50,6 +59,22 @@ def run(args) -> int:
         terminal.close()
         for message in warnings:  # a failed bake's too
             print(f"bo2: warning: {message}", file=sys.stderr)
-    print(f"baked {len(objs)} probe{'s' * (len(objs) != 1)} into {folder} "
-          f"in {time.perf_counter() - start:.2f} s")
+    size = sum(lightmaps.path(folder, o.name).stat().st_size for o in objs
+               if lightmaps.path(folder, o.name).exists()) if lightmapping else 0
+    print(f"baked {len(objs)} {what}{'s' * (len(objs) != 1)} into {folder} "
+          f"in {time.perf_counter() - start:.2f} s"
+          + (f" ({size / 2**20:.2f} MiB)" if lightmapping else ""))
     return 0
+
+
+def _named(objs: list, names: list[str] | None, kind: str) -> list:
+    """``objs``, or those of ``names`` (all when None or empty); CommandError for a name that
+    is not one of them."""
+    if not names:
+        return objs
+    have = {o.name for o in objs}
+    unknown = [n for n in names if n not in have]
+    if unknown:
+        raise CommandError(f"no {kind} named {', '.join(unknown)} "
+                           f"(have: {', '.join(sorted(have)) or 'none'})")
+    return [o for o in objs if o.name in names]

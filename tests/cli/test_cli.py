@@ -336,6 +336,23 @@ def test_bake_bad_input(tmp_path):
     assert proc.returncode == 2
 
 
+def test_bake_lightmaps(tmp_path):
+    from bo2_lighting.addon.core import lightmap_file
+
+    blend = probe_blend(tmp_path)
+    proc = bo2("bake", blend, "--lightmaps")
+    assert proc.returncode == 0, proc.stderr
+    assert "baked 1 lightmap into" in proc.stdout and "MiB)" in proc.stdout
+    meta, lm = lightmap_file.read(tmp_path / "bo2_bake" / "lightmaps" / "Plane.exr")
+    assert meta["backend"] == "BO2" and meta["uv_map"] == ""
+    # a lone plane under no world: nothing but the sun, whose direct light is not baked
+    assert lm.uvs.shape == (2, 3, 2) and np.isfinite(lm.image).all() and lm.image.max() == 0.0
+    proc = bo2("bake", blend, "--lightmaps", "Nope")
+    assert proc.returncode == 1 and "no static mesh object named Nope" in one_error_line(proc)
+    proc = bo2("bake", blend, "--lightmaps", "--probes", "Reflection")
+    assert proc.returncode == 1 and "two commands" in one_error_line(proc)
+
+
 # --- bo2 render: several files and frames ------------------------------------------------------
 
 TINY = ("--resolution", "32x18", "--samples", "1")
