@@ -2,6 +2,7 @@
 
 Usage: python tools/measure_indirect.py OUT_DIR [BLEND ...] [--bounces N] [--cycles-samples N]
                                         [--cycles-bounces N] [--reuse-cycles] [--no-leak-fixes]
+                                        [--lightmaps]
 
 For each .blend (default: the demo room, the closed room, the artist's room and the outdoor
 scene of ``demo_blends``): bakes its probes, if it has any, with BO2 Lighting into
@@ -30,8 +31,10 @@ block mean of the metals: over their pixels in the block);
 
 and writes OUT_DIR/<name>/ the comparison's files plus ``indirect.png``: BO2's and Cycles'
 Diffuse Indirect side by side. ``--reuse-cycles`` keeps a Cycles render already in the folder.
-``--no-leak-fixes`` bakes the volumes without validity, escape and dilation and looks them up
-without biases (the behaviour before them). ``--set NAME=VALUE`` sets one of the scene's BO2
+``--lightmaps`` bakes the lightmaps of the static objects too, after the probes (every
+object of these scenes is static: the figures over all geometry are the static surfaces'),
+and prints their bake time and files' size. ``--no-leak-fixes`` bakes the volumes without
+validity, escape and dilation and looks them up without biases (the behaviour before them). ``--set NAME=VALUE`` sets one of the scene's BO2
 settings first (``--set use_ambient_occlusion=False``, ``--set "sky_directions='64'"``).
 
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
@@ -171,6 +174,12 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
     if any(o.type == "LIGHT_PROBE" for o in scene.objects):  # an open scene may have none
         assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
     bake_seconds = time.perf_counter() - start
+    lightmap_seconds, lightmap_bytes = 0.0, 0
+    if args.lightmaps:
+        start = time.perf_counter()
+        assert bpy.ops.bo2.bake_lightmaps() == {"FINISHED"}
+        lightmap_seconds = time.perf_counter() - start
+        lightmap_bytes = sum(p.stat().st_size for p in (out / "bake" / "lightmaps").iterdir())
     layer = bpy.context.view_layer
     job = blender_compare.Comparison(scene, layer, out)
     cycles_info = out / "cycles_info.json"
@@ -222,6 +231,8 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         "metal_combined_mre": metal_error,
         "metal_pixels": int(metal.sum()),
         "bake_seconds": bake_seconds,
+        "lightmap_seconds": lightmap_seconds,
+        "lightmap_bytes": lightmap_bytes,
         "bo2_seconds": job.info["bo2"]["render_seconds"],
         "cycles_seconds": job.info["cycles"]["render_seconds"],
         "cycles_samples": job.info["cycles"]["samples"],
@@ -231,15 +242,16 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
 
 
 def line(name: str, f: dict) -> str:
+    lightmaps = (f", lightmaps {f['lightmap_seconds']:.1f} s "
+                 f"({f['lightmap_bytes'] / 2**20:.2f} MiB)" if f["lightmap_seconds"] else "")
     return (f"{name}: PSNR {f['psnr_db']:.2f} dB, Diffuse Indirect mean relative error "
             f"{f['diffuse_indirect_mre']:.3f} (world's light included "
             f"{f['indirect_world_mre']:.3f}; within {CONTACT * 100:.0f} cm of a contact "
             f"{f['contact_mre']:.3f}, {f['contact_pixels']} px), metals' Combined "
             f"{f['metal_combined_mre']:.3f} ({f['metal_pixels']} px), Combined under objects "
             f"{f['under_combined_mre']:.3f} ({f['under_pixels']} px); bake "
-            f"{f['bake_seconds']:.1f} s, BO2 "
-            f"{f['bo2_seconds']:.2f} s, Cycles {f['cycles_seconds']:.1f} s "
-            f"({f['cycles_samples']} samples)")
+            f"{f['bake_seconds']:.1f} s{lightmaps}, BO2 {f['bo2_seconds']:.2f} s, Cycles "
+            f"{f['cycles_seconds']:.1f} s ({f['cycles_samples']} samples)")
 
 
 def before_after(blend: Path, out: Path, args) -> None:
@@ -296,6 +308,7 @@ def main() -> int:
     parser.add_argument("--cycles-samples", type=int, default=0)
     parser.add_argument("--cycles-bounces", type=int, default=32)
     parser.add_argument("--reuse-cycles", action="store_true")
+    parser.add_argument("--lightmaps", action="store_true")
     parser.add_argument("--no-leak-fixes", action="store_true")
     parser.add_argument("--before-after", action="store_true")
     parser.add_argument("--before-bounces", type=int, default=1)

@@ -228,13 +228,14 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     lightmap_rays: bpy.props.IntProperty(
         name="Rays",
         description="Rays per texel and bounce of the BO2 lightmap bake (more: less noise)",
-        default=64, min=4, max=4096, soft_max=1024,
+        default=256, min=4, max=4096, soft_max=1024,
     )
     lightmap_bounces: bpy.props.IntProperty(
         name="Bounces",
         description="Gathers of the lightmap bake: the first sees direct light, emission and "
-        "the world; each further one adds a bounce",
-        default=3, min=1, max=16,
+        "the world; each further one adds a bounce, and the last also sees the bounces after "
+        "it, estimated from the series of the ones before",
+        default=4, min=1, max=16,
     )
     lightmap_directional: bpy.props.BoolProperty(
         name="Directional",

@@ -12,25 +12,31 @@ far as the texel sees it), emission, and the light the scene bounces.
   face, each chart projected on the plane of its mean normal and turned to its smallest box,
   packed in rows at a density in texels per metre with padding between charts.
 - Texels (``kernels.lightmap.texels``): each texel's point on the surface.
-- Light (``bake``): the direct light of the scene's lights at every texel (with the shadow
-  maps of a frame), then ``bounces`` gathers: every texel shoots ``rays`` cosine-distributed
+- Light (``lightmap_bake``): the direct light of the scene's lights at every texel (with the
+  shadow maps of a frame), then ``bounces`` gathers: every texel shoots cosine-distributed
   rays through a BVH of the scene (``kernels.lightmap.gather``), and a ray brings the radiance
   of what it meets: a lightmapped surface's radiance from the previous gather (emission +
   albedo / pi (direct + indirect irradiance), read by its lightmap UV), an object without a
   lightmap's (lit by the probes), or the world's. The first gather sees direct light, emission
-  and the world; each further one adds a bounce.
+  and the world; each further one adds a bounce. The gathers before the last take a quarter
+  of the rays, and are filtered before they are gathered again; the last gathers the
+  irradiance of every bounce, the ones not gathered estimated as the geometric series that
+  the last increments continue (a progressive radiosity's ambient term, Cohen et al. 1988).
 - Directional lightmaps (beyond the talk): the L1 SH of the incoming radiance per texel (as
   Bakery's SH mode and Godot's directional lightmaps), its constant term set so that the
   irradiance at the texel's normal is the gathered one: a normal map keeps its relief.
-- Clean-up: a joint-bilateral filter within each chart (guided by position and normal,
-  ``denoise``), seams stitched across chart edges (``stitch``), charts dilated into their
-  padding (``dilate``), so bilinear look-ups never read an empty texel.
+- Clean-up: an edge-avoiding a-trous filter within each chart (guided by position, normal
+  and the estimate's variance, ``denoise``), seams stitched across chart edges (``stitch``),
+  charts dilated into their padding (``dilate``), so bilinear look-ups never read an empty
+  texel.
 
 References
 ----------
 - D. Lazarov, "Getting More Physical in Call of Duty: Black Ops II", SIGGRAPH 2013.
 - T. Moeller, B. Trumbore, "Fast, minimum storage ray-triangle intersection", JGT 1997.
 - P.-P. Sloan, "Stupid Spherical Harmonics (SH) Tricks", GDC 2008 (L1 SH irradiance).
+- M. Cohen, S. Chen, J. Wallace, D. Greenberg, "A progressive refinement approach to fast
+  radiosity image generation", SIGGRAPH 1988 (the ambient term).
 """
 
 from __future__ import annotations
@@ -60,8 +66,10 @@ class Settings:
     max_resolution:   no lightmap is larger than this many texels on a side (the density is
                       lowered to fit)
     padding:          texels between charts
-    rays:             rays per texel per bounce
-    bounces:          gathers (1: direct light, emission and the world seen once)
+    rays:             rays per texel of the last gather (the ones before it: a quarter)
+    bounces:          gathers (1: direct light, emission and the world seen once); from 3
+                      on, the last gather sees the bounces after them too, estimated as the
+                      geometric series their last increments continue
     directional:      store the L1 SH of the incoming light (4 x RGB) instead of irradiance
     denoise:          the joint-bilateral filter within charts
     memory_cap:       bytes the lightmaps of one scene may take in a frame
@@ -70,8 +78,8 @@ class Settings:
     texels_per_metre: float = 20.0
     max_resolution: int = 1024
     padding: int = 2
-    rays: int = 64
-    bounces: int = 3
+    rays: int = 256
+    bounces: int = 4
     directional: bool = False
     denoise: bool = True
     memory_cap: int = 1 << 30
@@ -196,13 +204,13 @@ def _flatten(positions: np.ndarray, chart: np.ndarray) -> np.ndarray:
         centred = pts - pts.mean(0)
         # the smallest box has a side along an edge of the hull: try the longest edges' angles
         edge = (flat[:, [1, 2, 0]] - flat).reshape(-1, 2)
-        longest = np.argsort(-np.hypot(edge[:, 0], edge[:, 1]))[:64]
+        length = np.hypot(edge[:, 0], edge[:, 1])
+        longest = np.argpartition(-length, 32)[:32] if len(length) > 32 else np.arange(len(length))
         angle = np.arctan2(edge[longest, 1], edge[longest, 0])
-        c, s = np.cos(angle), np.sin(angle)
-        rot = np.stack([np.stack([c, -s], 1), np.stack([s, c], 1)], 1)  # (A, 2, 2)
-        turned = np.einsum("kc,acd->akd", centred, rot)
-        box = np.ptp(turned, axis=1).prod(1)
-        out[faces] = turned[int(np.argmin(box))].reshape(-1, 3, 2)
+        axes = np.stack([np.cos(angle), np.sin(angle)])  # (2, A): the box's first axis
+        u, v = centred @ axes, centred @ np.stack([-axes[1], axes[0]])
+        best = int(np.argmin(np.ptp(u, axis=0) * np.ptp(v, axis=0)))
+        out[faces] = np.stack([u[:, best], v[:, best]], -1).reshape(-1, 3, 2)
     return out
 
 
@@ -320,35 +328,49 @@ def dilate(image: np.ndarray, valid: np.ndarray, passes: int = 16) -> np.ndarray
 
 
 def denoise(image: np.ndarray, chart: np.ndarray, position: np.ndarray, normal: np.ndarray,
-            radius: int = 2, sigma_position: float = 0.1, sigma_normal: float = 0.2
-            ) -> np.ndarray:
-    """Joint-bilateral filter of ``image`` (H, W, C) within charts: each texel becomes the
-    weighted mean of the texels of its own chart (``chart`` (H, W), -1 none) in a
-    (2 radius + 1)^2 window, weighted by a Gaussian of their distance in space (``position``
-    (H, W, 3), metres, ``sigma_position``) and of 1 - n.n' (``normal`` (H, W, 3),
-    ``sigma_normal``) and a spatial Gaussian of sigma ``radius`` / 2 texels."""
+            variance: np.ndarray, texel: float, levels: int = 3, sigma_normal: float = 0.1,
+            sigma_luminance: float = 4.0) -> np.ndarray:
+    """Edge-avoiding a-trous filter of ``image`` (H, W, C) within charts (Dammertz et al.,
+    "Edge-avoiding a-trous wavelet transform for fast global illumination filtering", HPG
+    2010, with the variance-guided luminance weight of Schied et al., "Spatiotemporal
+    variance-guided filtering", HPG 2017): ``levels`` passes of a 5 x 5 B3-spline kernel with
+    holes of 2^k texels. A neighbour counts if it is in the same chart (``chart`` (H, W), -1
+    none), weighted by exp(-(1 - n.n') / ``sigma_normal``) (``normal`` (H, W, 3)), by its
+    distance to the texel's tangent plane over the texel size ``texel`` (metres; ``position``
+    (H, W, 3)), and by its luminance difference over ``sigma_luminance`` standard deviations
+    of the estimate (``variance`` (H, W), of the luminance, quartered each pass)."""
     h, w, c = image.shape
-    out = np.zeros_like(image, dtype=np.float64)
-    total = np.zeros((h, w))
-    pad = radius
-    img = np.pad(image.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
-    ch = np.pad(chart, pad, constant_values=-1)
-    pos = np.pad(position.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
-    nor = np.pad(normal.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
     valid = chart >= 0
-    s2 = max(radius / 2.0, 0.5) ** 2
-    for dy in range(-radius, radius + 1):
-        for dx in range(-radius, radius + 1):
-            win = (slice(pad + dy, pad + dy + h), slice(pad + dx, pad + dx + w))
-            same = (ch[win] == chart) & valid
-            dp = ((pos[win] - position) ** 2).sum(-1)
-            dn = 1.0 - (nor[win] * normal).sum(-1)
-            wgt = same * np.exp(-(dx * dx + dy * dy) / (2.0 * s2) - dp / (2 * sigma_position ** 2)
-                                - dn / sigma_normal)
-            out += wgt[..., None] * img[win]
-            total += wgt
-    return np.where(valid[..., None], out / np.maximum(total, 1e-30)[..., None],
-                    image).astype(np.float32)
+    luma = np.array([0.2126, 0.7152, 0.0722])[:c] if c == 3 else None
+    out = image.astype(np.float64)
+    var = np.asarray(variance, np.float64)
+    kernel = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
+    for level in range(levels):
+        step = 1 << level
+        pad = 2 * step
+        img = np.pad(out, ((pad, pad), (pad, pad), (0, 0)))
+        ch = np.pad(chart, pad, constant_values=-1)
+        pos = np.pad(position.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
+        nor = np.pad(normal.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
+        lum = (out[..., :3] @ luma if luma is not None else out[..., 0])
+        lum_p = np.pad(lum, pad)
+        scale = sigma_luminance * np.sqrt(var) + 1e-6 * (np.abs(lum) + 1e-6)
+        acc = np.zeros_like(out)
+        total = np.zeros((h, w))
+        for a in range(5):
+            for b in range(5):
+                dy, dx = (a - 2) * step, (b - 2) * step
+                win = (slice(pad + dy, pad + dy + h), slice(pad + dx, pad + dx + w))
+                same = (ch[win] == chart) & valid
+                plane = np.abs(((pos[win] - position) * normal).sum(-1)) / max(texel, 1e-6)
+                bend = (1.0 - (nor[win] * normal).sum(-1)) / sigma_normal
+                shade = np.abs(lum_p[win] - lum) / scale
+                wgt = same * kernel[a] * kernel[b] * np.exp(-plane - bend - shade)
+                acc += wgt[..., None] * img[win]
+                total += wgt
+        out = np.where(valid[..., None], acc / np.maximum(total, 1e-30)[..., None], out)
+        var = var / 4.0
+    return out.astype(np.float32)
 
 
 def seams(positions: np.ndarray, uvs: np.ndarray) -> np.ndarray:

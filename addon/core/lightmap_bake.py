@@ -51,6 +51,7 @@ class _Texels:
     n: np.ndarray         # (M, 3) unit interpolated normal
     geo: np.ndarray       # (M, 3) unit face normal
     chart: np.ndarray     # (H, W) int64 chart id of each texel, -1 none
+    texel: float          # metres: the side of a texel on the surface, on average
 
 
 def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -65,7 +66,7 @@ def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     return first, index
 
 
-def _texels(target: Target, frame, first, index) -> _Texels:
+def _texels(target: Target, frame, first, index, scene_positions) -> _Texels:
     from .kernels import lightmap as kernels
 
     w, h = target.width, target.height
@@ -89,8 +90,16 @@ def _texels(target: Target, frame, first, index) -> _Texels:
     # are grouped by their triangle's chart of the layout the UVs make
     chart = np.full(w * h, -1, np.int64)
     chart[at] = uv_islands(target.uvs)[tri[at]]
+    q3 = np.asarray(target.uvs, np.float64)
+    e1, e2 = q3[:, 1] - q3[:, 0], q3[:, 2] - q3[:, 0]
+    uv_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum() * w * h
+    pts = np.asarray(scene_positions[first[target.mesh]:first[target.mesh] + len(target.uvs)],
+                     np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(pts[:, 1] - pts[:, 0], pts[:, 2] - pts[:, 0]),
+                                axis=1)
+    texel = float(np.sqrt(np.nansum(area) / max(uv_area, 1e-12)))
     return _Texels(at, global_tri, p, n.astype(np.float32), geo.astype(np.float32),
-                   chart.reshape(h, w))
+                   chart.reshape(h, w), texel)
 
 
 def _direct(frame, p, n, geo) -> np.ndarray:
@@ -187,13 +196,15 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
     frame = pipeline.prepare(base, warn, should_stop, fit_shadows=False)
     frame.scene = dataclasses.replace(frame.scene, probes=scene.probes)
     first, index = _frame_index(scene)
+    positions = (np.concatenate([m.positions for m in scene.meshes]) if scene.meshes
+                 else np.zeros((0, 3, 3), np.float32))
     poll()
     texels = []
     for target in targets:
         poll()
         if target.width * target.height <= 0:
             raise LightmapError(f"{target.name}: an empty lightmap")
-        texels.append(_texels(target, frame, first, index))
+        texels.append(_texels(target, frame, first, index, positions))
     yield 0.05
     # per frame triangle: its lightmap and lightmap UVs
     tri_map = np.full(len(frame.positions), -1, np.int32)
@@ -236,17 +247,31 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
     params = np.array([1e-4 * max(float(extent.max()), 1.0), reach])
     indirect = [np.zeros((len(tx.at), 3), np.float32) for tx in texels]
     sh = [np.zeros((len(tx.at), 4, 3), np.float32) for tx in texels]
+    variance = [np.zeros(len(tx.at), np.float32) for tx in texels]
     bounces = max(1, int(settings.bounces))
-    total_rays = sum(len(tx.at) for tx in texels) * bounces
+    # the bounces before the last gather with a quarter of the rays: their noise is averaged
+    # by the last gather, whose own noise is what the lightmap keeps
+    counts = [max(8, int(settings.rays) // 4)] * (bounces - 1) + [int(settings.rays)]
+    texel_count = sum(len(tx.at) for tx in texels)
+    total_rays = texel_count * sum(counts)
     done = [0]
     lock = threading.Lock()
     threads = pipeline.thread_count(scene.settings)
-    for bounce in range(bounces):
+    history: list[list[np.ndarray]] = []  # each gather's filtered irradiance, per target
+    for bounce, rays in enumerate(counts):
+        if bounce:  # the last gather's noise, filtered before it is gathered again
+            history.append([_clean(tx, target, indirect[k], variance[k])
+                            for k, (tx, target) in enumerate(zip(texels, targets, strict=True))])
+        current = history[-1] if history else indirect
+        if bounce == len(counts) - 1 and len(history) >= 2:
+            current = _converged(history[-2], history[-1],
+                                 history[-3] if len(history) >= 3 else None)
         # the radiance every lightmapped surface leaves, from the last gather
         radiance = np.zeros((int(sizes.sum()), 3), np.float32)
         for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
+            e = current[k]
             image = np.zeros((target.height * target.width, 3), np.float32)
-            image[tx.at] = emission[k] + albedo[k] * (direct[k] + indirect[k]) / np.float32(np.pi)
+            image[tx.at] = emission[k] + albedo[k] * (direct[k] + e) / np.float32(np.pi)
             valid = np.zeros(target.height * target.width, bool)
             valid[tx.at] = True
             image = dilate(image.reshape(target.height, target.width, 3),
@@ -258,11 +283,11 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
                 jobs.append((k, lo, min(lo + 2048, len(tx.at))))
         new_e = [np.zeros_like(a) for a in indirect]
         new_sh = [np.zeros_like(a) for a in sh]
-        back = [np.zeros(len(tx.at), np.float32) for tx in texels]
+        new_var = [np.zeros_like(a) for a in variance]
         stop = threading.Event()
 
-        def job(k, lo, hi, radiance=radiance, new_e=new_e, new_sh=new_sh, back=back,
-                stop=stop):
+        def job(k, lo, hi, rays=rays, radiance=radiance, new_e=new_e, new_sh=new_sh,
+                new_var=new_var, stop=stop):
             def run():
                 if stop.is_set():
                     raise pipeline.Cancelled()
@@ -270,30 +295,64 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
                 e = np.empty((hi - lo, 3), np.float32)
                 s = np.empty((hi - lo, 4, 3), np.float32)
                 b = np.empty(hi - lo, np.float32)
-                kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], int(settings.rays),
-                               params, tris, order, bounds, links, tri_map, tri_uv, corner,
-                               map_base, map_width, map_height, radiance, cube, cube_size,
-                               color, _FACES, e, s, b)
-                new_e[k][lo:hi], new_sh[k][lo:hi], back[k][lo:hi] = e, s, b
+                v = np.empty(hi - lo, np.float32)
+                kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], rays, params, tris,
+                               order, bounds, links, tri_map, tri_uv, corner, map_base,
+                               map_width, map_height, radiance, cube, cube_size, color, _FACES,
+                               e, s, b, v)
+                new_e[k][lo:hi], new_sh[k][lo:hi], new_var[k][lo:hi] = e, s, v
                 with lock:
-                    done[0] += hi - lo
+                    done[0] += (hi - lo) * rays
             return run
 
         for _ in pipeline._ordered([job(*j) for j in jobs], threads, poll, stop):
             yield 0.1 + 0.85 * done[0] / max(total_rays, 1)
-        indirect, sh = new_e, new_sh
-        del bounce
+        indirect, sh, variance = new_e, new_sh, new_var
     out = []
     for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
         poll()
-        out.append(_finish(scene, target, tx, indirect[k], sh[k], settings))
+        out.append(_finish(scene, target, tx, indirect[k], sh[k], variance[k], settings))
     results.extend(out)
     yield 1.0
 
 
-def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, settings: Settings
-            ) -> Lightmap:
-    """One target's texels made an image: directional or not, denoised, stitched, dilated."""
+def _converged(previous: list[np.ndarray], last: list[np.ndarray],
+               before: list[np.ndarray] | None) -> list[np.ndarray]:
+    """The irradiance after every bounce, from the last gathers' (per target, (M, 3)): the
+    last increment d_n continues as a geometric series of the ratio r = d_n / d_(n-1) of the
+    last two increments (their sums, luminance; at most 0.9), E + d_n r / (1 - r) (the
+    series' tail, as a progressive radiosity's ambient term, Cohen et al. 1988). With only
+    two gathers, r is the ratio of the second to the first."""
+    luma = np.array([0.2126, 0.7152, 0.0722], np.float32)
+    d_last = [a - b for a, b in zip(last, previous, strict=True)]
+    d_prev = ([b - c for b, c in zip(previous, before, strict=True)] if before is not None
+              else previous)
+    top = sum(float((d @ luma).sum()) for d in d_last)
+    bottom = sum(float((d @ luma).sum()) for d in d_prev)
+    ratio = min(max(top / bottom, 0.0), 0.9) if bottom > 0.0 else 0.0
+    return [e + np.maximum(d, 0.0) * np.float32(ratio / (1.0 - ratio))
+            for e, d in zip(last, d_last, strict=True)]
+
+
+def _clean(tx: _Texels, target: Target, values: np.ndarray, variance: np.ndarray,
+           texel: float | None = None) -> np.ndarray:
+    """One target's texel values (M, C) through ``lightmap.denoise``: (M, C)."""
+    h, w = target.height, target.width
+    c = values.shape[1]
+    image = np.zeros((h * w, c), np.float32)
+    image[tx.at] = values
+    pos = np.zeros((h * w, 3), np.float32)
+    nor = np.zeros((h * w, 3), np.float32)
+    var = np.zeros(h * w, np.float32)
+    pos[tx.at], nor[tx.at], var[tx.at] = tx.p, tx.n, variance
+    out = denoise(image.reshape(h, w, c), tx.chart, pos.reshape(h, w, 3), nor.reshape(h, w, 3),
+                  var.reshape(h, w), tx.texel if texel is None else texel)
+    return out.reshape(-1, c)[tx.at]
+
+
+def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, variance,
+            settings: Settings) -> Lightmap:
+    """One target's texels made an image: directional or not, denoised, dilated, stitched."""
     h, w = target.height, target.width
     if settings.directional:
         # Y00 set so the irradiance at the texel's normal is the gathered one
@@ -304,17 +363,14 @@ def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, settings:
         values = sh.reshape(-1, 12)
     else:
         values = irradiance
+    if settings.denoise:
+        values = _clean(tx, target, values, variance)
     c = values.shape[1]
     image = np.zeros((h * w, c), np.float32)
     image[tx.at] = values
     valid = np.zeros(h * w, bool)
     valid[tx.at] = True
     image, valid = image.reshape(h, w, c), valid.reshape(h, w)
-    if settings.denoise:
-        pos = np.zeros((h * w, 3), np.float32)
-        nor = np.zeros((h * w, 3), np.float32)
-        pos[tx.at], nor[tx.at] = tx.p, tx.n
-        image = denoise(image, tx.chart, pos.reshape(h, w, 3), nor.reshape(h, w, 3))
     image = dilate(image, valid, passes=max(8, settings.padding * 2))
     mesh = scene.meshes[target.mesh]
     image = stitch(image, seams(mesh.positions, target.uvs))

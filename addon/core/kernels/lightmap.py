@@ -4,8 +4,8 @@ rays through it, and the hemisphere gather of every texel.
 - ``texels``: each texel of a lightmap gets the triangle and barycentric weights of the first
   of a grid of sub-texel positions (the centre first) that falls inside a triangle of its UV
   layout; ``coverage`` counts the triangles over each texel centre (overlapping charts).
-- ``build_bvh``: a bounding-volume hierarchy, split at the median of the longest axis of the
-  centroids, leaves of at most ``LEAF`` triangles.
+- ``build_bvh``: a bounding-volume hierarchy split by the surface area heuristic, leaves of
+  at most ``LEAF`` triangles (more only where no split separates them).
 - ``trace``: the nearest hit of each ray (Moeller and Trumbore 1997, "Fast, minimum storage
   ray-triangle intersection", in float64).
 - ``gather``: the irradiance of each texel from cosine-distributed rays (Hammersley points
@@ -28,6 +28,7 @@ from .indirect import _sample
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 LEAF = 4
+BINS = 16
 STACK = 64
 EMPTY = -1
 # sub-texel positions tried in turn by ``texels``: the centre, then a 4 x 4 grid
@@ -106,17 +107,29 @@ def build_bvh(tris, order, bounds, links):
     """Build a BVH of ``tris`` (T, 3, 3): ``order`` (T,) the triangles in leaf order,
     ``bounds`` (2 T, 6) node boxes (min xyz, max xyz), ``links`` (2 T, 4) per node: left and
     right child (-1 in a leaf), first index into ``order`` and count (0 in an inner node).
-    Node 0 is the root; returns the number of nodes."""
+    Each node is split where the surface area heuristic over ``BINS`` bins of the centroids
+    along each axis is lowest (Wald 2007, "On fast construction of SAH-based bounding volume
+    hierarchies"). Node 0 is the root; returns the number of nodes."""
     n = tris.shape[0]
     cent = np.empty((n, 3), np.float32)
+    tlo = np.empty((n, 3), np.float32)
+    thi = np.empty((n, 3), np.float32)
     for t in range(n):
         order[t] = t
         for k in range(3):
-            cent[t, k] = (tris[t, 0, k] + tris[t, 1, k] + tris[t, 2, k]) / np.float32(3.0)
+            a, b, c = tris[t, 0, k], tris[t, 1, k], tris[t, 2, k]
+            tlo[t, k] = min(a, b, c)
+            thi[t, k] = max(a, b, c)
+            cent[t, k] = np.float32(0.5) * (tlo[t, k] + thi[t, k])
     stack = np.empty((128, 3), np.int64)  # node, start, end
     stack[0, 0], stack[0, 1], stack[0, 2] = 0, 0, n
     top = 1
     nodes = 1
+    bin_lo = np.empty((BINS, 3))
+    bin_hi = np.empty((BINS, 3))
+    bin_n = np.empty(BINS, np.int64)
+    right_area = np.empty(BINS)
+    right_n = np.empty(BINS, np.int64)
     while top > 0:
         top -= 1
         node, start, end = stack[top, 0], stack[top, 1], stack[top, 2]
@@ -127,30 +140,70 @@ def build_bvh(tris, order, bounds, links):
         for i in range(start, end):
             t = order[i]
             for k in range(3):
-                for j in range(3):
-                    v = tris[t, j, k]
-                    lo[k] = min(lo[k], v)
-                    hi[k] = max(hi[k], v)
+                lo[k] = min(lo[k], tlo[t, k])
+                hi[k] = max(hi[k], thi[t, k])
                 clo[k] = min(clo[k], cent[t, k])
                 chi[k] = max(chi[k], cent[t, k])
         for k in range(3):
             bounds[node, k], bounds[node, 3 + k] = lo[k], hi[k]
-        axis = 0
-        for k in range(1, 3):
-            if chi[k] - clo[k] > chi[axis] - clo[axis]:
-                axis = k
-        if end - start <= LEAF or not chi[axis] - clo[axis] > 0.0 or top >= 126:
+        count = end - start
+        best_cost, best_axis, best_split = np.inf, -1, 0
+        if count > LEAF and top < 126:
+            for axis in range(3):
+                extent = chi[axis] - clo[axis]
+                if not extent > 0.0:
+                    continue
+                scale = BINS / extent
+                bin_lo[:] = np.inf
+                bin_hi[:] = -np.inf
+                bin_n[:] = 0
+                for i in range(start, end):
+                    t = order[i]
+                    b = min(int((cent[t, axis] - clo[axis]) * scale), BINS - 1)
+                    bin_n[b] += 1
+                    for k in range(3):
+                        bin_lo[b, k] = min(bin_lo[b, k], tlo[t, k])
+                        bin_hi[b, k] = max(bin_hi[b, k], thi[t, k])
+                # areas and counts of the bins right of each plane, then sweep from the left
+                rlo = np.full(3, np.inf)
+                rhi = np.full(3, -np.inf)
+                rn = 0
+                for b in range(BINS - 1, 0, -1):
+                    rn += bin_n[b]
+                    for k in range(3):
+                        rlo[k] = min(rlo[k], bin_lo[b, k])
+                        rhi[k] = max(rhi[k], bin_hi[b, k])
+                    dx, dy, dz = rhi[0] - rlo[0], rhi[1] - rlo[1], rhi[2] - rlo[2]
+                    right_area[b] = (dx * dy + dy * dz + dz * dx) if rn else 0.0
+                    right_n[b] = rn
+                llo = np.full(3, np.inf)
+                lhi = np.full(3, -np.inf)
+                ln = 0
+                for b in range(BINS - 1):
+                    ln += bin_n[b]
+                    for k in range(3):
+                        llo[k] = min(llo[k], bin_lo[b, k])
+                        lhi[k] = max(lhi[k], bin_hi[b, k])
+                    if ln == 0 or right_n[b + 1] == 0:
+                        continue
+                    dx, dy, dz = lhi[0] - llo[0], lhi[1] - llo[1], lhi[2] - llo[2]
+                    cost = (dx * dy + dy * dz + dz * dx) * ln + right_area[b + 1] * right_n[b + 1]
+                    if cost < best_cost:
+                        best_cost, best_axis, best_split = cost, axis, b + 1
+        if best_axis < 0:
             links[node, 0], links[node, 1] = -1, -1
-            links[node, 2], links[node, 3] = start, end - start
+            links[node, 2], links[node, 3] = start, count
             continue
-        keys = np.empty(end - start, np.float32)
-        for i in range(start, end):
-            keys[i - start] = cent[order[i], axis]
-        perm = np.argsort(keys)
-        part = order[start:end].copy()
-        for i in range(end - start):
-            order[start + i] = part[perm[i]]
-        mid = (start + end) // 2
+        scale = BINS / (chi[best_axis] - clo[best_axis])
+        i, j = start, end - 1
+        while i <= j:  # partition: the bins left of the split first
+            t = order[i]
+            if min(int((cent[t, best_axis] - clo[best_axis]) * scale), BINS - 1) < best_split:
+                i += 1
+            else:
+                order[i], order[j] = order[j], order[i]
+                j -= 1
+        mid = i
         left, right = nodes, nodes + 1
         nodes += 2
         links[node, 0], links[node, 1], links[node, 2], links[node, 3] = left, right, start, 0
@@ -272,14 +325,15 @@ _GATHER = nb.void(
     nb.int64[::1], nb.int64[::1], nb.int64[::1], nb.float32[:, ::1],
     # the world: one padded cube (``kernels.indirect`` chains), its size; colour if size 0
     nb.float32[::1], nb.int64, nb.float32[::1], nb.float64[:, :, ::1],
-    # out: irradiance (N, 3), L1 SH of the radiance (N, 4, 3), share of back-face hits (N,)
-    nb.float32[:, ::1], nb.float32[:, :, ::1], nb.float32[::1])
+    # out: irradiance (N, 3), L1 SH of the radiance (N, 4, 3), share of back-face hits (N,),
+    # the variance of the irradiance's luminance (N,)
+    nb.float32[:, ::1], nb.float32[:, :, ::1], nb.float32[::1], nb.float32[::1])
 
 
 @nb.njit(_GATHER, **_OPTIONS)
 def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_map, tri_uv,
            corner_radiance, map_base, map_width, map_height, radiance, world, world_size,
-           world_color, faces, irradiance, sh, back):
+           world_color, faces, irradiance, sh, back, variance):
     """The light reaching each texel (``points``, unit ``normals`` and geometric normals
     ``geo`` (N, 3)) from ``rays`` cosine-distributed rays about the normal: irradiance
     (N, 3), W/m^2, the L1 SH (Y00, Y1-1, Y10, Y11) of the radiance over the hemisphere
@@ -316,6 +370,7 @@ def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_m
         acc[:] = 0.0
         sh_acc[:] = 0.0
         backs = 0
+        square = 0.0
         for k in range(rays):
             u1 = (k + 0.5) / rays
             u2 = (k * golden + rot) % 1.0
@@ -361,6 +416,8 @@ def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_m
                 for c in range(3):
                     s[c] = world_color[c]
             cos = max(dx * nx + dy * ny + dz * nz, 0.1)
+            lum = 0.2126 * s[0] + 0.7152 * s[1] + 0.0722 * s[2]
+            square += lum * lum
             for c in range(3):
                 acc[c] += s[c]
                 sh_acc[0, c] += s[c] * c0 / cos
@@ -373,3 +430,5 @@ def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_m
             for j in range(4):
                 sh[i, j, c] = sh_acc[j, c] * scale
         back[i] = backs / rays
+        mean = (0.2126 * acc[0] + 0.7152 * acc[1] + 0.0722 * acc[2]) / rays
+        variance[i] = math.pi * math.pi * max(square / rays - mean * mean, 0.0) / rays
