@@ -118,7 +118,8 @@ def _direct(frame, p, n, geo) -> np.ndarray:
 
 
 def _surface(frame, tri, p, n, geo, bary=None):
-    """Albedo and emission (N, 3) of the frame's surfaces at the points."""
+    """Reflectance (albedo (1 - rf0) + rf0) and emission (N, 3) of the frame's surfaces at
+    the points."""
     if bary is None:
         q = frame.positions[tri].astype(np.float64)
         e1, e2, d = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0], p - q[:, 0]
@@ -131,7 +132,12 @@ def _surface(frame, tri, p, n, geo, bary=None):
     zero = np.zeros(len(tri), np.float32)
     s = pipeline._materials(frame, np.asarray(tri, np.int64), bary, p, n, geo, n, zero, zero,
                             shifts=False)
-    return np.asarray(s.albedo, np.float32), np.asarray(s.emission, np.float32)
+    # what the surface reflects of the light it gets, diffusely and specularly (a gather reads
+    # its radiance as a diffuse surface's, so a metal reflects its colour): the specular layer
+    # takes rf0 and the diffuse one the rest, as a layered BSDF conserves energy
+    rf0 = np.asarray(s.rf0, np.float32)
+    reflectance = np.asarray(s.albedo, np.float32) * (1.0 - rf0) + rf0
+    return reflectance, np.asarray(s.emission, np.float32)
 
 
 def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray) -> np.ndarray:
@@ -320,17 +326,17 @@ def _converged(previous: list[np.ndarray], last: list[np.ndarray],
                before: list[np.ndarray] | None) -> list[np.ndarray]:
     """The irradiance after every bounce, from the last gathers' (per target, (M, 3)): the
     last increment d_n continues as a geometric series of the ratio r = d_n / d_(n-1) of the
-    last two increments (their sums, luminance; at most 0.9), E + d_n r / (1 - r) (the
+    last two increments (their sums, per channel; at most 0.9), E + d_n r / (1 - r) (the
     series' tail, as a progressive radiosity's ambient term, Cohen et al. 1988). With only
     two gathers, r is the ratio of the second to the first."""
-    luma = np.array([0.2126, 0.7152, 0.0722], np.float32)
     d_last = [a - b for a, b in zip(last, previous, strict=True)]
     d_prev = ([b - c for b, c in zip(previous, before, strict=True)] if before is not None
               else previous)
-    top = sum(float((d @ luma).sum()) for d in d_last)
-    bottom = sum(float((d @ luma).sum()) for d in d_prev)
-    ratio = min(max(top / bottom, 0.0), 0.9) if bottom > 0.0 else 0.0
-    return [e + np.maximum(d, 0.0) * np.float32(ratio / (1.0 - ratio))
+    top = sum(d.sum(0, dtype=np.float64) for d in d_last)
+    bottom = sum(d.sum(0, dtype=np.float64) for d in d_prev)
+    ratio = np.clip(np.where(bottom > 0.0, top / np.where(bottom > 0.0, bottom, 1.0), 0.0),
+                    0.0, 0.9)
+    return [e + np.maximum(d, 0.0) * (ratio / (1.0 - ratio)).astype(np.float32)
             for e, d in zip(last, d_last, strict=True)]
 
 
