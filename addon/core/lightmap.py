@@ -46,8 +46,8 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["CHART_ANGLE", "Lightmap", "LightmapError", "Settings", "Target", "as_sh", "denoise",
-           "dilate", "layout", "memory_bytes", "overlaps", "sample", "seams", "size_for", "stitch",
-           "uv_islands"]
+           "dilate", "layout", "memory_bytes", "overlaps", "sample", "seam_jumps", "seams",
+           "size_for", "stitch", "uv_islands"]
 
 CHART_ANGLE = 45.0  # degrees: a face joins a chart while its normal is within this of the seed's
 SH_SCALE_C0 = 0.5 / np.sqrt(np.pi)
@@ -185,8 +185,9 @@ def _charts(positions: np.ndarray) -> np.ndarray:
 
 
 def _flatten(positions: np.ndarray, chart: np.ndarray) -> np.ndarray:
-    """(T, 3, 2) float64 metres: each chart projected on the plane of its mean normal,
-    turned so its extent lies along the axes (the principal axes of its corners)."""
+    """(T, 3, 2) float64 metres: each chart projected on the plane of its mean normal, turned
+    to its smallest box (whose side lies along one of its longest edges) and scaled to keep
+    its surface's area."""
     out = np.zeros((len(positions), 3, 2))
     cross = np.cross(positions[:, 1] - positions[:, 0], positions[:, 2] - positions[:, 0])
     order = np.argsort(chart, kind="stable")
@@ -210,7 +211,12 @@ def _flatten(positions: np.ndarray, chart: np.ndarray) -> np.ndarray:
         axes = np.stack([np.cos(angle), np.sin(angle)])  # (2, A): the box's first axis
         u, v = centred @ axes, centred @ np.stack([-axes[1], axes[0]])
         best = int(np.argmin(np.ptp(u, axis=0) * np.ptp(v, axis=0)))
-        out[faces] = np.stack([u[:, best], v[:, best]], -1).reshape(-1, 3, 2)
+        chart_uv = np.stack([u[:, best], v[:, best]], -1).reshape(-1, 3, 2)
+        # a curved chart's projection is smaller than its surface: scaled to the same area
+        e1, e2 = chart_uv[:, 1] - chart_uv[:, 0], chart_uv[:, 2] - chart_uv[:, 0]
+        flat_area = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]).sum()
+        surface = 0.5 * np.linalg.norm(cross[faces], axis=1).sum()
+        out[faces] = chart_uv * np.sqrt(surface / flat_area) if flat_area > 0.0 else chart_uv
     return out
 
 
@@ -239,7 +245,8 @@ def _pack(flat: np.ndarray, chart: np.ndarray, density: float, padding: int
         x += cell[c, 0]
         row = max(row, cell[c, 1])
     height = y + row
-    out = texel - lo[chart][:, None, :] + place[chart][:, None, :] + 0.5
+    # 0.3: no chart edge on the texel centres of an integer-sized chart
+    out = texel - lo[chart][:, None, :] + place[chart][:, None, :] + 0.3
     return out, int(width), int(max(height, 1))
 
 
@@ -375,24 +382,57 @@ def denoise(image: np.ndarray, chart: np.ndarray, position: np.ndarray, normal: 
 
 def seams(positions: np.ndarray, uvs: np.ndarray) -> np.ndarray:
     """The seams of a layout: edges shared by two triangles whose UVs differ there, as
-    (E, 2, 2, 2) float64: per seam, per side, the UVs of the edge's two ends (in the same
-    order on both sides)."""
+    (E, 2, 3, 2) float64: per seam, per side, the UVs of the edge's two ends (in the same
+    order on both sides) and of the triangle's third corner (which says where its inside is)."""
     ids = _weld(np.asarray(positions, np.float64))
     pairs, verts = _edges(ids)
     if not len(pairs):
-        return np.zeros((0, 2, 2, 2))
+        return np.zeros((0, 2, 3, 2))
     q = np.asarray(uvs, np.float64)
     sides = []
     for side in range(2):
         tri = pairs[:, side]
-        ends = []
-        for v in range(2):
-            corner = np.argmax(ids[tri] == verts[:, v, None], axis=1)
-            ends.append(q[tri, corner])
-        sides.append(np.stack(ends, 1))
-    out = np.stack(sides, 1)  # (E, side, end, 2)
-    differ = np.abs(out[:, 0] - out[:, 1]).max(axis=(1, 2)) > 1e-6
+        at = [np.argmax(ids[tri] == verts[:, v, None], axis=1) for v in range(2)]
+        third = 3 - at[0] - at[1]
+        sides.append(np.stack([q[tri, at[0]], q[tri, at[1]], q[tri, third]], 1))
+    out = np.stack(sides, 1)  # (E, side, corner, 2)
+    differ = np.abs(out[:, 0, :2] - out[:, 1, :2]).max(axis=(1, 2)) > 1e-6
     return out[differ]
+
+
+def _seam_points(seam: np.ndarray, width: int, height: int):
+    """Points along the seams, two per texel of their length: UVs on side 0 and side 1 (N, 2)
+    and the unit inward directions (N, 2) of each side, in UV."""
+    size = np.array([width, height], np.float64)
+    length = np.linalg.norm((seam[:, 0, 1] - seam[:, 0, 0]) * size, axis=1)
+    steps = np.maximum(np.ceil(length * 2.0).astype(np.int64), 1)
+    rows = np.repeat(np.arange(len(seam)), steps + 1)
+    t = np.concatenate([np.linspace(0.0, 1.0, s + 1) for s in steps])[:, None]
+    points, inward = [], []
+    for side in range(2):
+        a, b, c = (seam[rows, side, k] for k in range(3))
+        points.append(a + t * (b - a))
+        edge = (b - a) * size
+        normal = np.stack([-edge[:, 1], edge[:, 0]], 1)
+        normal *= np.sign(((c - a) * size * normal).sum(1, keepdims=True))
+        normal /= np.maximum(np.linalg.norm(normal, axis=1, keepdims=True), 1e-12)
+        inward.append(normal / size)  # one texel, in UV
+    return points, inward
+
+
+def seam_jumps(image: np.ndarray, seam: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """At points along the seams (``seams``): the jump across each (the largest channel
+    difference of the bilinear values on its two sides) and the gradient beside it (the
+    largest difference between a side's value and its value one texel inward), (N,) each."""
+    if not len(seam):
+        return np.zeros(0), np.zeros(0)
+    h, w, _ = image.shape
+    (a, b), (na, nb) = _seam_points(seam, w, h)
+    va, vb = sample(image, a), sample(image, b)
+    jump = np.abs(va - vb).max(1)
+    beside = np.maximum(np.abs(va - sample(image, a + na)).max(1),
+                        np.abs(vb - sample(image, b + nb)).max(1))
+    return jump, beside
 
 
 def uv_islands(uvs: np.ndarray) -> np.ndarray:
@@ -460,12 +500,7 @@ def stitch(image: np.ndarray, seam: np.ndarray, iterations: int = 32) -> np.ndar
     if not len(seam):
         return image
     h, w, c = image.shape
-    length = np.linalg.norm((seam[:, 0, 1] - seam[:, 0, 0]) * [w, h], axis=1)
-    steps = np.maximum(np.ceil(length * 2.0).astype(np.int64), 1)
-    rows = np.repeat(np.arange(len(seam)), steps + 1)
-    t = np.concatenate([np.linspace(0.0, 1.0, s + 1) for s in steps])
-    a = seam[rows, 0, 0] + t[:, None] * (seam[rows, 0, 1] - seam[rows, 0, 0])
-    b = seam[rows, 1, 0] + t[:, None] * (seam[rows, 1, 1] - seam[rows, 1, 0])
+    (a, b), _ = _seam_points(seam, w, h)
     ia, wa = _bilinear_taps(a, w, h)
     ib, wb = _bilinear_taps(b, w, h)
     flat = image.reshape(-1, c).astype(np.float64).copy()
