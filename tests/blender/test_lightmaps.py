@@ -83,7 +83,7 @@ def test_bake_and_render_with_lightmaps(addon, tmp_path):
     def floor_at(x, y):  # the plane's UVs: (x + 2) / 4, (y + 2) / 4
         return lightmap.sample(floor_lm.image, np.array([[(x + 2) / 4, (y + 2) / 4]]))[0]
 
-    assert floor_at(0.4, 0.15)[1] < 0.8 * floor_at(-1.0, -1.5)[1]
+    assert floor_at(0.4, 0.15)[1] < 0.9 * floor_at(-1.0, -1.5)[1]
     # the render reads them: its Diffuse Indirect differs from the probes'
     depsgraph = bpy.context.evaluated_depsgraph_get()
     core, warnings = extract.extract_scene(depsgraph, indirect=True)
