@@ -34,8 +34,9 @@ Diffuse Indirect side by side. ``--reuse-cycles`` keeps a Cycles render already 
 ``--lightmaps`` bakes the lightmaps of the static objects too, after the probes (every
 object of these scenes is static: the figures over all geometry are the static surfaces'),
 and prints their bake time and files' size. ``--no-leak-fixes`` bakes the volumes without
-validity, escape and dilation and looks them up without biases (the behaviour before them). ``--set NAME=VALUE`` sets one of the scene's BO2
-settings first (``--set use_ambient_occlusion=False``, ``--set "sky_directions='64'"``).
+validity, escape and dilation and looks them up without biases (the behaviour before them).
+``--set NAME=VALUE`` sets one of the scene's BO2 settings first
+(``--set use_ambient_occlusion=False``, ``--set "sky_directions='64'"``).
 
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
 and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
@@ -174,12 +175,13 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
     if any(o.type == "LIGHT_PROBE" for o in scene.objects):  # an open scene may have none
         assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
     bake_seconds = time.perf_counter() - start
-    lightmap_seconds, lightmap_bytes = 0.0, 0
+    lightmap_seconds, lightmap_bytes, seam_figures = 0.0, 0, {}
     if args.lightmaps:
         start = time.perf_counter()
         assert bpy.ops.bo2.bake_lightmaps() == {"FINISHED"}
         lightmap_seconds = time.perf_counter() - start
         lightmap_bytes = sum(p.stat().st_size for p in (out / "bake" / "lightmaps").iterdir())
+        seam_figures = lightmap_seams(out / "bake" / "lightmaps")
     layer = bpy.context.view_layer
     job = blender_compare.Comparison(scene, layer, out)
     cycles_info = out / "cycles_info.json"
@@ -233,6 +235,7 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         "bake_seconds": bake_seconds,
         "lightmap_seconds": lightmap_seconds,
         "lightmap_bytes": lightmap_bytes,
+        **seam_figures,
         "bo2_seconds": job.info["bo2"]["render_seconds"],
         "cycles_seconds": job.info["cycles"]["render_seconds"],
         "cycles_samples": job.info["cycles"]["samples"],
@@ -241,9 +244,41 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
     return figures
 
 
+def lightmap_seams(folder: Path) -> dict:
+    """The lightmaps' seams: across every seam of every object (``lightmap.seam_jumps``), the
+    largest jump, the share of seam points whose jump exceeds the gradient beside them, and
+    the memory the images and UVs take in a frame."""
+    from bo2_lighting.addon.blender import extract
+    from bo2_lighting.addon.core import lightmap, lightmap_file
+
+    core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), camera=False,
+                                    indirect=False)
+    meshes = {m.name: m for m in core.meshes}
+    jumps, besides, memory = [], [], 0
+    for path in sorted(folder.glob("*.exr")):
+        meta, lm = lightmap_file.read(path)
+        memory += lm.image.nbytes + lm.uvs.nbytes
+        mesh = meshes.get(meta["object"])
+        if mesh is None or len(mesh.positions) != len(lm.uvs):
+            continue
+        jump, beside = lightmap.seam_jumps(lm.image, lightmap.seams(mesh.positions, lm.uvs))
+        scale = max(float(np.percentile(lm.image[..., :3], 99)), 1e-6)  # relative to the map
+        jumps.append(jump / scale)
+        besides.append(beside / scale)
+    jump, beside = (np.concatenate(a) if a else np.zeros(0) for a in (jumps, besides))
+    return {"seam_max_jump": float(jump.max(initial=0.0)),
+            "seam_max_beside": float(beside.max(initial=0.0)),
+            "seam_over_beside": float((jump > beside).mean()) if len(jump) else 0.0,
+            "seam_points": int(len(jump)), "lightmap_frame_bytes": int(memory)}
+
+
 def line(name: str, f: dict) -> str:
     lightmaps = (f", lightmaps {f['lightmap_seconds']:.1f} s "
-                 f"({f['lightmap_bytes'] / 2**20:.2f} MiB)" if f["lightmap_seconds"] else "")
+                 f"({f['lightmap_bytes'] / 2**20:.2f} MiB of files, "
+                 f"{f['lightmap_frame_bytes'] / 2**20:.2f} MiB in a frame; seams: largest jump "
+                 f"{f['seam_max_jump']:.3f}, largest gradient beside {f['seam_max_beside']:.3f},"
+                 f" jump above the gradient at {f['seam_over_beside'] * 100:.1f}% of "
+                 f"{f['seam_points']} points)" if f["lightmap_seconds"] else "")
     return (f"{name}: PSNR {f['psnr_db']:.2f} dB, Diffuse Indirect mean relative error "
             f"{f['diffuse_indirect_mre']:.3f} (world's light included "
             f"{f['indirect_world_mre']:.3f}; within {CONTACT * 100:.0f} cm of a contact "

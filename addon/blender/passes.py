@@ -28,6 +28,8 @@ FLAGS = {
     "Albedo": "bo2.use_pass_albedo",
     "Specular Color": "bo2.use_pass_specular_color",
     "Gloss": "bo2.use_pass_gloss",
+    "Lightmap": "bo2.use_pass_lightmap",
+    "Lightmap Texels": "bo2.use_pass_lightmap_texels",
     "DiffCol": "use_pass_diffuse_color",
     "GlossCol": "use_pass_glossy_color",
 }

@@ -292,6 +292,12 @@ class BO2ViewLayerSettings(bpy.types.PropertyGroup):
         name="Specular Color", description="The talk's rf0 after texture lookups")
     use_pass_gloss: bpy.props.BoolProperty(
         name="Gloss", description="Gloss after texture lookups (specular power 8192^gloss)")
+    use_pass_lightmap: bpy.props.BoolProperty(
+        name="Lightmap", description="The irradiance the baked lightmaps give (0 where an "
+        "object has none)")
+    use_pass_lightmap_texels: bpy.props.BoolProperty(
+        name="Lightmap Texels", description="Each lightmap's texels as a checker of its own "
+        "hue: their density on the surfaces")
 
 
 def _tag_scene(self, context) -> None:

@@ -11,6 +11,8 @@ multilayer EXR files store (``<layer>.<pass>.<id>``).
   with a UV map).
 - DiffDir, GlossDir, DiffInd, GlossInd, Emit: the light, direct and indirect (the probes).
 - Albedo, Specular Color, Gloss: the material in the talk's parameters after texture lookups.
+- Lightmap: the irradiance a baked lightmap gives the pixel (W/m^2; 0 where none); Lightmap
+  Texels: each lightmap's texels as a checker of its own hue (their density; 0 where none).
 """
 
 from __future__ import annotations
@@ -61,6 +63,8 @@ PASSES: dict[str, Pass] = {p.name: p for p in (
     Pass("Albedo", "RGB", "COLOR", "material"),
     Pass("Specular Color", "RGB", "COLOR", "material"),
     Pass("Gloss", "X", "VALUE", "material"),
+    Pass("Lightmap", "RGB", "COLOR", "light"),
+    Pass("Lightmap Texels", "RGB", "COLOR", "data"),
 )}
 
 def _sampled_columns() -> tuple[dict[str, slice], int]:

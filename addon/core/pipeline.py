@@ -686,6 +686,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
                          diffuse, specular, visibility=vis)
     ao = np.ones(len(tri), np.float32)
+    baked = None
     if scene.probes is not None:
         s = scene.settings
         if view is not None:
@@ -706,7 +707,8 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
         baked = _lightmap_sh(frame, tri, bary)
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf,
-                                              sky=None if sky is None else seen, baked=baked)
+                                              sky=None if sky is None else seen,
+                                              baked=None if baked is None else baked[:2])
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]
@@ -728,13 +730,21 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
                     *(f32(a, np.float32) for a in (mat.emission, mat.albedo, mat.rf0,
                                                    mat.gloss)))
     out[:, SAMPLED["AO"]] = ao[:, None]
+    lm, texels = SAMPLED["Lightmap"], SAMPLED["Lightmap Texels"]
+    out[:, lm] = 0.0
+    out[:, texels] = 0.0
+    if baked is not None:
+        k, coeffs, checker = baked
+        out[k, lm] = np.einsum("nk,nkc->nc", sh.basis(n[k]) * sh.BAND_FACTORS, coeffs)
+        out[k, texels] = checker
     return out
 
 
-def _lightmap_sh(frame: Frame, tri, bary) -> tuple[np.ndarray, np.ndarray] | None:
+def _lightmap_sh(frame: Frame, tri, bary) -> tuple | None:
     """The lightmapped points among those on triangles ``tri`` (N,) at weights ``bary``
-    (N, 3): their indices (K,) and the SH (K, 9, 3) of the light their lightmap holds
-    (``lightmap.as_sh``), or None when none is lightmapped."""
+    (N, 3): their indices (K,), the SH (K, 9, 3) of the light their lightmap holds
+    (``lightmap.as_sh``) and their texels' checker colour (K, 3) (the Lightmap Texels pass),
+    or None when none is lightmapped."""
     if frame.lightmap is None:
         return None
     which = frame.lightmap[tri]
@@ -743,10 +753,21 @@ def _lightmap_sh(frame: Frame, tri, bary) -> tuple[np.ndarray, np.ndarray] | Non
         return None
     uv = np.einsum("nk,nkc->nc", bary[k], frame.lightmap_uvs[tri[k]])
     out = np.zeros((k.size, 9, 3), np.float32)
+    checker = np.zeros((k.size, 3), np.float32)
     for m in np.unique(which[k]):
         sel = np.flatnonzero(which[k] == m)
-        out[sel] = lightmap_light.as_sh(lightmap_light.sample(frame.lightmaps[m].image, uv[sel]))
-    return k, out
+        image = frame.lightmaps[m].image
+        out[sel] = lightmap_light.as_sh(lightmap_light.sample(image, uv[sel]))
+        h, w = image.shape[:2]
+        cell = (np.floor(uv[sel, 0] * w) + np.floor((1.0 - uv[sel, 1]) * h)) % 2
+        hue = np.asarray(LIGHTMAP_HUES[m % len(LIGHTMAP_HUES)], np.float32)
+        checker[sel] = hue * (0.45 + 0.55 * cell)[:, None].astype(np.float32)
+    return k, out, checker
+
+
+# The Lightmap Texels pass: one hue per lightmap, its texels a checker of two shades of it
+LIGHTMAP_HUES = ((0.9, 0.35, 0.3), (0.3, 0.65, 0.9), (0.4, 0.85, 0.35), (0.95, 0.8, 0.3),
+                 (0.75, 0.45, 0.9), (0.3, 0.85, 0.8))
 
 
 def _view_buffer(frame: Frame, tile) -> tuple[np.ndarray, int, int]:

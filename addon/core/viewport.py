@@ -65,6 +65,11 @@ VIEWS: dict[str, View] = {
     # new views go last: files store a view by its number
     "AMBIENT_OCCLUSION": View("Ambient Occlusion", "AO", True,
                               "Contact occlusion of probe and world light (1: open)"),
+    "LIGHTMAP": View("Lightmap", "Lightmap", False,
+                     "The irradiance of the baked lightmaps (black: no lightmap)"),
+    "LIGHTMAP_TEXELS": View("Lightmap Texels", "Lightmap Texels", True,
+                            "Each lightmap's texels as a checker of its own hue: their density "
+                            "(black: no lightmap)"),
 }
 
 # Distinct colours for probes 0, 1, ... (repeating), and the world's grey.

@@ -303,6 +303,12 @@ def test_a_stopped_bake_raises_and_the_renderer_reads_lightmaps():
     assert plain[row, 33, 0] > 1.2 * lit[row, 33, 0]
     far = floor_irradiance_by_brute_force(-0.94)
     assert lit[row, 18, 0] == pytest.approx(0.5 * far / np.pi, rel=0.03)
+    # the Lightmap pass holds the irradiance, Lightmap Texels a checker of the floor's texels
+    passes = pipeline.render_frame(scene)
+    assert passes["Lightmap"][row, 18, 0] == pytest.approx(far, rel=0.03)
+    texels = passes["Lightmap Texels"][row, 14:22, 0]
+    assert texels.min() > 0 and len(np.unique(np.round(texels, 2))) >= 2
+    assert passes["Lightmap"][row, 40].max() == 0.0  # the wall has no lightmap
     scene.settings.lightmaps = False
     assert np.array_equal(pipeline.render_frame(scene)["DiffInd"], plain)
 
