@@ -236,10 +236,92 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
     return targets, notes
 
 
-def lightmap_steps(scene, depsgraph, objs, report=None):
+def cycles_lightmap(scene, obj, target, uv_map: str | None) -> np.ndarray:
+    """(H, W, 3) irradiance, W/m^2, row 0 at v = 1, of ``obj``'s surface baked by Cycles in the
+    layout ``target`` (``core.lightmap.Target``): its indirect light and the world's direct
+    light (Bake > Diffuse without colour gives E / pi; the lamps' direct light, which the
+    render adds live, is left out by baking the direct pass with the lamps hidden). The layout
+    is the object's UV map ``uv_map``, or a temporary one; nothing of the object is left
+    changed."""
+    mesh = obj.data
+    added_uv = None
+    if uv_map is None:
+        if any(m.show_render for m in obj.modifiers):
+            raise BakeError(f"Object '{obj.name}': the Cycles backend bakes a layout the bake "
+                            "made only on objects without modifiers; apply them, give it a "
+                            "LightmapUV map, or bake with BO2 Lighting")
+        mesh.calc_loop_triangles()
+        if len(mesh.loop_triangles) != len(target.uvs) or len(mesh.uv_layers) >= 8:
+            raise BakeError(f"Object '{obj.name}': its mesh cannot take the lightmap's layout "
+                            "as a UV map; give it a LightmapUV map, or bake with BO2 Lighting")
+        loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+        mesh.loop_triangles.foreach_get("loops", loops)
+        uv = np.zeros((len(mesh.loops), 2), np.float32)
+        uv[loops] = np.asarray(target.uvs, np.float32).reshape(-1, 2)
+        added_uv = mesh.uv_layers.new(name="BO2 Lightmap Bake", do_init=False)
+        added_uv.uv.foreach_set("vector", uv.reshape(-1))
+        uv_map = added_uv.name
+    image = bpy.data.images.new("BO2 Lightmap Bake", target.width, target.height, alpha=False,
+                                float_buffer=True)
+    added_material = None
+    if not obj.material_slots or all(slot.material is None for slot in obj.material_slots):
+        added_material = bpy.data.materials.new("BO2 Lightmap Bake")
+        added_material.use_nodes = True
+        mesh.materials.append(added_material)
+    nodes = []
+    layer = bpy.context.view_layer
+    saved = (layer.objects.active, [o for o in scene.objects if o.select_get()],
+             scene.render.engine, scene.cycles.samples)
+    lamps = [o for o in scene.objects if o.type == "LIGHT" and not o.hide_render]
+    try:
+        for slot in obj.material_slots:
+            mat = slot.material
+            if mat is None or mat.node_tree is None:
+                continue
+            node = mat.node_tree.nodes.new("ShaderNodeTexImage")
+            node.image = image
+            mat.node_tree.nodes.active = node
+            nodes.append((mat, node))
+        for o in saved[1]:
+            o.select_set(False)
+        obj.select_set(True)
+        layer.objects.active = obj
+        scene.render.engine = "CYCLES"
+        scene.cycles.samples = int(scene.bo2.bake_cycles_samples)
+        total = np.zeros((target.height, target.width, 3), np.float32)
+        for passes in ({"INDIRECT"}, {"DIRECT"}):
+            hide = passes == {"DIRECT"}
+            for lamp in lamps:
+                lamp.hide_render = hide
+            bpy.ops.object.bake(type="DIFFUSE", pass_filter=passes, uv_layer=uv_map,
+                                margin=int(scene.bo2.lightmap_padding), use_clear=True)
+            pixels = np.empty(target.width * target.height * 4, np.float32)
+            image.pixels.foreach_get(pixels)
+            total += pixels.reshape(target.height, target.width, 4)[::-1, :, :3]
+        return total * np.float32(np.pi)
+    finally:
+        for lamp in lamps:
+            lamp.hide_render = False
+        for mat, node in nodes:
+            mat.node_tree.nodes.remove(node)
+        if added_material is not None:
+            mesh.materials.pop()
+            bpy.data.materials.remove(added_material)
+        if added_uv is not None:
+            mesh.uv_layers.remove(added_uv)
+        bpy.data.images.remove(image)
+        obj.select_set(False)
+        for o in saved[1]:
+            o.select_set(True)
+        layer.objects.active = saved[0]
+        scene.render.engine, scene.cycles.samples = saved[2], saved[3]
+
+
+def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
     """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1]; the files
     are written at the end, all or nothing (closing it early writes nothing).
-    ``report(message)`` receives warnings."""
+    ``report(message)`` receives warnings. backend: "BO2" (``core.lightmap_bake``) or
+    "CYCLES" (``cycles_lightmap``, one object at a time; irradiance only)."""
     def warn(message: str) -> None:
         if report is not None:
             report(message)
@@ -260,15 +342,27 @@ def lightmap_steps(scene, depsgraph, objs, report=None):
     targets, notes = lightmap_plan(scene, depsgraph, core_scene, objs, warn)
     s = lightmaps.settings(scene)
     results: list = []
-    yield from lightmap_bake.steps(core_scene, targets, s, results,
-                                   should_stop=interrupt.requested, warn=warn)
+    if backend == "CYCLES":
+        if s.directional:
+            warn("The Cycles backend bakes irradiance only: these lightmaps are not "
+                 "directional")
+            s = dataclasses.replace(s, directional=False)
+        for k, (target, note) in enumerate(zip(targets, notes, strict=True)):
+            image = cycles_lightmap(scene, scene.objects[target.name], target,
+                                    note["uv_map"] or None)
+            results.append(core_lightmap.Lightmap(np.ascontiguousarray(image), target.uvs))
+            interrupt.check()
+            yield (k + 1) / (len(targets) + 1)
+    else:
+        yield from lightmap_bake.steps(core_scene, targets, s, results,
+                                       should_stop=interrupt.requested, warn=warn)
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
     light = lightmap_bake.light_key(core_scene)
     files = []
     for target, note, result in zip(targets, notes, results, strict=True):
         meta = {"object": target.name, **note, "width": target.width, "height": target.height,
                 "rays": s.rays, "bounces": s.bounces, "directional": s.directional,
-                "denoise": s.denoise, "backend": "BO2",
+                "denoise": s.denoise, "backend": backend,
                 "geometry_key": lightmap_bake.geometry_key(
                     core_scene.meshes[target.mesh].positions),
                 "light_key": light, "bake_time": stamp,

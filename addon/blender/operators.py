@@ -204,7 +204,8 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
         probes.writable_folder(scene)
         self.what = f"lightmap{'s' * (len(objs) != 1)}"
         steps = bake.lightmap_steps(scene, context.evaluated_depsgraph_get(), objs,
-                                    report=lambda m: self.report({"WARNING"}, m))
+                                    report=lambda m: self.report({"WARNING"}, m),
+                                    backend=probes.capture_backend(scene))
         return steps, len(objs)
 
 

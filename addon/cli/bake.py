@@ -42,7 +42,8 @@ def run(args) -> int:
         with quiet_blender():
             if lightmapping:
                 folder = folder / lightmaps.FOLDER
-                steps = bake.lightmap_steps(scene, depsgraph, objs, report=warnings.append)
+                steps = bake.lightmap_steps(scene, depsgraph, objs, report=warnings.append,
+                                            backend=args.backend.upper())
             else:
                 steps = bake.bake_steps(scene, depsgraph, objs, args.backend.upper(),
                                         report=warnings.append)

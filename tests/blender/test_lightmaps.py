@@ -177,3 +177,30 @@ def test_bad_input_is_one_message(addon, tmp_path):
     scene.bo2.bake_folder = str(tmp_path / "room.blend")  # a file, not a folder
     with pytest.raises(RuntimeError, match="is a file, not a folder"):
         bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL")
+
+
+def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
+    scene = room(tmp_path)
+    scene.bo2.lightmap_density = 4.0
+    scene.bo2.bake_cycles_samples = 16
+    objs = [scene.objects["Floor"], scene.objects["Block"]]
+    floor = scene.objects["Floor"]
+    nodes_before = {m.name: len(m.node_tree.nodes) for m in bpy.data.materials if m.node_tree}
+    uv_before = [uv.name for uv in floor.data.uv_layers]
+    for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), objs,
+                                         backend="CYCLES"):
+        pass
+    folder = tmp_path / "bo2_bake" / "lightmaps"
+    meta, cycles = lightmap_file.read(folder / "Floor.exr")
+    assert meta["backend"] == "CYCLES"
+    scene.bo2.lightmap_rays = 128
+    for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), objs):
+        pass
+    _, ours = lightmap_file.read(folder / "Floor.exr")
+    inside = cycles.image[..., 1] > 0
+    ratio = ours.image[inside, 1].mean() / cycles.image[inside, 1].mean()
+    assert 0.75 < ratio < 1.25, ratio
+    assert [uv.name for uv in floor.data.uv_layers] == uv_before
+    assert {m.name: len(m.node_tree.nodes) for m in bpy.data.materials
+            if m.node_tree} == nodes_before
+    assert not any(i.name.startswith("BO2 Lightmap Bake") for i in bpy.data.images)
