@@ -238,7 +238,7 @@ def _nearest(tris, order, bounds, links, stack, ox, oy, oz, dx, dy, dz, tmax):
     iy = 1.0 / dy if dy != 0.0 else 1e30
     iz = 1.0 / dz if dz != 0.0 else 1e30
     best, bt, bu, bv = -1, tmax, 0.0, 0.0
-    if _box(bounds, 0, ox, oy, oz, ix, iy, iz, bt) == np.inf:
+    if _box(bounds, np.int64(0), ox, oy, oz, ix, iy, iz, bt) == np.inf:
         return best, bt, bu, bv
     stack[0] = 0
     top = 1
@@ -268,7 +268,7 @@ def _nearest(tris, order, bounds, links, stack, ox, oy, oz, dx, dy, dz, tmax):
                 if tt > 0.0 and tt < bt:
                     best, bt, bu, bv = t, tt, u, v
             continue
-        a, b = links[node, 0], links[node, 1]
+        a, b = np.int64(links[node, 0]), np.int64(links[node, 1])
         ta = _box(bounds, a, ox, oy, oz, ix, iy, iz, bt)
         tb = _box(bounds, b, ox, oy, oz, ix, iy, iz, bt)
         if ta > tb:
@@ -410,7 +410,7 @@ def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_m
                         s[c] = (w0 * corner_radiance[t, 0, c] + hu * corner_radiance[t, 1, c]
                                 + hv * corner_radiance[t, 2, c])
             elif world_size > 0:
-                _sample(world, chain_off, chain_size, levels, 0, faces, np.float32(dx),
+                _sample(world, chain_off, chain_size, levels, np.int64(0), faces, np.float32(dx),
                         np.float32(dy), np.float32(dz), np.float32(1.0), s)
             else:
                 for c in range(3):
