@@ -140,7 +140,6 @@ class RENDER_PT_bo2_lightmaps(_BO2Panel, bpy.types.Panel):
     bl_label = "Lightmaps"
     bl_context = "render"
     bl_parent_id = "RENDER_PT_bo2_settings"
-    bl_options = {"DEFAULT_CLOSED"}
 
     def draw_header(self, context):
         self.layout.prop(context.scene.bo2, "use_lightmaps", text="")
@@ -498,7 +497,6 @@ class OBJECT_PT_bo2_lightmap(_BO2Panel, bpy.types.Panel):
 
     bl_label = "BO2 Lightmap"
     bl_context = "object"
-    bl_options = {"DEFAULT_CLOSED"}
     needs = "object"
 
     @classmethod

@@ -126,7 +126,7 @@ def memory_bytes(width: int, height: int, directional: bool) -> int:
 def _weld(positions: np.ndarray) -> np.ndarray:
     """(T, 3) vertex ids of corners ``positions`` (T, 3, 3): corners within 1e-6 of the
     object's size share an id."""
-    flat = positions.reshape(-1, 3).astype(np.float64)
+    flat = np.nan_to_num(positions.reshape(-1, 3).astype(np.float64), posinf=0.0, neginf=0.0)
     size = float(np.ptp(flat, axis=0).max()) if len(flat) else 1.0
     q = np.round(flat / max(size * 1e-6, 1e-9)).astype(np.int64)
     _, ids = np.unique(q, axis=0, return_inverse=True)
@@ -195,7 +195,8 @@ def _flatten(positions: np.ndarray, chart: np.ndarray) -> np.ndarray:
     for lo, hi in zip(bounds[:-1], bounds[1:], strict=True):
         faces = order[lo:hi]
         n = cross[faces].sum(0)
-        n = n / max(np.linalg.norm(n), 1e-30)
+        length = np.linalg.norm(n)
+        n = n / length if length > 0.0 else np.array([0.0, 0.0, 1.0])  # no area: any plane
         t = np.cross(n, [0.0, 0.0, 1.0] if abs(n[2]) < 0.9 else [1.0, 0.0, 0.0])
         t /= np.linalg.norm(t)
         b = np.cross(n, t)

@@ -61,6 +61,20 @@ def test_bake_stops_and_keeps_the_previous_files(tmp_path):
     assert digests(folder) == before  # nothing replaced, no temporary file left
 
 
+def test_lightmap_bake_stops_and_keeps_the_previous_lightmaps(tmp_path):
+    blend = tmp_path / "closed_room.blend"
+    shutil.copyfile(ROOT / "demo_blends" / "closed_room.blend", blend)
+    assert bo2("bake", blend, "--lightmaps", "--backend", "bo2").returncode == 0
+    folder = tmp_path / "bo2_bake" / "lightmaps"
+    before = digests(folder)
+    began = time.monotonic()
+    proc = interrupted(("bake", blend, "--lightmaps"),
+                       ready=lambda: time.monotonic() - began > 6.0)
+    assert proc.returncode == 130, proc.stderr_text
+    assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
+    assert digests(folder) == before  # nothing replaced, no temporary file left
+
+
 def test_the_finished_frame_is_whole(tmp_path):
     """The kept image is a whole frame: equal to the same frame rendered without Ctrl-C."""
     args = ("--samples", "8", "--resolution", "320x180")

@@ -344,3 +344,24 @@ def test_keys_tell_what_changed():
     assert lightmap_bake.geometry_key(moved) != geo
     assert lightmap.memory_bytes(256, 128, False) == 256 * 128 * 12
     assert lightmap.memory_bytes(256, 128, True) == 256 * 128 * 48
+
+
+def test_broken_meshes_bake_finite_lightmaps():
+    """A zero-area triangle, a third face on the floor's diagonal (a non-manifold edge) and a
+    NaN corner: the layout has no overlap, the lightmap is finite."""
+    floor, fn = quad([0, 0, 0], [1, 0, 0], [0, 1, 0])  # its diagonal: (-1, -1) to (1, 1)
+    flat = np.array([[[0, 0, 0], [0.5, 0, 0], [1, 0, 0]]], np.float32)
+    fan = np.array([[[-1, -1, 0], [1, 1, 0], [0, 0, 1]]], np.float32)
+    broken = np.array([[[0, 0, 0], [np.nan, 0, 0], [0, 1, 0]]], np.float32)
+    p = np.concatenate([floor, flat, fan, broken])
+    n = np.ascontiguousarray(np.concatenate([fn, np.repeat(fn[:1], 3, 0)]), np.float32)
+    ok = np.isfinite(p).all(axis=(1, 2))
+    uv, w, h, _ = lightmap.layout(np.where(ok[:, None, None], p, 0.0), 8.0)
+    assert lightmap.overlaps(uv[ok], w, h) == 0
+    mesh = MeshBatch(p, n, np.zeros(len(p), np.int32), name="broken")
+    scene = Scene(Camera.look_at([0, -3, 2], [0, 0, 0], 1.0, 8, 8), [mesh], [Material.talk()],
+                  [Light("SUN", np.full(3, 2.0, np.float32))],
+                  World(color=np.full(3, 0.5, np.float32)))
+    (lm,) = lightmap_bake.bake(scene, [lightmap.Target("broken", 0, uv, w, h)],
+                               lightmap.Settings(rays=16, bounces=2))
+    assert np.isfinite(lm.image).all() and lm.image.max() > 0.0

@@ -26,7 +26,10 @@ DOCS = {"render_tab": "ui_render_tab.png", "spot_light_tab": "ui_light_tab.png",
         "shader_editor": "ui_shader_editor.png", "viewport_rendered": "ui_viewport.png",
         "viewport_studio_light": "ui_viewport_studio_light.png",
         "viewport_lookdev_albedo": "ui_viewport_lookdev.png",
-        "viewport_world_of_nodes": "ui_viewport_world.png", "world_tab_(nodes)": "ui_world_tab.png"}
+        "viewport_world_of_nodes": "ui_viewport_world.png", "world_tab_(nodes)": "ui_world_tab.png",
+        "render_tab_lightmaps": "ui_lightmaps.png",
+        "object_tab_lightmap": "ui_object_lightmap.png",
+        "viewport_lightmap_texels": "ui_viewport_lightmap_texels.png"}
 
 
 def main(argv=None) -> int:

@@ -158,7 +158,8 @@ def walk():
     yield 1.5
     tab_check("Render tab", "render", {"BO2SceneSettings.samples",
                                        "BO2SceneSettings.shadow_resolution",
-                                       "RenderSettings.preview_pixel_size"})
+                                       "RenderSettings.preview_pixel_size",
+                                       "BO2SceneSettings.lightmap_density"})
     yield from show_tab(None, "OUTPUT")
     yield 1.0
     tab_check("Output tab", "output", {"RenderSettings.resolution_x"})
@@ -172,7 +173,9 @@ def walk():
     yield from show_tab(mesh, "OBJECT")
     yield 1.0
     tab_check("Object tab", "object", {"Object.visible_camera", "Object.is_holdout",
-                                       "Object.hide_probe_sphere", "Object.hide_probe_volume"})
+                                       "Object.hide_probe_sphere", "Object.hide_probe_volume",
+                                       "BO2ObjectSettings.lightmap_mode",
+                                       "BO2ObjectSettings.lightmap_uv"})
     camera = next(o for o in scene.objects if o.type == "CAMERA")
     yield from show_tab(camera, "DATA")
     yield 1.0
@@ -263,6 +266,37 @@ def walk():
           and set(states.values()) == {"BAKED"},
           f"{started}, {states} after {time.perf_counter() - start:.0f} s")
 
+    # 5b. Then the lightmaps, from the Lightmaps panel's button; the panel and an object's
+    with bpy.context.temp_override(window=window(), area=view3d, region=region):
+        started = bpy.ops.bo2.bake_lightmaps("INVOKE_DEFAULT", mode="ALL")
+    start = time.perf_counter()
+    while time.perf_counter() - start < 600:
+        yield 2.0
+        if not operators._ModalBake.running:
+            break
+    lightmaps = module("addon.blender.lightmaps")
+    states = {o.name: lightmaps.state(o, scene)[0] for o in lightmaps.lightmap_objects(scene)}
+    check("Bake All bakes every static object's lightmap", started == {"RUNNING_MODAL"}
+          and states and set(states.values()) == {"BAKED"},
+          f"{started}, {len(states)} objects: {set(states.values())} after "
+          f"{time.perf_counter() - start:.0f} s")
+    yield from show_tab(None, "RENDER")
+    properties = biggest("PROPERTIES")
+    window_region = next(r for r in properties.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+        for _ in range(12):  # down to the Lightmaps panel
+            bpy.ops.view2d.scroll_down(deltay=120)
+    redraw()
+    yield 1.5
+    screenshot("render_tab_lightmaps", properties)
+    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+        for _ in range(40):
+            bpy.ops.view2d.scroll_up(deltay=120)
+    floor = scene.objects.get("Floor") or mesh
+    yield from show_tab(floor, "OBJECT")
+    yield 1.5
+    screenshot("object_tab_lightmap", properties)
+
     # 6. The viewport in Rendered shading, through the camera
     viewports = module("addon.blender.viewport")
     shading = rendered_view()
@@ -292,6 +326,14 @@ def walk():
     check("the look-dev view is the viewport's", live.session.view == "ALBEDO"
           and not hasattr(scene.bo2, "lookdev_view"), live.session.view)
     screenshot("viewport_lookdev_albedo")
+    shading.bo2_lookdev_view = "LIGHTMAP_TEXELS"
+    redraw()
+    yield 3.0
+    texels = live.session.image()
+    check("the Lightmap Texels view shows the lightmaps' texels", texels is not None
+          and live.session.view == "LIGHTMAP_TEXELS"
+          and float(texels.pixels[..., :3].max()) > 0.2, live.status())
+    screenshot("viewport_lightmap_texels")
     shading.bo2_lookdev_view = "COMBINED"
 
     shading.use_scene_world_render = False  # the studio light
