@@ -3,9 +3,10 @@
 Usage: python tools/demo.py [--docs]
 
 For each scene of ``demo_blends/`` (built from its script when the .blend is missing): bake its
-light probes (``bo2 bake``), render it with BO2 Lighting and with Cycles and compare the two
-(``bo2 compare``: both EXRs, side-by-side, split and difference pictures, metrics.json in
-``out/<scene>/``). Then render the talk's old-versus-new pairs (``tools/render_old_vs_new.py``,
+light probes (``bo2 bake``; the room's lightmaps too, ``bo2 bake --lightmaps``), render it with
+BO2 Lighting and with Cycles and compare the two (``bo2 compare``: both EXRs, side-by-side,
+split and difference pictures, metrics.json in ``out/<scene>/``). Then render the talk's
+old-versus-new pairs (``tools/render_old_vs_new.py``,
 ``out/old_vs_new_pairs/``). Ends with a table (scene, bake, BO2 and Cycles times, speed-up, RMSE,
 PSNR) and the path of every picture. ``--docs`` also writes the pictures of the user guide
 into ``docs/images/``. Exits non-zero if any step fails.
@@ -29,7 +30,7 @@ BO2 = Path(sys.executable).parent / "bo2"
 SCENES = {
     "first_light": {"bo2_samples": 8, "cycles_samples": 64},
     "material_spheres": {"bo2_samples": 8, "cycles_samples": 64},
-    "room": {"bo2_samples": 8, "cycles_samples": 48},
+    "room": {"bo2_samples": 8, "cycles_samples": 48, "lightmaps": True},
     "old_vs_new": {"bo2_samples": 8, "cycles_samples": 64},
 }
 
@@ -58,6 +59,9 @@ def main() -> int:
             run([sys.executable, str(ROOT / "demo_blends" / f"build_{name}.py"), str(blend)])
         print(f"baking the light probes of {name}", flush=True)
         bake = run([str(BO2), "bake", str(blend)])
+        if cfg.get("lightmaps"):
+            print(f"baking the lightmaps of {name}", flush=True)
+            bake += run([str(BO2), "bake", str(blend), "--lightmaps"])
         folder = OUT / name
         print(f"rendering {name} with BO2 Lighting and Cycles -> {folder.relative_to(ROOT)}",
               flush=True)

@@ -40,7 +40,6 @@ __all__ = ["bake", "geometry_key", "light_key", "steps"]
 _FACES = np.array(FACES)  # writable, as the kernel takes it
 
 
-
 @dataclass
 class _Texels:
     """The texels of one target that lie on its surface."""
@@ -67,6 +66,8 @@ def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _texels(target: Target, frame, first, index, scene_positions) -> _Texels:
+    """The texels of ``target`` on its surface, in ``frame`` (``_frame_index``'s ``first`` and
+    ``index``; ``scene_positions`` (T, 3, 3) every batch's triangles, concatenated)."""
     from .kernels import lightmap as kernels
 
     w, h = target.width, target.height
@@ -86,8 +87,7 @@ def _texels(target: Target, frame, first, index, scene_positions) -> _Texels:
     n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     flip = np.einsum("nc,nc->n", n, geo) < 0.0  # a shading normal facing away: the face's
     n[flip] = geo[flip]
-    # charts: connected texels of one UV island; charts of the layout are not kept, so texels
-    # are grouped by their triangle's chart of the layout the UVs make
+    # a texel's chart: the UV island of its triangle (the filter does not cross islands)
     chart = np.full(w * h, -1, np.int64)
     chart[at] = uv_islands(target.uvs)[tri[at]]
     q3 = np.asarray(target.uvs, np.float64)
