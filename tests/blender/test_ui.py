@@ -170,8 +170,12 @@ def test_enum_identifiers_are_stable(addon):
     assert list(views.enum_items.keys()) == [
         "COMBINED", "ALBEDO", "SPECULAR_COLOR", "GLOSS", "NORMAL", "DIFFUSE_DIRECT",
         "GLOSSY_DIRECT", "DIFFUSE_INDIRECT", "GLOSSY_INDIRECT", "REFLECTION_PROBES",
-        "IRRADIANCE_VOLUMES", "AMBIENT_OCCLUSION"]
+        "IRRADIANCE_VOLUMES", "AMBIENT_OCCLUSION", "LIGHTMAP", "LIGHTMAP_TEXELS"]
     assert list(s["bake_backend"].enum_items.keys()) == ["DEFAULT", "BO2", "CYCLES"]
+    assert list(s["lightmap_max_resolution"].enum_items.keys()) == [
+        "128", "256", "512", "1024", "2048", "4096"]
+    o = bpy.types.Object.bl_rna.properties["bo2"].fixed_type.properties
+    assert list(o["lightmap_mode"].enum_items.keys()) == ["AUTO", "STATIC", "DYNAMIC"]
     assert list(s["normalization"].enum_items.keys()) == ["none", "bo1", "bo2"]
     assert list(s["prefilter"].enum_items.keys()) == ["bo1", "bo2"]
     for name, prop in s.items():
