@@ -246,8 +246,8 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     )
     lightmap_denoise: bpy.props.BoolProperty(
         name="Denoise",
-        description="Filter each chart with a joint-bilateral filter guided by position and "
-        "normal (it never crosses a chart's edge)",
+        description="Filter each chart with an edge-avoiding filter guided by position, normal "
+        "and the noise of each texel (it never crosses a chart's edge)",
         default=True,
     )
 

@@ -71,7 +71,7 @@ class Settings:
                       on, the last gather sees the bounces after them too, estimated as the
                       geometric series their last increments continue
     directional:      store the L1 SH of the incoming light (4 x RGB) instead of irradiance
-    denoise:          the joint-bilateral filter within charts
+    denoise:          the edge-avoiding filter within charts (``denoise``)
     memory_cap:       bytes the lightmaps of one scene may take in a frame
     """
 
