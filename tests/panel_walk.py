@@ -43,6 +43,12 @@ class Recorder:
         self.log.append(("prop", (type(data).__name__, name), kwargs))
         return Recorder(self.log)
 
+    def prop_search(self, data, name, search_data, search_name, **kwargs):
+        """A setting drawn with a search list: recorded as its ``prop``; the list must exist."""
+        assert search_name in search_data.bl_rna.properties, \
+            f"{type(search_data).__name__} has no collection {search_name!r}"
+        return self.prop(data, name, **kwargs)
+
     def operator(self, idname, **kwargs):
         module, op = idname.split(".")
         rna = getattr(getattr(bpy.ops, module), op).get_rna_type()

@@ -116,7 +116,9 @@ def test_every_tab_draws(studio):
     tab(scene, "world")
     _, props = tab(scene, "object", objs["MESH"])
     assert {"Object.visible_camera", "Object.visible_shadow", "Object.is_holdout",
-            "Object.hide_probe_volume", "Object.hide_probe_sphere"} <= set(props)
+            "Object.hide_probe_volume", "Object.hide_probe_sphere",
+            "BO2ObjectSettings.lightmap_mode", "BO2ObjectSettings.lightmap_uv",
+            "BO2ObjectSettings.lightmap_density"} <= set(props)
     _, props = tab(scene, "data", objs["CAMERA"])
     assert "Camera.lens" in props
     panels, props = tab(scene, "material", objs["MESH"])
