@@ -89,12 +89,15 @@ def _probes_key(probes) -> tuple:
 
 def _differences(old, new) -> set[str]:
     """What differs between two extractions that depsgraph updates may not name: instances
-    shown or hidden (the cache hands back the very batches that did not change), the world,
-    the lights, the probes (a bake written since)."""
+    shown or hidden (the cache hands back the very batches that did not change), lightmaps
+    baked or dropped, the world, the lights, the probes (a bake written since)."""
     if old is None:
         return set(viewport.CHANGES)
     changed = set()
-    if [id(m) for m in old.meshes] != [id(m) for m in new.meshes]:
+    # the very arrays of the batches the cache handed back, and their lightmaps (a batch with
+    # a lightmap is a copy of the cached one: ``lightmaps.attach``)
+    if [(id(m.positions), id(m.lightmap)) for m in old.meshes] != \
+            [(id(m.positions), id(m.lightmap)) for m in new.meshes]:
         changed.add("geometry")
     if [_key(light) for light in old.lights] != [_key(light) for light in new.lights]:
         changed.add("lights")

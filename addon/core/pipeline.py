@@ -257,11 +257,14 @@ def prepare(scene: Scene, warn: Callable[[str], None] | None = None,
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
         seen = casts = None
-    lit = ([k for k, m in enumerate(meshes) if m.lightmap is not None]
-           if scene.settings.lightmaps else [])
+    lit: dict[int, int] = {}  # batch -> its lightmap's index in Frame.lightmaps
+    if scene.settings.lightmaps:
+        for k, m in enumerate(meshes):
+            if m.lightmap is not None:
+                lit[k] = len(lit)
     lightmap = lightmap_uvs = None
     if lit:
-        lightmap = joined([np.full(len(m.positions), lit.index(k) if k in lit else -1, np.int32)
+        lightmap = joined([np.full(len(m.positions), lit.get(k, -1), np.int32)
                            for k, m in enumerate(meshes)], np.int32)
         lightmap_uvs = joined([m.lightmap.uvs if k in lit else
                                np.zeros((len(m.positions), 3, 2), np.float32)

@@ -204,3 +204,26 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     assert {m.name: len(m.node_tree.nodes) for m in bpy.data.materials
             if m.node_tree} == nodes_before
     assert not any(i.name.startswith("BO2 Lightmap Bake") for i in bpy.data.images)
+
+
+def test_the_viewport_sees_a_new_bake_and_nothing_else(addon, tmp_path):
+    from bo2_lighting.addon.blender import viewport
+
+    scene = room(tmp_path)
+    scene.bo2.lightmap_rays = 16
+    assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
+    cache = extract.SceneCache()
+
+    def extraction():
+        return extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True,
+                                     cache=cache)[0]
+
+    first = extraction()
+    again = extraction()
+    assert all(m.lightmap is not None for m in again.meshes)
+    assert "geometry" not in viewport._differences(first, again)  # nothing re-prepared
+    scene.bo2.lightmap_rays = 32
+    for obj in scene.objects:
+        obj.select_set(obj.name == "Floor")
+    assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="SELECTED") == {"FINISHED"}
+    assert "geometry" in viewport._differences(again, extraction())  # the new floor lightmap
