@@ -240,59 +240,59 @@ def cycles_lightmap(scene, obj, target, uv_map: str | None) -> np.ndarray:
     """(H, W, 3) irradiance, W/m^2, row 0 at v = 1, of ``obj``'s surface baked by Cycles in the
     layout ``target`` (``core.lightmap.Target``): its indirect light and the world's direct
     light (Bake > Diffuse without colour gives E / pi; the lamps' direct light, which the
-    render adds live, is left out by baking the direct pass with the lamps hidden). The layout
-    is the object's UV map ``uv_map``, or a temporary one; nothing of the object is left
-    changed."""
-    mesh = obj.data
-    added_uv = None
-    if uv_map is None:
-        if any(m.show_render for m in obj.modifiers):
-            raise BakeError(f"Object '{obj.name}': the Cycles backend bakes a layout the bake "
-                            "made only on objects without modifiers; apply them, give it a "
-                            "LightmapUV map, or bake with BO2 Lighting")
-        mesh.calc_loop_triangles()
-        if len(mesh.loop_triangles) != len(target.uvs) or len(mesh.uv_layers) >= 8:
-            raise BakeError(f"Object '{obj.name}': its mesh cannot take the lightmap's layout "
-                            "as a UV map; give it a LightmapUV map, or bake with BO2 Lighting")
-        loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
-        mesh.loop_triangles.foreach_get("loops", loops)
-        uv = np.zeros((len(mesh.loops), 2), np.float32)
-        uv[loops] = np.asarray(target.uvs, np.float32).reshape(-1, 2)
-        added_uv = mesh.uv_layers.new(name="BO2 Lightmap Bake", do_init=False)
-        added_uv.uv.foreach_set("vector", uv.reshape(-1))
-        uv_map = added_uv.name
+    render adds live, is left out by baking the direct pass with the lamps hidden).
+
+    A copy of the evaluated object (its modifiers applied, the triangles the layout was made
+    for) stands in its place during its bake, with the layout as a UV map (or the object's own
+    map ``uv_map``) and a temporary Image Texture node in each material; all of it is removed
+    afterwards and nothing of the object is left changed."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    mesh = bpy.data.meshes.new_from_object(obj.evaluated_get(depsgraph),
+                                           preserve_all_data_layers=True, depsgraph=depsgraph)
+    stand_in = bpy.data.objects.new("BO2 Lightmap Bake", mesh)
+    stand_in.matrix_world = obj.matrix_world
     image = bpy.data.images.new("BO2 Lightmap Bake", target.width, target.height, alpha=False,
                                 float_buffer=True)
-    added_material = None
-    if not obj.material_slots or all(slot.material is None for slot in obj.material_slots):
-        added_material = bpy.data.materials.new("BO2 Lightmap Bake")
-        added_material.use_nodes = True
-        mesh.materials.append(added_material)
-    nodes = []
     layer = bpy.context.view_layer
     saved = (layer.objects.active, [o for o in scene.objects if o.select_get()],
-             scene.render.engine, scene.cycles.samples)
+             scene.render.engine, scene.cycles.samples, obj.hide_render)
     lamps = [o for o in scene.objects if o.type == "LIGHT" and not o.hide_render]
+    nodes, added_material = [], None
     try:
-        for slot in obj.material_slots:
-            mat = slot.material
-            if mat is None or mat.node_tree is None:
-                continue
+        mesh.calc_loop_triangles()
+        if len(mesh.loop_triangles) != len(target.uvs):
+            raise BakeError(f"Object '{obj.name}' changed while it was baked; bake again")
+        if uv_map is None:
+            loops = np.empty(len(mesh.loop_triangles) * 3, np.int32)
+            mesh.loop_triangles.foreach_get("loops", loops)
+            uv = np.zeros((len(mesh.loops), 2), np.float32)
+            uv[loops] = np.asarray(target.uvs, np.float32).reshape(-1, 2)
+            while len(mesh.uv_layers) >= 8:  # Blender's limit: the copy's own maps can go
+                mesh.uv_layers.remove(mesh.uv_layers[0])
+            layout = mesh.uv_layers.new(name="BO2 Lightmap Bake", do_init=False)
+            layout.uv.foreach_set("vector", uv.reshape(-1))
+            uv_map = layout.name
+        scene.collection.objects.link(stand_in)
+        if not any(m is not None for m in mesh.materials):
+            added_material = bpy.data.materials.new("BO2 Lightmap Bake")
+            added_material.use_nodes = True
+            mesh.materials.append(added_material)
+        for mat in {m for m in mesh.materials if m is not None and m.node_tree is not None}:
             node = mat.node_tree.nodes.new("ShaderNodeTexImage")
             node.image = image
             mat.node_tree.nodes.active = node
             nodes.append((mat, node))
         for o in saved[1]:
             o.select_set(False)
-        obj.select_set(True)
-        layer.objects.active = obj
+        obj.hide_render = True  # the stand-in is the object now
+        stand_in.select_set(True)
+        layer.objects.active = stand_in
         scene.render.engine = "CYCLES"
         scene.cycles.samples = int(scene.bo2.bake_cycles_samples)
         total = np.zeros((target.height, target.width, 3), np.float32)
         for passes in ({"INDIRECT"}, {"DIRECT"}):
-            hide = passes == {"DIRECT"}
             for lamp in lamps:
-                lamp.hide_render = hide
+                lamp.hide_render = passes == {"DIRECT"}
             bpy.ops.object.bake(type="DIFFUSE", pass_filter=passes, uv_layer=uv_map,
                                 margin=int(scene.bo2.lightmap_padding), use_clear=True)
             pixels = np.empty(target.width * target.height * 4, np.float32)
@@ -304,17 +304,15 @@ def cycles_lightmap(scene, obj, target, uv_map: str | None) -> np.ndarray:
             lamp.hide_render = False
         for mat, node in nodes:
             mat.node_tree.nodes.remove(node)
+        bpy.data.objects.remove(stand_in)
+        bpy.data.meshes.remove(mesh)
         if added_material is not None:
-            mesh.materials.pop()
             bpy.data.materials.remove(added_material)
-        if added_uv is not None:
-            mesh.uv_layers.remove(added_uv)
         bpy.data.images.remove(image)
-        obj.select_set(False)
         for o in saved[1]:
             o.select_set(True)
         layer.objects.active = saved[0]
-        scene.render.engine, scene.cycles.samples = saved[2], saved[3]
+        scene.render.engine, scene.cycles.samples, obj.hide_render = saved[2:]
 
 
 def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):

@@ -184,6 +184,7 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     scene.bo2.lightmap_density = 4.0
     scene.bo2.bake_cycles_samples = 16
     objs = [scene.objects["Floor"], scene.objects["Block"]]
+    objs[1].modifiers.new("Bevel", "BEVEL")  # baked as its evaluated copy
     floor = scene.objects["Floor"]
     nodes_before = {m.name: len(m.node_tree.nodes) for m in bpy.data.materials if m.node_tree}
     uv_before = [uv.name for uv in floor.data.uv_layers]
@@ -204,6 +205,10 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     assert {m.name: len(m.node_tree.nodes) for m in bpy.data.materials
             if m.node_tree} == nodes_before
     assert not any(i.name.startswith("BO2 Lightmap Bake") for i in bpy.data.images)
+    assert not any(o.name.startswith("BO2 Lightmap Bake") for o in bpy.data.objects)
+    assert not any(o.hide_render for o in scene.objects)
+    _, block = lightmap_file.read(folder / "Block.exr")
+    assert len(block.uvs) > 12 and np.isfinite(block.image).all()  # the bevelled triangles
 
 
 def test_the_viewport_sees_a_new_bake_and_nothing_else(addon, tmp_path):
