@@ -157,27 +157,9 @@ def clear(scene, objs) -> int:
 # --------------------------------------------------------------------------------------------
 # loading lightmaps for a render
 
-_files: dict[Path, tuple] = {}  # path -> ((mtime_ns, size), lightmap_file.read(path) or error)
-
-
 def read(p: Path) -> tuple[dict, lightmap.Lightmap]:
-    """``lightmap_file.read(p)``, cached while the file's time and size stay (its error too)."""
-    try:
-        st = p.stat()
-    except OSError:
-        _files.pop(p, None)
-        return lightmap_file.read(p)
-    stamp = (st.st_mtime_ns, st.st_size)
-    cached = _files.get(p)
-    if cached is None or cached[0] != stamp:
-        try:
-            result = lightmap_file.read(p)
-        except probe_file.ProbeFileError as exc:
-            result = exc
-        _files[p] = cached = (stamp, result)
-    if isinstance(cached[1], probe_file.ProbeFileError):
-        raise cached[1]
-    return cached[1]
+    """``lightmap_file.read(p)``, cached while the file stays (``probes.cached_read``)."""
+    return probes.cached_read(p, lightmap_file.read)
 
 
 def state(obj, scene) -> tuple[str, str]:

@@ -110,28 +110,34 @@ def spec(obj) -> bake.ProbeSpec:
 # --------------------------------------------------------------------------------------------
 # loading baked probes for a render
 
-_files: dict[Path, tuple] = {}  # path -> ((mtime_ns, size), probe_file.read(path))
+_files: dict[Path, tuple] = {}  # path -> ((mtime_ns, size), the reader's result or error)
 
 
-def _read(path: Path) -> tuple:
-    """``probe_file.read(path)``, cached while the file's modification time and size stay
-    (its error too)."""
+def cached_read(path: Path, reader):
+    """``reader(path)`` (``probe_file.read``, ``lightmap_file.read``), cached while the file's
+    modification time and size stay (its ``ProbeFileError`` too: a damaged file is read
+    once, not at every redraw)."""
     try:
         st = path.stat()
     except OSError:
         _files.pop(path, None)
-        return probe_file.read(path)  # raises the reader's own error
+        return reader(path)  # raises the reader's own error
     stamp = (st.st_mtime_ns, st.st_size)
     cached = _files.get(path)
     if cached is None or cached[0] != stamp:
         try:
-            result = probe_file.read(path)
+            result = reader(path)
         except probe_file.ProbeFileError as exc:
-            result = exc  # a damaged file is read once, not at every redraw
+            result = exc
         _files[path] = cached = (stamp, result)
     if isinstance(cached[1], probe_file.ProbeFileError):
         raise cached[1]
     return cached[1]
+
+
+def _read(path: Path) -> tuple:
+    """``probe_file.read(path)``, cached (``cached_read``)."""
+    return cached_read(path, probe_file.read)
 
 
 STATES = ("BAKED", "STALE", "MISSING", "DAMAGED")

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import threading
+import weakref
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
@@ -390,11 +391,25 @@ def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, variance,
 # Keys
 
 
+_digests: dict[int, tuple] = {}  # id(positions) -> (weak reference to it, its digest)
+
+
 def geometry_key(positions: np.ndarray) -> str:
     """A digest of an object's triangles ``positions`` (T, 3, 3), world space, to 0.1 mm: its
-    lightmap was baked for these, 16 hex digits."""
+    lightmap was baked for these, 16 hex digits. Remembered per array while it lives (a
+    viewport extracts the same batches' arrays at every update)."""
+    held = _digests.get(id(positions))
+    if held is not None and held[0]() is positions:
+        return held[1]
     q = np.round(np.asarray(positions, np.float64) * 1e4).astype(np.int64)
-    return hashlib.sha256(q.tobytes()).hexdigest()[:16]
+    digest = hashlib.sha256(q.tobytes()).hexdigest()[:16]
+    try:
+        _digests[id(positions)] = (weakref.ref(positions), digest)
+    except TypeError:  # not an object a weak reference can follow
+        pass
+    for key in [k for k, (ref, _) in _digests.items() if ref() is None]:
+        del _digests[key]
+    return digest
 
 
 def light_key(scene: Scene) -> str:
@@ -402,7 +417,7 @@ def light_key(scene: Scene) -> str:
     colour and strength (any change makes the scene's lightmaps stale), 16 hex digits."""
     h = hashlib.sha256()
     for m in scene.meshes:
-        h.update(np.round(np.asarray(m.positions, np.float64) * 1e4).astype(np.int64).tobytes())
+        h.update(geometry_key(m.positions).encode())
         h.update(np.asarray(m.material, np.int32).tobytes())
     h.update(repr(sorted({m.name for m in scene.materials})).encode())
     for light in scene.lights:

@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .lightmap import Lightmap
-from .probe_file import ProbeFileError, _digest, _part, replace_all
+from .probe_file import ProbeFileError, _digest, replace_all, write_parts
 
 __all__ = ["FORMAT", "read", "write_all"]
 
@@ -36,23 +36,10 @@ def _images(lightmap: Lightmap) -> list[tuple[str, np.ndarray]]:
     return maps + [("uv", uv)]
 
 
-def _encode(path: Path, meta: dict, lightmap: Lightmap) -> None:
-    import OpenEXR
-
-    images = _images(lightmap)
-    width = max(img.shape[1] for _, img in images)
-    height = max(img.shape[0] for _, img in images)
-    window = (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32))
-    text = json.dumps({**meta, "format": FORMAT, "checksum": _digest(images)})
-    parts = [_part(name, img, {"bo2.meta": text} if i == 0 else {}, window)
-             for i, (name, img) in enumerate(images)]
-    OpenEXR.File(parts).write(str(path))
-
-
 def write_all(files: list[tuple[str | os.PathLike, dict, Lightmap]]) -> None:
     """Write lightmaps, all or nothing: (path, metadata, ``Lightmap``) each."""
-    replace_all([(path, lambda tmp, m=meta, lm=lm: _encode(tmp, m, lm))
-                 for path, meta, lm in files])
+    replace_all([(path, lambda tmp, m={**meta, "format": FORMAT}, lm=lm:
+                  write_parts(tmp, m, _images(lm))) for path, meta, lm in files])
 
 
 def read(path: str | os.PathLike) -> tuple[dict, Lightmap]:

@@ -28,7 +28,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "ProbeFileError", "read", "replace_all", "size_bound", "write", "write_all"]
+__all__ = ["FORMAT", "ProbeFileError", "read", "replace_all", "size_bound", "write", "write_all",
+           "write_parts"]
 
 FORMAT = 1
 """Layout version stored in the metadata; files of another version are refused."""
@@ -105,18 +106,25 @@ def replace_all(writes: list[tuple]) -> None:
 
 def _encode(path: Path, meta: dict, sh: np.ndarray, mips) -> None:
     """One probe's OpenEXR file at ``path`` (``write``'s arguments)."""
-    import OpenEXR
-
     sh = np.asarray(sh, np.float32).reshape(-1, 9, 3)
     images = [("sh", sh)]
     for chain, levels in (mips or {}).items():
         for m, cube in enumerate(levels):
             cube = np.asarray(cube, np.float32)
             images.append((f"{chain}.mip{m}", cube.reshape(-1, cube.shape[2], 3)))
+    write_parts(path, {**meta, "format": FORMAT}, images)
+
+
+def write_parts(path: Path, meta: dict, images: list[tuple[str, np.ndarray]]) -> None:
+    """A multi-part OpenEXR file of float32 RGB ``images`` ((name, (H, W, 3)) each, ZIP
+    compressed), the first part carrying ``meta`` and a checksum of the pixels (``_digest``)
+    as the JSON attribute ``bo2.meta``."""
+    import OpenEXR
+
     width = max(img.shape[1] for _, img in images)
     height = max(img.shape[0] for _, img in images)
     window = (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32))
-    text = json.dumps({**meta, "format": FORMAT, "checksum": _digest(images)})
+    text = json.dumps({**meta, "checksum": _digest(images)})
     parts = [_part(name, img, {"bo2.meta": text} if i == 0 else {}, window)
              for i, (name, img) in enumerate(images)]
     OpenEXR.File(parts).write(str(path))

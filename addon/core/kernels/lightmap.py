@@ -36,6 +36,21 @@ SUBSAMPLES = np.array([[0.5, 0.5]] + [[(i + 0.5) / 4, (j + 0.5) / 4]
                                       for j in range(4) for i in range(4)], np.float64)
 
 
+@nb.njit(**_OPTIONS)
+def _corners(uv, t, width, height):
+    """Triangle ``t`` of ``uv`` (T, 3, 2) in texels (x right, y down): its corners, twice its
+    signed area and the texel rows and columns its box covers, clamped to the image."""
+    x0, y0 = uv[t, 0, 0] * width, (1.0 - uv[t, 0, 1]) * height
+    x1, y1 = uv[t, 1, 0] * width, (1.0 - uv[t, 1, 1]) * height
+    x2, y2 = uv[t, 2, 0] * width, (1.0 - uv[t, 2, 1]) * height
+    area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    lo_x = max(int(math.floor(min(x0, x1, x2))), 0)
+    hi_x = min(int(math.floor(max(x0, x1, x2))), width - 1)
+    lo_y = max(int(math.floor(min(y0, y1, y2))), 0)
+    hi_y = min(int(math.floor(max(y0, y1, y2))), height - 1)
+    return x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y
+
+
 @nb.njit(nb.void(nb.float32[:, :, ::1], nb.int64, nb.int64, nb.float64[:, ::1],
                  nb.int32[::1], nb.float32[:, ::1]), **_OPTIONS)
 def texels(uv, width, height, subsamples, tri, bary):
@@ -45,16 +60,9 @@ def texels(uv, width, height, subsamples, tri, bary):
     the texel's top-left corner, texels) inside a triangle."""
     best = np.full(width * height, np.int64(subsamples.shape[0]))
     for t in range(uv.shape[0]):
-        x0, y0 = uv[t, 0, 0] * width, (1.0 - uv[t, 0, 1]) * height
-        x1, y1 = uv[t, 1, 0] * width, (1.0 - uv[t, 1, 1]) * height
-        x2, y2 = uv[t, 2, 0] * width, (1.0 - uv[t, 2, 1]) * height
-        area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y = _corners(uv, t, width, height)
         if not abs(area) > 1e-12:
             continue
-        lo_x = max(int(math.floor(min(x0, x1, x2))), 0)
-        hi_x = min(int(math.floor(max(x0, x1, x2))), width - 1)
-        lo_y = max(int(math.floor(min(y0, y1, y2))), 0)
-        hi_y = min(int(math.floor(max(y0, y1, y2))), height - 1)
         for r in range(lo_y, hi_y + 1):
             for c in range(lo_x, hi_x + 1):
                 at = r * width + c
@@ -75,16 +83,9 @@ def coverage(uv, width, height, count):
     """Add to ``count`` (H W,) the number of triangles of ``uv`` (T, 3, 2) whose interior
     (a margin of 1e-4 texel in) holds each texel centre."""
     for t in range(uv.shape[0]):
-        x0, y0 = uv[t, 0, 0] * width, (1.0 - uv[t, 0, 1]) * height
-        x1, y1 = uv[t, 1, 0] * width, (1.0 - uv[t, 1, 1]) * height
-        x2, y2 = uv[t, 2, 0] * width, (1.0 - uv[t, 2, 1]) * height
-        area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+        x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y = _corners(uv, t, width, height)
         if not abs(area) > 1e-12:
             continue
-        lo_x = max(int(math.floor(min(x0, x1, x2))), 0)
-        hi_x = min(int(math.floor(max(x0, x1, x2))), width - 1)
-        lo_y = max(int(math.floor(min(y0, y1, y2))), 0)
-        hi_y = min(int(math.floor(max(y0, y1, y2))), height - 1)
         for r in range(lo_y, hi_y + 1):
             for c in range(lo_x, hi_x + 1):
                 px, py = c + 0.5, r + 0.5
