@@ -11,7 +11,10 @@ among the frame's surfaces within ``radius`` metres, and integrates the cosine-w
 arc between them in closed form; the average over the slices is the visible fraction of the
 cosine-weighted hemisphere, 1 in the open. The surfaces are the view-space positions of the
 tile and a margin around it, drawn at the pixel centres (``pipeline``); surfaces hidden from
-the camera are not seen, as in every screen-space method.
+the camera are not seen, as in every screen-space method. Each pixel searches a few slices, in
+angles that differ from its neighbours', and a filter averages them over 4 x 4 pixels of the
+same surface (the paper's spatial distribution and bilateral filter); every shaded point of a
+pixel takes its pixel's value.
 
 Indirect diffuse is multiplied by the occlusion with the light that bounces between the
 occluding surfaces put back (the paper's multi-bounce fit, ``multi_bounce``: a white corner is
@@ -28,30 +31,38 @@ import numpy as np
 __all__ = ["REACH", "ambient", "multi_bounce", "roughness", "specular"]
 
 REACH = 64  # pixels: the widest search, and the margin drawn around a tile for it
+BLUR = 2  # pixels: the filter's reach beyond the tile (``kernels.occlusion.blur``)
+# how far from a pixel's tangent plane a neighbour of the filter may lie: pixel footprints
+_PLANE = 2.0
 
 
-def ambient(view: np.ndarray, points: np.ndarray, normals: np.ndarray, pixels: np.ndarray,
+def ambient(depth: np.ndarray, normals: np.ndarray, rec: np.ndarray, origin: tuple[int, int],
             radius: float, scale: float, orthographic: bool, reach: float = REACH) -> np.ndarray:
-    """(N,) float32 ambient occlusion in [0, 1] (1: open).
+    """(h, w) float32 ambient occlusion in [0, 1] (1: open) of a tile's pixels, filtered.
 
-    view:    (H, W, 3) float32 view-space positions at the buffer's pixel centres, NaN where
-             nothing was drawn (camera looking along -z, y up)
-    points, normals: (N, 3) view-space positions and unit normals of the shaded points
-    pixels:  (N, 2) their positions in the buffer, pixels (x right, y down)
+    depth:   (H, W) float32 view-space z at the pixel centres of the tile grown by ``REACH``
+             pixels, NaN where nothing was drawn (camera looking along -z, y up)
+    normals: (h + 2 BLUR, w + 2 BLUR, 3) float32 unit view-space normals of the tile grown by
+             ``BLUR`` pixels, facing the camera
+    rec:     (8,) float64 view-space x, y of a buffer pixel from its depth
+             (``kernels.occlusion.gtao``)
+    origin:  the buffer's origin (x, y) in the frame, pixels
     radius:  metres; scale: pixels per metre at depth 1 (perspective) or anywhere (ortho)
     reach:   the widest search, pixels (the buffer's margin)
     """
     from .kernels import occlusion as kernels
 
-    out = np.empty(len(points), np.float32)
-    if not len(points):
-        return out
-
-    def f32(a):
-        return np.require(a, np.float32, ["C"])
-
-    kernels.gtao(f32(view), f32(points), f32(normals), f32(pixels),
-                 np.array([radius, scale, float(orthographic), reach], np.float64), out)
+    h, w = normals.shape[0] - 2 * BLUR, normals.shape[1] - 2 * BLUR
+    at = REACH - BLUR
+    depth = np.require(depth, np.float32, ["C"])
+    normals = np.require(normals, np.float32, ["C"])
+    rec = np.ascontiguousarray(rec, np.float64)
+    raw = np.empty(normals.shape[:2], np.float32)
+    kernels.gtao(depth, normals, at, at, rec,
+                 np.array([radius, scale, float(orthographic), reach], np.float64),
+                 int(origin[0]), int(origin[1]), raw)
+    out = np.empty((h, w), np.float32)
+    kernels.blur(raw, depth, normals, at, at, rec, _PLANE / scale, out)
     return out
 
 

@@ -655,10 +655,10 @@ def _dither(frame: Frame, tile, margin, offset, sample: int, layer0):
     return tri, bary, depth, sx, sy
 
 
-def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.ndarray:
+def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> np.ndarray:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,);
     ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon;
-    ``view``: the tile's ``_view_buffer`` (its surfaces occlude the indirect light), or None.
+    ``ao_tile``: the tile's ``_tile_ambient`` and its origin (x, y) in the frame, or None.
 
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
@@ -692,8 +692,10 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
     baked = None
     if scene.probes is not None:
         s = scene.settings
-        if view is not None:
-            ao = _ambient(frame, view, p, n, sx, sy)
+        if ao_tile is not None:
+            image, x0, y0 = ao_tile
+            ao = image[np.clip(np.floor(sy).astype(np.int64) - y0, 0, image.shape[0] - 1),
+                       np.clip(np.floor(sx).astype(np.int64) - x0, 0, image.shape[1] - 1)]
         sky = frame.sky
         rho = (mat.albedo @ sh.LUMINANCE_REC709.astype(np.float32))[:, None]
 
@@ -715,7 +717,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, view=None) -> np.n
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]
-        if view is not None:
+        if ao_tile is not None:
             bounce = occlusion.multi_bounce(ao, mat.albedo)
             if baked is not None:  # a lightmap holds its surface's occlusion already
                 bounce[baked[0]] = 1.0
@@ -773,46 +775,60 @@ LIGHTMAP_HUES = ((0.9, 0.35, 0.3), (0.3, 0.65, 0.9), (0.4, 0.85, 0.35), (0.95, 0
                  (0.75, 0.45, 0.9), (0.3, 0.85, 0.8))
 
 
-def _view_buffer(frame: Frame, tile) -> tuple[np.ndarray, int, int]:
-    """The surfaces around a tile for its ambient occlusion (``occlusion``): (view-space
-    positions (H, W, 3) float32 at the pixel centres of the tile grown by
-    ``occlusion.REACH`` pixels, NaN where nothing is drawn; the buffer's origin x, y in the
-    frame, pixels)."""
-    cam = frame.scene.camera
+def _tile_ambient(frame: Frame, tile) -> np.ndarray:
+    """(h, w) float32 ambient occlusion of a tile's pixels (``occlusion.ambient``), from the
+    surfaces drawn at the pixel centres of the tile grown by ``occlusion.REACH`` pixels."""
+    cam, s = frame.scene.camera, frame.scene.settings
     x0, y0, x1, y1 = tile
-    m = occlusion.REACH
-    grown = (x0 - m, y0 - m, x1 + m, y1 + m)
+    m, b = occlusion.REACH, occlusion.BLUR
     gw, gh = x1 - x0 + 2 * m, y1 - y0 + 2 * m
-    clip, index = tile_clip(frame.clip, cam.width, cam.height, grown)
+    clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
     cull = None if frame.cull is None else frame.cull[index]
     proj = np.asarray(cam.projection, np.float64)
     frags = raster.rasterize(clip, gw, gh, cull=cull, sample_offset=(0.5, 0.5),
                              depth_plane=None if cam.orthographic else (proj[2, 2], proj[2, 3]))
-    tri = frags.tri.reshape(-1)
-    out = np.full((gh * gw, 3), np.nan, np.float32)
-    hit = np.flatnonzero(tri >= 0)
-    if hit.size:
-        t = tri[hit] if not len(index) else index.take(tri[hit], mode="clip")
-        if frame.holdout.any():  # holdout objects are holes, not occluders
-            keep = ~frame.holdout[t]
-            hit, t = hit[keep], t[keep]
-        world = np.einsum("nk,nkc->nc", frags.bary.reshape(-1, 3)[hit], frame.positions[t])
-        out[hit] = affine.transform(world.astype(np.float64), cam.world_to_camera)
-    return out.reshape(gh, gw, 3), x0 - m, y0 - m
-
-
-def _ambient(frame: Frame, view, p, n, sx, sy) -> np.ndarray:
-    """(N,) ambient occlusion of points p (N, 3) of unit normals n at window positions sx, sy
-    among the surfaces of ``view`` (``_view_buffer``)."""
-    cam, s = frame.scene.camera, frame.scene.settings
-    buffer, ox, oy = view
+    tri = frags.tri
+    if len(index):
+        tri = np.where(tri >= 0, index.take(np.maximum(tri, 0), mode="clip"), -1)
+    if frame.holdout.any():  # holdout objects are holes, not occluders
+        tri = np.where((tri >= 0) & frame.holdout[np.maximum(tri, 0)], -1, tri)
     w2c = np.asarray(cam.world_to_camera, np.float64)
-    pv = affine.transform(np.asarray(p, np.float64), w2c)
-    nv = material._unit(affine.linear(np.asarray(n, np.float64), w2c[:3, :3]))
-    proj = np.asarray(cam.projection, np.float64)
+    hit = tri >= 0
+    depth = np.full((gh, gw), np.nan, np.float32)
+    if cam.orthographic:
+        world = np.einsum("nk,nkc->nc", frags.bary[hit], frame.positions[tri[hit]])
+        depth[hit] = world @ w2c[2, :3] + w2c[2, 3]
+    else:
+        depth[hit] = -frags.depth[hit]
+    # the view-space x, y of a buffer pixel from its depth z (the projection undone)
+    ux, vx = 2.0 / cam.width, 2.0 * (x0 - m + 0.5) / cam.width - 1.0
+    uy, vy = -2.0 / cam.height, 1.0 - 2.0 * (y0 - m + 0.5) / cam.height
+    p32, p33 = proj[3, 2], proj[3, 3]
+    rec = np.array([p32 * ux / proj[0, 0], (p32 * vx - proj[0, 2]) / proj[0, 0],
+                    p33 * ux / proj[0, 0], (p33 * vx - proj[0, 3]) / proj[0, 0],
+                    p32 * uy / proj[1, 1], (p32 * vy - proj[1, 2]) / proj[1, 1],
+                    p33 * uy / proj[1, 1], (p33 * vy - proj[1, 3]) / proj[1, 1]])
+    # the normals of the tile grown by the filter's reach, in view space, facing the camera
+    inner = (slice(m - b, gh - m + b), slice(m - b, gw - m + b))
+    on = hit[inner]
+    n = affine.linear(np.einsum("nk,nkc->nc", frags.bary[inner][on],
+                                frame.normals[tri[inner][on]]), w2c[:3, :3])
+    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
+    if cam.orthographic:
+        facing = n[:, 2]
+    else:
+        qy, qx = np.nonzero(on)
+        qx, qy = qx + (m - b), qy + (m - b)
+        z = depth[qy, qx].astype(np.float64)
+        p = np.column_stack([(rec[0] * qx + rec[1]) * z + rec[2] * qx + rec[3],
+                             (rec[4] * qy + rec[5]) * z + rec[6] * qy + rec[7], z])
+        facing = -np.einsum("nk,nk->n", n, p)
+    n[facing < 0.0] *= -1.0
+    normals = np.zeros((*on.shape, 3), np.float32)
+    normals[on] = n
     scale = 0.5 * proj[1, 1] * cam.height  # pixels per metre (at depth 1: perspective)
-    pixels = np.column_stack([np.asarray(sx, np.float64) - ox, np.asarray(sy, np.float64) - oy])
-    return occlusion.ambient(buffer, pv, nv, pixels, s.ao_distance, scale, cam.orthographic)
+    return occlusion.ambient(depth, normals, rec, (x0 - m, y0 - m), s.ao_distance, scale,
+                             cam.orthographic)
 
 
 SHADE_BLOCK = 1 << 16  # points shaded at once (bounds the shading's temporaries)
@@ -888,14 +904,14 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     if not count:
         tick()
     s = scene.settings
-    view = (_view_buffer(frame, tile) if count and scene.probes is not None
-            and s.ambient_occlusion and s.ao_distance > 0.0 else None)
+    ao_tile = ((_tile_ambient(frame, tile), x0, y0) if count and scene.probes is not None
+               and s.ambient_occlusion and s.ao_distance > 0.0 else None)
     for lo in range(0, count, SHADE_BLOCK):
         block = slice(lo, lo + SHADE_BLOCK)
         tick(len(pixel[block]) / count)
         shading.splat(acc, pixel[block], weight[block],
                       _shade_points(frame, tri[block], bary[block], sx[block], sy[block],
-                                    tick, view))
+                                    tick, ao_tile))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color
