@@ -45,10 +45,12 @@ def register() -> None:
     import bpy
 
     from .blender import library, node_groups, props, ui
+    from .core import kernels
 
     if _registered:
         return
     _kernel_cache()
+    kernels.prepare()  # off the UI thread: the first render finds them ready
     for cls in _classes():
         bpy.utils.register_class(cls)
         _registered.append(cls)

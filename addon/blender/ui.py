@@ -57,6 +57,16 @@ class _BO2Panel:
         return layout
 
 
+def _redraw_properties():
+    """Timer: redraw the Properties editors every half second while the kernels are being
+    made ready (the Render tab says what is being done)."""
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == "PROPERTIES":
+                area.tag_redraw()
+    return 0.5 if kernels.status() else None
+
+
 class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
     bl_label = "BO2 Lighting"
     bl_context = "render"
@@ -69,6 +79,10 @@ class RENDER_PT_bo2_settings(_BO2Panel, bpy.types.Panel):
             box = layout.box()
             box.alert = True
             box.label(text=str(exc), icon="ERROR")
+        if kernels.status():
+            layout.label(text=f"{kernels.status()}...", icon="TIME")
+            if not bpy.app.timers.is_registered(_redraw_properties):
+                bpy.app.timers.register(_redraw_properties, first_interval=0.5)
         settings = context.scene.bo2
         layout.prop(settings, "samples")
         layout.prop(settings, "shade_every_sample")

@@ -13,7 +13,7 @@ import dataclasses
 import bpy
 import numpy as np
 
-from ..core import viewport
+from ..core import kernels, viewport
 from ..core.scene import Camera
 from . import extract, probes, studio, worlds
 
@@ -286,7 +286,7 @@ class Viewport:
             return f"Error: {error}"
         image = self.session.image()
         if image is None:
-            parts = ["Preparing"]
+            parts = [kernels.status() or "Preparing"]
         elif image.samples == 0:
             parts = ["Preview"]
         else:

@@ -24,10 +24,16 @@ passes' assembly and accumulation), ``shadows`` (the shadow filter, point by poi
 from __future__ import annotations
 
 import errno
+import hashlib
+import importlib
 import importlib.metadata
+import json
 import os
 import platform
+import subprocess
 import sys
+import threading
+import time
 from pathlib import Path
 
 from ..memory import limit_note
@@ -42,10 +48,12 @@ def bundled_numba(system: str = sys.platform, machine: str = platform.machine())
 
 NUMBA_VERSION = bundled_numba()
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
-MODULES = ("indirect", "lightmap", "occlusion", "raster", "shading", "shadows", "textures")
+LOADING_MESSAGE = "Loading BO2 kernels"
+# Longest to compile first, so that side-by-side compiles end together
+MODULES = ("raster", "shadows", "textures", "lightmap", "indirect", "shading", "occlusion")
 
 __all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
-           "is_cached", "load"]
+           "is_cached", "load", "prepare", "status"]
 
 
 class KernelsUnavailable(RuntimeError):
@@ -133,19 +141,118 @@ def configure(cache_dir: str | os.PathLike) -> None:
         numba.config.CACHE_DIR = str(path)
 
 
+def loaded() -> bool:
+    """Whether every kernel module is imported (ready to run)."""
+    return all(f"{__name__}.{module}" in sys.modules for module in MODULES)
+
+
 def load(notify=None) -> None:
     """Check numba (``check``) and import every kernel module, compiling what the cache does not
-    hold; ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while. Cheap once the
-    kernels are loaded."""
+    hold; ``notify(message)`` is called first when that takes a while (``FIRST_RUN_MESSAGE``,
+    or what ``prepare``'s worker, which this waits for, is doing). Cheap once loaded."""
     check()
-    if all(f"{__name__}.{module}" in sys.modules for module in MODULES):
+    if loaded():
         return
+    worker = _worker
+    if worker is not None and worker.is_alive():
+        if notify is not None:
+            notify(status() or LOADING_MESSAGE)
+        worker.join()
+        if loaded():
+            return
     if notify is not None and not is_cached():
         notify(FIRST_RUN_MESSAGE)
-    import importlib
-
     for module in MODULES:
         importlib.import_module(f"{__name__}.{module}")
+
+
+_worker: threading.Thread | None = None
+_status = ""
+_start = threading.Lock()
+
+
+def status() -> str:
+    """What ``prepare``'s worker is doing: ``FIRST_RUN_MESSAGE``, ``LOADING_MESSAGE``, or ""
+    when it is done (or was never started)."""
+    return _status
+
+
+def prepare(jobs: int | None = None) -> bool:
+    """Make the kernels ready off the calling thread, once per session: compile the modules
+    the cache lacks in ``jobs`` child processes side by side (default: one per core), then
+    import every module on a background thread. ``load`` waits for it; a failure is left for
+    ``load`` to report. Returns whether a worker was started (not when numba is unusable or
+    everything is loaded)."""
+    global _status, _worker
+    with _start:
+        if _worker is not None or loaded():
+            return False
+        try:
+            check()
+        except KernelsUnavailable:
+            return False
+        missing = [m for m in MODULES if not _cached(m)]
+        _status = FIRST_RUN_MESSAGE if missing else LOADING_MESSAGE
+        _worker = threading.Thread(target=_prepare, args=(missing, jobs or _cores()),
+                                   name="bo2-kernels", daemon=True)
+        _worker.start()
+        return True
+
+
+def _cores() -> int:
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # macOS, Windows
+        return max(1, os.cpu_count() or 1)
+
+
+def _prepare(missing: list[str], jobs: int) -> None:
+    global _status
+    try:
+        if missing:
+            _compile_apart(missing, jobs)
+        _status = LOADING_MESSAGE
+        for module in MODULES:
+            importlib.import_module(f"{__name__}.{module}")
+    except Exception:  # noqa: BLE001, S110 - ``load`` meets the same failure and reports it
+        pass
+    finally:
+        _status = ""
+
+
+# A child process that compiles one kernel module into the cache, imported under the name the
+# package has here (numba's cache refers to it): the packages above it stand in as empty ones,
+# the one holding it as its folder (Blender's ``bl_ext.<repository>``)
+_CHILD = """
+import importlib, json, sys, types
+paths, package, folder, module = json.loads(sys.argv[1])
+sys.path[:0] = paths
+parts = package.split(".")
+for k in range(1, len(parts)):
+    stub = types.ModuleType(".".join(parts[:k]))
+    stub.__path__ = [folder] if k == len(parts) - 1 else []
+    sys.modules[stub.__name__] = stub
+importlib.import_module(package + ".addon.core.kernels." + module)
+"""
+
+
+def _compile_apart(modules: list[str], jobs: int) -> None:
+    """Compile ``modules`` into the cache in up to ``jobs`` child processes at once (the
+    compiler holds Python's lock, so threads would take turns). Without a Python to run
+    (``sys.executable`` is not one), nothing: the import compiles instead."""
+    if jobs < 2 or "python" not in Path(sys.executable or "").name.lower():
+        return
+    package = __name__.removesuffix(".addon.core.kernels")
+    folder = str(Path(__file__).resolve().parents[4])  # kernels, core, addon, the package
+    todo, running = list(modules), []
+    while todo or running:
+        while todo and len(running) < jobs:
+            args = json.dumps([sys.path, package, folder, todo.pop(0)])
+            running.append(subprocess.Popen([sys.executable, "-c", _CHILD, args],
+                                            stdout=subprocess.DEVNULL,
+                                            stderr=subprocess.DEVNULL))
+        time.sleep(0.05)
+        running = [p for p in running if p.poll() is None]
 
 
 if "NUMBA_CACHE_DIR" not in os.environ:  # until the host configures its own folder
@@ -155,8 +262,20 @@ if "NUMBA_CACHE_DIR" not in os.environ:  # until the host configures its own fol
 def is_cached() -> bool:
     """Whether every kernel module has compiled code in the cache folder (else the first
     import compiles, for some seconds: show ``FIRST_RUN_MESSAGE``)."""
+    return all(_cached(module) for module in MODULES)
+
+
+def _cached(module: str) -> bool:
+    """Whether the cache holds code of ``module``'s source as it is now (numba's folder for
+    this source folder: its name and the SHA-1 of its path)."""
     folder = os.environ.get("NUMBA_CACHE_DIR")
-    if not folder or not Path(folder).is_dir():
+    source = Path(__file__).resolve().parent / f"{module}.py"
+    if not folder:
         return False
-    index = [p.name for p in Path(folder).rglob("*.nbi")]
-    return all(any(name.startswith(f"{module}.") for name in index) for module in MODULES)
+    here = os.path.dirname(os.path.abspath(source))
+    sub = Path(folder) / f"kernels_{hashlib.sha1(here.encode()).hexdigest()}"
+    try:
+        built = [p.stat().st_mtime for p in sub.glob(f"{module}.*.nbi")]
+        return bool(built) and min(built) >= source.stat().st_mtime
+    except OSError:
+        return False
