@@ -29,6 +29,7 @@ import importlib
 import importlib.metadata
 import json
 import os
+import pickle
 import platform
 import subprocess
 import sys
@@ -148,16 +149,17 @@ def loaded() -> bool:
 
 def load(notify=None) -> None:
     """Check numba (``check``) and import every kernel module, compiling what the cache does not
-    hold; ``notify(message)`` is called first when that takes a while (``FIRST_RUN_MESSAGE``,
-    or what ``prepare``'s worker, which this waits for, is doing). Cheap once loaded."""
+    hold; ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while (here, or in
+    ``prepare``'s worker, which this waits for). Cheap once loaded."""
     check()
     if loaded():
         return
-    worker = _worker
-    if worker is not None and worker.is_alive():
-        if notify is not None:
-            notify(status() or LOADING_MESSAGE)
-        worker.join()
+    worker, said = _worker, False
+    while worker is not None and worker.is_alive():
+        if notify is not None and not said and status() == FIRST_RUN_MESSAGE:
+            notify(FIRST_RUN_MESSAGE)
+            said = True
+        worker.join(0.05)
         if loaded():
             return
     if notify is not None and not is_cached():
@@ -191,9 +193,8 @@ def prepare(jobs: int | None = None) -> bool:
             check()
         except KernelsUnavailable:
             return False
-        missing = [m for m in MODULES if not _cached(m)]
-        _status = FIRST_RUN_MESSAGE if missing else LOADING_MESSAGE
-        _worker = threading.Thread(target=_prepare, args=(missing, jobs or _cores()),
+        _status = LOADING_MESSAGE
+        _worker = threading.Thread(target=_prepare, args=(jobs or _cores(),),
                                    name="bo2-kernels", daemon=True)
         _worker.start()
         return True
@@ -206,10 +207,12 @@ def _cores() -> int:
         return max(1, os.cpu_count() or 1)
 
 
-def _prepare(missing: list[str], jobs: int) -> None:
+def _prepare(jobs: int) -> None:
     global _status
     try:
+        missing = [m for m in MODULES if not _cached(m)]
         if missing:
+            _status = FIRST_RUN_MESSAGE
             _compile_apart(missing, jobs)
         _status = LOADING_MESSAGE
         for module in MODULES:
@@ -266,16 +269,25 @@ def is_cached() -> bool:
 
 
 def _cached(module: str) -> bool:
-    """Whether the cache holds code of ``module``'s source as it is now (numba's folder for
-    this source folder: its name and the SHA-1 of its path)."""
+    """Whether the cache holds code of ``module``'s source as it is now, for this Python: an
+    index of numba's folder for this source folder (its name and the SHA-1 of its path) whose
+    stamp is the source's, as numba checks it: the SHA-256 of its content (numba 0.68), its
+    modification time and size (0.62). A module's kernels compile together; functions it no
+    longer has leave old indexes."""
     folder = os.environ.get("NUMBA_CACHE_DIR")
-    source = Path(__file__).resolve().parent / f"{module}.py"
     if not folder:
         return False
+    source = Path(__file__).resolve().parent / f"{module}.py"
     here = os.path.dirname(os.path.abspath(source))
     sub = Path(folder) / f"kernels_{hashlib.sha1(here.encode()).hexdigest()}"
     try:
-        built = [p.stat().st_mtime for p in sub.glob(f"{module}.*.nbi")]
-        return bool(built) and min(built) >= source.stat().st_mtime
-    except OSError:
+        stat = source.stat()
+        stamps = (hashlib.sha256(source.read_bytes()).digest(), (stat.st_mtime, stat.st_size))
+        for index in sub.glob(f"{module}.*.py{sys.version_info[0]}{sys.version_info[1]}.nbi"):
+            with open(index, "rb") as fh:
+                pickle.load(fh)  # numba's version
+                if pickle.loads(fh.read())[0] in stamps:
+                    return True
+    except Exception:  # noqa: BLE001 - an unreadable index: not cached
         return False
+    return False
