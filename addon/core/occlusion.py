@@ -43,7 +43,7 @@ def ambient(depth: np.ndarray, normals: np.ndarray, rec: np.ndarray, origin: tup
     depth:   (H, W) float32 view-space z at the pixel centres of the tile grown by ``REACH``
              pixels, NaN where nothing was drawn (camera looking along -z, y up)
     normals: (h + 2 BLUR, w + 2 BLUR, 3) float32 unit view-space normals of the tile grown by
-             ``BLUR`` pixels, facing the camera
+             ``BLUR`` pixels, either side
     rec:     (8,) float64 view-space x, y of a buffer pixel from its depth
              (``kernels.occlusion.gtao``)
     origin:  the buffer's origin (x, y) in the frame, pixels

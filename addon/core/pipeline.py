@@ -797,7 +797,7 @@ def _tile_ambient(frame: Frame, tile) -> np.ndarray:
     depth = np.full((gh, gw), np.nan, np.float32)
     if cam.orthographic:
         world = np.einsum("nk,nkc->nc", frags.bary[hit], frame.positions[tri[hit]])
-        depth[hit] = world @ w2c[2, :3] + w2c[2, 3]
+        depth[hit] = affine.transform(world, w2c)[:, 2]
     else:
         depth[hit] = -frags.depth[hit]
     # the view-space x, y of a buffer pixel from its depth z (the projection undone)
@@ -808,24 +808,13 @@ def _tile_ambient(frame: Frame, tile) -> np.ndarray:
                     p33 * ux / proj[0, 0], (p33 * vx - proj[0, 3]) / proj[0, 0],
                     p32 * uy / proj[1, 1], (p32 * vy - proj[1, 2]) / proj[1, 1],
                     p33 * uy / proj[1, 1], (p33 * vy - proj[1, 3]) / proj[1, 1]])
-    # the normals of the tile grown by the filter's reach, in view space, facing the camera
+    # the normals of the tile grown by the filter's reach, in view space
     inner = (slice(m - b, gh - m + b), slice(m - b, gw - m + b))
     on = hit[inner]
     n = affine.linear(np.einsum("nk,nkc->nc", frags.bary[inner][on],
                                 frame.normals[tri[inner][on]]), w2c[:3, :3])
-    n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
-    if cam.orthographic:
-        facing = n[:, 2]
-    else:
-        qy, qx = np.nonzero(on)
-        qx, qy = qx + (m - b), qy + (m - b)
-        z = depth[qy, qx].astype(np.float64)
-        p = np.column_stack([(rec[0] * qx + rec[1]) * z + rec[2] * qx + rec[3],
-                             (rec[4] * qy + rec[5]) * z + rec[6] * qy + rec[7], z])
-        facing = -np.einsum("nk,nk->n", n, p)
-    n[facing < 0.0] *= -1.0
     normals = np.zeros((*on.shape, 3), np.float32)
-    normals[on] = n
+    normals[on] = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-12)
     scale = 0.5 * proj[1, 1] * cam.height  # pixels per metre (at depth 1: perspective)
     return occlusion.ambient(depth, normals, rec, (x0 - m, y0 - m), s.ao_distance, scale,
                              cam.orthographic)

@@ -85,19 +85,20 @@ def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.n
     dirs = sky.directions
     radiance = sh.basis(dirs) @ np.asarray(world_sh, np.float64)  # (K, 3)
     weight_k = np.maximum(radiance @ sh.LUMINANCE_REC709, 0.0).astype(np.float32)
-    cos = np.maximum(np.asarray(normals, np.float32) @ dirs.T.astype(np.float32), 0.0)
-    weights = cos * weight_k[None]  # (N, K)
-    total = weights.sum(1)
+    nx, ny, nz = np.asarray(normals, np.float32).T.copy()  # contiguous rows
+    total = np.zeros(n, np.float32)
     seen = np.zeros(n, np.float32)
-    for k, smap in enumerate(sky.maps):
+    for k, (dx, dy, dz) in enumerate(dirs.astype(np.float32)):
         if poll is not None:
             poll()
-        where = weights[:, k] > 0.0
+        w = np.maximum(nx * dx + ny * dy + nz * dz, 0.0) * weight_k[k]
+        total += w
+        where = w > 0.0
+        smap = sky.maps[k]
         if smap is None or not where.any():
-            seen += weights[:, k]
+            seen += w
             continue
-        v = shadows.shadow_visibility(smap, points, geo, where=where, jitter=False)
-        seen += weights[:, k] * v
+        seen += w * shadows.shadow_visibility(smap, points, geo, where=where, jitter=False)
     out = np.ones(n, np.float32)
     lit = total > 1e-12
     out[lit] = np.clip(seen[lit] / total[lit], 0.0, 1.0)

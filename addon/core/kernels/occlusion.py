@@ -52,6 +52,18 @@ def _position(depth, rec, qx, qy):
             (rec[4] * qy + rec[5]) * z + rec[6] * qy + rec[7], z)
 
 
+@nb.njit(nb.types.UniTuple(nb.float64, 3)(nb.float32[:, :, ::1], nb.int64, nb.int64,
+                                           nb.float64, nb.float64, nb.float64, nb.boolean),
+         **_OPTIONS)
+def _normal(normals, i, j, px, py, pz, ortho):
+    """The normal at ``normals[i, j]`` of the surface at view-space (px, py, pz), turned
+    towards the camera."""
+    nx, ny, nz = (np.float64(normals[i, j, 0]), np.float64(normals[i, j, 1]),
+                  np.float64(normals[i, j, 2]))
+    away = nz < 0.0 if ortho else nx * px + ny * py + nz * pz > 0.0
+    return (-nx, -ny, -nz) if away else (nx, ny, nz)
+
+
 @nb.njit(nb.void(nb.float32[:, ::1], nb.float32[:, :, ::1], nb.int64, nb.int64,
                  nb.float64[::1], nb.float64[::1], nb.int64, nb.int64, nb.float32[:, ::1]),
          **_OPTIONS)
@@ -60,7 +72,7 @@ def gtao(depth, normals, rx, ry, rec, params, fx, fy, out):
 
     depth:   (H, W) view-space z at the buffer's pixel centres (camera looks along -z, y up),
              NaN where nothing was drawn
-    normals: (h, w, 3) unit view-space normals of the region's pixels, facing the camera
+    normals: (h, w, 3) unit view-space normals of the region's pixels, either side
     rx, ry:  the region's origin in the buffer, pixels
     rec:     (8,) the view-space position of buffer pixel (qx, qy)'s centre at depth z:
              x = (rec0 qx + rec1) z + rec2 qx + rec3,  y = (rec4 qy + rec5) z + rec6 qy + rec7
@@ -81,8 +93,7 @@ def gtao(depth, normals, rx, ry, rec, params, fx, fy, out):
             if pz != pz:
                 out[i, j] = 1.0
                 continue
-            nx, ny, nz = (np.float64(normals[i, j, 0]), np.float64(normals[i, j, 1]),
-                          np.float64(normals[i, j, 2]))
+            nx, ny, nz = _normal(normals, i, j, px, py, pz, ortho)
             if ortho:
                 vx, vy, vz = 0.0, 0.0, 1.0
                 span = radius * scale
@@ -161,6 +172,7 @@ def blur(ao, depth, normals, rx, ry, rec, tolerance, out):
     depth, rec:  as ``gtao``;  out: (h, w) float32
     """
     perspective = rec[0] != 0.0
+    ortho = not perspective
     for i in range(out.shape[0]):
         for j in range(out.shape[1]):
             ci, cj = i + 2, j + 2
@@ -168,7 +180,7 @@ def blur(ao, depth, normals, rx, ry, rec, tolerance, out):
             if pz != pz:
                 out[i, j] = ao[ci, cj]
                 continue
-            nx, ny, nz = normals[ci, cj, 0], normals[ci, cj, 1], normals[ci, cj, 2]
+            nx, ny, nz = _normal(normals, ci, cj, px, py, pz, ortho)
             limit = tolerance * (-pz if perspective else 1.0)
             total, weight = 0.0, 0.0
             for a in range(i, i + 4):
@@ -176,7 +188,8 @@ def blur(ao, depth, normals, rx, ry, rec, tolerance, out):
                     qx, qy, qz = _position(depth, rec, rx + b, ry + a)
                     if qz != qz:
                         continue
-                    if nx * normals[a, b, 0] + ny * normals[a, b, 1] + nz * normals[a, b, 2] < 0.8:
+                    mx, my, mz = _normal(normals, a, b, qx, qy, qz, ortho)
+                    if nx * mx + ny * my + nz * mz < 0.8:
                         continue
                     if abs((qx - px) * nx + (qy - py) * ny + (qz - pz) * nz) > limit:
                         continue
