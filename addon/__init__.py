@@ -50,7 +50,8 @@ def register() -> None:
     if _registered:
         return
     _kernel_cache()
-    kernels.prepare()  # off the UI thread: the first render finds them ready
+    if not bpy.app.background:  # off the UI thread: the window's first render finds them ready
+        kernels.prepare()
     for cls in _classes():
         bpy.utils.register_class(cls)
         _registered.append(cls)

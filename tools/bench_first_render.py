@@ -3,9 +3,9 @@
 Usage: python tools/bench_first_render.py   (a Python with ``bpy``: ``.venv/bin/python``)
 
 A scene of three spheres, a point light, a sun and an unbaked sphere probe at 320x180. Each case
-is a fresh Blender session (its own process): the extension registered (which starts making the
-kernels ready off the UI thread, ``kernels.prepare``), the file opened, then F12
-(``bpy.ops.render.render``), timed whole:
+is a fresh Blender session (its own process): the extension registered and the kernels'
+preparation started off the UI thread (``kernels.prepare``, as registering does in a window),
+the file opened, then F12 (``bpy.ops.render.render``), timed whole:
 - after installing: an empty kernel cache, F12 as soon as the file is open (the kernels
   compile in child processes side by side, the render waits for them);
 - a new session: the cache filled, F12 as soon as the file is open;
@@ -60,6 +60,7 @@ import bo2_lighting
 blend, engine, wait = sys.argv[-3], sys.argv[-2], sys.argv[-1] == "wait"
 bo2_lighting.register()
 from bo2_lighting.addon.core import kernels
+kernels.prepare()  # as registering does in a window (a background Blender, as here, does not)
 bpy.ops.wm.open_mainfile(filepath=blend, load_ui=False)
 bpy.context.scene.render.engine = engine
 if wait:

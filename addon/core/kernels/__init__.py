@@ -155,13 +155,13 @@ def load(notify=None) -> None:
     if loaded():
         return
     worker, said = _worker, False
-    while worker is not None and worker.is_alive():
-        if notify is not None and not said and status() == FIRST_RUN_MESSAGE:
+    while worker is not None and worker.is_alive():  # to its end: a module is in sys.modules
+        if notify is not None and not said and status() == FIRST_RUN_MESSAGE:  # while it runs
             notify(FIRST_RUN_MESSAGE)
             said = True
         worker.join(0.05)
-        if loaded():
-            return
+    if loaded():
+        return
     if notify is not None and not is_cached():
         notify(FIRST_RUN_MESSAGE)
     for module in MODULES:
