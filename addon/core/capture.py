@@ -62,8 +62,9 @@ class Capture:
         objects hidden from such probes are not seen, ``MeshBatch.sphere_probes``)."""
         cams = self._cameras(position, size, near, far)
         if not self._shadowed:
-            self._frame.shadow_maps = pipeline.build_shadow_maps(self._frame, self.should_stop,
-                                                                 fit_shadows=False, sky=True)
+            self._frame.shadow_maps = pipeline.build_shadow_maps(
+                self._frame, self.should_stop, fit_shadows=False, sky=True,
+                world_sh=None if probes is None else probes.world_sh)
             self._shadowed = True
         frame = dataclasses.replace(self._frame, seen=self._seen[kind], scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own

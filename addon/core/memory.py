@@ -41,10 +41,20 @@ def frame_bytes(scene) -> int:
     for light in scene.lights:
         if light.shadow:
             total += _MAPS.get(light.kind, 6) * res * res * 4 * 17 // 16  # and the pyramid
-    if scene.meshes and scene.probes is not None:  # the world's dome of maps (``core.sky``)
-        sky = int(scene.settings.sky_resolution)
-        total += max(0, int(scene.settings.sky_directions)) * sky * sky * 4 * 17 // 16
+    sky = int(scene.settings.sky_resolution)
+    total += _dome_maps(scene) * sky * sky * 4 * 17 // 16
     return total
+
+
+def _dome_maps(scene) -> int:
+    """Shadow maps of the world's dome (``core.sky``): the directions the world sends light
+    from."""
+    if not scene.meshes or scene.probes is None:
+        return 0
+    from .sky import radiance_weights
+
+    count = max(0, int(scene.settings.sky_directions))
+    return int((radiance_weights(scene.probes.world_sh, count) > 0.0).sum())
 
 
 def _size(count: int) -> str:
@@ -77,9 +87,7 @@ def out_of_memory(scene, error: MemoryError | None = None) -> str:
         return (f"BO2 Lighting ran out of memory reading the scene{read}{limit_note()}; hide "
                 "or simplify objects, or render on a machine with more memory")
     tris = sum(len(m.positions) for m in scene.meshes)
-    maps = sum(1 for light in scene.lights if light.shadow)
-    if scene.meshes and scene.probes is not None:  # the world's dome (``core.sky``)
-        maps += max(0, int(scene.settings.sky_directions))
+    maps = sum(1 for light in scene.lights if light.shadow) + _dome_maps(scene)
     return (f"BO2 Lighting ran out of memory: {tris:,} triangles and {maps} shadow "
             f"map{'s' * (maps != 1)} need about "
             f"{_size(frame_bytes(scene))} beside Blender's own{limit_note()}; lower "

@@ -144,7 +144,7 @@ class Frame:
     def sky(self) -> sky_light.Sky | None:
         """The world's dome of shadow maps (``sky``): the maps after the lights' ones."""
         extra = self.shadow_maps[len(self.scene.lights):]
-        return sky_light.Sky(extra) if extra else None
+        return sky_light.Sky(extra) if any(m is not None for m in extra) else None
 
 
 def shadow_map_count(scene: Scene, sky: bool | None = None) -> int:
@@ -343,12 +343,25 @@ def _clip(positions: np.ndarray, camera, seen: np.ndarray | None = None
     return clip
 
 
+def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np.ndarray:
+    """(count,) bool: the dome directions whose shadow maps are built, those the world sends
+    light from (``sky.radiance_weights`` of ``world_sh``, by default the scene's probes'; every
+    direction when neither is known)."""
+    if world_sh is None and scene.probes is not None:
+        world_sh = scene.probes.world_sh
+    if world_sh is None:
+        return np.ones(count, bool)
+    return sky_light.radiance_weights(world_sh, count) > 0.0
+
+
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
-                      fit_shadows: bool = True, sky: bool | None = None) -> list:
+                      fit_shadows: bool = True, sky: bool | None = None,
+                      world_sh: np.ndarray | None = None) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
     then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
-    fitted as the lights' are): ``shadow_map_count`` maps, every face and cascade rendered at
-    once on the render's threads. Arguments as ``prepare`` and ``shadow_map_count``."""
+    fitted as the lights' are; None towards directions the world sends no light from,
+    ``dome_lit``): ``shadow_map_count`` maps, every face and cascade rendered at once on the
+    render's threads. Arguments as ``prepare``, ``shadow_map_count`` and ``dome_lit``."""
     scene = frame.scene
     count = shadow_map_count(scene, sky)
     if not len(frame.positions):
@@ -373,10 +386,13 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
         poll()
         plans.append(shadows.shadow_map_jobs(light, positions, view,
                                              resolution=s.shadow_resolution, cutout=cutout))
-    for light in sky_light.dome_lights(count - len(scene.lights)):
+    dome = count - len(scene.lights)
+    lit = dome_lit(scene, dome, world_sh)
+    for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):
         poll()
         plans.append(shadows.shadow_map_jobs(light, positions, view, resolution=s.sky_resolution,
-                                             cutout=cutout, max_filter=sky_light.MAX_FILTER))
+                                             cutout=cutout, max_filter=sky_light.MAX_FILTER)
+                     if on else ([], lambda done: None))
     done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
                               thread_count(s), poll, threading.Event())))
     return [finish([next(done) for _ in jobs]) for jobs, finish in plans]

@@ -31,7 +31,7 @@ import numpy as np
 from . import sh, shadows
 from .scene import Light
 
-__all__ = ["Sky", "dome", "dome_lights", "visibility"]
+__all__ = ["Sky", "dome", "dome_lights", "radiance_weights", "visibility"]
 
 MAX_FILTER = 0.25  # metres: the dome's widest shadow filter (``shadows.ShadowMap``)
 
@@ -61,6 +61,14 @@ def dome_lights(count: int) -> list[Light]:
             for k, d in enumerate(dome(count))]
 
 
+def radiance_weights(world_sh: np.ndarray, count: int) -> np.ndarray:
+    """(count,) float32 L_k >= 0: the luminance of the world's radiance (SH ``world_sh``
+    (9, 3)) towards each ``dome`` direction. A direction of weight 0 sends no light, so its
+    shadow map is never built."""
+    radiance = sh.basis(dome(count)) @ np.asarray(world_sh, np.float64)  # (K, 3)
+    return np.maximum(radiance @ sh.LUMINANCE_REC709, 0.0).astype(np.float32)
+
+
 @dataclass
 class Sky:
     """The dome's shadow maps (``dome_lights``, in order; None where nothing casts)."""
@@ -83,8 +91,7 @@ def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.n
     if not sky.maps or not n:
         return np.ones(n, np.float32)
     dirs = sky.directions
-    radiance = sh.basis(dirs) @ np.asarray(world_sh, np.float64)  # (K, 3)
-    weight_k = np.maximum(radiance @ sh.LUMINANCE_REC709, 0.0).astype(np.float32)
+    weight_k = radiance_weights(world_sh, len(dirs))
     nx, ny, nz = np.asarray(normals, np.float32).T.copy()  # contiguous rows
     total = np.zeros(n, np.float32)
     seen = np.zeros(n, np.float32)

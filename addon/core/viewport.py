@@ -297,6 +297,10 @@ class Session:
             if (new.shadow_resolution, new.sky_directions, new.sky_resolution) != (
                     was.shadow_resolution, was.sky_directions, was.sky_resolution):
                 rebuild = True
+        if not rebuild and changed & {"world", "probes"}:  # the dome's lit directions
+            count = pipeline.shadow_map_count(scene) - len(scene.lights)
+            rebuild = (count != len(old.shadow_maps) - len(old.scene.lights) or not np.array_equal(
+                pipeline.dome_lit(scene, count), pipeline.dome_lit(old.scene, count)))
         frame = None
         if not rebuild and "materials" in changed:
             frame = pipeline.with_materials(old, scene)

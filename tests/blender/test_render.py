@@ -188,9 +188,9 @@ def test_running_out_of_memory_is_one_message_with_the_figure(addon, monkeypatch
         raise MemoryError()
 
     monkeypatch.setattr(pipeline, "render_tiles", starved)
-    # the sun's map and the 32 of the world's dome (``core.sky``)
-    with pytest.raises(RuntimeError, match=r"ran out of memory: 2 triangles and 33 shadow maps "
-                                           r"need about 26 MiB beside Blender's own"):
+    # the sun's map; the world is black: no dome (``core.sky``)
+    with pytest.raises(RuntimeError, match=r"ran out of memory: 2 triangles and 1 shadow map "
+                                           r"need about 17 MiB beside Blender's own"):
         render_pixels(scene, "BO2_LIGHTING", samples=1)
     monkeypatch.setattr(pipeline, "render_tiles", real)
     assert render_pixels(scene, "BO2_LIGHTING", samples=1).shape[2] == 4

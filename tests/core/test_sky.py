@@ -18,7 +18,7 @@ from bo2_lighting.addon.core.scene import (
 )
 
 
-def frame_of(slabs, directions=128) -> pipeline.Frame:
+def frame_of(slabs, directions=128, world_sh=None) -> pipeline.Frame:
     tris = np.concatenate([box(lo, hi) for lo, hi in slabs])
     n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
@@ -30,6 +30,8 @@ def frame_of(slabs, directions=128) -> pipeline.Frame:
                   settings=RenderSettings(samples=1, sky_directions=directions,
                                           sky_resolution=256),
                   probes=bake.world_probes(world))
+    if world_sh is not None:
+        scene.probes.world_sh = np.asarray(world_sh, np.float32)
     return pipeline.prepare(scene)
 
 
@@ -139,3 +141,24 @@ def test_no_dome_without_directions_or_geometry():
     np.testing.assert_allclose(np.linalg.norm(sky.dome(32), axis=1), 1.0)
     # equal cells: the mean of the directions is the centre of the sphere
     np.testing.assert_allclose(sky.dome(256).mean(0), 0.0, atol=0.01)
+
+
+def test_no_maps_towards_directions_that_send_no_light():
+    """A direction the world sends no light from needs no shadow map: a black world has no
+    dome at all, and a world lit from above only none below the horizon where its radiance,
+    0.282 + 0.732 cos(theta) (SH Y00 and Y10), is 0 (cos(theta) < -0.385)."""
+    slabs = [((-20.0, -20.0, -0.1), (20.0, 20.0, 0.0)), ((-1.5, -1.5, 1.0), (1.5, 1.5, 1.1))]
+    black = frame_of(slabs, directions=64, world_sh=np.zeros((9, 3)))
+    assert black.sky is None and black.shadow_maps == [None] * 64
+    zenith = np.zeros((9, 3), np.float32)
+    zenith[0], zenith[2] = 1.0, 1.5
+    frame = frame_of(slabs, directions=64, world_sh=zenith)
+    z = sky.dome(64)[:, 2]
+    built = np.array([m is not None for m in frame.sky.maps])
+    np.testing.assert_array_equal(built, 0.282095 + 1.5 * 0.488603 * z > 0.0)
+    assert 0 < (~built).sum() < 64
+    p = np.array([[0.0, 0.0, 0.0], [0.5, -0.5, 0.0]], np.float32)
+    n = np.array([[0.0, 0.0, 1.0]] * 2, np.float32)
+    got = sky.visibility(frame.sky, zenith, p, n, n)
+    for k in range(2):
+        np.testing.assert_allclose(got[k], brute_force(p[k], slabs[1:], zenith), atol=0.04)

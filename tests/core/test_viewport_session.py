@@ -94,6 +94,28 @@ def test_geometry_and_light_changes_prepare_again(session):
         assert session.stats["prepares"] == count + 1
 
 
+def test_a_world_lit_anew_builds_its_dome(session):
+    """A black world needs no dome of shadow maps (``core.sky``); lit, it gets one; another
+    colour lit from the same directions keeps it."""
+    from bo2_lighting.addon.core import bake
+    from bo2_lighting.addon.core.scene import World
+
+    def lit(value):
+        world = World(color=np.full(3, value, np.float32))
+        return dataclasses.replace(scene(), world=world, probes=bake.world_probes(world))
+
+    session.update(lit(0.0), viewport.CHANGES)
+    assert session.wait(60)
+    assert session._frame.sky is None
+    count = session.stats["prepares"]
+    session.update(lit(0.5), {"world", "probes"})
+    assert session.wait(60)
+    assert session.stats["prepares"] == count + 1 and session._frame.sky is not None
+    session.update(lit(0.8), {"world", "probes"})
+    assert session.wait(60)
+    assert session.stats["prepares"] == count + 1
+
+
 def test_new_update_cancels_stale_work_within_a_tile(monkeypatch):
     started, release = threading.Event(), threading.Event()
     tiles_after = []
