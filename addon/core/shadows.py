@@ -418,6 +418,16 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
     def cascade(c: int):
         from .kernels import raster as kernels
 
+        if cutout is None:  # the depths straight from the triangles
+            cx, cy, half = rects[c]
+            g = 0.5 * res / half  # texels per metre
+            rows = np.zeros((3, 4))
+            rows[0, :3], rows[0, 3] = basis[0] * g, 0.5 * res - cx * g
+            rows[1, :3], rows[1, 3] = -basis[1] * g, 0.5 * res + cy * g
+            rows[2, :3] = basis[2]
+            d = np.full((res, res), np.inf, np.float32)
+            kernels.ortho_depths(tris, rows, d)
+            return d, _pyramid(d, d)
         frags = _rasterize_casters(raster.Projection(tris, view_proj[c]), res,
                                    cutout, c, True)
         d = np.full((res, res), np.inf, np.float32)  # depth along the light of each texel

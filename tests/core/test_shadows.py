@@ -549,3 +549,41 @@ def test_pyramid_holds_the_extremes_of_every_block(kind):
         np.testing.assert_array_equal(block[..., 2],
                                       block_reduce(depth, size, np.max, -np.inf))
     assert row == len(sm.mips) and level > shadows.MIP_FIRST_LEVEL
+
+
+def test_sun_map_depths_are_the_nearest_hit_of_each_texel_ray():
+    """Each texel of a sun cascade holds the depth, along the sun, of the first caster its
+    centre's ray meets (Moller-Trumbore ray casts against every triangle, either side); +inf
+    where the ray meets none. Texels whose ray passes within 1e-6 of an edge are not judged."""
+    rng = np.random.default_rng(5)
+    centres = rng.uniform(-2.0, 2.0, (40, 1, 3)) * [1.0, 1.0, 0.5]
+    tris = (centres + rng.normal(0.0, 0.4, (40, 3, 3))).astype(np.float32)
+    light = Light("SUN", np.ones(3), direction=unit([-0.3, 0.2, -1.0]))
+    res = 96
+    sm = shadows.build_shadow_map(light, tris, None, resolution=res)
+    basis, (cx, cy, half) = sm.basis[0], sm.rects[0]
+    g = 0.5 * res / half
+    col, row = np.meshgrid(np.arange(res) + 0.5, np.arange(res) + 0.5)
+    x = cx + (col - 0.5 * res) / g
+    y = cy - (row - 0.5 * res) / g
+    origin = (x[..., None] * basis[0] + y[..., None] * basis[1] - 100.0 * basis[2]).reshape(-1, 3)
+    q = tris.astype(np.float64)
+    e1, e2 = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
+    pvec = np.cross(basis[2], e2)  # (T, 3)
+    det = np.einsum("tk,tk->t", e1, pvec)
+    s = origin[:, None] - q[None, :, 0]  # (N, T, 3)
+    u = np.einsum("ntk,tk->nt", s, pvec) / det
+    qvec = np.cross(s, e1[None])
+    v = np.einsum("ntk,k->nt", qvec, basis[2]) / det
+    t = np.einsum("ntk,tk->nt", qvec, e2) / det
+    w = 1.0 - u - v
+    inside = (u >= 0) & (v >= 0) & (w >= 0)
+    near_edge = (np.abs(np.stack([u, v, w])) < 1e-6).any(0) | (
+        (np.minimum(np.minimum(u, v), w) > -1e-6) & ~inside)
+    depth = np.where(inside, t - 100.0, np.inf).min(1)
+    judged = ~near_edge.any(1)
+    got = sm.depth[0].reshape(-1).astype(np.float64)
+    assert judged.mean() > 0.99 and np.isfinite(depth).mean() > 0.1
+    np.testing.assert_array_equal(np.isinf(got[judged]), np.isinf(depth[judged]))
+    hit = judged & np.isfinite(depth)
+    np.testing.assert_allclose(got[hit], depth[hit], atol=2e-6 * np.abs(depth[hit]).max())

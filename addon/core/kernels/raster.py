@@ -10,7 +10,9 @@ of each row from the three edge functions (exact: integer floor divisions, or fl
 the quotient is provably exact), and keeps the smallest packed key (quantized depth, triangle
 index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
 perspective-correct weights and clip w. For shadow maps: ``reduction`` builds the
-min/max pyramid, ``corner_sum`` a sun map's depths, ``clipped_depths`` the depth range of
+min/max pyramid, ``ortho_depths`` a sun map's depths straight from its triangles (no set-up:
+the map needs no triangle indices nor weights), ``corner_sum`` the depths of the texels a
+raster found, ``clipped_depths`` the depth range of
 the geometry inside a camera's frustum or a sun cascade's square, ``extent`` and ``distances``
 the geometry's reach along directions and from a light.
 """
@@ -483,6 +485,62 @@ def reduction(dist, lo_depth, hi_depth, out):
                     lo = min(lo, lo_depth[r, c])
                     hi = max(hi, hi_depth[r, c])
             out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
+
+
+@nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], _F2),
+          nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], _F2)], **_OPTIONS)
+def ortho_depths(points, rows, out):
+    """An orthographic depth map: into ``out`` (H, W) (filled by the caller, +inf: empty) the
+    least depth of the triangles ``points`` (T, 3, 3) at each texel centre. ``rows`` (3, 4)
+    give a point's column and row in texels (texel (c, r) centred at (c + 0.5, r + 0.5)) and
+    its depth, as affine functions; all in float64, the depth rounded to float32 at the end.
+    Each row's covered span comes from the three edges; every edge is inclusive (a depth map
+    needs no tie rule). Triangles of no area in the map, or with a non-finite corner, draw
+    nothing."""
+    height, width = out.shape
+    xs, ys, zs = np.empty(3), np.empty(3), np.empty(3)
+    for t in range(points.shape[0]):
+        for c in range(3):
+            x = np.float64(points[t, c, 0])
+            y = np.float64(points[t, c, 1])
+            z = np.float64(points[t, c, 2])
+            xs[c] = ((rows[0, 0] * x + rows[0, 1] * y) + rows[0, 2] * z) + rows[0, 3]
+            ys[c] = ((rows[1, 0] * x + rows[1, 1] * y) + rows[1, 2] * z) + rows[1, 3]
+            zs[c] = ((rows[2, 0] * x + rows[2, 1] * y) + rows[2, 2] * z) + rows[2, 3]
+        area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (xs[2] - xs[0]) * (ys[1] - ys[0])
+        if not (area != 0.0 and np.isfinite(area) and np.isfinite(zs[0] + zs[1] + zs[2])):
+            continue
+        r0 = max(np.ceil(min(ys[0], ys[1], ys[2]) - 0.5), 0.0)
+        r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5), height - 1.0)
+        if r0 > r1:
+            continue
+        # the depth plane z = a x + b y + c0 over the map
+        a = ((zs[1] - zs[0]) * (ys[2] - ys[0]) - (zs[2] - zs[0]) * (ys[1] - ys[0])) / area
+        b = ((xs[1] - xs[0]) * (zs[2] - zs[0]) - (xs[2] - xs[0]) * (zs[1] - zs[0])) / area
+        c0 = zs[0] - a * xs[0] - b * ys[0]
+        sign = 1.0 if area > 0.0 else -1.0
+        for r in range(np.int64(r0), np.int64(r1) + 1):
+            yc = r + 0.5
+            lo, hi = -np.inf, np.inf
+            for i in range(3):  # inside edge i -> j: k x + m >= 0
+                j = (i + 1) % 3
+                k = -sign * (ys[j] - ys[i])
+                m = sign * ((xs[j] - xs[i]) * (yc - ys[i]) + (ys[j] - ys[i]) * xs[i])
+                if k > 0.0:
+                    lo = max(lo, -m / k)
+                elif k < 0.0:
+                    hi = min(hi, -m / k)
+                elif m < 0.0:
+                    hi = -np.inf
+            c_lo = max(np.ceil(lo - 0.5), 0.0)
+            c_hi = min(np.floor(hi - 0.5), width - 1.0)
+            if not c_lo <= c_hi:
+                continue
+            zrow = b * yc + c0
+            for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+                z = np.float32(a * (col + 0.5) + zrow)
+                if z < out[r, col]:
+                    out[r, col] = z
 
 
 @nb.njit(nb.void(nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float64[:, ::1], _F2), **_OPTIONS)
