@@ -388,10 +388,13 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
                                              resolution=s.shadow_resolution, cutout=cutout))
     dome = count - len(scene.lights)
     lit = dome_lit(scene, dome, world_sh)
+    view_range = (shadows.camera_depth_range(view, positions)
+                  if view is not None and lit.any() else None)  # the same for every sun
     for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):
         poll()
         plans.append(shadows.shadow_map_jobs(light, positions, view, resolution=s.sky_resolution,
-                                             cutout=cutout, max_filter=sky_light.MAX_FILTER)
+                                             cutout=cutout, max_filter=sky_light.MAX_FILTER,
+                                             view_range=view_range)
                      if on else ([], lambda done: None))
     done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
                               thread_count(s), poll, threading.Event())))

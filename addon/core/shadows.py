@@ -66,7 +66,8 @@ import numpy as np
 from . import affine, raster
 from .scene import Camera, Light
 
-__all__ = ["ShadowMap", "build_shadow_map", "shadow_map_jobs", "shadow_visibility"]
+__all__ = ["ShadowMap", "build_shadow_map", "camera_depth_range", "shadow_map_jobs",
+           "shadow_visibility"]
 
 NORMAL_OFFSET_TEXELS = 1.0  # receiver moved along its normal by this many texels (world size)
 DEPTH_BIAS_TEXELS = 0.05  # constant depth bias, texels (world size at the receiver)
@@ -269,8 +270,13 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     view_proj = np.stack([proj @ _view(frame, origin) for frame in basis])
 
     def face(f: int):
-        depth = _rasterize_casters(raster.Projection(tris, view_proj[f]), res,
-                                   cutout, f, False).depth
+        if cutout is None:  # the depths straight from the triangles
+            depth = np.full((res, res), np.inf, np.float32)
+            kernels.perspective_depths(tris, np.ascontiguousarray(view_proj[f][[0, 1, 3]]),
+                                       near, depth)
+        else:
+            depth = _rasterize_casters(raster.Projection(tris, view_proj[f]), res,
+                                       cutout, f, False).depth
         dist = depth * ray_len  # distance from the light, metres
         return depth, _pyramid(dist, depth), float(dist.min())
 
@@ -292,7 +298,7 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
     return [lambda f=f: face(f) for f in range(len(basis))], finish
 
 
-def _camera_depth_range(camera: Camera, tris: np.ndarray):
+def camera_depth_range(camera: Camera, tris: np.ndarray):
     """The camera's frustum corners at a view depth, and the view-depth range of the parts of
     the triangles ``tris`` (T, 3, 3) float32 or float64 inside its frustum (``kernels.raster.
     clipped_depths``), clamped to [near, far] (z0 > z1 when empty): a ground reaching far
@@ -339,18 +345,20 @@ def _extent(tris: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]
     return out[:, 0], out[:, 1]
 
 
-def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int):
+def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int,
+                  view_range: tuple | None = None):
     """Cascade squares (C, 3) (cx, cy, half side) in the light's (R, U) plane and splits (C+1,).
 
-    The view-depth range the camera sees of the casters (``_camera_depth_range``) is split
+    The view-depth range the camera sees of the casters (``camera_depth_range``) is split
     with the practical scheme z_i = l z0 (z1/z0)^(i/C) + (1 - l)(z0 + (z1 - z0) i/C)
     (Zhang et al. 2006), with C = ceil(log(z1/z0) / log(CASCADE_RATIO)) in [1, MAX_CASCADES]
     (1 for an orthographic camera); l = SPLIT_LAMBDA, rising linearly to 1 (logarithmic) as
     the range needs from MAX_CASCADES to MAX_CASCADES + 1 cascades. Each slice's eight
     corners are projected onto the light plane; their bounding rectangle, clipped to the
-    casters' extent, becomes a square with a 4-texel margin.
+    casters' extent, becomes a square with a 4-texel margin. ``view_range``: the
+    ``camera_depth_range`` of these, when known.
     """
-    corners, n, f, z0, z1 = _camera_depth_range(camera, tris)
+    corners, n, f, z0, z1 = view_range or camera_depth_range(camera, tris)
     if not z1 >= z0:  # (a flat receiver facing an orthographic camera: one depth)
         return np.zeros((0, 3)), np.zeros(0)
     z0 = max(z0, 1e-6)
@@ -378,14 +386,14 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int)
 
 
 def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None,
-              max_filter: float = 0.0):
+              max_filter: float = 0.0, view_range: tuple | None = None):
     """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
     # Blender's largest angle is pi (in float32, a little above): keep the half angle below
     # 90 degrees, where the tangent turns negative
     tan_half = float(np.tan(0.5 * min(max(float(light.radius), 0.0), np.pi - 1e-3)))
     if len(tris) and camera is not None:
-        rects, splits = _fit_cascades(camera, basis, tris, res)
+        rects, splits = _fit_cascades(camera, basis, tris, res, view_range)
     elif len(tris):
         lo, hi = _extent(tris, basis[:2])
         half = 0.5 * max(float((hi - lo).max()), 1e-6) * (1.0 + 8.0 / res)
@@ -465,14 +473,15 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
 
 def shadow_map_jobs(
     light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024,
-    cutout=None, max_filter: float = 0.0,
+    cutout=None, max_filter: float = 0.0, view_range: tuple | None = None,
 ) -> tuple[list[Callable[[], object]], Callable[[list], ShadowMap | None]]:
     """The work of ``build_shadow_map`` as independent jobs (one per cube face or cascade, to
     run on any threads) and the function that assembles their results, in order, into the
     ShadowMap (None when the light casts no shadow). Arguments as ``build_shadow_map``, and
     cutout: None, or (fades (T,) bool, alpha(tri (N,), bary (N, 3)) -> (N,)): casters that may
     be transparent and their alpha at texels (``_rasterize_casters``); max_filter: a sun's
-    widest filter radius, metres (``ShadowMap.max_filter``)."""
+    widest filter radius, metres (``ShadowMap.max_filter``); view_range: the
+    ``camera_depth_range`` of ``camera`` and these triangles, when known (many suns)."""
     if not light.shadow:
         return [], lambda results: None
     res = max(1, int(resolution))
@@ -480,7 +489,7 @@ def shadow_map_jobs(
     tris = np.ascontiguousarray(tris.reshape(-1, 3, 3),
                                 tris.dtype if tris.dtype == np.float32 else np.float64)
     if light.kind == "SUN":
-        return _sun_jobs(light, tris, camera, res, cutout, max_filter)
+        return _sun_jobs(light, tris, camera, res, cutout, max_filter, view_range)
     return _perspective_jobs(light, tris, res, cutout)
 
 

@@ -101,7 +101,7 @@ print("hits", hits > 0, "misses", misses)
 # After compiling: every helper of the kernels compiled once, for float32 data where the kernel
 # works in float32 (a stray float64 constant silently doubles a helper's compile and changes
 # its rounding); the multi-typed kernels are the ones declared so (textures: float32 and
-# 8-bit texels; the casters' extents: float32 as frames hold them, float64).
+# 8-bit texels; the casters' extents and depth maps: float32 as frames hold them, float64).
 TYPES = """
 import importlib
 from bo2_lighting.addon.core import kernels
@@ -109,7 +109,8 @@ kernels.load()
 several = {("raster", "project"), ("raster", "survivors"), ("raster", "_permute"),
            ("raster", "_rejection"), ("textures", "sample"), ("textures", "_value"),
            ("raster", "extent"), ("raster", "distances"), ("raster", "clipped_depths"),
-           ("raster", "sample_survivors")}
+           ("raster", "sample_survivors"), ("raster", "ortho_depths"),
+           ("raster", "perspective_depths")}
 for module in kernels.MODULES:
     mod = importlib.import_module(f"{kernels.__name__}.{module}")
     for name, f in vars(mod).items():

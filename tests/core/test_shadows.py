@@ -551,39 +551,59 @@ def test_pyramid_holds_the_extremes_of_every_block(kind):
     assert row == len(sm.mips) and level > shadows.MIP_FIRST_LEVEL
 
 
-def test_sun_map_depths_are_the_nearest_hit_of_each_texel_ray():
+def _nearest_hits(origin, direction, tris):
+    """Moller-Trumbore: per ray (N,) the parameter of the nearest hit of ``tris`` (T, 3, 3),
+    either side (inf: none), and whether a ray passes within 1e-6 of an edge (not judged)."""
+    q = tris.astype(np.float64)
+    e1, e2 = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
+    pvec = np.cross(direction[:, None], e2[None])  # (N, T, 3)
+    det = np.einsum("tk,ntk->nt", e1, pvec)
+    s = origin[:, None] - q[None, :, 0]
+    u = np.einsum("ntk,ntk->nt", s, pvec) / det
+    qvec = np.cross(s, e1[None])
+    v = np.einsum("ntk,nk->nt", qvec, direction) / det
+    t = np.einsum("ntk,tk->nt", qvec, e2) / det
+    w = 1.0 - u - v
+    inside = (u >= 0) & (v >= 0) & (w >= 0) & (t > 0)
+    near_edge = (np.minimum(np.minimum(u, v), w) > -1e-6) & (
+        np.abs(np.stack([u, v, w])) < 1e-6).any(0)
+    return np.where(inside, t, np.inf).min(1), near_edge.any(1)
+
+
+@pytest.mark.parametrize("kind", ["SUN", "POINT"])
+def test_map_depths_are_the_nearest_hit_of_each_texel_ray(kind):
     """Each texel of a sun cascade holds the depth, along the sun, of the first caster its
-    centre's ray meets (Moller-Trumbore ray casts against every triangle, either side); +inf
-    where the ray meets none. Texels whose ray passes within 1e-6 of an edge are not judged."""
+    centre's ray meets; each texel of a point light's cube face the clip w (depth along the
+    face axis) of that of its ray from the light (ray casts against every triangle, either
+    side); +inf where the ray meets none. Rays within 1e-6 of an edge are not judged."""
     rng = np.random.default_rng(5)
     centres = rng.uniform(-2.0, 2.0, (40, 1, 3)) * [1.0, 1.0, 0.5]
     tris = (centres + rng.normal(0.0, 0.4, (40, 3, 3))).astype(np.float32)
-    light = Light("SUN", np.ones(3), direction=unit([-0.3, 0.2, -1.0]))
-    res = 96
+    light = Light(kind, np.ones(3), position=np.array([0.3, -0.2, 0.1]),
+                  direction=unit([-0.3, 0.2, -1.0]))
+    res = 48
     sm = shadows.build_shadow_map(light, tris, None, resolution=res)
-    basis, (cx, cy, half) = sm.basis[0], sm.rects[0]
-    g = 0.5 * res / half
-    col, row = np.meshgrid(np.arange(res) + 0.5, np.arange(res) + 0.5)
-    x = cx + (col - 0.5 * res) / g
-    y = cy - (row - 0.5 * res) / g
-    origin = (x[..., None] * basis[0] + y[..., None] * basis[1] - 100.0 * basis[2]).reshape(-1, 3)
-    q = tris.astype(np.float64)
-    e1, e2 = q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]
-    pvec = np.cross(basis[2], e2)  # (T, 3)
-    det = np.einsum("tk,tk->t", e1, pvec)
-    s = origin[:, None] - q[None, :, 0]  # (N, T, 3)
-    u = np.einsum("ntk,tk->nt", s, pvec) / det
-    qvec = np.cross(s, e1[None])
-    v = np.einsum("ntk,k->nt", qvec, basis[2]) / det
-    t = np.einsum("ntk,tk->nt", qvec, e2) / det
-    w = 1.0 - u - v
-    inside = (u >= 0) & (v >= 0) & (w >= 0)
-    near_edge = (np.abs(np.stack([u, v, w])) < 1e-6).any(0) | (
-        (np.minimum(np.minimum(u, v), w) > -1e-6) & ~inside)
-    depth = np.where(inside, t - 100.0, np.inf).min(1)
-    judged = ~near_edge.any(1)
-    got = sm.depth[0].reshape(-1).astype(np.float64)
-    assert judged.mean() > 0.99 and np.isfinite(depth).mean() > 0.1
-    np.testing.assert_array_equal(np.isinf(got[judged]), np.isinf(depth[judged]))
-    hit = judged & np.isfinite(depth)
-    np.testing.assert_allclose(got[hit], depth[hit], atol=2e-6 * np.abs(depth[hit]).max())
+    ndc = (np.arange(res) + 0.5) / res * 2.0 - 1.0
+    x, y = np.meshgrid(ndc, -ndc)  # row 0 at the top
+    hits = 0
+    for face in range(len(sm.depth)):
+        inv = np.linalg.inv(sm.view_proj[face])
+        ends = [np.einsum("ij,nj->ni", inv, np.column_stack(
+            [x.ravel(), y.ravel(), np.full(x.size, z), np.ones(x.size)])) for z in (-1.0, 1.0)]
+        a, b = (e[:, :3] / e[:, 3:] for e in ends)
+        origin = a - 100.0 * (b - a) if kind == "SUN" else np.broadcast_to(light.position, a.shape)
+        t, near_edge = _nearest_hits(origin, b - a, tris)
+        hit_at = origin + np.where(np.isfinite(t), t, 0.0)[:, None] * (b - a)
+        if kind == "SUN":
+            expected = hit_at @ sm.basis[0][2]
+        else:
+            expected = np.column_stack([hit_at, np.ones(len(t))]) @ sm.view_proj[face][3]
+        expected = np.where(np.isfinite(t), expected, np.inf)
+        got = sm.depth[face].reshape(-1).astype(np.float64)
+        judged = ~near_edge
+        assert judged.mean() > 0.99
+        np.testing.assert_array_equal(np.isinf(got[judged]), np.isinf(expected[judged]))
+        hit = judged & np.isfinite(expected)
+        np.testing.assert_allclose(got[hit], expected[hit], rtol=1e-5)
+        hits += hit.sum()
+    assert hits > 0.1 * sm.depth[0].size

@@ -10,9 +10,9 @@ of each row from the three edge functions (exact: integer floor divisions, or fl
 the quotient is provably exact), and keeps the smallest packed key (quantized depth, triangle
 index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
 perspective-correct weights and clip w. For shadow maps: ``reduction`` builds the
-min/max pyramid, ``ortho_depths`` a sun map's depths straight from its triangles (no set-up:
-the map needs no triangle indices nor weights), ``corner_sum`` the depths of the texels a
-raster found, ``clipped_depths`` the depth range of
+min/max pyramid, ``ortho_depths`` and ``perspective_depths`` a map's depths straight from
+its triangles (no set-up: a map without transparent casters needs no triangle indices nor
+weights), ``corner_sum`` the depths of the texels a raster found, ``clipped_depths`` the depth range of
 the geometry inside a camera's frustum or a sun cascade's square, ``extent`` and ``distances``
 the geometry's reach along directions and from a light.
 """
@@ -487,6 +487,48 @@ def reduction(dist, lo_depth, hi_depth, out):
             out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
 
 
+@nb.njit(inline="always", **_OPTIONS)
+def _span_min(xs, ys, zs, out):
+    """Draw one triangle of map corners (xs, ys) and values zs (3,) into ``out``: at each
+    covered texel centre the value interpolated over the map, kept where it is less than the
+    texel's."""
+    height, width = out.shape
+    area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (xs[2] - xs[0]) * (ys[1] - ys[0])
+    if not (area != 0.0 and np.isfinite(area) and np.isfinite(zs[0] + zs[1] + zs[2])):
+        return
+    r0 = max(np.ceil(min(ys[0], ys[1], ys[2]) - 0.5), 0.0)
+    r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5), height - 1.0)
+    if r0 > r1:
+        return
+    # the plane z = a x + b y + c0 over the map
+    a = ((zs[1] - zs[0]) * (ys[2] - ys[0]) - (zs[2] - zs[0]) * (ys[1] - ys[0])) / area
+    b = ((xs[1] - xs[0]) * (zs[2] - zs[0]) - (xs[2] - xs[0]) * (zs[1] - zs[0])) / area
+    c0 = zs[0] - a * xs[0] - b * ys[0]
+    sign = 1.0 if area > 0.0 else -1.0
+    for r in range(np.int64(r0), np.int64(r1) + 1):
+        yc = r + 0.5
+        lo, hi = -np.inf, np.inf
+        for i in range(3):  # inside edge i -> j: k x + m >= 0
+            j = (i + 1) % 3
+            k = -sign * (ys[j] - ys[i])
+            m = sign * ((xs[j] - xs[i]) * (yc - ys[i]) + (ys[j] - ys[i]) * xs[i])
+            if k > 0.0:
+                lo = max(lo, -m / k)
+            elif k < 0.0:
+                hi = min(hi, -m / k)
+            elif m < 0.0:
+                hi = -np.inf
+        c_lo = max(np.ceil(lo - 0.5), 0.0)
+        c_hi = min(np.floor(hi - 0.5), width - 1.0)
+        if not c_lo <= c_hi:
+            continue
+        zrow = b * yc + c0
+        for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+            z = np.float32(a * (col + 0.5) + zrow)
+            if z < out[r, col]:
+                out[r, col] = z
+
+
 @nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], _F2),
           nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], _F2)], **_OPTIONS)
 def ortho_depths(points, rows, out):
@@ -497,7 +539,6 @@ def ortho_depths(points, rows, out):
     Each row's covered span comes from the three edges; every edge is inclusive (a depth map
     needs no tie rule). Triangles of no area in the map, or with a non-finite corner, draw
     nothing."""
-    height, width = out.shape
     xs, ys, zs = np.empty(3), np.empty(3), np.empty(3)
     for t in range(points.shape[0]):
         for c in range(3):
@@ -507,40 +548,93 @@ def ortho_depths(points, rows, out):
             xs[c] = ((rows[0, 0] * x + rows[0, 1] * y) + rows[0, 2] * z) + rows[0, 3]
             ys[c] = ((rows[1, 0] * x + rows[1, 1] * y) + rows[1, 2] * z) + rows[1, 3]
             zs[c] = ((rows[2, 0] * x + rows[2, 1] * y) + rows[2, 2] * z) + rows[2, 3]
-        area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (xs[2] - xs[0]) * (ys[1] - ys[0])
-        if not (area != 0.0 and np.isfinite(area) and np.isfinite(zs[0] + zs[1] + zs[2])):
+        _span_min(xs, ys, zs, out)
+
+
+@nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float64, _F2),
+          nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], nb.float64, _F2)], **_OPTIONS)
+def perspective_depths(points, rows, near, out):
+    """A perspective depth map: into ``out`` (H, W) (filled by the caller, +inf: empty) the
+    least clip w (depth along the view axis) of the triangles ``points`` (T, 3, 3) at each
+    texel centre; ``rows`` (3, 4) are the projection's clip x, y and w rows, texel (c, r)
+    centred at ndc ((c + 0.5) / W * 2 - 1, 1 - (r + 0.5) / H * 2). Triangles are clipped to
+    w >= ``near`` (Sutherland and Hodgman 1974) and drawn with homogeneous edge functions
+    (Olano and Greer 1997, "Triangle scan conversion using 2D homogeneous coordinates": no
+    division by a corner's w, which may be tiny), whose sum interpolates 1 / w; every edge
+    inclusive, as ``ortho_depths``."""
+    height, width = out.shape
+    clip = np.empty((3, 3))
+    poly = np.empty((4, 3))
+    v = np.empty((3, 3))
+    e = np.empty((3, 3))
+    for t in range(points.shape[0]):
+        below = 0
+        for c in range(3):
+            x = np.float64(points[t, c, 0])
+            y = np.float64(points[t, c, 1])
+            z = np.float64(points[t, c, 2])
+            for k in range(3):
+                clip[c, k] = ((rows[k, 0] * x + rows[k, 1] * y) + rows[k, 2] * z) + rows[k, 3]
+            if not clip[c, 2] >= near:
+                below += 1
+        if below == 3 or not np.isfinite(clip[0, 2] + clip[1, 2] + clip[2, 2]):
             continue
-        r0 = max(np.ceil(min(ys[0], ys[1], ys[2]) - 0.5), 0.0)
-        r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5), height - 1.0)
-        if r0 > r1:
-            continue
-        # the depth plane z = a x + b y + c0 over the map
-        a = ((zs[1] - zs[0]) * (ys[2] - ys[0]) - (zs[2] - zs[0]) * (ys[1] - ys[0])) / area
-        b = ((xs[1] - xs[0]) * (zs[2] - zs[0]) - (xs[2] - xs[0]) * (zs[1] - zs[0])) / area
-        c0 = zs[0] - a * xs[0] - b * ys[0]
-        sign = 1.0 if area > 0.0 else -1.0
-        for r in range(np.int64(r0), np.int64(r1) + 1):
-            yc = r + 0.5
-            lo, hi = -np.inf, np.inf
-            for i in range(3):  # inside edge i -> j: k x + m >= 0
-                j = (i + 1) % 3
-                k = -sign * (ys[j] - ys[i])
-                m = sign * ((xs[j] - xs[i]) * (yc - ys[i]) + (ys[j] - ys[i]) * xs[i])
-                if k > 0.0:
-                    lo = max(lo, -m / k)
-                elif k < 0.0:
-                    hi = min(hi, -m / k)
-                elif m < 0.0:
-                    hi = -np.inf
-            c_lo = max(np.ceil(lo - 0.5), 0.0)
-            c_hi = min(np.floor(hi - 0.5), width - 1.0)
-            if not c_lo <= c_hi:
+        count = 0
+        for c in range(3):  # the polygon's part in front of the near plane
+            d = (c + 1) % 3
+            if clip[c, 2] >= near:
+                poly[count] = clip[c]
+                count += 1
+            if (clip[c, 2] >= near) != (clip[d, 2] >= near):
+                f = (near - clip[c, 2]) / (clip[d, 2] - clip[c, 2])
+                for k in range(3):
+                    poly[count, k] = clip[c, k] + f * (clip[d, k] - clip[c, k])
+                poly[count, 2] = near
+                count += 1
+        for fan in range(count - 2):
+            lo_r, hi_r = np.inf, -np.inf
+            for c in range(3):  # texel-space homogeneous corners (u w, v w, w)
+                q = poly[0] if c == 0 else poly[fan + c]
+                v[c, 0] = (q[0] + q[2]) * (0.5 * width)
+                v[c, 1] = (q[2] - q[1]) * (0.5 * height)
+                v[c, 2] = q[2]
+                lo_r = min(lo_r, v[c, 1] / q[2])
+                hi_r = max(hi_r, v[c, 1] / q[2])
+            for i in range(3):  # edge i: the plane through the origin and corners j, k
+                j, k = (i + 1) % 3, (i + 2) % 3
+                e[i, 0] = v[j, 1] * v[k, 2] - v[j, 2] * v[k, 1]
+                e[i, 1] = v[j, 2] * v[k, 0] - v[j, 0] * v[k, 2]
+                e[i, 2] = v[j, 0] * v[k, 1] - v[j, 1] * v[k, 0]
+            det = v[0, 0] * e[0, 0] + v[0, 1] * e[0, 1] + v[0, 2] * e[0, 2]
+            if not (det != 0.0 and np.isfinite(det)):
                 continue
-            zrow = b * yc + c0
-            for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
-                z = np.float32(a * (col + 0.5) + zrow)
-                if z < out[r, col]:
-                    out[r, col] = z
+            sign = 1.0 if det > 0.0 else -1.0
+            a = (e[0, 0] + e[1, 0] + e[2, 0]) / det  # 1 / w = a u + b v + c0
+            b = (e[0, 1] + e[1, 1] + e[2, 1]) / det
+            c0 = (e[0, 2] + e[1, 2] + e[2, 2]) / det
+            r0 = max(np.ceil(lo_r - 0.5), 0.0)
+            r1 = min(np.floor(hi_r - 0.5), height - 1.0)
+            for r in range(np.int64(r0), np.int64(r1) + 1):
+                vc = r + 0.5
+                lo, hi = -np.inf, np.inf
+                for i in range(3):  # inside edge i: kx u + m >= 0
+                    kx = sign * e[i, 0]
+                    m = sign * (e[i, 1] * vc + e[i, 2])
+                    if kx > 0.0:
+                        lo = max(lo, -m / kx)
+                    elif kx < 0.0:
+                        hi = min(hi, -m / kx)
+                    elif m < 0.0:
+                        hi = -np.inf
+                c_lo = max(np.ceil(lo - 0.5), 0.0)
+                c_hi = min(np.floor(hi - 0.5), width - 1.0)
+                if not c_lo <= c_hi:
+                    continue
+                zrow = b * vc + c0
+                for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+                    depth = np.float32(1.0 / (a * (col + 0.5) + zrow))
+                    if depth < out[r, col]:
+                        out[r, col] = depth
 
 
 @nb.njit(nb.void(nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float64[:, ::1], _F2), **_OPTIONS)
