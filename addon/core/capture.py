@@ -51,7 +51,10 @@ class Capture:
         self.scene = dataclasses.replace(scene, settings=settings, probes=None)
         self.warn, self.should_stop = warn, should_stop
         self._frame = None  # the geometry, prepared once for every view
-        self._shadowed = False  # its shadow maps built (``cube`` needs them, ``surfaces`` not)
+        # the dome directions its shadow maps were built for (``pipeline.dome_lit``; None:
+        # no dome, for views without indirect light), or False before any: ``cube`` needs
+        # them, ``surfaces`` not
+        self._shadowed: tuple | None | bool = False
         self._seen: dict = {}  # per probe kind: ``Frame.seen`` of its captures
 
     def cube(self, position, size: int, near: float, far: float,
@@ -61,11 +64,16 @@ class Capture:
         probe of ``kind`` ("reflection": a Sphere probe's, "irradiance": a Volume's; the
         objects hidden from such probes are not seen, ``MeshBatch.sphere_probes``)."""
         cams = self._cameras(position, size, near, far)
-        if not self._shadowed:
+        dome = None
+        if probes is not None:  # the world's light is occluded by the dome's maps
+            count = pipeline.shadow_map_count(self._frame.scene, sky=True)
+            dome = tuple(pipeline.dome_lit(self._frame.scene, count - len(self.scene.lights),
+                                           probes.world_sh))
+        if self._shadowed is False or self._shadowed != dome:
             self._frame.shadow_maps = pipeline.build_shadow_maps(
-                self._frame, self.should_stop, fit_shadows=False, sky=True,
+                self._frame, self.should_stop, fit_shadows=False, sky=dome is not None,
                 world_sh=None if probes is None else probes.world_sh)
-            self._shadowed = True
+            self._shadowed = dome
         frame = dataclasses.replace(self._frame, seen=self._seen[kind], scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
         faces = pipeline.render_views(frame.scene, cams, should_stop=self.should_stop,

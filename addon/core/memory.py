@@ -51,10 +51,11 @@ def _dome_maps(scene) -> int:
     from."""
     if not scene.meshes or scene.probes is None:
         return 0
-    from .sky import radiance_weights
+    from .sh import fibonacci_directions, radiance_luminance
 
     count = max(0, int(scene.settings.sky_directions))
-    return int((radiance_weights(scene.probes.world_sh, count) > 0.0).sum())
+    lit = radiance_luminance(scene.probes.world_sh, fibonacci_directions(count)) > 0.0
+    return int(lit.sum())
 
 
 def _size(count: int) -> str:

@@ -57,10 +57,12 @@ __all__ = [
     "ORDER",
     "basis",
     "equirect_directions",
+    "fibonacci_directions",
     "equirect_solid_angles",
     "irradiance",
     "project",
     "project_equirect",
+    "radiance_luminance",
     "tinted_irradiance",
     "to_tinted",
     "window",
@@ -134,6 +136,23 @@ def project(directions, values, solid_angles) -> np.ndarray:
         y = basis(directions[block].astype(np.float64)) * weights[block, None]
         out += y.T @ values[block].astype(np.float64)
     return out
+
+
+def fibonacci_directions(count: int) -> np.ndarray:
+    """(count, 3) float64 unit directions of a Fibonacci sphere: each stands for a cell of
+    solid angle 4 pi / count (none for count 0)."""
+    k = np.arange(count) + 0.5
+    z = 1.0 - 2.0 * k / count
+    r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    phi = k * np.pi * (3.0 - np.sqrt(5.0))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+def radiance_luminance(sh, directions) -> np.ndarray:
+    """(N,) float64 Rec.709 luminance of the radiance of SH ``sh`` (9, 3) towards unit
+    ``directions`` (N, 3), clamped at 0."""
+    radiance = basis(directions) @ np.asarray(sh, np.float64)  # (N, 3)
+    return np.maximum(radiance @ LUMINANCE_REC709, 0.0)
 
 
 def equirect_directions(height: int, width: int) -> np.ndarray:

@@ -39,11 +39,7 @@ MAX_FILTER = 0.25  # metres: the dome's widest shadow filter (``shadows.ShadowMa
 def dome(count: int) -> np.ndarray:
     """(count, 3) float64 unit directions towards the sky, a Fibonacci sphere: every
     direction stands for a cell of solid angle 4 pi / count (none for count 0)."""
-    k = np.arange(count) + 0.5
-    z = 1.0 - 2.0 * k / count
-    r = np.sqrt(np.maximum(1.0 - z * z, 0.0))
-    phi = k * np.pi * (3.0 - np.sqrt(5.0))
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    return sh.fibonacci_directions(count)
 
 
 def cell_angle(count: int) -> float:
@@ -65,8 +61,7 @@ def radiance_weights(world_sh: np.ndarray, count: int) -> np.ndarray:
     """(count,) float32 L_k >= 0: the luminance of the world's radiance (SH ``world_sh``
     (9, 3)) towards each ``dome`` direction. A direction of weight 0 sends no light, so its
     shadow map is never built."""
-    radiance = sh.basis(dome(count)) @ np.asarray(world_sh, np.float64)  # (K, 3)
-    return np.maximum(radiance @ sh.LUMINANCE_REC709, 0.0).astype(np.float32)
+    return sh.radiance_luminance(world_sh, dome(count)).astype(np.float32)
 
 
 @dataclass

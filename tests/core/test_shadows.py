@@ -607,3 +607,29 @@ def test_map_depths_are_the_nearest_hit_of_each_texel_ray(kind):
         np.testing.assert_allclose(got[hit], expected[hit], rtol=1e-5)
         hits += hit.sum()
     assert hits > 0.1 * sm.depth[0].size
+
+
+@pytest.mark.parametrize("kind", ["SUN", "POINT"])
+def test_map_of_a_mesh_has_no_cracks(kind):
+    """A plane of many small quads, each split along a diagonal that passes through texel
+    centres, seen straight on: every texel it spans holds its depth (an edge shared by two
+    triangles covers the centres on it whatever the rounding)."""
+    steps = np.linspace(-1.0, 1.0, 17)
+    quads = []
+    for x0, x1 in zip(steps[:-1], steps[1:], strict=True):
+        for y0, y1 in zip(steps[:-1], steps[1:], strict=True):
+            quads += [[[x0, y0, 0.0], [x1, y0, 0.0], [x1, y1, 0.0]],
+                      [[x0, y0, 0.0], [x1, y1, 0.0], [x0, y1, 0.0]]]
+    tris = np.array(quads, np.float32)
+    light = Light(kind, np.ones(3), position=np.array([0.0, 0.0, 1.0]),
+                  direction=np.array([0.0, 0.0, -1.0]))
+    sm = shadows.build_shadow_map(light, tris, None, resolution=64)
+    if kind == "SUN":  # texel centres over the plane see it
+        (cx, cy, half), g = sm.rects[0], 32 / sm.rects[0][2]
+        x = cx + (np.arange(64) + 0.5 - 32) / g
+        y = cy - (np.arange(64) + 0.5 - 32) / g
+        inside = (np.abs(y)[:, None] < 1.0) & (np.abs(x)[None, :] < 1.0)
+        np.testing.assert_array_equal(sm.depth[0][inside], 0.0)
+        assert np.isinf(sm.depth[0][~inside]).all() and inside.sum() > 3000
+    else:  # the face looking down sees the plane 1 m away within 45 degrees: all of it
+        np.testing.assert_allclose(sm.depth[5], 1.0, rtol=1e-6)

@@ -26,6 +26,9 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
 _FAR_COLUMN = 2.0**39  # the bound of a horizontal edge: beyond any image
 NEVER = 2.0**-40  # |A| standing in for a horizontal edge: its bound is +-2^39 columns
+# texels a depth map's triangle reaches beyond its edges (``ortho_depths``): a centre on an edge
+# shared by two triangles is covered by both whatever the rounding of their bounds (no cracks)
+_REACH = 1e-7
 
 _SCAN = nb.void(
     nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[:, ::1],  # ea, eb, ec (3, N)
@@ -496,8 +499,8 @@ def _span_min(xs, ys, zs, out):
     area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (xs[2] - xs[0]) * (ys[1] - ys[0])
     if not (area != 0.0 and np.isfinite(area) and np.isfinite(zs[0] + zs[1] + zs[2])):
         return
-    r0 = max(np.ceil(min(ys[0], ys[1], ys[2]) - 0.5), 0.0)
-    r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5), height - 1.0)
+    r0 = max(np.ceil(min(ys[0], ys[1], ys[2]) - 0.5 - _REACH), 0.0)
+    r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5 + _REACH), height - 1.0)
     if r0 > r1:
         return
     # the plane z = a x + b y + c0 over the map
@@ -518,8 +521,8 @@ def _span_min(xs, ys, zs, out):
                 hi = min(hi, -m / k)
             elif m < 0.0:
                 hi = -np.inf
-        c_lo = max(np.ceil(lo - 0.5), 0.0)
-        c_hi = min(np.floor(hi - 0.5), width - 1.0)
+        c_lo = max(np.ceil(lo - 0.5 - _REACH), 0.0)
+        c_hi = min(np.floor(hi - 0.5 + _REACH), width - 1.0)
         if not c_lo <= c_hi:
             continue
         zrow = b * yc + c0
@@ -536,9 +539,9 @@ def ortho_depths(points, rows, out):
     least depth of the triangles ``points`` (T, 3, 3) at each texel centre. ``rows`` (3, 4)
     give a point's column and row in texels (texel (c, r) centred at (c + 0.5, r + 0.5)) and
     its depth, as affine functions; all in float64, the depth rounded to float32 at the end.
-    Each row's covered span comes from the three edges; every edge is inclusive (a depth map
-    needs no tie rule). Triangles of no area in the map, or with a non-finite corner, draw
-    nothing."""
+    Each row's covered span comes from the three edges; every edge is inclusive and reaches
+    ``_REACH`` texels further (a depth map needs no tie rule, and must have no cracks).
+    Triangles of no area in the map, or with a non-finite corner, draw nothing."""
     xs, ys, zs = np.empty(3), np.empty(3), np.empty(3)
     for t in range(points.shape[0]):
         for c in range(3):
@@ -612,8 +615,8 @@ def perspective_depths(points, rows, near, out):
             a = (e[0, 0] + e[1, 0] + e[2, 0]) / det  # 1 / w = a u + b v + c0
             b = (e[0, 1] + e[1, 1] + e[2, 1]) / det
             c0 = (e[0, 2] + e[1, 2] + e[2, 2]) / det
-            r0 = max(np.ceil(lo_r - 0.5), 0.0)
-            r1 = min(np.floor(hi_r - 0.5), height - 1.0)
+            r0 = max(np.ceil(lo_r - 0.5 - _REACH), 0.0)
+            r1 = min(np.floor(hi_r - 0.5 + _REACH), height - 1.0)
             for r in range(np.int64(r0), np.int64(r1) + 1):
                 vc = r + 0.5
                 lo, hi = -np.inf, np.inf
@@ -626,8 +629,8 @@ def perspective_depths(points, rows, near, out):
                         hi = min(hi, -m / kx)
                     elif m < 0.0:
                         hi = -np.inf
-                c_lo = max(np.ceil(lo - 0.5), 0.0)
-                c_hi = min(np.floor(hi - 0.5), width - 1.0)
+                c_lo = max(np.ceil(lo - 0.5 - _REACH), 0.0)
+                c_hi = min(np.floor(hi - 0.5 + _REACH), width - 1.0)
                 if not c_lo <= c_hi:
                     continue
                 zrow = b * vc + c0
