@@ -608,6 +608,20 @@ def _margin(frame: Frame, tile):
     return margin
 
 
+def _draw(cam, clip, width: int, height: int, cull, offset, behind=None, keep=None,
+          keys: bool = False) -> raster.Fragments:
+    """``raster.rasterize`` of the camera ``cam``'s clip coordinates, or for a perspective
+    camera, when neither depth peeling (``behind``) nor its ``keys`` are wanted,
+    ``raster.nearest`` (no set-up)."""
+    proj = np.asarray(cam.projection, np.float64)
+    plane = None if cam.orthographic else (proj[2, 2], proj[2, 3])
+    if plane is not None and behind is None and not keys and isinstance(clip, np.ndarray):
+        return raster.nearest(clip, width, height, cull=cull, sample_offset=offset,
+                              depth_plane=plane)
+    return raster.rasterize(clip, width, height, cull=cull, sample_offset=offset,
+                            behind=behind, keep=keep, depth_plane=plane)
+
+
 def _raster(frame: Frame, tile, margin, offset, behind=None):
     """One sample position over one tile (``margin``: ``_margin`` of the tile): (tri, bary,
     depth) per pixel, flattened, the sample's window coordinates sx, sy (npx,) in the whole
@@ -616,10 +630,8 @@ def _raster(frame: Frame, tile, margin, offset, behind=None):
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
     m, clip, index, cull, keep = margin
-    proj = np.asarray(cam.projection, np.float64)
-    frags = raster.rasterize(clip, tw + 2 * m, th + 2 * m, cull=cull,
-                             sample_offset=tuple(offset), behind=behind, keep=keep,
-                             depth_plane=None if cam.orthographic else (proj[2, 2], proj[2, 3]))
+    frags = _draw(cam, clip, tw + 2 * m, th + 2 * m, cull, tuple(offset), behind, keep,
+                  keys=frame.fades.any())
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     if len(index):  # the subset's triangles -> the frame's
@@ -804,8 +816,7 @@ def _tile_ambient(frame: Frame, tile) -> np.ndarray:
     clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
     cull = None if frame.cull is None else frame.cull[index]
     proj = np.asarray(cam.projection, np.float64)
-    frags = raster.rasterize(clip, gw, gh, cull=cull, sample_offset=(0.5, 0.5),
-                             depth_plane=None if cam.orthographic else (proj[2, 2], proj[2, 3]))
+    frags = _draw(cam, clip, gw, gh, cull, (0.5, 0.5))
     tri = frags.tri
     if len(index):
         tri = np.where(tri >= 0, index.take(np.maximum(tri, 0), mode="clip"), -1)

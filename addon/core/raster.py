@@ -58,7 +58,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Fragments", "Projection", "coverage", "interpolate", "project", "rasterize"]
+__all__ = ["Fragments", "Projection", "coverage", "interpolate", "nearest", "project",
+           "rasterize"]
 
 # Fixed point: window coordinates in units of 2^-S pixel, |x| <= 2^G pixels (guard band), with
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
@@ -505,6 +506,30 @@ def rasterize(
     kernels.resolve(keybuf, s.ibits, s.slot, s.table, s.orig, s.clipped, s.sub_bary,
                     s.sub_index, width, ox, oy, weights, frags.tri.reshape(-1),
                     bary.reshape(-1, 3), frags.depth.reshape(-1))
+    return frags
+
+
+def nearest(clip: np.ndarray, width: int, height: int, *, cull=None, sample_offset=(0.5, 0.5),
+            depth_plane: tuple[float, float]) -> Fragments:
+    """``rasterize`` of a perspective projection without its set-up (``kernels.raster.
+    nearest``: each triangle walked straight from its clip-space corners, for views whose
+    triangles are drawn once or a few times, such as a tile's samples): the same fragments
+    but for samples exactly on an edge (covered by the triangles on both sides, the nearest
+    kept) and no keys (no depth peeling). Arguments as ``rasterize``; ``depth_plane`` gives
+    the far plane."""
+    from .kernels import raster as kernels
+
+    width, height = int(width), int(height)
+    clip = np.ascontiguousarray(clip, np.float32)
+    p22, p23 = depth_plane
+    far = p23 / (1.0 + p22) if 1.0 + p22 < 0.0 else np.inf  # z / w = 1 at w = far
+    culling = cull is not None
+    cull = (np.ascontiguousarray(cull, bool) if culling else np.zeros(0, bool))
+    frags = Fragments(tri=np.empty((height, width), np.int32),
+                      bary=np.empty((height, width, 3), np.float32),
+                      depth=np.empty((height, width), np.float32))
+    ox, oy = (float(o) for o in sample_offset)
+    kernels.nearest(clip, cull, culling, ox, oy, float(far), frags.tri, frags.bary, frags.depth)
     return frags
 
 

@@ -812,3 +812,34 @@ def test_place_puts_a_mesh_where_each_instance_is():
             np.testing.assert_allclose(inverse[i], np.linalg.inv(m), atol=1e-9)
         else:
             np.testing.assert_array_equal(inverse[i][:3, :3], np.eye(3))
+
+
+def test_nearest_draws_what_the_set_up_draws():
+    """``raster.nearest`` (no set-up) gives the fragments of ``rasterize`` for a perspective
+    projection: triangles crossing the near plane, beyond the far plane, culled back faces,
+    any sample offset. A sample exactly on a shared edge may go to either triangle: random
+    corners put none there."""
+    rng = np.random.default_rng(3)
+    near, far = 0.1, 10.0
+    proj = np.array([[1.2, 0, 0, 0], [0, 1.6, 0, 0],
+                     [0, 0, (far + near) / (near - far), 2 * far * near / (near - far)],
+                     [0, 0, -1, 0]])
+    centres = rng.uniform([-3, -3, -12], [3, 3, -0.5], (1500, 1, 3))
+    tris = centres + rng.normal(0, 0.5, (1500, 3, 3))
+    clip = raster.project(tris.astype(np.float32), proj)
+    cull = rng.uniform(size=len(clip)) < 0.5
+    crossing = ((clip[..., 2] < -clip[..., 3]).any(1) & (clip[..., 2] > -clip[..., 3]).any(1))
+    beyond = (clip[..., 2] > clip[..., 3]).any(1)
+    assert crossing.sum() > 10 and beyond.sum() > 10
+    for culled in (None, cull):
+        for offset in ((0.5, 0.5), (0.125, 0.875)):
+            a = raster.rasterize(clip, 96, 72, cull=culled, sample_offset=offset,
+                                 depth_plane=(proj[2, 2], proj[2, 3]))
+            b = raster.nearest(clip, 96, 72, cull=culled, sample_offset=offset,
+                               depth_plane=(proj[2, 2], proj[2, 3]))
+            np.testing.assert_array_equal(b.tri, a.tri)
+            hit = a.tri >= 0
+            assert 0.3 < hit.mean() < 1.0 and len(np.unique(a.tri[hit])) > 100
+            np.testing.assert_allclose(b.bary[hit], a.bary[hit], atol=1e-5)
+            np.testing.assert_allclose(b.depth[hit], a.depth[hit], rtol=1e-5)
+            assert np.isinf(b.depth[~hit]).all() and (b.bary[~hit] == 0).all()
