@@ -625,7 +625,8 @@ def test_map_of_a_mesh_has_no_cracks(kind):
                   direction=np.array([0.0, 0.0, -1.0]))
     sm = shadows.build_shadow_map(light, tris, None, resolution=64)
     if kind == "SUN":  # texel centres over the plane see it
-        (cx, cy, half), g = sm.rects[0], 32 / sm.rects[0][2]
+        cx, cy, half = sm.rects[0]
+        g = 32 / half
         x = cx + (np.arange(64) + 0.5 - 32) / g
         y = cy - (np.arange(64) + 0.5 - 32) / g
         inside = (np.abs(y)[:, None] < 1.0) & (np.abs(x)[None, :] < 1.0)

@@ -9,12 +9,14 @@ the NumPy they replaced; ``scan`` walks each triangle's rows of samples, finds t
 of each row from the three edge functions (exact: integer floor divisions, or float64 where
 the quotient is provably exact), and keeps the smallest packed key (quantized depth, triangle
 index) of every pixel; ``resolve`` turns every pixel's key into the original triangle,
-perspective-correct weights and clip w. For shadow maps: ``reduction`` builds the
-min/max pyramid, ``ortho_depths`` and ``perspective_depths`` a map's depths straight from
-its triangles (no set-up: a map without transparent casters needs no triangle indices nor
-weights), ``corner_sum`` the depths of the texels a raster found, ``clipped_depths`` the depth range of
-the geometry inside a camera's frustum or a sun cascade's square, ``extent`` and ``distances``
-the geometry's reach along directions and from a light.
+perspective-correct weights and clip w. ``nearest`` does all of that for a perspective view
+without the set-up, each triangle walked straight from its corners (views drawn once or a few
+times). For shadow maps: ``reduction`` builds the min/max pyramid, ``ortho_depths`` and
+``perspective_depths`` a map's depths straight from its triangles (no set-up: a map without
+transparent casters needs no triangle indices nor weights), ``corner_sum`` the depths of the
+texels a raster found, ``clipped_depths`` the depth range of the geometry inside a camera's
+frustum or a sun cascade's square, ``extent`` and ``distances`` the geometry's reach along
+directions and from a light.
 """
 
 from __future__ import annotations
