@@ -44,6 +44,13 @@ sort, which stay in NumPy):
 Steps 1 and 2 and the grouping do not depend on the sample offset: their result for the last
 input (compared bit for bit) is kept, so that the samples of one image or tile set it up once.
 
+``nearest`` draws a perspective view without any set-up, for views whose triangles are drawn
+once or a few times (a tile's samples, a probe's faces): each triangle clipped to the near
+plane and walked row by row with homogeneous edge functions in float64 (Olano & Greer 1997),
+1/w interpolated, every edge inclusive by 1e-7 pixel (no cracks whatever the rounding), the
+least w kept. Its fragments are ``rasterize``'s but for samples exactly on an edge, which go
+to the nearer (or lower) of the triangles on both sides; it has no keys for depth peeling.
+
 Conventions: clip space as in OpenGL (x/w, y/w, z/w in [-1, 1]; y up; z = -w is the near plane;
 w > 0 in front of the camera). Pixel (r, c) has row 0 at the top; its sample lies at window
 coordinates (c + ox, r + oy) from the top-left corner of the image, i.e. at
