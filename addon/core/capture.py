@@ -92,7 +92,8 @@ class Capture:
         front = back = 0.0
         nearest = (np.inf, None)
         for face, cam in enumerate(cams):
-            tri, depth, normals = pipeline.nearest_faces(pipeline.with_camera(frame, cam))
+            tri, depth, normals = pipeline.nearest_faces(pipeline.with_camera(frame, cam,
+                                                                               once=True))
             hit = np.flatnonzero(tri >= 0)
             d = directions[face, hit]
             behind = np.einsum("nk,nk->n", normals, d) > 0.0  # the ray meets a back face

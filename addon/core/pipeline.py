@@ -411,12 +411,18 @@ def _caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
     return _materials(frame, tri, bary, p, n, geo, geo, zero, zero, shifts=False).alpha
 
 
-def with_camera(frame: Frame, camera) -> Frame:
+def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
     """``frame`` seen through another camera: only the projection is redone (same geometry,
-    materials and shadow maps)."""
+    materials and shadow maps). ``once``: the view is drawn as one tile (a probe's face), so
+    its projection is left to the tile (``tile_clip``: projected and culled in one pass)."""
+    if once:
+        clip = raster.Projection(frame.positions, camera.projection @ camera.world_to_camera,
+                                 np.float32, None if frame.seen is None else
+                                 np.flatnonzero(frame.seen))
+    else:
+        clip = _clip(frame.positions, camera, frame.seen)
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
-                               clip=_clip(frame.positions, camera, frame.seen),
-                               tiles=None if frame.tiles is None else {})
+                               clip=clip, tiles=None if frame.tiles is None else {})
 
 
 def with_materials(frame: Frame, scene: Scene) -> Frame | None:
@@ -460,6 +466,20 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
 
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
+    ax, bx = np.float32(width / tw), np.float32((width - 2.0 * x0) / tw - 1.0)
+    ay, by = np.float32(height / th), np.float32(1.0 - height / th + 2.0 * y0 / th)
+    if isinstance(clip, raster.Projection) and len(clip.positions) <= raster.SETUP_TRIANGLES:
+        # a view drawn as one tile (``with_camera``'s ``once``): projected and culled at once
+        seen = np.zeros(0, bool)
+        if clip.index is not None:
+            seen = np.zeros(len(clip.positions), bool)
+            seen[clip.index] = True
+        out = np.empty((len(clip.positions), 3, 4), np.float32)
+        index = np.empty(len(clip.positions), np.int64)
+        count = kernels.project_survivors(np.ascontiguousarray(clip.positions, np.float32),
+                                          np.ascontiguousarray(clip.matrix, np.float64), seen,
+                                          ax, bx, ay, by, out, index)
+        return out[:count], index[:count]
     if isinstance(clip, raster.Projection):  # re-projected a chunk at a time when drawn
         m = np.eye(4)
         m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
@@ -470,10 +490,7 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
     clip = np.ascontiguousarray(clip, np.float32)
     out = np.empty_like(clip)
     index = np.empty(len(clip), np.int64)
-    count = kernels.tile_survivors(clip, np.float32(width / tw),
-                                   np.float32((width - 2.0 * x0) / tw - 1.0),
-                                   np.float32(height / th),
-                                   np.float32(1.0 - height / th + 2.0 * y0 / th), out, index)
+    count = kernels.tile_survivors(clip, ax, bx, ay, by, out, index)
     return out[:count], index[:count]
 
 
@@ -976,7 +993,7 @@ def _tile_results(scene: Scene, progress, should_stop, warn, frame, cameras=None
     def view(k: int) -> Frame:
         with view_locks[k]:
             if views[k] is None:
-                views[k] = with_camera(frame, cameras[k])
+                views[k] = with_camera(frame, cameras[k], once=len(tiles(scene)) == 1)
             return views[k]
 
     def job(k, tile):

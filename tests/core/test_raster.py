@@ -843,3 +843,25 @@ def test_nearest_draws_what_the_set_up_draws():
             np.testing.assert_allclose(b.bary[hit], a.bary[hit], atol=1e-5)
             np.testing.assert_allclose(b.depth[hit], a.depth[hit], rtol=1e-5)
             assert np.isinf(b.depth[~hit]).all() and (b.bary[~hit] == 0).all()
+
+
+def test_a_view_drawn_once_is_projected_and_culled_in_one_pass_bit_for_bit():
+    """``pipeline.tile_clip`` of a view's ``Projection`` (``with_camera(once=True)``) gives
+    the clip coordinates and triangles of the projected view's, bit for bit, unseen triangles
+    left out."""
+    from bo2_lighting.addon.core import pipeline
+
+    rng = np.random.default_rng(4)
+    positions = (rng.uniform(-4, 4, (2000, 1, 3)) + rng.normal(0, 0.5, (2000, 3, 3)))
+    positions = positions.astype(np.float32)
+    matrix = np.array([[1.2, 0, 0, 0.1], [0, 1.6, 0, -0.2], [0, 0, -1.02, -0.2], [0, 0, -1, 0]])
+    seen = rng.uniform(size=2000) < 0.7
+    clip = raster.project(positions, matrix)
+    clip[~seen] = (0.0, 0.0, 0.0, -1.0)
+    for tile in ((0, 0, 64, 48), (-2, -2, 66, 50), (10, 20, 30, 40)):
+        a, ia = pipeline.tile_clip(clip, 64, 48, tile)
+        b, ib = pipeline.tile_clip(raster.Projection(positions, matrix, np.float32,
+                                                     np.flatnonzero(seen)), 64, 48, tile)
+        assert 10 < len(ia) < seen.sum()
+        np.testing.assert_array_equal(ib, ia)
+        np.testing.assert_array_equal(b.view(np.uint32), a.view(np.uint32))

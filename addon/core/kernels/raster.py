@@ -470,6 +470,42 @@ def tile_survivors(clip, ax, bx, ay, by, out, orig):
     return n
 
 
+@nb.njit(nb.int64(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.boolean[::1], nb.float32,
+                  nb.float32, nb.float32, nb.float32, nb.float32[:, :, ::1], nb.int64[::1]),
+         **_OPTIONS)
+def project_survivors(positions, matrix, seen, ax, bx, ay, by, out, orig):
+    """``project`` then ``tile_survivors`` in one pass, bit for bit: the world corners
+    ``positions`` (T, 3, 3) through ``matrix`` (4, 4) (sums in float64, stored as float32),
+    re-projected to a tile in float32 and kept as ``tile_survivors`` keeps them (``seen`` (T,)
+    False, or empty for all seen: left out); returns the count kept."""
+    n = 0
+    every = seen.shape[0] == 0
+    for t in range(positions.shape[0]):
+        if not every and not seen[t]:
+            continue
+        corner = out[n]
+        for c in range(3):
+            x = np.float64(positions[t, c, 0])
+            y = np.float64(positions[t, c, 1])
+            z = np.float64(positions[t, c, 2])
+            px = np.float32(((x * matrix[0, 0] + y * matrix[0, 1]) + z * matrix[0, 2])
+                            + matrix[0, 3])
+            py = np.float32(((x * matrix[1, 0] + y * matrix[1, 1]) + z * matrix[1, 2])
+                            + matrix[1, 3])
+            pz = np.float32(((x * matrix[2, 0] + y * matrix[2, 1]) + z * matrix[2, 2])
+                            + matrix[2, 3])
+            w = np.float32(((x * matrix[3, 0] + y * matrix[3, 1]) + z * matrix[3, 2])
+                           + matrix[3, 3])
+            corner[c, 0] = px * ax + w * bx
+            corner[c, 1] = py * ay + w * by
+            corner[c, 2] = pz
+            corner[c, 3] = w
+        if _rejection(corner) == KEPT:
+            orig[n] = t
+            n += 1
+    return n
+
+
 _F2 = nb.float32[:, ::1]
 _PLANE = nb.float32[:, :]  # any layout: a map, or one channel of a pyramid level
 
