@@ -460,7 +460,9 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
 
     clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``), or its ``raster.Projection``
     returns: (K, 3, 4) float32 clip coordinates and (K,) int64 indices into ``clip``, increasing
-             (for a Projection: the Projection of the tile's triangles, and their indices)
+             (for a Projection of more triangles than a raster sets up at once: the Projection
+             of the tile's triangles, and their indices; a smaller one is projected and culled
+             in one pass, ``kernels.raster.project_survivors``)
     """
     from .kernels import raster as kernels
 

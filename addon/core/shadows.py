@@ -20,6 +20,9 @@ Maps (Williams 1978, "Casting curved shadows on curved surfaces"):
 
 Perspective maps store the depth along the face axis (clip w, metres); cascades store the depth
 along the sun's direction (metres). Casters are two-sided (no culling); empty texels hold +inf.
+Maps without transparent casters take their depths straight from the triangles
+(``kernels.raster.ortho_depths`` and ``perspective_depths``: no raster set-up); maps with them
+are rasterized and dithered (``_rasterize_casters``).
 
 Filtering: percentage-closer filtering (Reeves, Salesin & Cook 1987, "Rendering antialiased
 shadows with depth maps") with a fixed Vogel-spiral disc of taps rotated per point (one of 1024
