@@ -627,30 +627,35 @@ def _margin(frame: Frame, tile):
     return margin
 
 
-def _draw(cam, clip, width: int, height: int, cull, offset, behind=None, keep=None,
-          keys: bool = False) -> raster.Fragments:
-    """``raster.rasterize`` of the camera ``cam``'s clip coordinates, or for a perspective
-    camera, when neither depth peeling (``behind``) nor its ``keys`` are wanted,
-    ``raster.nearest`` (no set-up)."""
+def _draw(cam, clip, width: int, height: int, cull, offsets, keep=None, keys: bool = False,
+          behind=None) -> list[raster.Fragments]:
+    """The camera ``cam``'s clip coordinates rasterized at each sample offset of ``offsets``
+    (S, 2): for a perspective camera, when the raster's ``keys`` are not wanted nor the layer
+    ``behind`` them (depth peeling), by ``raster.nearest`` (no set-up), else by
+    ``raster.rasterize`` sample by sample (its set-up in ``keep``, or kept for the last
+    input)."""
     proj = np.asarray(cam.projection, np.float64)
     plane = None if cam.orthographic else (proj[2, 2], proj[2, 3])
-    if plane is not None and behind is None and not keys and isinstance(clip, np.ndarray):
-        return raster.nearest(clip, width, height, cull=cull, sample_offset=offset,
+    if plane is not None and not keys and behind is None and isinstance(clip, np.ndarray):
+        return raster.nearest(clip, width, height, cull=cull, sample_offsets=offsets,
                               depth_plane=plane)
-    return raster.rasterize(clip, width, height, cull=cull, sample_offset=offset,
-                            behind=behind, keep=keep, depth_plane=plane)
+    return [raster.rasterize(clip, width, height, cull=cull, sample_offset=tuple(offset),
+                             behind=behind, keep=keep, depth_plane=plane)
+            for offset in offsets]
 
 
-def _raster(frame: Frame, tile, margin, offset, behind=None):
+def _raster(frame: Frame, tile, margin, offset, behind=None, frags=None):
     """One sample position over one tile (``margin``: ``_margin`` of the tile): (tri, bary,
     depth) per pixel, flattened, the sample's window coordinates sx, sy (npx,) in the whole
-    frame, and the raster's keys (``raster.rasterize``; with ``behind``, the next layer)."""
+    frame, and the raster's keys (``raster.rasterize``; with ``behind``, the next layer).
+    ``frags``: the tile's fragments at this sample when drawn already (``_draw``)."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
     m, clip, index, cull, keep = margin
-    frags = _draw(cam, clip, tw + 2 * m, th + 2 * m, cull, tuple(offset), behind, keep,
-                  keys=frame.fades.any())
+    if frags is None:
+        frags = _draw(cam, clip, tw + 2 * m, th + 2 * m, cull, [offset], keep,
+                      frame.fades.any(), behind)[0]
     inner = (slice(m, m + th), slice(m, m + tw))
     tri = np.ascontiguousarray(frags.tri[inner]).reshape(-1)
     if len(index):  # the subset's triangles -> the frame's
@@ -835,7 +840,7 @@ def _tile_ambient(frame: Frame, tile) -> np.ndarray:
     clip, index = tile_clip(frame.clip, cam.width, cam.height, (x0 - m, y0 - m, x1 + m, y1 + m))
     cull = None if frame.cull is None else frame.cull[index]
     proj = np.asarray(cam.projection, np.float64)
-    frags = _draw(cam, clip, gw, gh, cull, (0.5, 0.5))
+    frags = _draw(cam, clip, gw, gh, cull, [(0.5, 0.5)])[0]
     tri = frags.tri
     if len(index):
         tri = np.where(tri >= 0, index.take(np.maximum(tri, 0), mode="clip"), -1)
@@ -898,9 +903,14 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     rgba = SAMPLED["Combined"]
     points = []  # per sample: (tri, bary, sx, sy, pixel) of the points it shades
     margin = _margin(frame, tile)
+    m, clip, _, cull, keep = margin
+    tick()
+    drawn = _draw(scene.camera, clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull, offsets, keep,
+                  frame.fades.any())  # every sample's fragments
     for k, offset in enumerate(offsets):
-        tick()
-        layer0 = _raster(frame, tile, margin, offset)
+        if k:
+            tick()
+        layer0 = _raster(frame, tile, margin, offset, frags=drawn[k])
         if frame.fades.any():
             tri, bary, depth, sx, sy = _dither(frame, tile, margin, offset, first_sample + k,
                                                layer0)

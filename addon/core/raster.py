@@ -516,28 +516,30 @@ def rasterize(
     return frags
 
 
-def nearest(clip: np.ndarray, width: int, height: int, *, cull=None, sample_offset=(0.5, 0.5),
-            depth_plane: tuple[float, float]) -> Fragments:
-    """``rasterize`` of a perspective projection without its set-up (``kernels.raster.
-    nearest``: each triangle walked straight from its clip-space corners, for views whose
-    triangles are drawn once or a few times, such as a tile's samples): the same fragments
-    but for samples exactly on an edge (covered by the triangles on both sides, the nearest
-    kept) and no keys (no depth peeling). Arguments as ``rasterize``; ``depth_plane`` gives
-    the far plane."""
+def nearest(clip: np.ndarray, width: int, height: int, *, cull=None,
+            sample_offsets=((0.5, 0.5),), depth_plane: tuple[float, float]) -> list[Fragments]:
+    """``rasterize`` of a perspective projection at each of ``sample_offsets`` (S, 2), without
+    its set-up (``kernels.raster.nearest``: each triangle clipped and set up once for all the
+    samples, walked straight from its clip-space corners; for views whose triangles are drawn
+    once, such as a tile's samples): the same fragments but for samples exactly on an edge
+    (covered by the triangles on both sides, the nearest kept), and no keys (no depth
+    peeling). Arguments as ``rasterize``; ``depth_plane`` gives the far plane. Returns one
+    Fragments per offset."""
     from .kernels import raster as kernels
 
     width, height = int(width), int(height)
     clip = np.ascontiguousarray(clip, np.float32)
+    offsets = np.ascontiguousarray(np.reshape(sample_offsets, (-1, 2)), np.float64)
     p22, p23 = depth_plane
     far = p23 / (1.0 + p22) if 1.0 + p22 < 0.0 else np.inf  # z / w = 1 at w = far
     culling = cull is not None
     cull = (np.ascontiguousarray(cull, bool) if culling else np.zeros(0, bool))
-    frags = Fragments(tri=np.empty((height, width), np.int32),
-                      bary=np.empty((height, width, 3), np.float32),
-                      depth=np.empty((height, width), np.float32))
-    ox, oy = (float(o) for o in sample_offset)
-    kernels.nearest(clip, cull, culling, ox, oy, float(far), frags.tri, frags.bary, frags.depth)
-    return frags
+    count = len(offsets)
+    tri = np.empty((count, height, width), np.int32)
+    bary = np.empty((count, height, width, 3), np.float32)
+    depth = np.empty((count, height, width), np.float32)
+    kernels.nearest(clip, cull, culling, offsets, float(far), tri, bary, depth)
+    return [Fragments(tri=tri[k], bary=bary[k], depth=depth[k]) for k in range(count)]
 
 
 # Inputs of more triangles than this (whose set-up, some 350 bytes a triangle, could not be

@@ -817,7 +817,7 @@ def test_place_puts_a_mesh_where_each_instance_is():
 def test_nearest_draws_what_the_set_up_draws():
     """``raster.nearest`` (no set-up) gives the fragments of ``rasterize`` for a perspective
     projection: triangles crossing the near plane, beyond the far plane, culled back faces,
-    any sample offset. A sample exactly on a shared edge may go to either triangle: random
+    several sample offsets at once. A sample exactly on a shared edge may go to either triangle: random
     corners put none there."""
     rng = np.random.default_rng(3)
     near, far = 0.1, 10.0
@@ -831,12 +831,14 @@ def test_nearest_draws_what_the_set_up_draws():
     crossing = ((clip[..., 2] < -clip[..., 3]).any(1) & (clip[..., 2] > -clip[..., 3]).any(1))
     beyond = (clip[..., 2] > clip[..., 3]).any(1)
     assert crossing.sum() > 10 and beyond.sum() > 10
+    offsets = ((0.5, 0.5), (0.125, 0.875), (0.9, 0.3))
     for culled in (None, cull):
-        for offset in ((0.5, 0.5), (0.125, 0.875)):
+        drawn = raster.nearest(clip, 96, 72, cull=culled, sample_offsets=offsets,
+                               depth_plane=(proj[2, 2], proj[2, 3]))
+        assert len(drawn) == len(offsets)
+        for offset, b in zip(offsets, drawn, strict=True):
             a = raster.rasterize(clip, 96, 72, cull=culled, sample_offset=offset,
                                  depth_plane=(proj[2, 2], proj[2, 3]))
-            b = raster.nearest(clip, 96, 72, cull=culled, sample_offset=offset,
-                               depth_plane=(proj[2, 2], proj[2, 3]))
             np.testing.assert_array_equal(b.tri, a.tri)
             hit = a.tri >= 0
             assert 0.3 < hit.mean() < 1.0 and len(np.unique(a.tri[hit])) > 100

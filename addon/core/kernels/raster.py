@@ -680,30 +680,31 @@ def perspective_depths(points, rows, near, out):
 
 _NEAREST = nb.void(
     nb.float32[:, :, ::1], nb.boolean[::1], nb.boolean,  # clip (T, 3, 4), cull (T,), culling
-    nb.float64, nb.float64, nb.float64,  # ox, oy, far w
-    nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float32[:, ::1],  # out: tri, bary, depth
+    nb.float64[:, ::1], nb.float64,  # sample offsets (S, 2), far w
+    nb.int32[:, :, ::1], nb.float32[:, :, :, ::1], nb.float32[:, :, ::1],  # tri, bary, depth
 )
 
 
 @nb.njit(_NEAREST, **_OPTIONS)
-def nearest(clip, cull, culling, ox, oy, far, tri_out, bary_out, depth_out):
-    """The nearest triangle of every pixel's sample through a perspective projection, drawn
+def nearest(clip, cull, culling, offsets, far, tri_out, bary_out, depth_out):
+    """The nearest triangle of every pixel's samples through a perspective projection, drawn
     straight from the clip-space corners ``clip`` (T, 3, 4) (OpenGL: near plane z = -w), as
-    ``raster.rasterize``'s set-up and scan do for any projection: into ``tri_out`` (H, W)
-    (-1: none), perspective-correct corner weights ``bary_out`` (H, W, 3) and clip w
-    ``depth_out`` (H, W) (+inf: none). The sample of pixel (r, c) lies at window
-    (c + ox, r + oy). Each triangle is clipped to the near plane (Sutherland and Hodgman 1974)
-    and walked row by row with homogeneous edge functions (Olano and Greer 1997), inclusive
-    and reaching ``_REACH`` pixels further (no cracks along shared edges); the least w wins,
-    ties go to the lower triangle; fragments beyond ``far`` (w) are dropped; with ``culling``,
-    triangles whose back faces the camera (clockwise with y up) and ``cull`` are skipped.
-    Triangles with a non-finite corner, or of no area, draw nothing."""
-    height, width = tri_out.shape
+    ``raster.rasterize``'s set-up and scan do for any projection: per sample s into
+    ``tri_out`` (S, H, W) (-1: none), perspective-correct corner weights ``bary_out``
+    (S, H, W, 3) and clip w ``depth_out`` (S, H, W) (+inf: none); sample s of pixel (r, c)
+    lies at window (c + ox, r + oy), (ox, oy) = ``offsets[s]``. Each triangle is clipped to
+    the near plane (Sutherland and Hodgman 1974) once for all samples and walked row by row
+    with homogeneous edge functions (Olano and Greer 1997), inclusive and reaching ``_REACH``
+    pixels further (no cracks along shared edges); the least w wins, ties go to the lower
+    triangle; fragments beyond ``far`` (w) are dropped; with ``culling``, triangles whose back
+    faces the camera (clockwise with y up) and ``cull`` are skipped. Triangles with a
+    non-finite corner, or of no area, draw nothing."""
+    samples, height, width = tri_out.shape
     poly = np.empty((4, 4))
     v = np.empty((3, 3))
     e = np.empty((3, 3))
-    best = np.full((height, width), np.inf)
-    tri_out[:, :] = -1
+    best = np.full((samples, height, width), np.inf)
+    tri_out[:, :, :] = -1
     for t in range(clip.shape[0]):
         inside = 0
         finite = True
@@ -731,13 +732,13 @@ def nearest(clip, cull, culling, ox, oy, far, tri_out, bary_out, depth_out):
                 count += 1
         for fan in range(count - 2):
             lo_r, hi_r = np.inf, -np.inf
-            for c in range(3):  # window-space homogeneous corners (u w, v w, w)
+            for c in range(3):  # window-space homogeneous corners (x w, y w, w), y down
                 q = 0 if c == 0 else fan + c
                 w = poly[q, 3]
                 if not w > 0.0:
                     w = 1e-300  # on the near plane at the eye: a point at infinity
-                v[c, 0] = (poly[q, 0] + w) * (0.5 * width) - ox * w
-                v[c, 1] = (w - poly[q, 1]) * (0.5 * height) - oy * w
+                v[c, 0] = (poly[q, 0] + w) * (0.5 * width)
+                v[c, 1] = (w - poly[q, 1]) * (0.5 * height)
                 v[c, 2] = w
                 lo_r = min(lo_r, v[c, 1] / w)
                 hi_r = max(hi_r, v[c, 1] / w)
@@ -752,55 +753,60 @@ def nearest(clip, cull, culling, ox, oy, far, tri_out, bary_out, depth_out):
             if culling and cull[t] and det > 0.0:  # clockwise with y up: its back
                 continue
             sign = 1.0 if det > 0.0 else -1.0
-            a = (e[0, 0] + e[1, 0] + e[2, 0]) / det  # 1 / w = a x + b y + c0 (sample offsets)
+            a = (e[0, 0] + e[1, 0] + e[2, 0]) / det  # 1 / w = a x + b y + c0 (window)
             b = (e[0, 1] + e[1, 1] + e[2, 1]) / det
             c0 = (e[0, 2] + e[1, 2] + e[2, 2]) / det
-            r0 = max(np.ceil(lo_r - _REACH), 0.0)
-            r1 = min(np.floor(hi_r + _REACH), height - 1.0)
-            for r in range(np.int64(r0), np.int64(r1) + 1):
-                y = np.float64(r)
-                lo, hi = -np.inf, np.inf
-                for i in range(3):  # inside edge i: kx x + m >= 0
-                    kx = sign * e[i, 0]
-                    m = sign * (e[i, 1] * y + e[i, 2])
-                    if kx > 0.0:
-                        lo = max(lo, -m / kx)
-                    elif kx < 0.0:
-                        hi = min(hi, -m / kx)
-                    elif m < 0.0:
-                        hi = -np.inf
-                c_lo = max(np.ceil(lo - _REACH), 0.0)
-                c_hi = min(np.floor(hi + _REACH), width - 1.0)
-                if not c_lo <= c_hi:
-                    continue
-                zrow = b * y + c0
-                for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
-                    inv_w = a * col + zrow
-                    if not inv_w > 0.0:
+            for smp in range(samples):
+                ox, oy = offsets[smp, 0], offsets[smp, 1]
+                r0 = max(np.ceil(lo_r - oy - _REACH), 0.0)
+                r1 = min(np.floor(hi_r - oy + _REACH), height - 1.0)
+                for r in range(np.int64(r0), np.int64(r1) + 1):
+                    y = r + oy
+                    lo, hi = -np.inf, np.inf
+                    for i in range(3):  # inside edge i: kx x + m >= 0
+                        kx = sign * e[i, 0]
+                        m = sign * (e[i, 1] * y + e[i, 2])
+                        if kx > 0.0:
+                            lo = max(lo, -m / kx)
+                        elif kx < 0.0:
+                            hi = min(hi, -m / kx)
+                        elif m < 0.0:
+                            hi = -np.inf
+                    c_lo = max(np.ceil(lo - ox - _REACH), 0.0)
+                    c_hi = min(np.floor(hi - ox + _REACH), width - 1.0)
+                    if not c_lo <= c_hi:
                         continue
-                    depth = 1.0 / inv_w
-                    if depth <= far and depth < best[r, col]:
-                        best[r, col] = depth
-                        tri_out[r, col] = t
-    for r in range(height):  # the original triangle's weights at the winners' samples
-        for col in range(width):
-            t = tri_out[r, col]
-            depth_out[r, col] = best[r, col]
-            if t < 0:
-                bary_out[r, col, 0] = bary_out[r, col, 1] = bary_out[r, col, 2] = 0.0
-                continue
-            for c in range(3):
-                w = np.float64(clip[t, c, 3])
-                v[c, 0] = (np.float64(clip[t, c, 0]) + w) * (0.5 * width) - (col + ox) * w
-                v[c, 1] = (w - np.float64(clip[t, c, 1])) * (0.5 * height) - (r + oy) * w
-                v[c, 2] = w
-            total = 0.0
-            for i in range(3):  # E_i at the sample (the origin now): (V_j x V_k)_z
-                j, k = (i + 1) % 3, (i + 2) % 3
-                e[i, 2] = v[j, 0] * v[k, 1] - v[j, 1] * v[k, 0]
-                total += e[i, 2]
-            for i in range(3):
-                bary_out[r, col, i] = e[i, 2] / total if total != 0.0 else 1.0 / 3.0
+                    zrow = b * y + c0
+                    for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+                        inv_w = a * (col + ox) + zrow
+                        if not inv_w > 0.0:
+                            continue
+                        depth = 1.0 / inv_w
+                        if depth <= far and depth < best[smp, r, col]:
+                            best[smp, r, col] = depth
+                            tri_out[smp, r, col] = t
+    for smp in range(samples):  # the original triangle's weights at the winners' samples
+        ox, oy = offsets[smp, 0], offsets[smp, 1]
+        for r in range(height):
+            for col in range(width):
+                t = tri_out[smp, r, col]
+                depth_out[smp, r, col] = best[smp, r, col]
+                if t < 0:
+                    for i in range(3):
+                        bary_out[smp, r, col, i] = 0.0
+                    continue
+                for c in range(3):
+                    w = np.float64(clip[t, c, 3])
+                    v[c, 0] = (np.float64(clip[t, c, 0]) + w) * (0.5 * width) - (col + ox) * w
+                    v[c, 1] = (w - np.float64(clip[t, c, 1])) * (0.5 * height) - (r + oy) * w
+                    v[c, 2] = w
+                total = 0.0
+                for i in range(3):  # E_i at the sample (the origin now): (V_j x V_k)_z
+                    j, k = (i + 1) % 3, (i + 2) % 3
+                    e[i, 2] = v[j, 0] * v[k, 1] - v[j, 1] * v[k, 0]
+                    total += e[i, 2]
+                for i in range(3):
+                    bary_out[smp, r, col, i] = e[i, 2] / total if total != 0.0 else 1.0 / 3.0
 
 
 @nb.njit(nb.void(nb.int32[:, ::1], nb.float32[:, :, ::1], nb.float64[:, ::1], _F2), **_OPTIONS)
