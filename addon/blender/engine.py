@@ -90,7 +90,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
-            settings = extract.render_settings(scene)
+            # contact occlusion is searched where no indirect light reaches only for its pass
+            settings = dataclasses.replace(extract.render_settings(scene), ao_pass=passes.enabled(
+                depsgraph.view_layer, "AO"))
             if self.is_preview:
                 settings = preview_settings(settings)
             should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731

@@ -710,6 +710,13 @@ def _dither(frame: Frame, tile, margin, offset, sample: int, layer0):
     return tri, bary, depth, sx, sy
 
 
+def _indirect(frame: Frame) -> bool:
+    """The frame has indirect light that can reach a point: probes that send light
+    (``probes.sends_light``) or lightmaps."""
+    probes_ = frame.scene.probes
+    return probes_ is not None and (frame.lightmaps is not None or probes.sends_light(probes_))
+
+
 def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> np.ndarray:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,);
     ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon;
@@ -744,13 +751,13 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> n
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
                          diffuse, specular, visibility=vis)
     ao = np.ones(len(tri), np.float32)
+    if ao_tile is not None:
+        image, x0, y0 = ao_tile
+        ao = image[np.clip(np.floor(sy).astype(np.int64) - y0, 0, image.shape[0] - 1),
+                   np.clip(np.floor(sx).astype(np.int64) - x0, 0, image.shape[1] - 1)]
     baked = None
-    if scene.probes is not None:
+    if _indirect(frame):
         s = scene.settings
-        if ao_tile is not None:
-            image, x0, y0 = ao_tile
-            ao = image[np.clip(np.floor(sy).astype(np.int64) - y0, 0, image.shape[0] - 1),
-                       np.clip(np.floor(sx).astype(np.int64) - x0, 0, image.shape[1] - 1)]
         sky = frame.sky
         rho = (mat.albedo @ sh.LUMINANCE_REC709.astype(np.float32))[:, None]
 
@@ -953,7 +960,8 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         tick()
     s = scene.settings
     ao_tile = ((_tile_ambient(frame, tile), x0, y0) if count and scene.probes is not None
-               and s.ambient_occlusion and s.ao_distance > 0.0 else None)
+               and s.ambient_occlusion and s.ao_distance > 0.0
+               and (s.ao_pass or _indirect(frame)) else None)
     for lo in range(0, count, SHADE_BLOCK):
         block = slice(lo, lo + SHADE_BLOCK)
         tick(len(pixel[block]) / count)

@@ -241,6 +241,15 @@ class Probes:
     packed: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
 
+def sends_light(probes: Probes) -> bool:
+    """False when ``probes`` can light nothing: no baked probe, and a world of one colour that
+    is black (a world image is taken to send light)."""
+    if probes.volumes or probes.reflection or probes.world_color is None:
+        return True
+    return bool(np.any(np.asarray(probes.world_sh) != 0.0)
+                or np.any(np.asarray(probes.world_color) != 0.0))
+
+
 def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = None,
               view: np.ndarray | None = None, sky: SkyFn | None = None) -> np.ndarray:
     """SH at each point (N, 3), (N, 9, 3): the volumes' blend (``sample_sh``, with the unit

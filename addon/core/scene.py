@@ -232,6 +232,8 @@ class RenderSettings:
     shadow_resolution: shadow map size in texels (per cube face or cascade)
     ambient_occlusion: contact occlusion of probe and world light (``occlusion``)
     ao_distance:    how far surfaces occlude, metres
+    ao_pass:        the AO pass is wanted: contact occlusion is searched even where no indirect
+                    light reaches (a scene without any: False searches none, the pass is 1)
     specular_occlusion: reflections occluded as well (from the ambient occlusion)
     sky_directions: directions of the dome of shadow maps through which the world's light is
                     occluded (``sky``); 0 lets it reach every point
@@ -256,6 +258,7 @@ class RenderSettings:
     shadow_resolution: int = 1024
     ambient_occlusion: bool = True
     ao_distance: float = 0.25
+    ao_pass: bool = True
     specular_occlusion: bool = True
     sky_directions: int = 32
     sky_resolution: int = 256

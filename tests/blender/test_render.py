@@ -200,3 +200,23 @@ def test_running_out_of_memory_is_one_message_with_the_figure(addon, monkeypatch
     with pytest.raises(RuntimeError, match=r"ran out of memory reading the scene: its 2 "
                                            r"triangles need about 0 MiB"):
         render_pixels(scene, "BO2_LIGHTING", samples=1)
+
+
+def test_contact_occlusion_is_searched_without_indirect_light_only_for_its_pass(addon,
+                                                                                monkeypatch):
+    """A black world and no probe: the frame has no indirect light to occlude, so the engine
+    searches contact occlusion only while the view layer's AO pass is on."""
+    from bo2_lighting.addon.blender import passes
+    from bo2_lighting.addon.core import pipeline
+
+    scene = lambert_plane_scene("SUN")
+    searched = []
+    real = pipeline._tile_ambient
+    monkeypatch.setattr(pipeline, "_tile_ambient",
+                        lambda *args: searched.append(1) or real(*args))
+    layer = bpy.context.view_layer
+    for wanted in (False, True):
+        passes.set_enabled(layer, "AO", wanted)
+        searched.clear()
+        render_pixels(scene, "BO2_LIGHTING", samples=1)
+        assert bool(searched) == wanted

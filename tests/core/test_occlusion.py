@@ -80,3 +80,30 @@ def test_specular_occlusion_follows_lagarde():
         r = (2.0 / (8192.0 ** float(gloss[k]) + 2.0)) ** 0.25
         so = (float(nv[k]) + float(ao[k])) ** (2.0 ** (-16.0 * r - 1.0)) - 1.0 + float(ao[k])
         assert got[k] == pytest.approx(min(max(so, 0.0), 1.0), abs=1e-5)
+
+
+def test_without_indirect_light_it_is_searched_for_its_pass_alone():
+    """A black world and no probe: no indirect light to occlude, so contact occlusion is
+    searched only when its pass is wanted (``ao_pass``); the image is the same either way,
+    and with the pass it is the brute-force hemisphere's."""
+    import dataclasses
+
+    from bo2_lighting.addon.core import probes
+    from bo2_lighting.addon.core.scene import Light
+
+    cam = Camera.look_at((2.2, -0.4, 1.6), (0.3, 0.0, 0.0), np.radians(50), 160, 120)
+    sun = Light("SUN", np.full(3, 2.0, np.float32), direction=np.array([-0.3, 0.2, -1.0]))
+    dark = dataclasses.replace(scene_of(WALL, cam), lights=[sun])
+    dark.world = World(color=np.zeros(3, np.float32))
+    dark.probes = bake.world_probes(dark.world)
+    assert not probes.sends_light(dark.probes)
+    assert probes.sends_light(scene_of(WALL, cam).probes)
+    wanted = pipeline.render_frame(dark)
+    unwanted = pipeline.render_frame(dataclasses.replace(
+        dark, settings=dataclasses.replace(dark.settings, ao_pass=False)))
+    np.testing.assert_array_equal(unwanted["Combined"], wanted["Combined"])
+    assert (unwanted["AO"] == 1.0).all()
+    point = np.array([0.1, 0.0, 0.0])
+    got, indirect = at(wanted, point)
+    assert got == pytest.approx(brute_force(point, WALL[1:], radius=RADIUS), abs=0.05)
+    assert (indirect == 0.0).all() and wanted["Combined"][..., :3].max() > 0.1

@@ -817,8 +817,8 @@ def test_place_puts_a_mesh_where_each_instance_is():
 def test_nearest_draws_what_the_set_up_draws():
     """``raster.nearest`` (no set-up) gives the fragments of ``rasterize`` for a perspective
     projection: triangles crossing the near plane, beyond the far plane, culled back faces,
-    several sample offsets at once. A sample exactly on a shared edge may go to either triangle: random
-    corners put none there."""
+    several sample offsets at once. A sample exactly on a shared edge may go to either
+    triangle: random corners put none there."""
     rng = np.random.default_rng(3)
     near, far = 0.1, 10.0
     proj = np.array([[1.2, 0, 0, 0], [0, 1.6, 0, 0],
