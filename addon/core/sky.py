@@ -66,7 +66,8 @@ def radiance_weights(world_sh: np.ndarray, count: int) -> np.ndarray:
 
 @dataclass
 class Sky:
-    """The dome's shadow maps (``dome_lights``, in order; None where nothing casts)."""
+    """The dome's shadow maps (``dome_lights``, in order; None where nothing casts, or
+    towards a direction the world sends no light from)."""
 
     maps: list
 
