@@ -882,6 +882,7 @@ def _tile_ambient(frame: Frame, tile) -> np.ndarray:
 
 
 SHADE_BLOCK = 1 << 16  # points shaded at once (bounds the shading's temporaries)
+SAMPLE_BATCH = 4  # samples of a tile drawn at once (``raster.nearest``; bounds its buffers)
 
 
 def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
@@ -911,13 +912,13 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     points = []  # per sample: (tri, bary, sx, sy, pixel) of the points it shades
     margin = _margin(frame, tile)
     m, clip, _, cull, keep = margin
-    tick()
-    drawn = _draw(scene.camera, clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull, offsets, keep,
-                  frame.fades.any())  # every sample's fragments
+    drawn = []
     for k, offset in enumerate(offsets):
-        if k:
-            tick()
-        layer0 = _raster(frame, tile, margin, offset, frags=drawn[k])
+        tick()
+        if k % SAMPLE_BATCH == 0:  # the next samples' fragments, drawn together
+            drawn = _draw(scene.camera, clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull,
+                          offsets[k:k + SAMPLE_BATCH], keep, frame.fades.any())
+        layer0 = _raster(frame, tile, margin, offset, frags=drawn[k % SAMPLE_BATCH])
         if frame.fades.any():
             tri, bary, depth, sx, sy = _dither(frame, tile, margin, offset, first_sample + k,
                                                layer0)
