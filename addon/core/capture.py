@@ -36,7 +36,8 @@ def face_camera(position, face: int, size: int, near: float, far: float) -> Came
 
 class Capture:
     """Renders cube maps of one scene at many points, its geometry and shadow maps prepared
-    once for every view (the shadow maps only when a cube map is first rendered).
+    once for every view (the shadow maps when a cube map is first rendered, and again when
+    the world's lit directions change, ``pipeline.dome_lit``).
 
     scene: the scene (its camera and probes are ignored); its settings' samples and filter
            apply, the film is opaque and the border off

@@ -120,7 +120,8 @@ class Frame:
     holdout: np.ndarray     # (T,) bool
     material: np.ndarray    # (T,) int32
     clip: np.ndarray        # (T, 3, 4) float32 clip-space corners of the whole frame (or
-    #                         their raster.Projection, for very many triangles)
+    #                         their raster.Projection: for very many triangles, or for a view
+    #                         drawn as one tile, ``with_camera``'s ``once``)
     cull: np.ndarray | None
     shadow_maps: list
     tables: dict            # constant material parameters per material: name -> array
@@ -129,7 +130,8 @@ class Frame:
     world_to_object: np.ndarray  # (B, 4, 4) float64 per object instance
     texspace: np.ndarray    # (B, 2, 3) float32 per object instance
     fades: np.ndarray       # (T,) bool: the triangle's material may be transparent
-    # Per-tile raster set-ups kept across renders of this very frame (the viewport), or None:
+    # Per-tile culled triangles (and ``raster.rasterize``'s set-ups, where it draws) kept across
+    # renders of this very frame (the viewport), or None:
     # (tile, margin) -> (``_margin``'s tuple, ``raster.rasterize``'s ``keep`` dict)
     tiles: dict | None = None
     seen: np.ndarray | None = None   # (T,) bool: the camera sees the triangle (None: all)
@@ -356,12 +358,13 @@ def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np
 
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
                       fit_shadows: bool = True, sky: bool | None = None,
-                      world_sh: np.ndarray | None = None) -> list:
+                      world_sh: np.ndarray | None = None, every_direction: bool = False) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
     then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
     fitted as the lights' are; None towards directions the world sends no light from,
-    ``dome_lit``): ``shadow_map_count`` maps, every face and cascade rendered at once on the
-    render's threads. Arguments as ``prepare``, ``shadow_map_count`` and ``dome_lit``."""
+    ``dome_lit``, unless ``every_direction``: for a world that may change, as a viewport's):
+    ``shadow_map_count`` maps, every face and cascade rendered at once on the render's
+    threads. Arguments as ``prepare``, ``shadow_map_count`` and ``dome_lit``."""
     scene = frame.scene
     count = shadow_map_count(scene, sky)
     if not len(frame.positions):
@@ -387,7 +390,7 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
         plans.append(shadows.shadow_map_jobs(light, positions, view,
                                              resolution=s.shadow_resolution, cutout=cutout))
     dome = count - len(scene.lights)
-    lit = dome_lit(scene, dome, world_sh)
+    lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
     view_range = (shadows.camera_depth_range(view, positions)
                   if view is not None and lit.any() else None)  # the same for every sun
     for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):

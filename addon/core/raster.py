@@ -48,8 +48,10 @@ input (compared bit for bit) is kept, so that the samples of one image or tile s
 once or a few times (a tile's samples, a probe's faces): each triangle clipped to the near
 plane and walked row by row with homogeneous edge functions in float64 (Olano & Greer 1997),
 1/w interpolated, every edge inclusive by 1e-7 pixel (no cracks whatever the rounding), the
-least w kept. Its fragments are ``rasterize``'s but for samples exactly on an edge, which go
-to the nearer (or lower) of the triangles on both sides; it has no keys for depth peeling.
+least w kept. Its fragments are ``rasterize``'s but within about 2^-12 pixel of an edge
+(``rasterize`` snaps corners and samples to that grid; here a sample on a shared edge goes to
+the nearer, or lower, of the triangles on both sides) and for triangles of no area once
+snapped, which ``rasterize`` skips; it has no keys for depth peeling.
 
 Conventions: clip space as in OpenGL (x/w, y/w, z/w in [-1, 1]; y up; z = -w is the near plane;
 w > 0 in front of the camera). Pixel (r, c) has row 0 at the top; its sample lies at window
@@ -521,8 +523,8 @@ def nearest(clip: np.ndarray, width: int, height: int, *, cull=None,
     """``rasterize`` of a perspective projection at each of ``sample_offsets`` (S, 2), without
     its set-up (``kernels.raster.nearest``: each triangle clipped and set up once for all the
     samples, walked straight from its clip-space corners; for views whose triangles are drawn
-    once, such as a tile's samples): the same fragments but for samples exactly on an edge
-    (covered by the triangles on both sides, the nearest kept), and no keys (no depth
+    once, such as a tile's samples): the same fragments but within about 2^-12 pixel of an
+    edge and for triangles of no area once snapped (module docstring), and no keys (no depth
     peeling). Arguments as ``rasterize``; ``depth_plane`` gives the far plane. Returns one
     Fragments per offset."""
     from .kernels import raster as kernels

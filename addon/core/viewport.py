@@ -297,10 +297,6 @@ class Session:
             if (new.shadow_resolution, new.sky_directions, new.sky_resolution) != (
                     was.shadow_resolution, was.sky_directions, was.sky_resolution):
                 rebuild = True
-        if not rebuild and changed & {"world", "probes"}:  # the dome's lit directions
-            count = pipeline.shadow_map_count(scene) - len(scene.lights)
-            rebuild = (count != len(old.shadow_maps) - len(old.scene.lights) or not np.array_equal(
-                pipeline.dome_lit(scene, count), pipeline.dome_lit(old.scene, count)))
         frame = None
         if not rebuild and "materials" in changed:
             frame = pipeline.with_materials(old, scene)
@@ -317,8 +313,9 @@ class Session:
                                      fit_shadows=False)
             quick.tiles = {}  # the raster set-ups of each tile, kept for the next renders
             preview(quick)  # with the previous shadow maps (none at first): the slow part next
+            # the dome towards every direction: a world turned or lit anew keeps it
             frame = dataclasses.replace(quick, shadow_maps=pipeline.build_shadow_maps(
-                quick, should_stop, fit_shadows=False))
+                quick, should_stop, fit_shadows=False, every_direction=True))
             self.stats["prepares"] += 1
         else:
             if frame is None:

@@ -673,7 +673,10 @@ def perspective_depths(points, rows, near, out):
                     continue
                 zrow = b * vc + c0
                 for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
-                    depth = np.float32(1.0 / (a * (col + 0.5) + zrow))
+                    inv_w = a * (col + 0.5) + zrow
+                    if not inv_w > 0.0:  # (extrapolated past a sliver's edge)
+                        continue
+                    depth = np.float32(1.0 / inv_w)
                     if depth < out[r, col]:
                         out[r, col] = depth
 
