@@ -529,10 +529,27 @@ def reduction(dist, lo_depth, hi_depth, out):
 
 
 @nb.njit(inline="always", **_OPTIONS)
-def _span_min(xs, ys, zs, out):
+def _row_span(e, sign, y):
+    """The window x range (lo, hi) where all three edge functions ``e`` (3, 3), turned by
+    ``sign`` to be >= 0 inside, hold on window row y."""
+    lo, hi = -np.inf, np.inf
+    for i in range(3):  # inside edge i: kx x + m >= 0
+        kx = sign * e[i, 0]
+        m = sign * (e[i, 1] * y + e[i, 2])
+        if kx > 0.0:
+            lo = max(lo, -m / kx)
+        elif kx < 0.0:
+            hi = min(hi, -m / kx)
+        elif m < 0.0:
+            hi = -np.inf
+    return lo, hi
+
+
+@nb.njit(inline="always", **_OPTIONS)
+def _span_min(xs, ys, zs, e, out):
     """Draw one triangle of map corners (xs, ys) and values zs (3,) into ``out``: at each
     covered texel centre the value interpolated over the map, kept where it is less than the
-    texel's."""
+    texel's. ``e`` (3, 3): scratch for its edge functions (``_row_span``)."""
     height, width = out.shape
     area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (xs[2] - xs[0]) * (ys[1] - ys[0])
     if not (area != 0.0 and np.isfinite(area) and np.isfinite(zs[0] + zs[1] + zs[2])):
@@ -541,29 +558,23 @@ def _span_min(xs, ys, zs, out):
     r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5 + _REACH), height - 1.0)
     if r0 > r1:
         return
+    for i in range(3):  # edge i: through corners j and k (their homogeneous (x, y, 1))
+        j, k = (i + 1) % 3, (i + 2) % 3
+        e[i, 0] = ys[j] - ys[k]
+        e[i, 1] = xs[k] - xs[j]
+        e[i, 2] = xs[j] * ys[k] - ys[j] * xs[k]
     # the plane z = a x + b y + c0 over the map
     a = ((zs[1] - zs[0]) * (ys[2] - ys[0]) - (zs[2] - zs[0]) * (ys[1] - ys[0])) / area
     b = ((xs[1] - xs[0]) * (zs[2] - zs[0]) - (xs[2] - xs[0]) * (zs[1] - zs[0])) / area
     c0 = zs[0] - a * xs[0] - b * ys[0]
     sign = 1.0 if area > 0.0 else -1.0
     for r in range(np.int64(r0), np.int64(r1) + 1):
-        yc = r + 0.5
-        lo, hi = -np.inf, np.inf
-        for i in range(3):  # inside edge i -> j: k x + m >= 0
-            j = (i + 1) % 3
-            k = -sign * (ys[j] - ys[i])
-            m = sign * ((xs[j] - xs[i]) * (yc - ys[i]) + (ys[j] - ys[i]) * xs[i])
-            if k > 0.0:
-                lo = max(lo, -m / k)
-            elif k < 0.0:
-                hi = min(hi, -m / k)
-            elif m < 0.0:
-                hi = -np.inf
+        lo, hi = _row_span(e, sign, r + 0.5)
         c_lo = max(np.ceil(lo - 0.5 - _REACH), 0.0)
         c_hi = min(np.floor(hi - 0.5 + _REACH), width - 1.0)
         if not c_lo <= c_hi:
             continue
-        zrow = b * yc + c0
+        zrow = b * (r + 0.5) + c0
         for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
             z = np.float32(a * (col + 0.5) + zrow)
             if z < out[r, col]:
@@ -581,6 +592,7 @@ def ortho_depths(points, rows, out):
     ``_REACH`` texels further (a depth map needs no tie rule, and must have no cracks).
     Triangles of no area in the map, or with a non-finite corner, draw nothing."""
     xs, ys, zs = np.empty(3), np.empty(3), np.empty(3)
+    e = np.empty((3, 3))
     for t in range(points.shape[0]):
         for c in range(3):
             x = np.float64(points[t, c, 0])
@@ -589,7 +601,52 @@ def ortho_depths(points, rows, out):
             xs[c] = ((rows[0, 0] * x + rows[0, 1] * y) + rows[0, 2] * z) + rows[0, 3]
             ys[c] = ((rows[1, 0] * x + rows[1, 1] * y) + rows[1, 2] * z) + rows[1, 3]
             zs[c] = ((rows[2, 0] * x + rows[2, 1] * y) + rows[2, 2] * z) + rows[2, 3]
-        _span_min(xs, ys, zs, out)
+        _span_min(xs, ys, zs, e, out)
+
+
+@nb.njit(inline="always", **_OPTIONS)
+def _near_polygon(corners, dist, poly):
+    """The part of one triangle in front of a plane (Sutherland and Hodgman 1974): its
+    ``corners`` (3, K) float64 and their signed distances ``dist`` (3,) to the plane (>= 0 in
+    front) -> ``poly`` (4, K), every component interpolated; returns its corner count."""
+    count = 0
+    for c in range(3):
+        d = (c + 1) % 3
+        if dist[c] >= 0.0:
+            poly[count] = corners[c]
+            count += 1
+        if (dist[c] >= 0.0) != (dist[d] >= 0.0):
+            f = dist[c] / (dist[c] - dist[d])
+            for k in range(corners.shape[1]):
+                poly[count, k] = corners[c, k] + f * (corners[d, k] - corners[c, k])
+            count += 1
+    return count
+
+
+@nb.njit(inline="always", **_OPTIONS)
+def _window_edges(poly, fan, w_at, width, height, v, e):
+    """Corners 0, fan + 1, fan + 2 of a clipped polygon of clip coordinates (x, y at 0, 1; w
+    at ``w_at``) as window-space homogeneous corners ``v`` (3, 3) (x w, y w, w; y down) and
+    their edge functions ``e`` (3, 3), edge i the plane through the eye and corners j, k
+    (Olano and Greer 1997); returns the determinant and the corners' least and greatest
+    window y."""
+    lo_r, hi_r = np.inf, -np.inf
+    for c in range(3):
+        q = 0 if c == 0 else fan + c
+        w = poly[q, w_at]
+        if not w > 0.0:
+            w = 1e-300  # on the near plane at the eye: a point at infinity
+        v[c, 0] = (poly[q, 0] + w) * (0.5 * width)
+        v[c, 1] = (w - poly[q, 1]) * (0.5 * height)
+        v[c, 2] = w
+        lo_r = min(lo_r, v[c, 1] / w)
+        hi_r = max(hi_r, v[c, 1] / w)
+    for i in range(3):
+        j, k = (i + 1) % 3, (i + 2) % 3
+        e[i, 0] = v[j, 1] * v[k, 2] - v[j, 2] * v[k, 1]
+        e[i, 1] = v[j, 2] * v[k, 0] - v[j, 0] * v[k, 2]
+        e[i, 2] = v[j, 0] * v[k, 1] - v[j, 1] * v[k, 0]
+    return v[0, 0] * e[0, 0] + v[0, 1] * e[0, 1] + v[0, 2] * e[0, 2], lo_r, hi_r
 
 
 @nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float64, _F2),
@@ -605,48 +662,23 @@ def perspective_depths(points, rows, near, out):
     inclusive, as ``ortho_depths``."""
     height, width = out.shape
     clip = np.empty((3, 3))
+    dist = np.empty(3)
     poly = np.empty((4, 3))
     v = np.empty((3, 3))
     e = np.empty((3, 3))
     for t in range(points.shape[0]):
-        below = 0
         for c in range(3):
             x = np.float64(points[t, c, 0])
             y = np.float64(points[t, c, 1])
             z = np.float64(points[t, c, 2])
             for k in range(3):
                 clip[c, k] = ((rows[k, 0] * x + rows[k, 1] * y) + rows[k, 2] * z) + rows[k, 3]
-            if not clip[c, 2] >= near:
-                below += 1
-        if below == 3 or not np.isfinite(clip[0, 2] + clip[1, 2] + clip[2, 2]):
+            dist[c] = clip[c, 2] - near
+        if not (np.isfinite(clip[0, 2] + clip[1, 2] + clip[2, 2]) and dist.max() >= 0.0):
             continue
-        count = 0
-        for c in range(3):  # the polygon's part in front of the near plane
-            d = (c + 1) % 3
-            if clip[c, 2] >= near:
-                poly[count] = clip[c]
-                count += 1
-            if (clip[c, 2] >= near) != (clip[d, 2] >= near):
-                f = (near - clip[c, 2]) / (clip[d, 2] - clip[c, 2])
-                for k in range(3):
-                    poly[count, k] = clip[c, k] + f * (clip[d, k] - clip[c, k])
-                poly[count, 2] = near
-                count += 1
+        count = _near_polygon(clip, dist, poly)
         for fan in range(count - 2):
-            lo_r, hi_r = np.inf, -np.inf
-            for c in range(3):  # texel-space homogeneous corners (u w, v w, w)
-                q = poly[0] if c == 0 else poly[fan + c]
-                v[c, 0] = (q[0] + q[2]) * (0.5 * width)
-                v[c, 1] = (q[2] - q[1]) * (0.5 * height)
-                v[c, 2] = q[2]
-                lo_r = min(lo_r, v[c, 1] / q[2])
-                hi_r = max(hi_r, v[c, 1] / q[2])
-            for i in range(3):  # edge i: the plane through the origin and corners j, k
-                j, k = (i + 1) % 3, (i + 2) % 3
-                e[i, 0] = v[j, 1] * v[k, 2] - v[j, 2] * v[k, 1]
-                e[i, 1] = v[j, 2] * v[k, 0] - v[j, 0] * v[k, 2]
-                e[i, 2] = v[j, 0] * v[k, 1] - v[j, 1] * v[k, 0]
-            det = v[0, 0] * e[0, 0] + v[0, 1] * e[0, 1] + v[0, 2] * e[0, 2]
+            det, lo_r, hi_r = _window_edges(poly, fan, 2, width, height, v, e)
             if not (det != 0.0 and np.isfinite(det)):
                 continue
             sign = 1.0 if det > 0.0 else -1.0
@@ -656,22 +688,12 @@ def perspective_depths(points, rows, near, out):
             r0 = max(np.ceil(lo_r - 0.5 - _REACH), 0.0)
             r1 = min(np.floor(hi_r - 0.5 + _REACH), height - 1.0)
             for r in range(np.int64(r0), np.int64(r1) + 1):
-                vc = r + 0.5
-                lo, hi = -np.inf, np.inf
-                for i in range(3):  # inside edge i: kx u + m >= 0
-                    kx = sign * e[i, 0]
-                    m = sign * (e[i, 1] * vc + e[i, 2])
-                    if kx > 0.0:
-                        lo = max(lo, -m / kx)
-                    elif kx < 0.0:
-                        hi = min(hi, -m / kx)
-                    elif m < 0.0:
-                        hi = -np.inf
+                lo, hi = _row_span(e, sign, r + 0.5)
                 c_lo = max(np.ceil(lo - 0.5 - _REACH), 0.0)
                 c_hi = min(np.floor(hi - 0.5 + _REACH), width - 1.0)
                 if not c_lo <= c_hi:
                     continue
-                zrow = b * vc + c0
+                zrow = b * (r + 0.5) + c0
                 for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
                     inv_w = a * (col + 0.5) + zrow
                     if not inv_w > 0.0:  # (extrapolated past a sliver's edge)
@@ -703,54 +725,23 @@ def nearest(clip, cull, culling, offsets, far, tri_out, bary_out, depth_out):
     faces the camera (clockwise with y up) and ``cull`` are skipped. Triangles with a
     non-finite corner, or of no area, draw nothing."""
     samples, height, width = tri_out.shape
+    corners = np.empty((3, 4))
+    dist = np.empty(3)
     poly = np.empty((4, 4))
     v = np.empty((3, 3))
     e = np.empty((3, 3))
     best = np.full((samples, height, width), np.inf)
     tri_out[:, :, :] = -1
     for t in range(clip.shape[0]):
-        inside = 0
-        finite = True
         for c in range(3):
-            finite = finite and np.isfinite(clip[t, c, 0] + clip[t, c, 1] + clip[t, c, 2]
-                                            + clip[t, c, 3])
-            if np.float64(clip[t, c, 2]) + np.float64(clip[t, c, 3]) >= 0.0:
-                inside += 1
-        if inside == 0 or not finite:
+            for k in range(4):
+                corners[c, k] = clip[t, c, k]
+            dist[c] = corners[c, 2] + corners[c, 3]  # the near plane: z + w >= 0
+        if not (np.isfinite(corners.sum()) and dist.max() >= 0.0):
             continue
-        count = 0
-        for c in range(3):  # the polygon's part in front of the near plane, d = z + w >= 0
-            d = (c + 1) % 3
-            dc = np.float64(clip[t, c, 2]) + np.float64(clip[t, c, 3])
-            dd = np.float64(clip[t, d, 2]) + np.float64(clip[t, d, 3])
-            if dc >= 0.0:
-                for k in range(4):
-                    poly[count, k] = clip[t, c, k]
-                count += 1
-            if (dc >= 0.0) != (dd >= 0.0):
-                f = dc / (dc - dd)
-                for k in range(4):
-                    poly[count, k] = np.float64(clip[t, c, k]) + f * (
-                        np.float64(clip[t, d, k]) - np.float64(clip[t, c, k]))
-                count += 1
+        count = _near_polygon(corners, dist, poly)
         for fan in range(count - 2):
-            lo_r, hi_r = np.inf, -np.inf
-            for c in range(3):  # window-space homogeneous corners (x w, y w, w), y down
-                q = 0 if c == 0 else fan + c
-                w = poly[q, 3]
-                if not w > 0.0:
-                    w = 1e-300  # on the near plane at the eye: a point at infinity
-                v[c, 0] = (poly[q, 0] + w) * (0.5 * width)
-                v[c, 1] = (w - poly[q, 1]) * (0.5 * height)
-                v[c, 2] = w
-                lo_r = min(lo_r, v[c, 1] / w)
-                hi_r = max(hi_r, v[c, 1] / w)
-            for i in range(3):  # edge i: the plane through the eye and corners j, k
-                j, k = (i + 1) % 3, (i + 2) % 3
-                e[i, 0] = v[j, 1] * v[k, 2] - v[j, 2] * v[k, 1]
-                e[i, 1] = v[j, 2] * v[k, 0] - v[j, 0] * v[k, 2]
-                e[i, 2] = v[j, 0] * v[k, 1] - v[j, 1] * v[k, 0]
-            det = v[0, 0] * e[0, 0] + v[0, 1] * e[0, 1] + v[0, 2] * e[0, 2]
+            det, lo_r, hi_r = _window_edges(poly, fan, 3, width, height, v, e)
             if not (det != 0.0 and np.isfinite(det)):
                 continue
             if culling and cull[t] and det > 0.0:  # clockwise with y up: its back
@@ -765,16 +756,7 @@ def nearest(clip, cull, culling, offsets, far, tri_out, bary_out, depth_out):
                 r1 = min(np.floor(hi_r - oy + _REACH), height - 1.0)
                 for r in range(np.int64(r0), np.int64(r1) + 1):
                     y = r + oy
-                    lo, hi = -np.inf, np.inf
-                    for i in range(3):  # inside edge i: kx x + m >= 0
-                        kx = sign * e[i, 0]
-                        m = sign * (e[i, 1] * y + e[i, 2])
-                        if kx > 0.0:
-                            lo = max(lo, -m / kx)
-                        elif kx < 0.0:
-                            hi = min(hi, -m / kx)
-                        elif m < 0.0:
-                            hi = -np.inf
+                    lo, hi = _row_span(e, sign, y)
                     c_lo = max(np.ceil(lo - ox - _REACH), 0.0)
                     c_hi = min(np.floor(hi - ox + _REACH), width - 1.0)
                     if not c_lo <= c_hi:
