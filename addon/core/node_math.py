@@ -462,9 +462,12 @@ def euler_xyz(rotation) -> np.ndarray:
 def mapping(kind: str, vector, location, rotation, scale) -> np.ndarray:
     """The Mapping node (Cycles ``svm_mapping``): POINT, TEXTURE, VECTOR or NORMAL; (N, 3)."""
     v, loc, s = f32(vector), f32(location), f32(scale)
-    rot = euler_xyz(rotation).astype(np.float32)  # (1 or N, 3, 3)
+    r = f32(rotation)
+    rot = euler_xyz(r).astype(np.float32)  # (1 or N, 3, 3)
 
     def turn(d, transposed=False):
+        if len(rot) == 1:  # one rotation for every point: none, or one matrix product
+            return d if not r.any() else d @ (rot[0] if transposed else rot[0].T)
         m = rot.transpose(0, 2, 1) if transposed else rot
         return (d[:, :1] * m[:, :, 0] + d[:, 1:2] * m[:, :, 1] + d[:, 2:3] * m[:, :, 2])
 
