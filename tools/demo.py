@@ -2,7 +2,8 @@
 
 Usage: python tools/demo.py [--docs]
 
-For each scene of ``demo_blends/`` (built from its script when the .blend is missing): bake its
+For each scene of ``demo_blends/`` (built from its script when the .blend is missing), copied
+into ``out/scenes/`` (a bake saves its .blend; the bakes go to ``out/scenes/bo2_bake/``): bake its
 light probes (``bo2 bake``; the room's lightmaps too, ``bo2 bake --lightmaps``), render it with
 BO2 Lighting and with Cycles and compare the two (``bo2 compare``: both EXRs, side-by-side,
 split and difference pictures, metrics.json in ``out/<scene>/``). Then render the talk's
@@ -57,6 +58,10 @@ def main() -> int:
         if not blend.exists():
             print(f"building {blend.relative_to(ROOT)}", flush=True)
             run([sys.executable, str(ROOT / "demo_blends" / f"build_{name}.py"), str(blend)])
+        scene = OUT / "scenes" / blend.name  # baked and saved there: demo_blends/ stays as is
+        scene.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(blend, scene)
+        blend = scene
         print(f"baking the light probes of {name}", flush=True)
         bake = run([str(BO2), "bake", str(blend)])
         if cfg.get("lightmaps"):

@@ -22,7 +22,7 @@ import numpy as np
 from .. import version
 from ..core import bake, capture, cubemap, lightmap_bake, lightmap_file, probe_file
 from ..core import lightmap as core_lightmap
-from . import extract, images, interrupt, lightmaps, probes, worlds
+from . import bake_files, extract, images, interrupt, lightmaps, probes, worlds
 from .probes import BakeError
 
 
@@ -110,12 +110,6 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     if not objs:
         raise BakeError("No Sphere or Volume light probes to bake")
     folder = probes.writable_folder(scene)
-    files: dict[str, str] = {}
-    for obj in probes.probe_objects(scene):  # case-insensitive file systems too
-        other = files.setdefault(probes.probe_path(folder, obj.name).name.lower(), obj.name)
-        if other != obj.name:
-            raise BakeError(f"Light probes '{other}' and '{obj.name}' would share a bake file "
-                            "(their names differ only in case); rename one")
     start = time.perf_counter()
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False, samples=int(settings.bake_samples))
@@ -166,16 +160,20 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                   "(raise Dilation Radius or Escape Bias, or move the volume)")
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
     interrupt.check()  # Ctrl-C during the last capture: nothing is written
+    targets = [(scene.objects[b.spec.name], bake_files.target(scene, scene.objects[b.spec.name]))
+               for b in job.results]
     try:
         with interrupt.writing():
             probe_file.write_all([
-                (probes.probe_path(folder, b.spec.name),
-                 bake.metadata(b, backend, job.bounces, stamp, time.perf_counter() - start,
-                               version()), b.coeffs, b.chains) for b in job.results])
+                (path, bake.metadata(b, backend, job.bounces, stamp,
+                                     time.perf_counter() - start, version()), b.coeffs, b.chains)
+                for b, (_, path) in zip(job.results, targets, strict=True)])
+            for obj, path in targets:
+                bake_files.declare(obj, path, pack=settings.bake_pack)
     except (OSError, probe_file.ProbeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise BakeError(f"Could not write the bake into {folder} ({reason}); the previous "
-                        "bake files are as they were") from None
+        raise BakeError(f"Could not write the bake into {bake_files.file_folder(scene)} "
+                        f"({reason}); the previous bake files are as they were") from None
     yield 1.0
 
 
@@ -326,7 +324,7 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
 
     if not objs:
         raise BakeError("No static mesh objects to bake lightmaps for")
-    out = probes.writable_folder(scene) / lightmaps.FOLDER
+    out = probes.writable_folder(scene)
     start = time.perf_counter()
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False)
@@ -365,11 +363,14 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
                     core_scene.meshes[target.mesh].positions),
                 "light_key": light, "bake_time": stamp,
                 "seconds": round(time.perf_counter() - start, 3), "version": version()}
-        files.append((lightmaps.path(out, target.name), meta, result))
+        obj = scene.objects[target.name]
+        files.append((bake_files.target(scene, obj, bake_files.LIGHTMAPS), meta, result, obj))
     interrupt.check()
     try:
         with interrupt.writing():
-            lightmap_file.write_all(files)
+            lightmap_file.write_all([f[:3] for f in files])
+            for path, _, _, obj in files:
+                bake_files.declare(obj, path, pack=scene.bo2.bake_pack)
     except (OSError, probe_file.ProbeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise BakeError(f"Could not write the lightmaps into {out} ({reason}); the previous "
@@ -389,13 +390,7 @@ def _check_room(folder: Path, size: int) -> None:
                         f"to {size / 2**20:.1f} MiB; free some space or choose another folder")
 
 
-def clear(scene, objs) -> int:
-    """Delete the bake files of ``objs``; returns how many existed."""
-    folder = probes.bake_folder(scene)
-    count = 0
-    for obj in objs:
-        path = probes.probe_path(folder, obj.name)
-        if path.exists():
-            path.unlink()
-            count += 1
-    return count
+def clear(objs) -> int:
+    """Delete the bakes of ``objs`` (light probes or lightmaps: their files and datablocks);
+    returns how many there were."""
+    return sum(bake_files.forget(obj) for obj in objs)

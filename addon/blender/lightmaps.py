@@ -4,9 +4,10 @@ A mesh object is static when its Lightmap setting says so (``object.bo2.lightmap
 on Auto, when neither it nor a parent is animated and no armature deforms it. Its lightmap UVs
 are its own UV map chosen in the panel (or named ``LightmapUV``) when that map's charts do not
 overlap, else a layout the bake makes (``core.lightmap.layout``), stored in the lightmap's file:
-the object's UV maps are never touched. Each lightmap is one OpenEXR file,
-``<bake folder>/lightmaps/<object name>.exr`` (``core.lightmap_file``), written when every
-lightmap is done, all or nothing. At render time (``attach``) each static object takes its
+the object's UV maps are never touched. Each lightmap is one OpenEXR file
+(``core.lightmap_file``) in ``lightmaps/`` of the .blend's bake folder, or packed into the
+.blend, declared by the object's image datablock (``bake_files``), written when every lightmap
+is done, all or nothing. At render time (``attach``) each static object takes its
 lightmap; one that no longer fits its mesh is left out and one baked before the scene changed
 is used and reported stale.
 """
@@ -20,21 +21,10 @@ import numpy as np
 
 from ..core import lightmap, lightmap_bake, lightmap_file, probe_file
 from ..core import scene as cs
-from . import probes
+from . import bake_files, probes
 from .probes import BakeError
 
-FOLDER = "lightmaps"
 UV_NAME = "LightmapUV"
-
-
-def folder(scene) -> Path:
-    """The lightmaps' folder: ``lightmaps`` in the bake folder (``probes.bake_folder``)."""
-    return probes.bake_folder(scene) / FOLDER
-
-
-def path(scene_folder: Path, name: str) -> Path:
-    """The lightmap file of object ``name`` in ``scene_folder`` (``folder``)."""
-    return probes.probe_path(scene_folder, name)
 
 
 def _animated(obj) -> bool:
@@ -142,18 +132,6 @@ def batch_index(core_scene: cs.Scene, name: str) -> int | None:
     return None
 
 
-def clear(scene, objs) -> int:
-    """Delete the lightmap files of ``objs``; returns how many existed."""
-    where = folder(scene)
-    count = 0
-    for obj in objs:
-        p = path(where, obj.name)
-        if p.exists():
-            p.unlink()
-            count += 1
-    return count
-
-
 # --------------------------------------------------------------------------------------------
 # loading lightmaps for a render
 
@@ -165,12 +143,11 @@ def read(p: Path) -> tuple[dict, lightmap.Lightmap]:
 def state(obj, scene) -> tuple[str, str]:
     """("BAKED", "256 x 256, 0.8 MiB"), ("MISSING", why) or ("DAMAGED", why) of ``obj``'s
     lightmap file (staleness is known at render time: ``attach``)."""
-    try:
-        p = path(folder(scene), obj.name)
-    except BakeError as exc:
-        return "MISSING", str(exc)
-    if not p.exists():
+    if bake_files.path(obj) is None:
         return "MISSING", "not baked"
+    p = bake_files.readable(obj)
+    if not p.exists():
+        return "MISSING", f"{p}: the file is missing"
     try:
         meta, lm = read(p)
     except probe_file.ProbeFileError as exc:
@@ -186,12 +163,6 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str]) -> list[str]:
     read (left out: the probes light the object). Returns the names of the stale ones."""
     if not scene.bo2.use_lightmaps:
         return []
-    try:
-        where = folder(scene)
-    except BakeError:
-        return []
-    if not where.is_dir():
-        return []
     light = None
     stale = []
     for k, batch in enumerate(core_scene.meshes):
@@ -200,8 +171,8 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str]) -> list[str]:
         obj = scene.objects.get(batch.name)
         if obj is None or obj.type != "MESH" or not obj.bo2.use_lightmap or not is_static(obj):
             continue
-        p = path(where, obj.name)
-        if not p.exists():
+        p = bake_files.readable(obj) if bake_files.path(obj) is not None else None
+        if p is None or not p.exists():
             continue
         try:
             meta, lm = read(p)

@@ -15,7 +15,7 @@ import time
 import bpy
 
 from ..core import compare as core_compare
-from . import bake, compare, convert, lightmaps, node_groups, probes, worlds
+from . import bake, bake_files, compare, convert, lightmaps, node_groups, probes, worlds
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
           ("SELECTED", "Selected", "The selected light probes"),
@@ -222,7 +222,7 @@ class BO2_OT_clear_lightmaps(bpy.types.Operator):
         try:
             if _busy():
                 raise probes.BakeError(_busy().replace("baking", "clearing lightmaps"))
-            count = lightmaps.clear(context.scene, _lightmap_objects(context, self.mode))
+            count = bake.clear(_lightmap_objects(context, self.mode))
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -248,12 +248,55 @@ class BO2_OT_clear_probes(bpy.types.Operator):
             busy = _busy()
             if busy:
                 raise probes.BakeError(busy.replace("baking", "clearing bakes"))
-            count = bake.clear(context.scene, _objects(context, self.mode))
+            count = bake.clear(_objects(context, self.mode))
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
         context.scene.update_tag()  # viewports fall back to the world
         self.report({"INFO"}, f"Deleted {count} bake file{'s' * (count != 1)}")
+        return {"FINISHED"}
+
+
+def _baked_objects(scene) -> list:
+    """The scene's light probes and static mesh objects (whose bakes Pack and Unpack move)."""
+    return probes.probe_objects(scene) + lightmaps.lightmap_objects(scene)
+
+
+class BO2_OT_pack_bakes(bpy.types.Operator):
+    """Store the scene's bakes (light probes and lightmaps) inside the .blend, so that the
+    saved file carries its light"""
+
+    bl_idname = "bo2.pack_bakes"
+    bl_label = "Pack Bakes"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        try:
+            count = bake_files.pack(_baked_objects(context.scene))
+        except probes.BakeError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Packed {count} bake{'s' * (count != 1)} into the .blend "
+                    "(save the file to keep them)")
+        return {"FINISHED"}
+
+
+class BO2_OT_unpack_bakes(bpy.types.Operator):
+    """Write the scene's packed bakes back to their files in the bake folder, and keep them
+    there rather than in the .blend"""
+
+    bl_idname = "bo2.unpack_bakes"
+    bl_label = "Unpack Bakes"
+    bl_options = {"REGISTER", "UNDO"}
+
+    def execute(self, context):
+        try:
+            count = bake_files.unpack(_baked_objects(context.scene))
+        except probes.BakeError as exc:
+            self.report({"ERROR"}, str(exc))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"Wrote {count} packed bake{'s' * (count != 1)} to the bake "
+                    "folder")
         return {"FINISHED"}
 
 
@@ -514,6 +557,7 @@ class BO2_OT_evaluate_world(bpy.types.Operator):
         return {"FINISHED"}
 
 
-CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_bake_lightmaps,
+CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_pack_bakes, BO2_OT_unpack_bakes,
+           BO2_OT_bake_lightmaps,
            BO2_OT_clear_lightmaps, BO2_OT_compare_cycles, BO2_OT_evaluate_world,
            NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new, MATERIAL_OT_bo2_convert]

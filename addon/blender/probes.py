@@ -2,8 +2,9 @@
 
 Sphere light probes are reflection probes (influence distance and falloff); Volume light probes
 are irradiance volumes (their x/y/z resolution; the object's box, with the influence distance
-around it); the World is the fallback of both. Each probe object's bake is one OpenEXR file,
-``<bake folder>/<object name>.exr`` (``core.probe_file``); the bake folder is
+around it); the World is the fallback of both. Each probe object's bake is one OpenEXR file
+(``core.probe_file``) that the object's image datablock declares, in the .blend's folder inside
+the bake folder or packed into the .blend (``bake_files``); the bake folder is
 ``scene.bo2.bake_folder``, ``//bo2_bake/`` (next to the .blend) by default. Baking is
 ``core.bake``, driven by ``blender/bake.py``.
 """
@@ -11,8 +12,6 @@ around it); the World is the fallback of both. Each probe object's bake is one O
 from __future__ import annotations
 
 import dataclasses
-import hashlib
-import re
 import tempfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,16 +64,6 @@ def capture_backend(scene) -> str:
     """"BO2" or "CYCLES": ``scene.bo2.bake_backend``, else the preferences' default."""
     backend = scene.bo2.bake_backend
     return props.preferences().bake_backend if backend == "DEFAULT" else backend
-
-
-def probe_path(folder: Path, name: str) -> Path:
-    """The bake file of probe object ``name``: ``<name>.exr``; a name with characters unsafe in
-    file names has them replaced by '_' and a digest of the whole name added, so that every
-    name has its own file, whatever the other probes are called."""
-    safe = re.sub(r"[^\w\-. ]", "_", name).strip()
-    if safe != name or not safe:
-        safe = f"{safe}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
-    return folder / f"{safe}.exr"
 
 
 def probe_objects(scene, selected_only: bool = False) -> list:
@@ -154,17 +143,24 @@ class BakeState:
     message: str = ""
 
 
-def bake_state(obj, folder: Path) -> BakeState:
-    """The state of ``obj``'s bake in ``folder``: STALE when the probe moved or changed since
-    (kind, matrix, volume resolution or the leak settings a bake uses), MISSING without a file,
-    DAMAGED when unreadable."""
-    path = probe_path(folder, obj.name)
+def bake_state(obj) -> BakeState:
+    """The state of ``obj``'s bake (``bake_files``): STALE when the probe moved or changed
+    since (kind, matrix, volume resolution or the leak settings a bake uses), MISSING without
+    a file, DAMAGED when unreadable."""
+    from . import bake_files
+
+    declared = bake_files.path(obj)
+    if declared is None:
+        return BakeState("MISSING", Path(), {}, "not baked (bake the probes)")
+    path = bake_files.readable(obj)
     if not path.exists():
-        return BakeState("MISSING", path, {}, f"{path.name}: no baked file (bake the probes)")
+        return BakeState("MISSING", path, {}, f"{path}: the bake file is missing (bake the "
+                         "probes, or File > External Data > Find Missing Files)")
     try:
         meta = _read(path)[0]
     except probe_file.ProbeFileError as exc:
-        return BakeState("DAMAGED", path, {}, str(exc))
+        where = "its packed bake" if bake_files.packed(obj) else path.name
+        return BakeState("DAMAGED", path, {}, f"{where}: {exc}")
     described = spec(obj).describe()
     if meta.get("kind") != described["kind"]:
         return BakeState("DAMAGED", path, meta, f"{path.name}: the bake is of a "
@@ -172,6 +168,10 @@ def bake_state(obj, folder: Path) -> BakeState:
     if (not np.allclose(meta.get("matrix", 0), described["matrix"], atol=1e-4)
             or meta.get("resolution") != described.get("resolution")
             or meta.get("leaks", described.get("leaks")) != described.get("leaks")):
+        others = bake_files.shared_with(obj)
+        if others:
+            return BakeState("STALE", path, meta, f"it shares its bake with '{others[0]}' (a "
+                             "duplicate); re-bake to give it its own")
         return BakeState("STALE", path, meta, "the bake is stale (the probe moved or changed "
                          f"since {meta.get('bake_time', 'it was baked')}); re-bake")
     if described["kind"] == "reflection" and set(_read(path)[2]) != set(cp.PREFILTERS):
@@ -209,13 +209,8 @@ def load_probes(scene, world: World, warnings: list[str]) -> cp.Probes:
     objs = probe_objects(scene)
     if not objs:
         return result
-    try:
-        folder = bake_folder(scene)
-    except BakeError as exc:
-        warnings.append(f"Light probes not loaded: {exc}")
-        return result
     for obj in objs:
-        probe = _probe_from_file(obj, bake_state(obj, folder), warnings)
+        probe = _probe_from_file(obj, bake_state(obj), warnings)
         if isinstance(probe, cp.ReflectionProbe):
             result.reflection.append(probe)
         elif probe is not None:

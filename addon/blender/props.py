@@ -148,10 +148,18 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
     )
     bake_folder: bpy.props.StringProperty(
         name="Bake Folder",
-        description="Folder of the baked probes, one OpenEXR file per probe ('//' is the "
-        ".blend's folder; empty: the Default Bake Folder of the add-on's preferences)",
+        description="Folder of the bakes: each .blend's go into a folder named after it "
+        "inside, one OpenEXR file per probe or lightmap ('//' is the .blend's folder; empty: "
+        "the Default Bake Folder of the add-on's preferences)",
         default="",
         subtype="DIR_PATH",
+    )
+    bake_pack: bpy.props.BoolProperty(
+        name="Pack Bakes",
+        description="Store new bakes (probes and lightmaps) inside the .blend, as EEVEE "
+        "does, so that a saved file carries its light to another machine or a farm; off: "
+        "only in the bake folder, declared as external files",
+        default=True,
     )
     bake_backend: bpy.props.EnumProperty(
         name="Bake With",
@@ -253,8 +261,14 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
 
 
 class BO2ObjectSettings(bpy.types.PropertyGroup):
-    """Lightmap settings of one object (``object.bo2``)."""
+    """Lightmap settings of one object and its bake (``object.bo2``)."""
 
+    bake: bpy.props.PointerProperty(
+        name="Bake",
+        description="The image datablock that declares this object's bake file (a light "
+        "probe's, or a mesh's lightmap): its path, or its packed bytes",
+        type=bpy.types.Image,
+    )
     lightmap_mode: bpy.props.EnumProperty(
         name="Lightmap",
         description="Whether the object gets a lightmap",

@@ -8,7 +8,7 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import convert, lightmaps, node_groups, passes, probes, viewport, worlds
+from . import bake_files, convert, lightmaps, node_groups, passes, probes, viewport, worlds
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -137,6 +137,12 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         row.operator("bo2.bake_probes", text="Bake Selected").mode = "SELECTED"
         layout.operator("bo2.clear_probes", text="Clear Bakes", icon="TRASH").mode = "ALL"
         layout.prop(settings, "bake_folder")
+        row = layout.row(align=True)
+        row.prop(settings, "bake_pack")
+        row.operator("bo2.pack_bakes", text="", icon="PACKAGE")
+        row.operator("bo2.unpack_bakes", text="", icon="UGLYPACKAGE")
+        for message in bake_files.notices:
+            layout.label(text=message, icon="INFO")
         layout.prop(settings, "bake_backend")
         layout.prop(settings, "bake_face_size")
         layout.prop(settings, "bake_volume_face_size")
@@ -360,7 +366,7 @@ class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
         layout = self.split_layout()
         obj = context.object
         try:
-            state = probes.bake_state(obj, probes.bake_folder(context.scene))
+            state = probes.bake_state(obj)
         except probes.BakeError as exc:
             layout.label(text=str(exc), icon="ERROR")
             state = None
@@ -375,7 +381,10 @@ class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
                 if "invalid_samples" in state.meta:
                     col.label(text=f"Samples left out: {len(state.meta['invalid_samples'])}, "
                                    f"escaped: {state.meta.get('escaped_samples', 0)}")
-            col.label(text=f"File: {state.path.name}")
+            if bake_files.packed(obj):
+                col.label(text="Packed in the .blend", icon="PACKAGE")
+            elif bake_files.image(obj) is not None:
+                col.label(text=f"File: {bake_files.image(obj).filepath}", icon="FILE")
             if state.message:
                 col.label(text=state.message)
         row = layout.row(align=True)
@@ -541,6 +550,10 @@ class OBJECT_PT_bo2_lightmap(_BO2Panel, bpy.types.Panel):
         row.alert = state == "DAMAGED"
         row.label(text=f"Baked: {text}" if state == "BAKED" else f"Lightmap: {text}",
                   icon="CHECKMARK" if state == "BAKED" else "ERROR")
+        if bake_files.packed(obj):
+            layout.label(text="Packed in the .blend", icon="PACKAGE")
+        elif bake_files.image(obj) is not None:
+            layout.label(text=f"File: {bake_files.image(obj).filepath}", icon="FILE")
 
 
 class MATERIAL_PT_bo2_settings(_BO2Panel, bpy.types.Panel):

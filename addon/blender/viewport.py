@@ -130,14 +130,10 @@ STATE_COLORS = {"BAKED": (0.55, 0.85, 0.55, 1.0), "STALE": (0.95, 0.75, 0.3, 1.0
 
 def probe_labels(scene) -> list[tuple]:
     """(object, text, RGBA) of every Sphere and Volume light probe: its bake state, as the
-    viewport shows it beside the object; [] when the bake folder is unknown."""
-    try:
-        folder = probes.bake_folder(scene)
-    except probes.BakeError:
-        return []
+    viewport shows it beside the object."""
     labels = []
     for obj in probes.probe_objects(scene):
-        state = probes.bake_state(obj, folder).state
+        state = probes.bake_state(obj).state
         labels.append((obj, f"BO2 bake: {state.lower()}", STATE_COLORS[state]))
     return labels
 
@@ -147,13 +143,9 @@ def probe_hint(scene) -> str:
     objs = probes.probe_objects(scene)
     if not objs or not scene.bo2.use_indirect:
         return ""
-    try:
-        folder = probes.bake_folder(scene)
-    except probes.BakeError:
-        return "Light probes: save the .blend file to bake them"
     counts: dict[str, int] = {}
     for obj in objs:
-        state = probes.bake_state(obj, folder).state
+        state = probes.bake_state(obj).state
         counts[state] = counts.get(state, 0) + 1
     parts = [f"{counts[s]} {s.lower()}" for s in ("STALE", "MISSING", "DAMAGED") if s in counts]
     if not parts:

@@ -6,8 +6,8 @@
                                           [--all-passes]
     bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
     bo2 sh IMAGE [--json]
-    bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles]
-    bo2 bake SCENE.blend --lightmaps [NAME ...]
+    bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles] [--pack | --no-pack]
+    bo2 bake SCENE.blend --lightmaps [NAME ...] [--pack | --no-pack]
     bo2 compare SCENE.blend -o DIR [--frame N] [--samples N] [--cycles-samples N]
                                    [--resolution WxH]
     bo2 version
@@ -57,6 +57,10 @@ def load_blend(path: Path):
     terminal = 2 if interrupt.installed() else os.dup(2)
     with quiet_blender():
         scene = headless.load_blend(path, terminal)
+    from ..blender import bake_files
+
+    for message in bake_files.notices:  # bakes of earlier versions, adopted on load
+        print(f"bo2: note: {message}", file=sys.stderr)
     try:
         kernels.load(lambda message: print(f"bo2: {message}", file=sys.stderr, flush=True))
     except kernels.KernelsUnavailable as exc:
@@ -207,9 +211,11 @@ def build_parser() -> argparse.ArgumentParser:
     bake_cmd = sub.add_parser(
         "bake", help="bake the light probes or lightmaps of a .blend file",
         description="Bake the Sphere and Volume light probes of a .blend file (SH irradiance and "
-        "prefiltered cube maps) into its bake folder (the scene's Bake Folder, '//bo2_bake/' "
-        "by default), one OpenEXR file per probe; with --lightmaps, the lightmaps of its static "
-        "objects into its 'lightmaps' folder. Nothing is written unless every one finishes.")
+        "prefiltered cube maps) into the .blend's own folder inside its bake folder (the "
+        "scene's Bake Folder, '//bo2_bake/' by default: '//bo2_bake/<file name>/'), one "
+        "OpenEXR file per probe; with --lightmaps, the lightmaps of its static objects into "
+        "'lightmaps' there. Then the .blend is saved: it declares each bake file as an image "
+        "datablock, or packs it (--pack). Nothing is written unless every one finishes.")
     bake_cmd.add_argument("scene", help=".blend file")
     bake_cmd.add_argument("--probes", nargs="+", metavar="NAME",
                           help="only these light probe objects (default: all)")
@@ -219,6 +225,9 @@ def build_parser() -> argparse.ArgumentParser:
                           help="bake the lightmaps of the static mesh objects instead of the "
                           "probes (these objects only, if named); bake the probes first, "
                           "they light the dynamic objects the lightmaps see")
+    bake_cmd.add_argument("--pack", action=argparse.BooleanOptionalAction, default=None,
+                          help="store the bakes inside the .blend too (default: the scene's "
+                          "Pack Bakes setting)")
     bake_cmd.set_defaults(func=bake.run)
     compare_cmd = sub.add_parser(
         "compare", help="render a frame with BO2 Lighting and Cycles and compare them",

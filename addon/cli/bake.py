@@ -1,5 +1,5 @@
-"""``bo2 bake``: the light probes (or lightmaps) of a .blend file baked into its bake folder,
-with a progress bar."""
+"""``bo2 bake``: the light probes (or lightmaps) of a .blend file baked into its own bake
+folder, with a progress bar; the .blend saved, declaring (or packing) the new files."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ from .terminal import progress_bar, quiet_blender, stderr_copy
 def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
     scene = load_blend(Path(args.scene))
-    from ..blender import bake, lightmaps, probes
+    from ..blender import bake, bake_files, lightmaps, probes
 
     lightmapping = args.lightmaps is not None
     if lightmapping:
@@ -33,15 +33,17 @@ def run(args) -> int:
         if not objs:
             raise CommandError(f"{args.scene}: the scene has no Sphere or Volume light probes")
         what = "probe"
+    if args.pack is not None:
+        scene.bo2.bake_pack = args.pack
     start = time.perf_counter()
     warnings: list[str] = []
     terminal = stderr_copy()  # the progress bar passes Blender's silencing
     try:
-        folder = probes.bake_folder(scene)
+        folder = bake_files.file_folder(scene)
         depsgraph = headless.depsgraph()
         with quiet_blender():
             if lightmapping:
-                folder = folder / lightmaps.FOLDER
+                folder = folder / bake_files.LIGHTMAPS
                 steps = bake.lightmap_steps(scene, depsgraph, objs, report=warnings.append,
                                             backend=args.backend.upper())
             else:
@@ -60,12 +62,27 @@ def run(args) -> int:
         terminal.close()
         for message in warnings:  # a failed bake's too
             print(f"bo2: warning: {message}", file=sys.stderr)
-    size = sum(lightmaps.path(folder, o.name).stat().st_size for o in objs
-               if lightmaps.path(folder, o.name).exists()) if lightmapping else 0
-    print(f"baked {len(objs)} {what}{'s' * (len(objs) != 1)} into {folder} "
-          f"in {time.perf_counter() - start:.2f} s"
-          + (f" ({size / 2**20:.2f} MiB)" if lightmapping else ""))
+    size = sum(p.stat().st_size for p in map(bake_files.path, objs) if p and p.is_file())
+    seconds = time.perf_counter() - start
+    _save(Path(args.scene))
+    print(f"baked {len(objs)} {what}{'s' * (len(objs) != 1)} into {folder} in {seconds:.2f} s "
+          f"({size / 2**20:.2f} MiB{', packed into the .blend' if scene.bo2.bake_pack else ''})"
+          f"; saved {args.scene}")
     return 0
+
+
+def _save(path: Path) -> None:
+    """Save the .blend in place (Blender writes a temporary file and renames it), so that it
+    declares its new bakes; CommandError when it cannot."""
+    import bpy
+
+    with quiet_blender():
+        try:
+            bpy.ops.wm.save_mainfile(filepath=str(path.resolve()))
+        except RuntimeError as exc:
+            raise CommandError(f"{path}: the bakes are written, but the .blend could not be "
+                               f"saved ({str(exc).strip().splitlines()[-1]}); bake again once "
+                               "it can be") from None
 
 
 def _named(objs: list, names: list[str] | None, kind: str) -> list:

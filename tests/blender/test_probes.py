@@ -10,7 +10,7 @@ import pytest
 from util import principled, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import bake as blender_bake
-from bo2_lighting.addon.blender import probes
+from bo2_lighting.addon.blender import bake_files, probes
 from bo2_lighting.addon.core import probe_file
 
 RES = 48
@@ -67,21 +67,32 @@ def room(tmp_path):
 
 def bake(scene, **kw):
     assert bpy.ops.bo2.bake_probes(**kw) == {"FINISHED"}
-    return probes.bake_folder(scene)
+    return bake_files.file_folder(scene)
+
+
+def baked(scene, name):
+    """The bake file of probe object ``name``."""
+    return bake_files.path(scene.objects[name])
 
 
 def test_bake_writes_one_file_per_probe(addon, tmp_path):
     scene = room(tmp_path)
     folder = bake(scene)
-    assert folder == tmp_path / "bo2_bake"
-    assert sorted(p.name for p in folder.iterdir()) == ["Irradiance.exr", "Reflection.exr"]
-    meta, sh, mips = probe_file.read(folder / "Reflection.exr")
+    assert folder == tmp_path / "bo2_bake" / "room"  # the .blend's own folder
+    assert sorted(p.name for p in folder.iterdir()) == sorted(
+        baked(scene, n).name for n in ("Irradiance", "Reflection"))
+    for name in ("Irradiance", "Reflection"):  # declared as packed image datablocks
+        image = scene.objects[name].bo2.bake
+        assert image.filepath == f"//bo2_bake/room/{baked(scene, name).name}"
+        assert image.packed_file.data == baked(scene, name).read_bytes()
+        assert baked(scene, name).name.startswith(name + "-")
+    meta, sh, mips = probe_file.read(baked(scene, "Reflection"))
     assert meta["probe"] == "Reflection" and meta["kind"] == "reflection"
     assert meta["face_size"] == 32 and meta["version"] and meta["bake_time"]
     assert set(mips) == {"bo2", "bo1"} and [m.shape[1] for m in mips["bo2"]] == [32, 16, 8, 4,
                                                                                2, 1]
     assert sh.shape == (1, 9, 3) and sh[0, 0].min() > 0
-    meta, sh, mips = probe_file.read(folder / "Irradiance.exr")
+    meta, sh, mips = probe_file.read(baked(scene, "Irradiance"))
     assert meta["resolution"] == [3, 3, 2] and sh.shape == (18, 9, 3) and mips == {}
     # The red wall tints the volume's samples next to it (y = +2 side): red over green.
     grid = sh.reshape(3, 3, 2, 9, 3)
@@ -101,9 +112,9 @@ def test_objects_hidden_from_light_probes_are_not_baked(addon, tmp_path, capfd):
     scene.bo2.bake_bounces = 1  # the volume's captures lit by the world alone
 
     def redness():
-        folder = bake(scene)
+        bake(scene)
         return [float(sh[:, 0, 0].mean() / sh[:, 0, 1].mean())
-                for sh in (probe_file.read(folder / f"{name}.exr")[1]
+                for sh in (probe_file.read(baked(scene, name))[1]
                            for name in ("Reflection", "Irradiance"))]
 
     seen = redness()
@@ -165,17 +176,19 @@ def test_cancelled_bake_keeps_the_previous_files_byte_identical(addon, tmp_path)
 def test_corrupt_or_stale_bake_warns_and_falls_back_to_the_world(addon, tmp_path, capfd):
     scene = room(tmp_path)
     scene.bo2.use_indirect = True
+    scene.bo2.bake_pack = False  # the files on disk are what renders
     world_only = render_pixels(scene, "BO2_LIGHTING", samples=1)
-    folder = bake(scene)
-    (folder / "Reflection.exr").write_bytes(b"not an exr at all")
-    (folder / "Irradiance.exr").unlink()
+    bake(scene)
+    reflection, irradiance = baked(scene, "Reflection"), baked(scene, "Irradiance")
+    reflection.write_bytes(b"not an exr at all")
+    irradiance.unlink()
     capfd.readouterr()
     px = render_pixels(scene, "BO2_LIGHTING", samples=1)
     np.testing.assert_allclose(px, world_only, atol=1e-6)
     captured = capfd.readouterr()
     err = captured.out + captured.err  # Blender prints operator reports on stdout
-    assert "Reflection.exr: not a readable probe file" in err
-    assert "Irradiance.exr: no baked file" in err
+    assert f"{reflection.name}: not a readable probe file" in err
+    assert f"{irradiance}: the bake file is missing" in err
     # Moving a probe after its bake makes the bake stale.
     bake(scene)
     scene.objects["Reflection"].location.x += 1.0
@@ -199,6 +212,8 @@ def test_clear_deletes_the_bakes(addon, tmp_path):
     folder = bake(scene)
     assert bpy.ops.bo2.clear_probes() == {"FINISHED"}
     assert list(Path(folder).iterdir()) == []
+    assert not [i for i in bpy.data.images if i.name.startswith("BO2 bake")]
+    assert all(probes.bake_state(o).state == "MISSING" for o in probes.probe_objects(scene))
 
 
 def test_sphere_probe_parallax_follows_its_influence_or_custom_parallax(addon):
