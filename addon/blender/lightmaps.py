@@ -22,7 +22,6 @@ import numpy as np
 from ..core import lightmap, lightmap_bake, lightmap_file, probe_file
 from ..core import scene as cs
 from . import bake_files, probes
-from .probes import BakeError
 
 UV_NAME = "LightmapUV"
 

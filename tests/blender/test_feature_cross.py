@@ -22,7 +22,7 @@ from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
 from util import bare_material, camera_of, principled, render_pixels, set_world_color
 
-from bo2_lighting.addon.blender import probes, viewport
+from bo2_lighting.addon.blender import bake_files, viewport
 
 W, H = 120, 90
 SAMPLES = 16
@@ -222,7 +222,7 @@ def probe_luminance(scene):
     assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
     from bo2_lighting.addon.core import probe_file
 
-    _, sh, chains = probe_file.read(probes.probe_path(probes.bake_folder(scene), "Probe"))
+    _, sh, chains = probe_file.read(bake_files.path(scene.objects["Probe"]))
     assert np.isfinite(sh).all() and all(np.isfinite(m).all() for c in chains.values()
                                          for m in c)
     return float(sh[0, 0] @ np.array([0.2126, 0.7152, 0.0722]))

@@ -6,7 +6,7 @@ import math
 import bpy
 import numpy as np
 import pytest
-from util import principled, set_world_color
+from util import baked, principled, set_world_color
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import extract, lightmaps
@@ -66,18 +66,19 @@ def test_bake_and_render_with_lightmaps(addon, tmp_path):
     # the floor's own lightmap UV map, laid out by hand: used as it is
     uv = floor.data.uv_layers.new(name="LightmapUV")
     assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
-    folder = tmp_path / "bo2_bake" / "lightmaps"
-    assert sorted(p.name for p in folder.iterdir()) == ["Back.exr", "Block.exr", "Floor.exr",
-                                                       "Left.exr"]
-    meta, lm = lightmap_file.read(folder / "Floor.exr")
+    folder = tmp_path / "bo2_bake" / "room" / "lightmaps"
+    names = ("Back", "Block", "Floor", "Left")
+    assert sorted(p.name for p in folder.iterdir()) == sorted(baked(scene, n).name for n in names)
+    assert all(scene.objects[n].bo2.bake.packed_file is not None for n in names)
+    meta, lm = lightmap_file.read(baked(scene, "Floor"))
     assert meta["uv_map"] == "LightmapUV" and meta["object"] == "Floor"
     assert np.allclose(lm.uvs.reshape(-1, 2).min(0), 0.0, atol=1e-6)  # the plane's own 0..1
     del uv
-    meta, lm = lightmap_file.read(folder / "Block.exr")
+    meta, lm = lightmap_file.read(baked(scene, "Block"))
     assert meta["uv_map"] == ""  # the cube's UV map overlaps nothing but has no LightmapUV
     assert np.isfinite(lm.image).all() and lm.image.min() >= 0.0
     # the floor's lightmap is darker beside the block's base than in the open
-    _, floor_lm = lightmap_file.read(folder / "Floor.exr")
+    _, floor_lm = lightmap_file.read(baked(scene, "Floor"))
     from bo2_lighting.addon.core import lightmap
 
     def floor_at(x, y):  # the plane's UVs: (x + 2) / 4, (y + 2) / 4
@@ -111,8 +112,8 @@ def test_stale_damaged_and_misfit_lightmaps_are_reported(addon, tmp_path):
     core, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
     assert any("are stale" in w for w in warnings)
     assert all(m.lightmap is not None for m in core.meshes)  # used until re-baked
-    folder = tmp_path / "bo2_bake" / "lightmaps"
-    (folder / "Left.exr").write_bytes(b"not an exr")
+    scene.objects["Left"].bo2.bake.unpack(method="REMOVE")  # the file on disk renders
+    baked(scene, "Left").write_bytes(b"not an exr")
     bpy.ops.object.select_all(action="DESELECT")
     block = scene.objects["Block"]
     block.modifiers.new("Sub", "SUBSURF")
@@ -128,7 +129,7 @@ def test_stale_damaged_and_misfit_lightmaps_are_reported(addon, tmp_path):
 def test_cancelled_bake_keeps_the_previous_lightmaps(addon, tmp_path):
     scene = room(tmp_path)
     assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
-    folder = tmp_path / "bo2_bake" / "lightmaps"
+    folder = tmp_path / "bo2_bake" / "room" / "lightmaps"
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     scene.objects["Sun"].data.energy = 9.0
     steps = blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
@@ -162,7 +163,7 @@ def test_bad_input_is_one_message(addon, tmp_path):
                                          report=warnings.append):
         pass
     assert any("UV map 'LightmapUV'" in w and "a layout is made" in w for w in warnings)
-    meta, _ = lightmap_file.read(tmp_path / "bo2_bake" / "lightmaps" / "Floor.exr")
+    meta, _ = lightmap_file.read(baked(scene, "Floor"))
     assert meta["uv_map"] == ""
     # a density beyond the memory cap
     scene.bo2.lightmap_density = 1000.0
@@ -191,13 +192,12 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), objs,
                                          backend="CYCLES"):
         pass
-    folder = tmp_path / "bo2_bake" / "lightmaps"
-    meta, cycles = lightmap_file.read(folder / "Floor.exr")
+    meta, cycles = lightmap_file.read(baked(scene, "Floor"))
     assert meta["backend"] == "CYCLES"
     scene.bo2.lightmap_rays = 128
     for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), objs):
         pass
-    _, ours = lightmap_file.read(folder / "Floor.exr")
+    _, ours = lightmap_file.read(baked(scene, "Floor"))
     inside = cycles.image[..., 1] > 0
     ratio = ours.image[inside, 1].mean() / cycles.image[inside, 1].mean()
     assert 0.75 < ratio < 1.25, ratio
@@ -207,7 +207,7 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     assert not any(i.name.startswith("BO2 Lightmap Bake") for i in bpy.data.images)
     assert not any(o.name.startswith("BO2 Lightmap Bake") for o in bpy.data.objects)
     assert not any(o.hide_render for o in scene.objects)
-    _, block = lightmap_file.read(folder / "Block.exr")
+    _, block = lightmap_file.read(baked(scene, "Block"))
     assert len(block.uvs) > 12 and np.isfinite(block.image).all()  # the bevelled triangles
 
 

@@ -8,10 +8,10 @@ mean of its valid neighbours one spacing away (equal weights).
 import bpy
 import numpy as np
 from test_probes import room
-from util import render_pixels
+from util import baked, render_pixels
 
 from bo2_lighting.addon.blender import bake as blender_bake
-from bo2_lighting.addon.blender import probes
+from bo2_lighting.addon.blender import bake_files, probes
 from bo2_lighting.addon.core import probe_file
 
 SAMPLE = (5.0 / 3.0, -5.0 / 3.0, 1.5)  # the 3 x 3 x 2 volume's sample (2, 0, 1)
@@ -28,7 +28,7 @@ def run_bake(scene, objs=None) -> list[str]:
 
 
 def volume_sh(scene) -> tuple[dict, np.ndarray]:
-    meta, sh, _ = probe_file.read(probes.bake_folder(scene) / "Irradiance.exr")
+    meta, sh, _ = probe_file.read(baked(scene, "Irradiance"))
     return meta, sh.reshape(3, 3, 2, 9, 3)
 
 
@@ -42,11 +42,10 @@ def test_volume_leak_settings_reach_the_bake(addon, tmp_path):
     neighbours = grid[1, 0, 1], grid[2, 1, 1], grid[2, 0, 0]  # one spacing away, all valid
     np.testing.assert_allclose(grid[2, 0, 1], np.mean(neighbours, axis=0), rtol=1e-5,
                                atol=1e-6)
-    folder = probes.bake_folder(scene)
     volume.data.normal_bias = 0.6  # a look-up setting: the bake stays
-    assert probes.bake_state(volume, folder).state == "BAKED"
+    assert probes.bake_state(volume).state == "BAKED"
     volume.data.dilation_radius = 2.0  # a bake setting: the bake is stale
-    assert probes.bake_state(volume, folder).state == "STALE"
+    assert probes.bake_state(volume).state == "STALE"
     volume.data.dilation_radius = 1.0
 
     volume.data.dilation_threshold = 0.0  # nothing is invalid: the sample keeps its capture
@@ -93,8 +92,7 @@ def test_odd_probes_bake_with_one_warning_each(addon, tmp_path):
     assert sum("'No influence' has no influence" in w for w in warnings) == 1
     n = boxed.data.resolution_x * boxed.data.resolution_y * boxed.data.resolution_z
     assert sum(f"'Boxed': {n} of {n} samples are inside geometry" in w for w in warnings) == 1
-    folder = probes.bake_folder(scene)
-    assert {p.name for p in folder.iterdir()} == {
-        "Irradiance.exr", "Reflection.exr", "Reflection twin.exr", "No influence.exr",
-        "Boxed.exr"}
+    names = ("Irradiance", "Reflection", "Reflection twin", "No influence", "Boxed")
+    assert {p.name for p in bake_files.file_folder(scene).iterdir()} == {
+        baked(scene, n).name for n in names}
     assert np.isfinite(render_pixels(scene, "BO2_LIGHTING", samples=1)).all()

@@ -9,7 +9,7 @@ from panel_walk import PanelProxy, Recorder
 from util import bare_material
 
 import bo2_lighting
-from bo2_lighting.addon.blender import library, node_groups, props, ui
+from bo2_lighting.addon.blender import bake_files, library, node_groups, props, ui
 
 ENGINE = "BO2_LIGHTING"
 
@@ -229,9 +229,13 @@ def test_operators_poll_and_execute(scene_with_everything, tmp_path):
     scene.bo2.bake_samples = 1
     assert bpy.ops.bo2.bake_probes.poll()
     assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
-    assert (tmp_path / "SPHERE.exr").exists() and not (tmp_path / "VOLUME.exr").exists()
+    sphere = bake_files.path(probes["SPHERE"])
+    assert sphere.parent == tmp_path / "scene" and sphere.exists()
+    assert bake_files.path(probes["VOLUME"]) is None
+    assert bpy.ops.bo2.unpack_bakes() == {"FINISHED"}
+    assert bpy.ops.bo2.pack_bakes() == {"FINISHED"} and bake_files.packed(probes["SPHERE"])
     assert bpy.ops.bo2.clear_probes(mode="ACTIVE") == {"FINISHED"}
-    assert not (tmp_path / "SPHERE.exr").exists()
+    assert not sphere.exists() and bake_files.image(probes["SPHERE"]) is None
     # materials
     bpy.context.view_layer.objects.active = cube
     assert bpy.ops.material.bo2_new() == {"FINISHED"}

@@ -118,3 +118,11 @@ def camera_of(scene, width: int, height: int):
     cam = scene.camera.evaluated_get(depsgraph)
     proj = cam.calc_matrix_camera(depsgraph, x=width, y=height)
     return viewport.view_camera(cam.matrix_world.inverted(), proj, width, height)
+
+
+def baked(scene, name: str):
+    """The bake file (a light probe's or a lightmap) of object ``name``, as its datablock
+    declares it."""
+    from bo2_lighting.addon.blender import bake_files
+
+    return bake_files.path(scene.objects[name])

@@ -303,11 +303,16 @@ def test_bake_writes_the_bake_folder(tmp_path):
     proc = bo2("bake", blend, "--probes", "Reflection")
     assert proc.returncode == 0, proc.stderr
     assert "baked 1 probe into" in proc.stdout and "100.0%" in proc.stderr
-    assert sorted(p.name for p in (tmp_path / "bo2_bake").iterdir()) == ["Reflection.exr"]
-    meta, sh, mips = probe_file.read(tmp_path / "bo2_bake" / "Reflection.exr")
+    assert "packed into the .blend); saved" in proc.stdout  # the scene's default
+    folder = tmp_path / "bo2_bake" / "probes"  # the .blend's own folder
+    files = list(folder.iterdir())
+    assert len(files) == 1 and files[0].name.startswith("Reflection-")
+    meta, sh, mips = probe_file.read(files[0])
     assert meta["backend"] == "BO2" and meta["face_size"] == 128 and len(mips["bo2"]) == 8
-    proc = bo2("bake", blend)
+    proc = bo2("bake", blend, "--no-pack")
     assert proc.returncode == 0 and "baked 2 probes" in proc.stdout
+    assert "packed" not in proc.stdout
+    assert {p.name for p in folder.iterdir()} > {files[0].name}  # re-baked in place
 
 
 def test_bake_with_cycles(tmp_path):
@@ -316,7 +321,7 @@ def test_bake_with_cycles(tmp_path):
     blend = probe_blend(tmp_path)
     proc = bo2("bake", blend, "--probes", "Irradiance", "--backend", "cycles", timeout=900)
     assert proc.returncode == 0, proc.stderr
-    meta, sh, _ = probe_file.read(tmp_path / "bo2_bake" / "Irradiance.exr")
+    meta, sh, _ = probe_file.read(*(tmp_path / "bo2_bake" / "probes").glob("Irradiance-*"))
     assert meta["backend"] == "CYCLES" and sh.shape == (8, 9, 3)
     assert np.isfinite(sh).all() and sh[:, 0].min() > 0  # every sample sees the sunlit plane
 
@@ -342,8 +347,9 @@ def test_bake_lightmaps(tmp_path):
     blend = probe_blend(tmp_path)
     proc = bo2("bake", blend, "--lightmaps")
     assert proc.returncode == 0, proc.stderr
-    assert "baked 1 lightmap into" in proc.stdout and "MiB)" in proc.stdout
-    meta, lm = lightmap_file.read(tmp_path / "bo2_bake" / "lightmaps" / "Plane.exr")
+    assert "baked 1 lightmap into" in proc.stdout and "MiB, packed" in proc.stdout
+    meta, lm = lightmap_file.read(
+        *(tmp_path / "bo2_bake" / "probes" / "lightmaps").glob("Plane-*"))
     assert meta["backend"] == "BO2" and meta["uv_map"] == ""
     # a lone plane under no world: nothing but the sun, whose direct light is not baked
     assert lm.uvs.shape == (2, 3, 2) and np.isfinite(lm.image).all() and lm.image.max() == 0.0

@@ -52,20 +52,22 @@ def test_bake_stops_and_keeps_the_previous_files(tmp_path):
     blend = tmp_path / "closed_room.blend"
     shutil.copyfile(ROOT / "demo_blends" / "closed_room.blend", blend)
     assert bo2("bake", blend).returncode == 0
-    folder = tmp_path / "bo2_bake"
+    folder = tmp_path / "bo2_bake" / "closed_room"
     before = digests(folder)
+    saved = blend.read_bytes()
     began = time.monotonic()
     proc = interrupted(("bake", blend), ready=lambda: time.monotonic() - began > 4.0)
     assert proc.returncode == 130, proc.stderr_text
     assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
     assert digests(folder) == before  # nothing replaced, no temporary file left
+    assert blend.read_bytes() == saved  # the .blend is saved only after a finished bake
 
 
 def test_lightmap_bake_stops_and_keeps_the_previous_lightmaps(tmp_path):
     blend = tmp_path / "closed_room.blend"
     shutil.copyfile(ROOT / "demo_blends" / "closed_room.blend", blend)
     assert bo2("bake", blend, "--lightmaps", "--backend", "bo2").returncode == 0
-    folder = tmp_path / "bo2_bake" / "lightmaps"
+    folder = tmp_path / "bo2_bake" / "closed_room" / "lightmaps"
     before = digests(folder)
     began = time.monotonic()
     proc = interrupted(("bake", blend, "--lightmaps"),

@@ -268,7 +268,7 @@ def walk():
     started, seconds = yield from bake_all(bpy.ops.bo2.bake_probes,
                                            lambda: operators.BO2_OT_bake_probes.running)
     probes = module("addon.blender.probes")
-    states = {o.name: probes.bake_state(o, probes.bake_folder(scene)).state
+    states = {o.name: probes.bake_state(o).state
               for o in probes.probe_objects(scene)}
     check("Bake All bakes every probe", started == {"RUNNING_MODAL"}
           and set(states.values()) == {"BAKED"},
