@@ -34,6 +34,14 @@ from ..blender import headless  # (no bpy: it imports Blender where it needs it)
 class CommandError(Exception):
     """A failure to report as one line and exit code 1."""
 
+    code = 1
+
+
+class BadInput(CommandError):
+    """Input that cannot be used (a damaged image, an unwritable output): one line, exit 2."""
+
+    code = 2
+
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message):  # one clear line instead of usage + error
@@ -150,6 +158,7 @@ def cmd_version(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from ..core import brdf, env_brdf
     from . import bake, compare, render, sh
+    from . import prefilter as prefilter_cmd
     from . import env_brdf as env_brdf_cmd
 
     parser = _Parser(prog="bo2", description="BO2 Lighting: Black Ops II lighting for Blender.")
@@ -207,7 +216,46 @@ def build_parser() -> argparse.ArgumentParser:
         "the 9 real SH of docs/sh.md. Prints one line per coefficient: l m  r g b.")
     sh_cmd.add_argument("image", help="equirectangular image (.hdr, .exr, .png, ...)")
     sh_cmd.add_argument("--json", action="store_true", help="print a JSON object")
+    sh_cmd.add_argument("-o", "--output", metavar="SH.json",
+                        help="write the SH and the tinted scalar SH as JSON")
+    sh_cmd.add_argument("--header", metavar="SH.h",
+                        help="write them as a C header of static const float arrays")
+    sh_cmd.add_argument("--axes", choices=("blender", "y-up"), default="blender",
+                        help="axes of the coefficients: Blender's (Z up, default) or Y up "
+                        "as glTF, for an engine")
     sh_cmd.set_defaults(func=sh.run)
+    pre = sub.add_parser(
+        "prefilter", help="prefilter an environment image into a cube map mip chain",
+        description="Prefilter an environment (a lat-long .hdr/.exr, a horizontal or vertical "
+        "cube cross, or six face images +X -X +Y -Y +Z -Z) into the mip chain a game engine "
+        "samples by gloss, written as KTX2 or DDS (RGBA16F cube, every mip) or OpenEXR, with "
+        "the gloss-to-mip mapping and the environment map normalization's SH in the metadata. "
+        "Faces are in the GPU's cube map orientation, axes Y up as glTF. Filters: bo2, the "
+        "talk's cosine power with 8192^gloss (cmft's blinn, gloss scale 13, bias 0); bo1, "
+        "CubeMapGen's angular Gaussian; and cmft's phong, phongbrdf, blinn, blinnbrdf with "
+        "--gloss-scale and --gloss-bias.")
+    pre.add_argument("images", nargs="+", metavar="IMAGE",
+                     help="one lat-long or cross image, or six face images")
+    pre.add_argument("-o", "--output", action="append", required=True, metavar="OUT",
+                     help="file to write: .ktx2, .dds (with a .json beside it) or .exr; "
+                     "repeat for several")
+    pre.add_argument("--filter", choices=prefilter_cmd.FILTERS, default="bo2")
+    pre.add_argument("--size", type=_positive, metavar="S",
+                     help="face size of mip 0, a power of two (default: 128 for bo2, the "
+                     "talk's, else the input's)")
+    pre.add_argument("--mips", type=_positive, metavar="N",
+                     help="number of mips (default: down to 1 x 1)")
+    pre.add_argument("--gloss-scale", type=float, default=10.0,
+                     help="cmft filters: specular power 2^(scale gloss + bias) (default 10)")
+    pre.add_argument("--gloss-bias", type=float, default=1.0, help="(default 1)")
+    pre.add_argument("--edge-fixup", choices=("none", "warp"), default="none",
+                     help="warp: edge texels filtered at the edge's direction, for GPUs "
+                     "without seamless cube filtering (the shader scales the lookup's minor "
+                     "axes by 1 - 1/S_mip); default none (seamless)")
+    pre.add_argument("--exclude-base", action="store_true",
+                     help="mip 0 is the input, unfiltered (as cmft's --excludeBase)")
+    pre.add_argument("--json", action="store_true", help="print a JSON summary")
+    pre.set_defaults(func=prefilter_cmd.run)
     bake_cmd = sub.add_parser(
         "bake", help="bake the light probes or lightmaps of a .blend file",
         description="Bake the Sphere and Volume light probes of a .blend file (SH irradiance and "
@@ -259,7 +307,7 @@ def main(argv: list[str] | None = None) -> int:
         return args.func(args)
     except CommandError as exc:
         print(f"bo2: error: {exc}", file=sys.stderr)
-        return 1
+        return exc.code
     except KeyboardInterrupt:
         from ..blender import interrupt
 

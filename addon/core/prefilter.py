@@ -89,8 +89,10 @@ __all__ = [
     "gloss_to_lod",
     "mip_gloss",
     "mip_powers",
+    "cmft_powers",
     "prefilter_angular_gaussian",
     "prefilter_cosine_power",
+    "prefilter_powers",
     "top_resolution",
 ]
 
@@ -328,15 +330,33 @@ def _source_tables(size: int):
     return dirs, dirs.astype(np.float32), omega.astype(np.float32)
 
 
+def _output_directions(size: int, warp: bool) -> np.ndarray:
+    """(6, S, S, 3) float64 directions the output texels are filtered at: the texel centres,
+    or with ``warp`` the edge fixup of cmft and The Witness (Castano 2012, "Seamless cube map
+    filtering"): face coordinates stretched by S / (S - 1), so that the texels along an edge
+    hold the direction of the edge itself and agree with the neighbouring face's; a shader
+    reading it scales the direction's two minor components by 1 - 1 / S_lod (S_lod the face
+    size of the mip it reads) before a lookup that does not filter across faces."""
+    if not warp or size < 2:
+        return cubemap._texel_directions64(size)
+    t = cubemap.face_coordinates(size) * (size / (size - 1.0))
+    a, b = t[None, :], -t[:, None]
+    f, r, u = cubemap.FACES[:, 0], cubemap.FACES[:, 1], cubemap.FACES[:, 2]
+    d = (f[:, None, None, :] + a[None, :, :, None] * r[:, None, None, :]
+         + b[None, :, :, None] * u[:, None, None, :])
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
 @functools.lru_cache(maxsize=16)
-def _output_tiles(size: int, tile: int):
+def _output_tiles(size: int, tile: int, warp: bool = False):
     """Tiles of face +X and their images under the face's 8 symmetries.
 
-    returns dirs (S^2, 3) float64 face +X texel directions (row-major), targets (8, S^2) int64
-    (``_d4_targets``), and a list of canonical tiles, each (texels (T^2,) int64 flat indices,
-    syms (k,) int64 symmetries giving its k distinct images).
+    returns dirs (S^2, 3) float64 face +X output directions (row-major,
+    ``_output_directions``), targets (8, S^2) int64 (``_d4_targets``), and a list of canonical
+    tiles, each (texels (T^2,) int64 flat indices, syms (k,) int64 symmetries giving its k
+    distinct images).
     """
-    dirs = cubemap._texel_directions64(size)[0].reshape(-1, 3)
+    dirs = _output_directions(size, warp)[0].reshape(-1, 3)
     targets = _d4_targets(size)
     n = size // tile
     seen = set()
@@ -442,7 +462,7 @@ def _tile_size(out_size: int, src_size: int, reach: float) -> int:
 
 
 def _filter_level(source: np.ndarray, out_size: int, weight, reach: float,
-                  workers: int) -> np.ndarray:
+                  workers: int, warp: bool = False) -> np.ndarray:
     """Normalized spherical convolution of a cube with an isotropic kernel, on a new grid.
 
     source:   (6, S_s, S_s, C) float32 cube
@@ -451,13 +471,15 @@ def _filter_level(source: np.ndarray, out_size: int, weight, reach: float,
               outside the kernel's support
     reach:    the kernel's support half-angle in radians (no weight beyond it)
     workers:  threads
+    warp:     filter at the edge fixup's stretched directions (``_output_directions``)
     returns   (6, S_m, S_m, C) float32: sum w(r.d) L(d) dOmega / sum w(r.d) dOmega; where no
               source texel has weight, the seamless bilinear sample of the source at r
     """
     s_src = source.shape[1]
     c = source.shape[-1]
     dirs, dirs32, omega = _source_tables(s_src)
-    out_dirs, targets, tiles = _output_tiles(out_size, _tile_size(out_size, s_src, reach))
+    out_dirs, targets, tiles = _output_tiles(out_size, _tile_size(out_size, s_src, reach),
+                                             warp)
     values = np.ascontiguousarray(source, np.float32).reshape(-1, c)
     out = np.empty((6, out_size * out_size, c), np.float32)
     n_all = len(dirs)
@@ -510,7 +532,7 @@ def _filter_level(source: np.ndarray, out_size: int, weight, reach: float,
                 for gk, g in enumerate(syms):
                     tgt = targets[g, texels[r0 + miss]]
                     for f in range(6):
-                        face_dirs = cubemap._texel_directions64(out_size)[f].reshape(-1, 3)
+                        face_dirs = _output_directions(out_size, warp)[f].reshape(-1, 3)
                         res[miss, f, gk] = cubemap.sample(source, face_dirs[tgt])
             for gk, g in enumerate(syms):
                 out[:, targets[g, texels[r0:r1]], :] = res[:, :, gk, :].transpose(1, 0, 2)
@@ -562,21 +584,81 @@ def prefilter_cosine_power(
     workers:          threads
     returns:          list of M + 1 float32 arrays (6, S >> m, S >> m, C), M = log2(S)
     """
+    return prefilter_powers(cube, mip_powers(cube.shape[1]), cutoff=cutoff,
+                            texels_per_sigma=texels_per_sigma, min_source=min_source,
+                            workers=workers)
+
+
+def prefilter_powers(
+    cube,
+    powers,
+    *,
+    cutoff: float = 1e-4,
+    texels_per_sigma: float = 4.0,
+    min_source: int = 32,
+    workers: int = 2,
+    warp: bool = False,
+    exclude_base: bool = False,
+    should_stop=None,
+) -> list[np.ndarray]:
+    """A mip chain whose mip m is the cube convolved with the Phong lobe (r.d)^powers[m]
+    (``prefilter_cosine_power``'s method, any powers: cmft's ``cmft_powers`` for instance).
+
+    cube:         (6, S, S, C) float32 radiance, S a power of two
+    powers:       (N,) Phong exponents of mips 0 .. N - 1, N <= log2(S) + 1
+    warp:         filter at the edge fixup's directions (``_output_directions``)
+    exclude_base: mip 0 is the input itself, unfiltered (cmft's ``excludeBase``)
+    should_stop:  called before each mip; True stops with ``InterruptedError``
+    returns:      list of N float32 arrays (6, S >> m, S >> m, C)
+    """
     cube = _check_cube(cube)
     size = cube.shape[1]
+    powers = [float(p) for p in np.atleast_1d(powers)]
+    if not 1 <= len(powers) <= _mip_count(size) + 1 or not all(p > 0 for p in powers):
+        raise ValueError(f"expected 1 to {_mip_count(size) + 1} positive powers for a face "
+                         f"of {size}, got {powers}")
     pyramid = cubemap.build_pyramid(cube)
     mips = []
-    for m, power in enumerate(mip_powers(size)):
+    for m, power in enumerate(powers):
+        if should_stop is not None and should_stop():
+            raise InterruptedError("prefiltering stopped")
         out_size = size >> m
+        if m == 0 and exclude_base:
+            mips.append(cube.copy())
+            continue
         want = 2.0 * texels_per_sigma * math.sqrt(power)
         src_size = 1 << max(0, math.ceil(math.log2(max(want, 1.0)) - 1e-9))
         src_size = min(size, max(src_size, out_size, min(min_source, size)))
         source = pyramid[_mip_count(size) - _mip_count(src_size)]
         reach = cone_angle(power, cutoff)
-        mips.append(
-            _filter_level(source, out_size, _weights_phong(power, cutoff), reach, workers)
-        )
+        mips.append(_filter_level(source, out_size, _weights_phong(power, cutoff), reach,
+                                  workers, warp))
     return mips
+
+
+CMFT_MODELS = ("phong", "phongbrdf", "blinn", "blinnbrdf")
+
+
+def cmft_powers(mip_count: int, gloss_scale: float = 10.0, gloss_bias: float = 1.0,
+                model: str = "blinnbrdf") -> np.ndarray:
+    """Phong exponents of the mips of cmft's radiance filter (Manesku, cmft, "specularPowerFor"
+    and "applyLightningModel"): gloss g_m = max(0, 1 - m / (N - 1)), specular power
+    2^(glossScale g_m + glossBias), then by lighting model: phong p, phongbrdf p + 1, blinn
+    p / 4, blinnbrdf p / 4 + 1 (Lagarde 2012, the Blinn-Phong to Phong conversion). The BO2
+    chain (slide "Improved environment map pre-filtering") is blinn with glossScale 13,
+    glossBias 0 (8192^g / 4) over the whole chain. Defaults: cmft's.
+
+    mip_count: N >= 1
+    returns:   (N,) float64 Phong exponents
+    """
+    if model not in CMFT_MODELS:
+        raise ValueError(f"lighting model {model!r}: expected one of {', '.join(CMFT_MODELS)}")
+    m = np.arange(int(mip_count), dtype=np.float64)
+    gloss = np.maximum(0.0, 1.0 - m / (mip_count - 1.0)) if mip_count > 1 else np.ones(1)
+    power = 2.0 ** (gloss_scale * gloss + gloss_bias)
+    if model.startswith("blinn"):
+        power = power / 4.0
+    return power + 1.0 if model.endswith("brdf") else power
 
 
 def prefilter_angular_gaussian(
@@ -586,6 +668,7 @@ def prefilter_angular_gaussian(
     mip_angle_scale: float = DEFAULT_MIP_ANGLE_SCALE,
     *,
     workers: int = 2,
+    warp: bool = False,
 ) -> list[np.ndarray]:
     """BO1 prefiltered mip chain: AMD CubeMapGen's angular Gaussian cascade.
 
@@ -603,6 +686,7 @@ def prefilter_angular_gaussian(
     initial_mip_angle: cone angle of mip 1, degrees ("Initial Mip Filter Angle")
     mip_angle_scale:   ratio of successive cone angles ("Mip Filter Angle Scale")
     workers:           threads
+    warp:              filter at the edge fixup's directions (``_output_directions``)
     returns:           list of M + 1 float32 arrays (6, S >> m, S >> m, C)
     """
     cube = _check_cube(cube)
@@ -615,7 +699,7 @@ def prefilter_angular_gaussian(
         h = math.radians(float(half))
         edge = h * (1.0 + _EDGE_TOLERANCE)
         weight = _weights_gaussian(h / 3.0, edge)
-        level = _filter_level(source, size >> m, weight, edge, workers)
+        level = _filter_level(source, size >> m, weight, edge, workers, warp)
         mips.append(level)
         source = level
     return mips

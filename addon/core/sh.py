@@ -63,6 +63,7 @@ __all__ = [
     "project",
     "project_equirect",
     "radiance_luminance",
+    "rotate",
     "tinted_irradiance",
     "to_tinted",
     "window",
@@ -311,3 +312,21 @@ def window(sh, kind: str = "hanning", width: float = 3.0) -> np.ndarray:
     sh = np.asarray(sh, np.float64)
     w = window_weights(kind, width)[BAND]
     return sh * w.reshape((COEFFICIENTS,) + (1,) * (sh.ndim - 1))
+
+
+def rotate(sh, rotation) -> np.ndarray:
+    """The SH of the same radiance in turned axes: directions d become R d.
+
+    Exact for order 3 (each band turns within itself): the coefficients are fitted by least
+    squares to the radiance's values at 64 Fibonacci directions.
+
+    sh:       (9, C) or (9,) coefficients in the old axes
+    rotation: (3, 3) orthonormal R, old axes -> new axes (``gpu_textures.Y_UP`` for instance)
+    returns:  same shape, float64 coefficients in the new axes
+    """
+    d = fibonacci_directions(64)
+    old = basis(d).astype(np.float64)
+    new = basis(d @ np.asarray(rotation, np.float64).T).astype(np.float64)
+    values = old @ np.asarray(sh, np.float64).reshape(COEFFICIENTS, -1)
+    turned, *_ = np.linalg.lstsq(new, values, rcond=None)
+    return turned.reshape(np.shape(sh))

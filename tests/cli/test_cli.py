@@ -219,13 +219,13 @@ def test_sh_of_a_reference_hdri():
 
 def test_sh_bad_inputs(tmp_path):
     proc = bo2("sh", tmp_path / "nope.hdr")
-    assert proc.returncode == 1 and "no such image file" in one_error_line(proc)
+    assert proc.returncode == 2 and "no such file" in one_error_line(proc)
     noise = tmp_path / "noise.hdr"
     noise.write_bytes(np.random.default_rng(3).integers(0, 256, 4096, np.uint8).tobytes())
     proc = bo2("sh", noise)
-    assert proc.returncode == 1 and "not an image Blender can read" in one_error_line(proc)
+    assert proc.returncode == 2 and "not an image Blender can read" in one_error_line(proc)
     proc = bo2("sh", tmp_path)
-    assert proc.returncode == 1 and "is a directory" in one_error_line(proc)
+    assert proc.returncode == 2 and "is a directory" in one_error_line(proc)
     for args in (("sh",), ("sh", noise, "--frobnicate")):
         proc = bo2(*args)
         assert proc.returncode == 2
