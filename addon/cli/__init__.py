@@ -5,16 +5,19 @@
                                           [--resolution WxH] [--specular-model MODEL]
                                           [--all-passes]
     bo2 env-brdf --gloss G --nov X [--rf0 R [G B]] [--model MODEL] [--json]
-    bo2 sh IMAGE [--json]
+    bo2 sh IMAGE [--json] [-o SH.json] [--header SH.h] [--axes blender|y-up]
     bo2 bake SCENE.blend [--probes NAME ...] [--backend bo2|cycles] [--pack | --no-pack]
     bo2 bake SCENE.blend --lightmaps [NAME ...] [--pack | --no-pack]
+    bo2 prefilter IMAGE [IMAGE x 5] -o OUT.ktx2|.dds|.exr [--filter F] [--size S] [--mips N]
+    bo2 export-probes SCENE.blend -o DIR [--format ktx2|dds|exr|json]
     bo2 compare SCENE.blend -o DIR [--frame N] [--samples N] [--cycles-samples N]
                                    [--resolution WxH]
     bo2 version
 
 This module holds the argument parser, ``main`` and the error handling: errors print one line,
-``bo2: error: ...``, and exit non-zero (2 for bad usage, 1 for a failed command, 130 when
-interrupted). Each command is a module (``render``, ``env_brdf``, ``sh``, ``bake``, ``compare``)
+``bo2: error: ...``, and exit non-zero (2 for bad usage or input, 1 for a failed command, 130 when
+interrupted). Each command is a module (``render``, ``env_brdf``, ``sh``, ``bake``, ``compare``,
+``prefilter``, ``export_probes``)
 with ``run(args) -> exit code``; ``terminal`` holds the terminal handling, ``patterns`` the
 ``-o`` pattern language. Everything Blender is ``blender/headless.py`` and the other Blender
 modules; ``bpy`` is imported only by the commands that need it, so ``bo2 --help`` is instant.
@@ -158,6 +161,7 @@ def cmd_version(args) -> int:
 def build_parser() -> argparse.ArgumentParser:
     from ..core import brdf, env_brdf
     from . import bake, compare, render, sh
+    from . import export_probes
     from . import prefilter as prefilter_cmd
     from . import env_brdf as env_brdf_cmd
 
@@ -277,6 +281,18 @@ def build_parser() -> argparse.ArgumentParser:
                           help="store the bakes inside the .blend too (default: the scene's "
                           "Pack Bakes setting)")
     bake_cmd.set_defaults(func=bake.run)
+    export = sub.add_parser(
+        "export-probes", help="export the baked probes of a .blend file for a game engine",
+        description="Write every baked light probe of a .blend file, and its world, as a game "
+        "engine loads them: the reflection probes' and the world's BO2 prefiltered chains "
+        "(KTX2 or DDS RGBA16F cubes, or OpenEXR; none with --format json) and probes.json: "
+        "each probe's SH, placement, parallax proxy, influence and falloff, the volumes' SH "
+        "grids, the gloss-to-mip mapping and the normalization data, in Y-up axes as glTF.")
+    export.add_argument("scene", help=".blend file")
+    export.add_argument("-o", "--output", required=True, metavar="DIR",
+                        help="output folder (created if missing)")
+    export.add_argument("--format", choices=("ktx2", "dds", "exr", "json"), default="ktx2")
+    export.set_defaults(func=export_probes.run)
     compare_cmd = sub.add_parser(
         "compare", help="render a frame with BO2 Lighting and Cycles and compare them",
         description="Render one frame of a .blend file with BO2 Lighting and with Cycles (same "

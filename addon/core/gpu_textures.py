@@ -26,8 +26,9 @@ Files, both RGBA16F (IEEE half floats, alpha 1) with every mip, faces in the ord
   D3D11_RESOURCE_MISC_TEXTURECUBE); data face by face, each face's mips largest first.
 - KTX2 (Khronos, "KTX File Format Specification" 2.0): VK_FORMAT_R16G16B16A16_SFLOAT, faceCount
   6, the level index, a Basic Data Format Descriptor (RGBSDA, BT.709 primaries, linear, four
-  signed float 16-bit samples), key/value data (``KTXwriter`` and ``bo2.meta``, JSON), and the
-  levels smallest first, each holding its six faces, 8-byte aligned.
+  signed float 16-bit samples), key/value data (``KTXwriter`` and ``bo2.meta``, JSON; each
+  entry padded to 8 bytes), and the levels smallest first, each holding its six faces, 8-byte
+  aligned.
 """
 
 from __future__ import annotations
@@ -149,9 +150,13 @@ def _dfd_rgba16f() -> bytes:
     return struct.pack("<I", 4 + len(block)) + block
 
 
-def _kv(key: str, value: bytes) -> bytes:
-    entry = key.encode() + b"\0" + value
-    return struct.pack("<I", len(entry)) + entry + bytes(-len(entry) % 4)
+def _kv(key: str, text: str) -> bytes:
+    """A key/value entry of a NUL-terminated UTF-8 ``text``, its length a multiple of 8
+    (``text`` padded with spaces), so that no padding follows it whatever a reader's
+    alignment (pyktx2 0.3.1 aligns to 8 where the specification says 4)."""
+    entry = key.encode() + b"\0" + text.encode()
+    entry += b" " * (-(4 + len(entry) + 1) % 8) + b"\0"
+    return struct.pack("<I", len(entry)) + entry
 
 
 def write_ktx2(path: str | os.PathLike, mips: list[np.ndarray], meta: dict | None = None,
@@ -161,9 +166,9 @@ def write_ktx2(path: str | os.PathLike, mips: list[np.ndarray], meta: dict | Non
     _check_chain(mips)
     size, count = mips[0].shape[1], len(mips)
     dfd = _dfd_rgba16f()
-    kvd = _kv("KTXwriter", writer.encode() + b"\0")
+    kvd = _kv("KTXwriter", writer)
     if meta is not None:
-        kvd += _kv("bo2.meta", json.dumps(meta, sort_keys=True).encode() + b"\0")
+        kvd += _kv("bo2.meta", json.dumps(meta, sort_keys=True))
     head = 12 + 4 * 9 + 4 * 4 + 8 * 2
     index_end = head + 24 * count
     dfd_offset = index_end
