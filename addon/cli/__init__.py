@@ -160,10 +160,9 @@ def cmd_version(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from ..core import brdf, env_brdf
-    from . import bake, compare, render, sh
-    from . import export_probes
-    from . import prefilter as prefilter_cmd
+    from . import bake, compare, export_probes, render, sh
     from . import env_brdf as env_brdf_cmd
+    from . import prefilter as prefilter_cmd
 
     parser = _Parser(prog="bo2", description="BO2 Lighting: Black Ops II lighting for Blender.")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

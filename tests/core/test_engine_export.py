@@ -18,8 +18,14 @@ import numpy as np
 import pytest
 from rgbe import read_rgbe
 
-from bo2_lighting.addon.core import (cubemap, engine_export, environment_files, gpu_textures,
-                                     prefilter, sh)
+from bo2_lighting.addon.core import (
+    cubemap,
+    engine_export,
+    environment_files,
+    gpu_textures,
+    prefilter,
+    sh,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 ENVMAPS = ROOT.parent / "shared" / "reference" / "envmaps"
