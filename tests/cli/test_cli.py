@@ -315,6 +315,44 @@ def test_bake_writes_the_bake_folder(tmp_path):
     assert {p.name for p in folder.iterdir()} > {files[0].name}  # re-baked in place
 
 
+def test_export_probes_for_an_engine(tmp_path):
+    """The baked probes leave as an engine loads them: the reflection probe's bo2 chain, its
+    texels where the OpenGL cube table puts their directions (Y up), and the SH turned into Y-up
+    axes (the l = 1 band of Blender's z is the engine's y)."""
+    import json
+
+    from bo2_lighting.addon.core import cubemap, gpu_textures, probe_file
+
+    blend = probe_blend(tmp_path)
+    assert bo2("bake", blend, "--no-pack").returncode == 0
+    out = tmp_path / "export"
+    proc = bo2("export-probes", blend, "-o", out, "--format", "dds")
+    assert proc.returncode == 0, proc.stderr
+    assert "exported 2 probes and the world" in proc.stdout
+    manifest = json.loads((out / "probes.json").read_text())
+    by_name = {p["name"]: p for p in manifest["probes"]}
+    reflection, volume = by_name["Reflection"], by_name["Irradiance"]
+    assert reflection["position"] == pytest.approx([0, 1, 0])  # Blender (0, 0, 1), Y up
+    assert reflection["chain"] == "Reflection.dds" and (out / "Reflection.json").is_file()
+    meta, sh, chains = probe_file.read(*(tmp_path / "bo2_bake" / "probes").glob("Reflection-*"))
+    # l = 1: Blender's (y, z, x) order (1,-1) (1,0) (1,1) -> the engine's (y', z', x')
+    # with x' = x, y' = z, z' = -y: c'(1,-1) = c(1,0), c'(1,0) = -c(1,-1), c'(1,1) = c(1,1)
+    turned = np.asarray(reflection["sh"])
+    np.testing.assert_allclose(turned[[0, 1, 2, 3]], [sh[0, 0], sh[0, 2], -sh[0, 1], sh[0, 3]],
+                               atol=1e-5)
+    assert np.asarray(volume["sh"]).shape == (2, 2, 2, 9, 3)
+    data = (out / "Reflection.dds").read_bytes()
+    size = chains["bo2"][0].shape[1]
+    face0 = np.frombuffer(data, np.float16, size * size * 4, 148).reshape(size, size, 4)
+    d = np.array([1.0, 0.0, 0.0])  # the centre of GPU face +X: Blender's +X
+    f, x, y = cubemap.direction_to_face(d, size)
+    expected = chains["bo2"][0][f[0], int(y[0]), int(x[0])]
+    np.testing.assert_allclose(face0[size // 2, size // 2, :3], expected, rtol=2e-3)
+    assert (gpu_textures.Y_UP @ [0, 0, 1] == [0, 1, 0]).all()
+    proc = bo2("export-probes", blend, "-o", tmp_path / "probes.blend")
+    assert proc.returncode == 2 and "is a file" in one_error_line(proc)
+
+
 def test_bake_with_cycles(tmp_path):
     from bo2_lighting.addon.core import probe_file
 
