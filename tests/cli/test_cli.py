@@ -217,6 +217,46 @@ def test_sh_of_a_reference_hdri():
                                atol=1e-3 * np.abs(expected).max())
 
 
+def test_sh_for_an_engine_as_json_and_a_c_header(tmp_path):
+    """``-o`` and ``--header`` in Y-up axes: the header compiles (the system's C compiler, when
+    there is one) and its arrays hold the JSON's values; the tinted scalar SH rebuilds the RGB
+    DC term (tint * scalar_0 = sh_0)."""
+    import json
+    import shutil
+
+    hdri = ENVMAPS / "venice_sunset_1k.hdr"
+    if not hdri.is_file():
+        pytest.skip(f"reference HDRI not found: {hdri}")
+    proc = bo2("sh", hdri, "--axes", "y-up", "-o", tmp_path / "sh.json",
+               "--header", tmp_path / "sh.h")
+    assert proc.returncode == 0, proc.stderr
+    record = json.loads((tmp_path / "sh.json").read_text())
+    assert record["axes"].startswith("Y up")
+    rgb = np.array(record["radiance_rgb"])
+    blender = np.array(json.loads(bo2("sh", hdri, "--json").stdout)["coefficients"])
+    np.testing.assert_allclose(rgb[[0, 1, 2, 3]], [blender[0], blender[2], -blender[1],
+                                                   blender[3]], rtol=1e-5, atol=1e-6)
+    tinted = record["tinted_scalar"]
+    np.testing.assert_allclose(np.array(tinted["tint"]) * tinted["scalar"][0], rgb[0],
+                               rtol=1e-6)
+    cc = shutil.which("cc")
+    if cc is None:
+        pytest.skip("no C compiler to build the header with")
+    program = tmp_path / "main.c"
+    program.write_text('#include <stdio.h>\n#include "sh.h"\nint main(void) {\n'
+                       "  for (int i = 0; i < 9; ++i) printf(\"%.9g %.9g %.9g\\n\", "
+                       "venice_sunset_1k_sh_rgb[i][0], venice_sunset_1k_sh_rgb[i][1], "
+                       "venice_sunset_1k_sh_rgb[i][2]);\n"
+                       '  printf("%.9g\\n", venice_sunset_1k_sh_scalar[0]);\n  return 0;\n}\n')
+    subprocess.run([cc, "-std=c99", "-Wall", "-Werror", "-o", str(tmp_path / "main"),
+                    str(program)], check=True, cwd=tmp_path, capture_output=True)
+    lines = subprocess.run([str(tmp_path / "main")], check=True, capture_output=True,
+                           text=True).stdout.split("\n")
+    printed = np.array([[float(x) for x in line.split()] for line in lines[:9]])
+    np.testing.assert_allclose(printed, rgb, rtol=1e-6)
+    assert float(lines[9]) == pytest.approx(tinted["scalar"][0], rel=1e-6)
+
+
 def test_sh_bad_inputs(tmp_path):
     proc = bo2("sh", tmp_path / "nope.hdr")
     assert proc.returncode == 2 and "no such file" in one_error_line(proc)
