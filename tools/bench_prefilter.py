@@ -62,7 +62,7 @@ def main() -> int:
                        "blinnbrdf", "--edgeFixup", "none", "--numCpuProcessingThreads", "2",
                        "--useOpenCL", "false", "--outputNum", "1", "--output0",
                        str(Path(tmp) / "out"), "--output0params", "dds,rgba16f,cubemap"]
-                t, _ = best(lambda: subprocess.run(cmd, check=True, capture_output=True),
+                t, _ = best(lambda c=cmd: subprocess.run(c, check=True, capture_output=True),
                             args.repeat)
                 theirs = f"{t:.2f}"
         print(f"{size:5d} {mips:5d} {t_cube:10.2f} {t_bo2:8.2f} {t_cmft_ours:12.2f} "
