@@ -274,6 +274,23 @@ def walk():
           and set(states.values()) == {"BAKED"},
           f"{started}, {states} after {seconds:.0f} s")
 
+    # 5a. The bakes belong to the .blend: declared in its own folder and packed into it (the
+    # default), unpacked and packed again by the Light Probes panel's buttons
+    bake_files = module("addon.blender.bake_files")
+    objs = probes.probe_objects(scene)
+    check("the bakes are in the .blend's own folder and packed into it",
+          objs and all(bake_files.packed(o) and bake_files.path(o).parent.name == ROOM.stem
+                       for o in objs), [str(bake_files.path(o)) for o in objs])
+    unpacked = bpy.ops.bo2.unpack_bakes()
+    written = [bake_files.path(o).is_file() and not bake_files.packed(o) for o in objs]
+    packed = bpy.ops.bo2.pack_bakes()
+    check("Unpack Bakes writes them back, Pack Bakes stores them again",
+          unpacked == packed == {"FINISHED"} and all(written)
+          and all(bake_files.packed(o) for o in objs), f"{unpacked} {written} {packed}")
+    yield from show_tab(objs[0], "DATA")
+    yield 1.5
+    screenshot("probe_bake_packed", biggest("PROPERTIES"))
+
     # 5b. Then the lightmaps, from the Lightmaps panel's button; the panel and an object's
     started, seconds = yield from bake_all(bpy.ops.bo2.bake_lightmaps,
                                            lambda: operators._ModalBake.running)
