@@ -8,7 +8,6 @@ import time
 from pathlib import Path
 
 from ..blender import headless, interrupt
-from ..core import pipeline
 from . import CommandError, load_blend
 from .terminal import progress_bar, quiet_blender, stderr_copy
 
@@ -17,6 +16,7 @@ def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
     scene = load_blend(Path(args.scene))
     from ..blender import bake, bake_files, lightmaps, probes
+    from ..core import pipeline
 
     lightmapping = args.lightmaps is not None
     if lightmapping:
