@@ -44,7 +44,7 @@ def register() -> None:
     """Register every class of the add-on, in order; safe to call after ``unregister()``."""
     import bpy
 
-    from .blender import bake_files, library, node_groups, props, ui
+    from .blender import adoption, library, node_groups, props, ui
     from .core import kernels
 
     if _registered:
@@ -60,20 +60,20 @@ def register() -> None:
     node_groups.append_menus()
     ui.append_menus()
     library.register_library()
-    bpy.app.handlers.load_post.append(bake_files.on_load)
+    bpy.app.handlers.load_post.append(adoption.on_load)
 
 
 def unregister() -> None:
     """Remove everything ``register()`` added, in reverse order."""
     import bpy
 
-    from .blender import bake_files, library, node_groups, props, ui, viewport
+    from .blender import adoption, library, node_groups, props, ui, viewport
 
     if not _registered:
         return
     viewport.close_all()
-    if bake_files.on_load in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.remove(bake_files.on_load)
+    if adoption.on_load in bpy.app.handlers.load_post:
+        bpy.app.handlers.load_post.remove(adoption.on_load)
     library.unregister_library()
     ui.remove_menus()
     node_groups.remove_menus()

@@ -61,6 +61,7 @@ import bpy
 import numpy as np
 
 import bo2_lighting
+from bo2_lighting.addon.blender import bake_files
 from bo2_lighting.addon.blender import compare as blender_compare
 from bo2_lighting.addon.blender import images as blender_images
 from bo2_lighting.addon.core import compare, imaging
@@ -180,8 +181,9 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         start = time.perf_counter()
         assert bpy.ops.bo2.bake_lightmaps() == {"FINISHED"}
         lightmap_seconds = time.perf_counter() - start
-        lightmap_bytes = sum(p.stat().st_size for p in (out / "bake" / "lightmaps").iterdir())
-        seam_figures = lightmap_seams(out / "bake" / "lightmaps")
+        folder = bake_files.file_folder(scene) / bake_files.LIGHTMAPS
+        lightmap_bytes = sum(p.stat().st_size for p in folder.iterdir())
+        seam_figures = lightmap_seams(folder)
     layer = bpy.context.view_layer
     job = blender_compare.Comparison(scene, layer, out)
     cycles_info = out / "cycles_info.json"

@@ -58,8 +58,7 @@ def open_scene(stem: str):
                        capture_output=True)
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
-    folder = probes.bake_folder(scene)
-    if any(probes.bake_state(o, folder).state != "BAKED" for o in probes.probe_objects(scene)):
+    if any(probes.bake_state(o).state != "BAKED" for o in probes.probe_objects(scene)):
         assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
     return scene
 

@@ -168,12 +168,11 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                 (path, bake.metadata(b, backend, job.bounces, stamp,
                                      time.perf_counter() - start, version()), b.coeffs, b.chains)
                 for b, (_, path) in zip(job.results, targets, strict=True)])
-            for obj, path in targets:
-                bake_files.declare(obj, path, pack=settings.bake_pack)
     except (OSError, probe_file.ProbeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise BakeError(f"Could not write the bake into {bake_files.file_folder(scene)} "
                         f"({reason}); the previous bake files are as they were") from None
+    _declare(scene, targets)
     yield 1.0
 
 
@@ -324,7 +323,7 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
 
     if not objs:
         raise BakeError("No static mesh objects to bake lightmaps for")
-    out = probes.writable_folder(scene)
+    probes.writable_folder(scene)
     start = time.perf_counter()
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False)
@@ -369,12 +368,12 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
     try:
         with interrupt.writing():
             lightmap_file.write_all([f[:3] for f in files])
-            for path, _, _, obj in files:
-                bake_files.declare(obj, path, pack=scene.bo2.bake_pack)
     except (OSError, probe_file.ProbeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise BakeError(f"Could not write the lightmaps into {out} ({reason}); the previous "
+        where = bake_files.file_folder(scene) / bake_files.LIGHTMAPS
+        raise BakeError(f"Could not write the lightmaps into {where} ({reason}); the previous "
                         "lightmaps are as they were") from None
+    _declare(scene, [(obj, path) for path, _, _, obj in files])
     yield 1.0
 
 
@@ -390,7 +389,18 @@ def _check_room(folder: Path, size: int) -> None:
                         f"to {size / 2**20:.1f} MiB; free some space or choose another folder")
 
 
-def clear(objs) -> int:
-    """Delete the bakes of ``objs`` (light probes or lightmaps: their files and datablocks);
-    returns how many there were."""
-    return sum(bake_files.forget(obj) for obj in objs)
+def clear(scene, objs) -> int:
+    """Delete the bakes of ``objs`` (light probes or lightmaps: their datablocks, and their
+    files in this .blend's folder); returns how many there were."""
+    return sum(bake_files.forget(scene, obj) for obj in objs)
+
+
+def _declare(scene, written: list[tuple]) -> None:
+    """Declare each (object, file) just written (``bake_files.declare``); BakeError when
+    Blender refuses (the files are written: a bake of the same objects declares them)."""
+    for obj, path in written:
+        try:
+            bake_files.declare(obj, path, pack=scene.bo2.bake_pack)
+        except (RuntimeError, ValueError, AttributeError) as exc:
+            raise BakeError(f"'{obj.name}': its bake is written to {path}, but the .blend "
+                            f"could not declare it ({exc}); bake it again") from None

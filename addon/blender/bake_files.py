@@ -8,14 +8,17 @@ move it with the .blend, or the file's bytes packed into the .blend (``pack``), 
 saved file carries its light. The object holds the datablock, so renaming it keeps its bake.
 
 New bakes are written into the .blend's own folder, ``<bake folder>/<.blend name>/``
-(lightmaps in ``lightmaps/`` inside it), each under the object's name and a random suffix:
-two .blend files of one folder, or a file saved under another name, never share a bake. Of the
-objects that hold one datablock (an object and its duplicates), the first in name order keeps
-it; the others get their own at their next bake.
+(lightmaps in ``lightmaps/`` inside it; with an absolute bake folder the name carries a digest
+of the .blend's path, since .blend files of one name may live in several folders), each under
+the object's name and a random suffix. A file is only ever written, replaced or deleted inside
+the .blend's own folder: a file saved under another name reads its original's bakes until its
+own bake writes new ones, and its Clear or Unpack leaves the original's files alone. So two
+.blend files never change each other's bakes. Of the objects that hold one datablock (an object
+and its duplicates), the first in name order keeps it; the others get their own at their next
+bake.
 
-Bakes of earlier versions (``<bake folder>/<object name>.exr``, keyed by name and shared by
-every .blend of the folder) are copied into the .blend's folder when it is opened (``adopt``;
-the old files stay, other .blend files may read them).
+The bake folder is ``scene.bo2.bake_folder``, else the preferences' default, ``//bo2_bake/``
+(``bake_folder``). Bakes of earlier versions are adopted when a file is opened (``adoption``).
 """
 
 from __future__ import annotations
@@ -31,9 +34,42 @@ from pathlib import Path
 
 import bpy
 
-from . import probes
+from . import props
 
 LIGHTMAPS = "lightmaps"  # sub-folder of the lightmaps
+
+
+class BakeError(Exception):
+    """A bake that cannot start or finish; one-line message."""
+
+
+def bake_folder(scene) -> Path:
+    """Absolute bake folder of ``scene``: ``scene.bo2.bake_folder``, else the preferences'
+    default (relative to the .blend)."""
+    folder = scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
+    if folder.startswith("//") and not bpy.data.filepath:
+        raise BakeError("Save the .blend file first (the bake folder is relative to it), "
+                        "or set an absolute Bake Folder")
+    return Path(bpy.path.abspath(folder))
+
+
+def writable_folder(scene) -> Path:
+    """``bake_folder(scene)``, checked before any work: a folder (or a path one can be made
+    at) where a file can be written. Nothing is created. Raises BakeError."""
+    folder = bake_folder(scene)
+    existing = folder
+    while not existing.exists() and existing != existing.parent:
+        existing = existing.parent
+    if not existing.is_dir():
+        raise BakeError(f"Bake folder {folder}: {existing} is a file, not a folder; choose "
+                        "another Bake Folder")
+    try:
+        with tempfile.TemporaryFile(dir=existing):
+            pass
+    except OSError as exc:
+        raise BakeError(f"Bake folder {folder} is not writable ({exc.strerror}); choose "
+                        "another Bake Folder") from None
+    return folder
 
 
 def _safe(name: str) -> str:
@@ -41,11 +77,32 @@ def _safe(name: str) -> str:
     return re.sub(r"[^\w\-. ]", "_", name).strip() or "_"
 
 
+def _norm(path) -> Path:
+    return Path(os.path.normpath(str(path)))
+
+
 def file_folder(scene) -> Path:
-    """This .blend's own bake folder: ``<bake folder>/<.blend name>/`` (an unsaved file with
-    an absolute bake folder: ``untitled``). Raises BakeError when unknown."""
-    stem = Path(bpy.data.filepath).stem if bpy.data.filepath else "untitled"
-    return probes.bake_folder(scene) / _safe(stem)
+    """This .blend's own bake folder: ``<bake folder>/<.blend name>/``; a name that is not
+    safe in file names, or an absolute bake folder, adds a digest of the .blend's path (an
+    unsaved file with an absolute bake folder: ``untitled``). Raises BakeError when unknown."""
+    blend = bpy.data.filepath
+    stem = Path(blend).stem if blend else "untitled"
+    name = _safe(stem)
+    setting = scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
+    if blend and (name != stem or not setting.startswith("//")):
+        name += "-" + hashlib.sha1(os.path.abspath(blend).encode()).hexdigest()[:8]
+    return _norm(bake_folder(scene) / name)
+
+
+def _own(scene, file: Path | None) -> bool:
+    """Whether ``file`` lies in this .blend's own bake folder (its sub-folders too)."""
+    if file is None:
+        return False
+    try:
+        folder = file_folder(scene)
+    except BakeError:
+        return False
+    return folder in _norm(file).parents
 
 
 def image(obj):
@@ -76,7 +133,7 @@ def path(obj) -> Path | None:
     img = image(obj)
     if img is None or not img.filepath:
         return None
-    return Path(bpy.path.abspath(img.filepath, library=img.library))
+    return _norm(bpy.path.abspath(img.filepath, library=img.library))
 
 
 _unpacked: list[Path] = []  # the folder of this process's copies of packed bakes
@@ -90,17 +147,25 @@ def _copies() -> Path:
     return _unpacked[0]
 
 
+_copied: dict[tuple, Path] = {}  # (packed data's address, size) -> its copy
+
+
 def readable(obj) -> Path | None:
-    """A file holding ``obj``'s bake as it renders: the packed bytes (copied once into a
-    temporary file named by their digest), else the declared file; None without one."""
+    """A file holding ``obj``'s bake as it renders: the packed bytes (copied into a temporary
+    file named by their digest, once per packing), else the declared file; None without one."""
     img = image(obj)
     if img is None:
         return None
-    if img.packed_file is not None:
-        data = img.packed_file.data
-        copy = _copies() / f"{hashlib.sha256(data).hexdigest()[:40]}.exr"
-        if not copy.exists():
-            _write_atomically(copy, data)
+    packed = img.packed_file
+    if packed is not None:
+        key = (packed.as_pointer(), packed.size)
+        copy = _copied.get(key)
+        if copy is None or not copy.exists():
+            data = packed.data
+            copy = _copies() / f"{hashlib.sha256(data).hexdigest()[:40]}.exr"
+            if not copy.exists():
+                _write_atomically(copy, data)
+            _copied[key] = copy
         return copy
     return path(obj)
 
@@ -133,16 +198,26 @@ def target(scene, obj, sub: str = "") -> Path:
     return folder / f"{_safe(obj.name)}-{uuid.uuid4().hex[:8]}.exr"
 
 
+def _declared_path(file: Path) -> str:
+    """``file`` as a datablock records it: relative to the saved .blend when it can be."""
+    if bpy.data.filepath:
+        try:
+            return bpy.path.relpath(str(file))
+        except ValueError:  # another drive (Windows): only an absolute path reaches it
+            pass
+    return str(file)
+
+
 def declare(obj, file: Path, pack: bool) -> None:
     """Make ``obj``'s image datablock declare ``file`` (just written), relative to the .blend
-    when it is saved, and pack its bytes when ``pack``."""
+    when it is saved, and pack its bytes when ``pack``. Raises RuntimeError, ValueError or
+    AttributeError when Blender refuses (a linked object, an unreadable file)."""
     img = image(obj)
     if not _keeps(obj):
         img = bpy.data.images.load(str(file), check_existing=False)  # read when looked at
         img.name = f"BO2 {'lightmap' if obj.type == 'MESH' else 'bake'} {obj.name}"
-        img.use_fake_user = True
-        obj.bo2.bake = img
-    img.filepath = bpy.path.relpath(str(file)) if bpy.data.filepath else str(file)
+        obj.bo2.bake = img  # the object is its user: deleted with it, purged on save
+    img.filepath = _declared_path(file)
     if img.packed_file is not None:
         img.unpack(method="REMOVE")
     if pack:
@@ -151,7 +226,7 @@ def declare(obj, file: Path, pack: bool) -> None:
 
 def pack(objs) -> int:
     """Pack the bake files of ``objs`` into the .blend; returns how many were packed. Raises
-    BakeError for a declared file that is missing."""
+    BakeError for a declared file that is missing or that Blender cannot pack."""
     count = 0
     for obj in objs:
         img = image(obj)
@@ -159,100 +234,53 @@ def pack(objs) -> int:
             continue
         file = path(obj)
         if file is None or not file.is_file():
-            raise probes.BakeError(f"'{obj.name}': its bake file {file} is missing; re-bake "
+            raise BakeError(f"'{obj.name}': its bake file {file} is missing; re-bake "
                                    "it, or find the file (File > External Data > Find Missing "
                                    "Files)")
-        img.pack()
+        try:
+            img.pack()
+        except RuntimeError as exc:
+            raise BakeError(f"'{obj.name}': could not pack {file} ({exc})") from None
         count += 1
     return count
 
 
-def unpack(objs) -> int:
+def unpack(scene, objs) -> int:
     """Write the packed bakes of ``objs`` back to their files (each replaced atomically) and
-    keep them there, not in the .blend; returns how many."""
+    keep them there, not in the .blend; returns how many. A bake declared outside this .blend's
+    folder (another file's, after a Save As) is written to a new file in its own folder."""
     count = 0
     for obj in objs:
         img = image(obj)
         if img is None or img.packed_file is None:
             continue
         file = path(obj)
-        if file is None:
-            raise probes.BakeError(f"'{obj.name}': its packed bake has no file path")
+        if not _own(scene, file):
+            file = target(scene, obj, LIGHTMAPS if obj.type == "MESH" else "")
         try:
             _write_atomically(file, img.packed_file.data)
         except OSError as exc:
-            raise probes.BakeError(f"Could not write {file} ({exc.strerror}); the bakes stay "
+            raise BakeError(f"Could not write {file} ({exc.strerror}); the bakes stay "
                                    "packed") from None
+        img.filepath = _declared_path(file)
         img.unpack(method="REMOVE")
         count += 1
     return count
 
 
-def forget(obj) -> bool:
-    """Delete ``obj``'s bake: its file (unless another object holds it) and its datablock;
-    returns whether there was one."""
+def forget(scene, obj) -> bool:
+    """Delete ``obj``'s bake: its datablock, and its file when the file is in this .blend's
+    folder and no other object holds it; returns whether there was one."""
     img = image(obj)
     if img is None:
         return False
     file = path(obj)
     obj.bo2.bake = None
     if not _sharers(img):
-        if file is not None and file.is_file():
-            file.unlink()
+        if _own(scene, file) and file.is_file():
+            try:
+                file.unlink()
+            except OSError as exc:
+                raise BakeError(f"Could not delete {file} ({exc.strerror})") from None
         bpy.data.images.remove(img)
     return True
-
-
-def adopt(scene) -> list[str]:
-    """Copy the bakes of earlier versions (``<bake folder>/<object name>.exr`` and
-    ``lightmaps/<object name>.exr``) of objects that have no bake of their own into this
-    .blend's folder, and declare them; returns one message per copied file."""
-    from . import lightmaps
-
-    try:
-        base = probes.bake_folder(scene)
-        folder = file_folder(scene)
-    except probes.BakeError:
-        return []
-    candidates = [(o, "") for o in probes.probe_objects(scene)]
-    candidates += [(o, LIGHTMAPS) for o in lightmaps.lightmap_objects(scene)]
-    messages = []
-    for obj, sub in candidates:
-        if image(obj) is not None:
-            continue
-        old = _legacy_path(base / sub, obj.name)
-        if not old.is_file():
-            continue
-        digest = hashlib.sha1(obj.name.encode()).hexdigest()[:8]
-        new = folder / sub / f"{_safe(obj.name)}-{digest}.exr"
-        try:
-            if not new.is_file() or new.stat().st_size != old.stat().st_size:
-                _write_atomically(new, old.read_bytes())
-        except OSError as exc:
-            messages.append(f"Could not copy the bake of '{obj.name}' from {old} ({exc.strerror})")
-            continue
-        declare(obj, new, pack=False)
-        messages.append(f"The bake of '{obj.name}' was copied from {old} into {new.parent}; "
-                        "save the file to keep it there")
-    return messages
-
-
-def _legacy_path(folder: Path, name: str) -> Path:
-    """The bake file of object ``name`` as earlier versions named it."""
-    safe = re.sub(r"[^\w\-. ]", "_", name).strip()
-    if safe != name or not safe:
-        safe = f"{safe}-{hashlib.sha1(name.encode()).hexdigest()[:8]}"
-    return folder / f"{safe}.exr"
-
-
-notices: list[str] = []  # what ``adopt`` did when the last file was opened (the panel shows it)
-
-
-@bpy.app.handlers.persistent
-def on_load(_filepath="") -> None:
-    """``load_post`` handler: adopt the earlier versions' bakes of every scene."""
-    notices.clear()
-    for scene in bpy.data.scenes:
-        notices.extend(adopt(scene))
-    for message in notices:
-        print(f"BO2 Lighting: {message}")

@@ -144,7 +144,10 @@ def state(obj, scene) -> tuple[str, str]:
     lightmap file (staleness is known at render time: ``attach``)."""
     if bake_files.path(obj) is None:
         return "MISSING", "not baked"
-    p = bake_files.readable(obj)
+    try:
+        p = bake_files.readable(obj)
+    except OSError as exc:
+        return "DAMAGED", f"its packed lightmap cannot be read ({exc.strerror})"
     if not p.exists():
         return "MISSING", f"{p}: the file is missing"
     try:
@@ -170,7 +173,12 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str]) -> list[str]:
         obj = scene.objects.get(batch.name)
         if obj is None or obj.type != "MESH" or not obj.bo2.use_lightmap or not is_static(obj):
             continue
-        p = bake_files.readable(obj) if bake_files.path(obj) is not None else None
+        try:
+            p = bake_files.readable(obj) if bake_files.path(obj) is not None else None
+        except OSError as exc:
+            warnings.append(f"Lightmap of '{obj.name}': its packed lightmap cannot be read "
+                            f"({exc.strerror}); the probes light it instead")
+            continue
         if p is None or not p.exists():
             continue
         try:

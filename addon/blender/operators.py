@@ -159,7 +159,7 @@ class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
 
     bl_idname = "bo2.bake_probes"
     bl_label = "Bake Light Probes"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}  # they change the .blend's bake datablocks
 
     mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
 
@@ -194,7 +194,7 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
 
     bl_idname = "bo2.bake_lightmaps"
     bl_label = "Bake Lightmaps"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}  # they change the .blend's bake datablocks
 
     mode: bpy.props.EnumProperty(name="Objects", items=_LIGHTMAP_MODES, default="ALL")
 
@@ -214,7 +214,7 @@ class BO2_OT_clear_lightmaps(bpy.types.Operator):
 
     bl_idname = "bo2.clear_lightmaps"
     bl_label = "Clear Lightmaps"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}  # they change the .blend's bake datablocks
 
     mode: bpy.props.EnumProperty(name="Objects", items=_LIGHTMAP_MODES, default="ALL")
 
@@ -222,7 +222,7 @@ class BO2_OT_clear_lightmaps(bpy.types.Operator):
         try:
             if _busy():
                 raise probes.BakeError(_busy().replace("baking", "clearing lightmaps"))
-            count = bake.clear(_lightmap_objects(context, self.mode))
+            count = bake.clear(context.scene, _lightmap_objects(context, self.mode))
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -236,7 +236,7 @@ class BO2_OT_clear_probes(bpy.types.Operator):
 
     bl_idname = "bo2.clear_probes"
     bl_label = "Clear Light Probe Bakes"
-    bl_options = {"REGISTER"}
+    bl_options = {"REGISTER", "UNDO"}  # they change the .blend's bake datablocks
 
     mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
 
@@ -248,7 +248,7 @@ class BO2_OT_clear_probes(bpy.types.Operator):
             busy = _busy()
             if busy:
                 raise probes.BakeError(busy.replace("baking", "clearing bakes"))
-            count = bake.clear(_objects(context, self.mode))
+            count = bake.clear(context.scene, _objects(context, self.mode))
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}
@@ -291,7 +291,7 @@ class BO2_OT_unpack_bakes(bpy.types.Operator):
 
     def execute(self, context):
         try:
-            count = bake_files.unpack(_baked_objects(context.scene))
+            count = bake_files.unpack(context.scene, _baked_objects(context.scene))
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return {"CANCELLED"}

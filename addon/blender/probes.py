@@ -12,52 +12,18 @@ the bake folder or packed into the .blend (``bake_files``); the bake folder is
 from __future__ import annotations
 
 import dataclasses
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
-import bpy
 import numpy as np
 
 from ..core import bake, probe_file
 from ..core import probes as cp
 from ..core.scene import World
-from . import props
+from . import bake_files, props
+from .bake_files import BakeError, bake_folder, writable_folder  # noqa: F401 (re-exported)
 
 KINDS = {"SPHERE": "reflection", "VOLUME": "irradiance"}
-
-
-class BakeError(Exception):
-    """A bake that cannot start or finish; one-line message."""
-
-
-def bake_folder(scene) -> Path:
-    """Absolute bake folder of ``scene``: ``scene.bo2.bake_folder``, else the preferences'
-    default (relative to the .blend)."""
-    folder = scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
-    if folder.startswith("//") and not bpy.data.filepath:
-        raise BakeError("Save the .blend file first (the bake folder is relative to it), "
-                        "or set an absolute Bake Folder")
-    return Path(bpy.path.abspath(folder))
-
-
-def writable_folder(scene) -> Path:
-    """``bake_folder(scene)``, checked before any work: a folder (or a path one can be made
-    at) where a file can be written. Nothing is created. Raises BakeError."""
-    folder = bake_folder(scene)
-    existing = folder
-    while not existing.exists() and existing != existing.parent:
-        existing = existing.parent
-    if not existing.is_dir():
-        raise BakeError(f"Bake folder {folder}: {existing} is a file, not a folder; choose "
-                        "another Bake Folder")
-    try:
-        with tempfile.TemporaryFile(dir=existing):
-            pass
-    except OSError as exc:
-        raise BakeError(f"Bake folder {folder} is not writable ({exc.strerror}); choose "
-                        "another Bake Folder") from None
-    return folder
 
 
 def capture_backend(scene) -> str:
@@ -147,12 +113,14 @@ def bake_state(obj) -> BakeState:
     """The state of ``obj``'s bake (``bake_files``): STALE when the probe moved or changed
     since (kind, matrix, volume resolution or the leak settings a bake uses), MISSING without
     a file, DAMAGED when unreadable."""
-    from . import bake_files
-
     declared = bake_files.path(obj)
     if declared is None:
         return BakeState("MISSING", Path(), {}, "not baked (bake the probes)")
-    path = bake_files.readable(obj)
+    try:
+        path = bake_files.readable(obj)
+    except OSError as exc:
+        return BakeState("DAMAGED", declared, {}, f"its packed bake cannot be read "
+                         f"({exc.strerror})")
     if not path.exists():
         return BakeState("MISSING", path, {}, f"{path}: the bake file is missing (bake the "
                          "probes, or File > External Data > Find Missing Files)")

@@ -161,6 +161,12 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "only in the bake folder, declared as external files",
         default=True,
     )
+    bakes_adopted: bpy.props.BoolProperty(
+        name="Bakes Adopted",
+        description="The bakes of earlier versions were looked for (once per scene)",
+        default=False,
+        options={"HIDDEN"},
+    )
     bake_backend: bpy.props.EnumProperty(
         name="Bake With",
         description="Renderer of the probes' captures",

@@ -8,7 +8,17 @@ import bpy
 
 from ..core import kernels
 from ..core.passes import PASSES
-from . import bake_files, convert, lightmaps, node_groups, passes, probes, viewport, worlds
+from . import (
+    adoption,
+    bake_files,
+    convert,
+    lightmaps,
+    node_groups,
+    passes,
+    probes,
+    viewport,
+    worlds,
+)
 
 ENGINE_ID = "BO2_LIGHTING"
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
@@ -141,7 +151,7 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         row.prop(settings, "bake_pack")
         row.operator("bo2.pack_bakes", text="", icon="PACKAGE")
         row.operator("bo2.unpack_bakes", text="", icon="UGLYPACKAGE")
-        for message in bake_files.notices:
+        for message in adoption.notices:
             layout.label(text=message, icon="INFO")
         layout.prop(settings, "bake_backend")
         layout.prop(settings, "bake_face_size")
@@ -365,11 +375,7 @@ class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.split_layout()
         obj = context.object
-        try:
-            state = probes.bake_state(obj)
-        except probes.BakeError as exc:
-            layout.label(text=str(exc), icon="ERROR")
-            state = None
+        state = probes.bake_state(obj)
         if state is not None:
             col = layout.column(align=True)
             icon = {"BAKED": "CHECKMARK", "STALE": "ERROR", "MISSING": "X",

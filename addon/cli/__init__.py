@@ -68,9 +68,9 @@ def load_blend(path: Path):
     terminal = 2 if interrupt.installed() else os.dup(2)
     with quiet_blender():
         scene = headless.load_blend(path, terminal)
-    from ..blender import bake_files
+    from ..blender import adoption
 
-    for message in bake_files.notices:  # bakes of earlier versions, adopted on load
+    for message in adoption.notices:  # bakes of earlier versions, adopted on load
         print(f"bo2: note: {message}", file=sys.stderr)
     try:
         kernels.load(lambda message: print(f"bo2: {message}", file=sys.stderr, flush=True))

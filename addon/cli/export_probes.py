@@ -16,12 +16,13 @@ from . import BadInput, CommandError, load_blend
 
 
 def _to_y_up(matrix) -> list:
-    """A (4, 4) Blender-axes transform in the engine's axes: C M C^T."""
+    """A (4, 4) local-to-world transform whose world is the engine's (Y up): C M. The local
+    axes stay the probe's own, so a volume's samples keep their (x, y, z) indices."""
     from ..core import gpu_textures
 
     c = np.eye(4)
     c[:3, :3] = gpu_textures.Y_UP
-    return (c @ np.asarray(matrix, np.float64) @ c.T).tolist()
+    return (c @ np.asarray(matrix, np.float64)).tolist()
 
 
 def _sh(coefficients) -> list:
@@ -30,8 +31,9 @@ def _sh(coefficients) -> list:
     return sh.rotate(np.asarray(coefficients, np.float64), gpu_textures.Y_UP).tolist()
 
 
-def _chain(out: Path, name: str, fmt: str, mips: list, coefficients, extra: dict) -> dict:
-    """Write one bo2 chain; its manifest entry."""
+def _chain(out: Path, stem: str, name: str, fmt: str, mips: list, coefficients,
+           extra: dict) -> dict:
+    """Write one bo2 chain as ``<stem>.<fmt>``; its manifest entry."""
     from ..core import engine_export, prefilter
 
     size = mips[0].shape[1]
@@ -40,9 +42,19 @@ def _chain(out: Path, name: str, fmt: str, mips: list, coefficients, extra: dict
         np.asarray(_sh(coefficients)), probe=name, **extra)
     if fmt == "json":
         return {"chain": None, "chain_metadata": meta}
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in name)
-    files = engine_export.write_chain(out / f"{safe}.{fmt}", mips, meta)
+    path = out / f"{stem}.{fmt}"
+    try:
+        files = engine_export.write_chain(path, mips, meta)
+    except OSError as exc:
+        raise BadInput(f"{path}: cannot write ({exc.strerror})") from None
     return {"chain": files[0].name, "chain_metadata": meta}
+
+
+def _stem(index: int, name: str) -> str:
+    """A file name of probe ``index`` that no other probe, the world or the manifest takes,
+    whatever the names and the file system's case rules."""
+    safe = "".join(c if c.isascii() and (c.isalnum() or c in "-_.") else "_" for c in name)
+    return f"probe{index:02d}_{safe}"
 
 
 def run(args) -> int:
@@ -73,9 +85,9 @@ def run(args) -> int:
                        "sh": _sh(loaded.world_sh),
                        "color": None if loaded.world_color is None
                        else [float(x) for x in loaded.world_color],
-                       **_chain(out, "world", args.format, loaded.world_mips["bo2"],
+                       **_chain(out, "world", "world", args.format, loaded.world_mips["bo2"],
                                 loaded.world_sh, {"kind": "world"})}
-        for p in loaded.reflection:
+        for k, p in enumerate(loaded.reflection):
             entries.append({
                 "kind": "reflection", "name": p.name,
                 "position": (gpu_textures.Y_UP @ np.asarray(p.position, np.float64)).tolist(),
@@ -83,14 +95,16 @@ def run(args) -> int:
                 "parallax": p.proxy, "parallax_to_world": None if p.proxy_to_world is None
                 else _to_y_up(p.proxy_to_world),
                 "sh": _sh(p.sh), "baked": states[p.name].meta.get("bake_time"),
-                **_chain(out, p.name, args.format, p.mips["bo2"], p.sh, {"kind": "reflection"})})
+                **_chain(out, _stem(k, p.name), p.name, args.format, p.mips["bo2"], p.sh,
+                         {"kind": "reflection"})})
         for v in loaded.volumes:
             grid = np.asarray(v.sh, np.float64)
             turned = np.stack([_sh(c) for c in grid.reshape(-1, 9, 3)]).reshape(grid.shape)
             entries.append({
                 "kind": "irradiance_volume", "name": v.name,
                 "local_to_world": _to_y_up(v.local_to_world),
-                "grid": "samples span the local cube [-1, 1]^3, index (x, y, z) in local axes",
+                "grid": "samples span the local cube [-1, 1]^3, index (x, y, z) along the local "
+                        "axes of local_to_world",
                 "resolution": [int(r) for r in v.resolution],
                 "influence": float(v.influence), "falloff": float(v.falloff),
                 "normal_bias": float(v.normal_bias), "view_bias": float(v.view_bias),
@@ -98,14 +112,16 @@ def run(args) -> int:
                 "validity": None if v.validity is None
                 else np.asarray(v.validity, np.float64).ravel().tolist(),
                 "sh": turned.tolist(), "baked": states[v.name].meta.get("bake_time")})
-        manifest = {"scene": str(args.scene), "axes": "Y up: Blender's (x, y, z) as (x, z, -y)",
+        manifest = {"scene": str(args.scene),
+                    "axes": "world Y up: Blender's (x, y, z) as (x, z, -y); transforms map the "
+                            "probes' own local axes to it",
                     "units": "metres; radiance SH of sh.basis (docs/sh.md)",
                     "format": args.format, "world": world_entry, "probes": entries}
         from ..core import engine_export
 
-        engine_export._write_text(out / "probes.json", json.dumps(manifest, indent=1) + "\n")
+        engine_export.write_text(out / "probes.json", json.dumps(manifest, indent=1) + "\n")
     except OSError as exc:
-        raise BadInput(f"{exc.filename or out}: cannot write ({exc.strerror})") from None
+        raise BadInput(f"{out}: cannot write ({exc.strerror})") from None
     print(f"exported {len(entries)} probe{'s' * (len(entries) != 1)} and the world into {out} "
           f"({args.format}) in {time.perf_counter() - start:.2f} s")
     return 0

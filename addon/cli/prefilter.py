@@ -14,6 +14,7 @@ from . import BadInput
 from .terminal import progress_bar
 
 FILTERS = ("bo2", "bo1", "phong", "phongbrdf", "blinn", "blinnbrdf")
+MAX_SIZE = 4096  # face size of mip 0 (a 4096 cube is 805 MiB of float32 RGB)
 
 
 def read_cube(paths: list[str], size: int | None):
@@ -49,6 +50,11 @@ def run(args) -> int:
     if len(args.images) not in (1, 6):
         raise BadInput(f"give one lat-long or cross image, or six face images (+X -X +Y -Y +Z "
                        f"-Z), not {len(args.images)}")
+    if args.size is not None and (args.size > MAX_SIZE or args.size & (args.size - 1)):
+        raise BadInput(f"--size {args.size}: a power of two up to {MAX_SIZE}")
+    if args.filter == "bo1" and args.edge_fixup == "warp":
+        raise BadInput("--edge-fixup warp needs a filter that reads the input for every mip "
+                       "(bo2 or cmft's); bo1's cascade filters each mip from the previous one")
     size = args.size or (prefilter.top_resolution() if args.filter == "bo2" else None)
     start = time.perf_counter()
     cube = read_cube(args.images, size)
@@ -88,11 +94,11 @@ def run(args) -> int:
     if args.filter == "bo1":
         meta["mip_phong_power_note"] = "BO1 mips are angular Gaussians: power ~ 1 / sigma^2"
     written = []
-    try:
-        for out in outputs:
+    for out in outputs:
+        try:
             written += engine_export.write_chain(out, mips, meta)
-    except OSError as exc:
-        raise BadInput(f"{exc.filename or outputs[0]}: cannot write ({exc.strerror})") from None
+        except OSError as exc:
+            raise BadInput(f"{out}: cannot write ({exc.strerror})") from None
     seconds = time.perf_counter() - start
     if args.json:
         print(json.dumps({"files": [str(p) for p in written], "seconds": round(seconds, 3),

@@ -62,14 +62,17 @@ def run(args) -> int:
         coefficients = sh.rotate(coefficients, gpu_textures.Y_UP)
     record = {"image": str(args.image), **engine_export.sh_record(coefficients, args.axes)}
     record["coefficients"] = record["radiance_rgb"]
-    try:
-        if args.output:
-            engine_export._write_text(Path(args.output), json.dumps(record, indent=2) + "\n")
-        if args.header:
-            engine_export._write_text(Path(args.header), engine_export.sh_header(
-                path.stem, coefficients, path.name, args.axes))
-    except OSError as exc:
-        raise BadInput(f"{exc.filename}: cannot write ({exc.strerror})") from None
+    writes = []
+    if args.output:
+        writes.append((Path(args.output), json.dumps(record, indent=2) + "\n"))
+    if args.header:
+        writes.append((Path(args.header), engine_export.sh_header(path.stem, coefficients,
+                                                                  path.name, args.axes)))
+    for out, text in writes:
+        try:
+            engine_export.write_text(out, text)
+        except OSError as exc:
+            raise BadInput(f"{out}: cannot write ({exc.strerror})") from None
     if args.json:
         print(json.dumps(record))
     else:

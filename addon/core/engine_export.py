@@ -25,7 +25,8 @@ import numpy as np
 
 from . import cubemap, gpu_textures, probe_file, sh
 
-__all__ = ["AXES", "FORMATS", "chain_metadata", "cube_sh", "sh_header", "sh_record", "write_chain"]
+__all__ = ["AXES", "FORMATS", "chain_metadata", "cube_sh", "sh_header", "sh_record", "write_chain",
+           "write_text"]
 
 FORMATS = ("ktx2", "dds", "exr")
 
@@ -95,17 +96,18 @@ def write_chain(path: str | os.PathLike, mips: list[np.ndarray], meta: dict) -> 
     if kind == "dds":
         gpu_textures.write_dds(path, gpu)
         side = path.with_suffix(".json")
-        _write_text(side, json.dumps(meta, indent=2) + "\n")
+        write_text(side, json.dumps(meta, indent=2) + "\n")
         return [path, side]
     images = [(f"mip{m}", level.reshape(-1, level.shape[2], 3)) for m, level in enumerate(gpu)]
     probe_file.replace_all([(path, lambda tmp: probe_file.write_parts(tmp, meta, images))])
     return [path]
 
 
-def _write_text(path: Path, text: str) -> None:
+def write_text(path: Path, text: str) -> None:
+    """Write UTF-8 ``text`` to ``path``, replaced atomically."""
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        tmp.write_text(text)
+        tmp.write_text(text, encoding="utf-8")
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
@@ -114,7 +116,7 @@ def _write_text(path: Path, text: str) -> None:
 def sh_header(name: str, coefficients, source: str = "", axes: str = "y-up") -> str:
     """A C header declaring the RGB radiance SH and the tinted scalar SH of ``coefficients``
     ((9, 3) in ``axes``) as ``static const float`` arrays named after ``name``."""
-    ident = "".join(c if c.isalnum() else "_" for c in name).strip("_") or "env"
+    ident = "".join(c if c.isascii() and c.isalnum() else "_" for c in name).strip("_") or "env"
     if ident[0].isdigit():
         ident = "env_" + ident
     record = sh_record(coefficients, axes)

@@ -14,7 +14,7 @@ import pytest
 from test_probes import bake, room
 from util import render_pixels
 
-from bo2_lighting.addon.blender import bake_files, probes
+from bo2_lighting.addon.blender import adoption, bake_files, probes
 from bo2_lighting.addon.core import probe_file
 
 
@@ -50,7 +50,7 @@ def test_two_files_of_one_folder_keep_their_own_bakes(addon, tmp_path, capfd):
     scene = bpy.context.scene
     scene.bo2.bake_pack = False
     for obj in probes.probe_objects(scene):  # the files, not only the packed copies
-        assert bake_files.unpack([obj]) == 1
+        assert bake_files.unpack(scene, [obj]) == 1
     np.testing.assert_array_equal(render(scene), first)
 
 
@@ -132,7 +132,7 @@ def test_bakes_of_earlier_versions_are_adopted_on_load(addon, tmp_path, capfd):
     before = render(scene)
     for obj in probes.probe_objects(scene):  # as an earlier version left them
         shutil.copyfile(bake_files.path(obj), tmp_path / "bo2_bake" / f"{obj.name}.exr")
-        bake_files.forget(obj)
+        bake_files.forget(scene, obj)
     bpy.ops.wm.save_mainfile()
     shutil.rmtree(tmp_path / "bo2_bake" / "room")
     capfd.readouterr()
@@ -140,14 +140,14 @@ def test_bakes_of_earlier_versions_are_adopted_on_load(addon, tmp_path, capfd):
     scene = bpy.context.scene
     out = capfd.readouterr().out
     assert "The bake of 'Reflection' was copied from" in out
-    assert len(bake_files.notices) == 2
+    assert len(adoption.notices) == 2
     for obj in probes.probe_objects(scene):
         assert bake_files.path(obj).parent == tmp_path / "bo2_bake" / "room"
         assert (tmp_path / "bo2_bake" / f"{obj.name}.exr").is_file()  # other files may read it
     np.testing.assert_array_equal(render(scene), before)
     bpy.ops.wm.save_mainfile()
     bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "room.blend"))
-    assert bake_files.notices == []  # once
+    assert adoption.notices == []  # once
 
 
 def test_blender_asset_tracer_packs_the_bakes_with_the_blend(addon, tmp_path):
@@ -177,3 +177,63 @@ def test_blender_asset_tracer_packs_the_bakes_with_the_blend(addon, tmp_path):
         assert bake_files.path(obj).is_relative_to(tmp_path / "pack")
         probe_file.read(bake_files.path(obj))
     np.testing.assert_array_equal(render(scene), before)
+
+
+def test_a_copy_never_changes_the_originals_files(addon, tmp_path):
+    """Saved under another name beside it, a file reads its original's bakes; its Unpack writes
+    into its own folder and its Clear deletes nothing of the original's."""
+    scene = room(tmp_path)
+    bake(scene)
+    bpy.ops.wm.save_mainfile()
+    original = digests(tmp_path / "bo2_bake" / "room")
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "copy.blend"))
+    scene = bpy.context.scene
+    assert {probes.bake_state(o).state for o in probes.probe_objects(scene)} == {"BAKED"}
+    assert bpy.ops.bo2.unpack_bakes() == {"FINISHED"}
+    for obj in probes.probe_objects(scene):
+        assert bake_files.path(obj).parent == bake_files.file_folder(scene)
+    assert bake_files.file_folder(scene).name == "copy"
+    assert bpy.ops.bo2.clear_probes() == {"FINISHED"}
+    assert digests(tmp_path / "bo2_bake" / "room") == original
+    assert not list((tmp_path / "bo2_bake" / "copy").iterdir())
+
+
+def test_an_absolute_bake_folder_rebakes_in_place(addon, tmp_path):
+    """Two .blend files of one name in two folders share an absolute bake folder without
+    sharing bakes; a re-bake replaces its files rather than adding new ones."""
+    shared = tmp_path / "farm_bakes"
+    (tmp_path / "a").mkdir()
+    scene = room(tmp_path / "a")
+    scene.bo2.bake_folder = str(shared)
+    bake(scene)
+    first = bake_files.file_folder(scene)
+    assert first.parent == shared and first.name.startswith("room-")
+    names = sorted(p.name for p in first.iterdir())
+    bake(scene)
+    assert sorted(p.name for p in first.iterdir()) == names
+    (tmp_path / "b").mkdir()
+    bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "b" / "room.blend"))
+    scene = bpy.context.scene
+    assert bake_files.file_folder(scene) != first
+    before = digests(first)
+    bake(scene)
+    assert digests(first) == before
+    assert bake_files.path(scene.objects["Reflection"]).parent == bake_files.file_folder(scene)
+
+
+def test_a_cleared_bake_is_not_adopted_again(addon, tmp_path):
+    scene = room(tmp_path)
+    scene.bo2.bake_pack = False
+    bake(scene)
+    reflection = scene.objects["Reflection"]
+    shutil.copyfile(bake_files.path(reflection), tmp_path / "bo2_bake" / "Reflection.exr")
+    bake_files.forget(scene, reflection)
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "room.blend"))
+    scene = bpy.context.scene
+    assert bake_files.path(scene.objects["Reflection"]) is not None  # adopted, once
+    assert bpy.ops.bo2.clear_probes() == {"FINISHED"}
+    bpy.ops.wm.save_mainfile()
+    bpy.ops.wm.open_mainfile(filepath=str(tmp_path / "room.blend"))
+    assert bake_files.path(bpy.context.scene.objects["Reflection"]) is None
+    assert adoption.notices == []

@@ -7,7 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 import pytest
-from util import principled, render_pixels, set_world_color
+from util import baked, principled, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
@@ -68,11 +68,6 @@ def room(tmp_path):
 def bake(scene, **kw):
     assert bpy.ops.bo2.bake_probes(**kw) == {"FINISHED"}
     return bake_files.file_folder(scene)
-
-
-def baked(scene, name):
-    """The bake file of probe object ``name``."""
-    return bake_files.path(scene.objects[name])
 
 
 def test_bake_writes_one_file_per_probe(addon, tmp_path):

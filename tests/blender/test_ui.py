@@ -230,7 +230,8 @@ def test_operators_poll_and_execute(scene_with_everything, tmp_path):
     assert bpy.ops.bo2.bake_probes.poll()
     assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
     sphere = bake_files.path(probes["SPHERE"])
-    assert sphere.parent == tmp_path / "scene" and sphere.exists()
+    assert sphere.parent == bake_files.file_folder(scene) and sphere.exists()  # absolute: a digest
+    assert sphere.parent.name.startswith("scene-") and sphere.parent.parent == tmp_path
     assert bake_files.path(probes["VOLUME"]) is None
     assert bpy.ops.bo2.unpack_bakes() == {"FINISHED"}
     assert bpy.ops.bo2.pack_bakes() == {"FINISHED"} and bake_files.packed(probes["SPHERE"])

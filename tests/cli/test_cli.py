@@ -352,7 +352,8 @@ def test_bake_writes_the_bake_folder(tmp_path):
     proc = bo2("bake", blend, "--no-pack")
     assert proc.returncode == 0 and "baked 2 probes" in proc.stdout
     assert "packed" not in proc.stdout
-    assert {p.name for p in folder.iterdir()} > {files[0].name}  # re-baked in place
+    names = sorted(p.name for p in folder.iterdir())  # Reflection re-baked in place
+    assert len(names) == 2 and names[1] == files[0].name and names[0].startswith("Irradiance-")
 
 
 def test_export_probes_for_an_engine(tmp_path):
@@ -361,7 +362,7 @@ def test_export_probes_for_an_engine(tmp_path):
     axes (the l = 1 band of Blender's z is the engine's y)."""
     import json
 
-    from bo2_lighting.addon.core import cubemap, gpu_textures, probe_file
+    from bo2_lighting.addon.core import cubemap, probe_file
 
     blend = probe_blend(tmp_path)
     assert bo2("bake", blend, "--no-pack").returncode == 0
@@ -373,7 +374,12 @@ def test_export_probes_for_an_engine(tmp_path):
     by_name = {p["name"]: p for p in manifest["probes"]}
     reflection, volume = by_name["Reflection"], by_name["Irradiance"]
     assert reflection["position"] == pytest.approx([0, 1, 0])  # Blender (0, 0, 1), Y up
-    assert reflection["chain"] == "Reflection.dds" and (out / "Reflection.json").is_file()
+    assert reflection["chain"] == "probe00_Reflection.dds"
+    assert (out / "probe00_Reflection.json").is_file() and (out / "world.dds").is_file()
+    # the volume keeps its local axes: its transform maps them to Y-up world axes (C M)
+    m = np.asarray(volume["local_to_world"])
+    np.testing.assert_allclose(m[:3, 3], [0, 1, 0], atol=1e-6)
+    np.testing.assert_allclose(m[:3, 2], [0, 1, 0], atol=1e-6)  # local z (Blender's up)
     meta, sh, chains = probe_file.read(*(tmp_path / "bo2_bake" / "probes").glob("Reflection-*"))
     # l = 1: Blender's (y, z, x) order (1,-1) (1,0) (1,1) -> the engine's (y', z', x')
     # with x' = x, y' = z, z' = -y: c'(1,-1) = c(1,0), c'(1,0) = -c(1,-1), c'(1,1) = c(1,1)
@@ -381,14 +387,21 @@ def test_export_probes_for_an_engine(tmp_path):
     np.testing.assert_allclose(turned[[0, 1, 2, 3]], [sh[0, 0], sh[0, 2], -sh[0, 1], sh[0, 3]],
                                atol=1e-5)
     assert np.asarray(volume["sh"]).shape == (2, 2, 2, 9, 3)
-    data = (out / "Reflection.dds").read_bytes()
+    data = (out / "probe00_Reflection.dds").read_bytes()
     size = chains["bo2"][0].shape[1]
-    face0 = np.frombuffer(data, np.float16, size * size * 4, 148).reshape(size, size, 4)
-    d = np.array([1.0, 0.0, 0.0])  # the centre of GPU face +X: Blender's +X
-    f, x, y = cubemap.direction_to_face(d, size)
-    expected = chains["bo2"][0][f[0], int(y[0]), int(x[0])]
-    np.testing.assert_allclose(face0[size // 2, size // 2, :3], expected, rtol=2e-3)
-    assert (gpu_textures.Y_UP @ [0, 0, 1] == [0, 1, 0]).all()
+    offset = 148
+    for face in range(6):  # every texel of mip 0 where the OpenGL table (transcribed) says
+        texels = np.frombuffer(data, np.float16, size * size * 4, offset).reshape(size, size, 4)
+        offset += sum((size >> m) ** 2 * 8 for m in range(len(chains["bo2"])))
+        sc = (2.0 * np.arange(size) + 1.0) / size - 1.0
+        s_, t_ = np.meshgrid(sc, sc)
+        one = np.ones_like(s_)
+        gl = [(one, -t_, -s_), (-one, -t_, s_), (s_, one, t_), (s_, -one, -t_), (s_, -t_, one),
+              (-s_, -t_, -one)][face]
+        d = np.stack([gl[0], -gl[2], gl[1]], -1).reshape(-1, 3)  # engine (x, y, z) -> Blender
+        f, x, y = cubemap.direction_to_face(d, size)
+        expected = chains["bo2"][0][f, y.astype(int), x.astype(int)].reshape(size, size, 3)
+        np.testing.assert_allclose(texels[..., :3], expected.astype(np.float16), rtol=1e-3)
     proc = bo2("export-probes", blend, "-o", tmp_path / "probes.blend")
     assert proc.returncode == 2 and "is a file" in one_error_line(proc)
 
