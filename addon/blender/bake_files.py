@@ -43,10 +43,15 @@ class BakeError(Exception):
     """A bake that cannot start or finish; one-line message."""
 
 
+def _setting(scene) -> str:
+    """The bake folder as set: the scene's, else the preferences' default."""
+    return scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
+
+
 def bake_folder(scene) -> Path:
     """Absolute bake folder of ``scene``: ``scene.bo2.bake_folder``, else the preferences'
     default (relative to the .blend)."""
-    folder = scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
+    folder = _setting(scene)
     if folder.startswith("//") and not bpy.data.filepath:
         raise BakeError("Save the .blend file first (the bake folder is relative to it), "
                         "or set an absolute Bake Folder")
@@ -88,8 +93,7 @@ def file_folder(scene) -> Path:
     blend = bpy.data.filepath
     stem = Path(blend).stem if blend else "untitled"
     name = _safe(stem)
-    setting = scene.bo2.bake_folder or props.preferences().bake_folder or "//bo2_bake/"
-    if blend and (name != stem or not setting.startswith("//")):
+    if blend and (name != stem or not _setting(scene).startswith("//")):
         name += "-" + hashlib.sha1(os.path.abspath(blend).encode()).hexdigest()[:8]
     return _norm(bake_folder(scene) / name)
 
