@@ -151,8 +151,10 @@ class RENDER_PT_bo2_bake(_BO2Panel, bpy.types.Panel):
         row.prop(settings, "bake_pack")
         row.operator("bo2.pack_bakes", text="", icon="PACKAGE")
         row.operator("bo2.unpack_bakes", text="", icon="UGLYPACKAGE")
-        for message in adoption.notices:
-            layout.label(text=message, icon="INFO")
+        if adoption.notices:  # the details are in the console
+            count = len(adoption.notices)
+            layout.label(text=f"{count} bake{'s' * (count != 1)} of an earlier version adopted "
+                         "(see the console); save to keep", icon="INFO")
         layout.prop(settings, "bake_backend")
         layout.prop(settings, "bake_face_size")
         layout.prop(settings, "bake_volume_face_size")

@@ -278,9 +278,11 @@ def walk():
     # default), unpacked and packed again by the Light Probes panel's buttons
     bake_files = module("addon.blender.bake_files")
     objs = probes.probe_objects(scene)
+    own = bake_files.file_folder(scene)  # an absolute folder: the name and a digest
     check("the bakes are in the .blend's own folder and packed into it",
-          objs and all(bake_files.packed(o) and bake_files.path(o).parent.name == ROOM.stem
-                       for o in objs), [str(bake_files.path(o)) for o in objs])
+          objs and own.name.startswith(f"{ROOM.stem}-") and all(
+              bake_files.packed(o) and bake_files.path(o).parent == own for o in objs),
+          [str(bake_files.path(o)) for o in objs])
     unpacked = bpy.ops.bo2.unpack_bakes()
     written = [bake_files.path(o).is_file() and not bake_files.packed(o) for o in objs]
     packed = bpy.ops.bo2.pack_bakes()
