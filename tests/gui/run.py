@@ -29,7 +29,8 @@ DOCS = {"render_tab": "ui_render_tab.png", "spot_light_tab": "ui_light_tab.png",
         "viewport_world_of_nodes": "ui_viewport_world.png", "world_tab_(nodes)": "ui_world_tab.png",
         "render_tab_lightmaps": "ui_lightmaps.png",
         "object_tab_lightmap": "ui_object_lightmap.png",
-        "viewport_lightmap_texels": "ui_viewport_lightmap_texels.png"}
+        "viewport_lightmap_texels": "ui_viewport_lightmap_texels.png",
+        "probe_bake_packed": "ui_probe_bake_packed.png"}
 
 
 def main(argv=None) -> int:
