@@ -9,6 +9,7 @@ step goes to OUT; the checks go to OUT/results.json, then Blender quits.
 """
 
 import json
+import os
 import subprocess
 import sys
 import time
@@ -263,7 +264,8 @@ def walk():
     yield 1.0
 
     # 5. Bake the probes from the Render tab's button, as an artist does
-    scene.bo2.bake_folder = str(OUT / "bake")
+    # relative to the .blend, as an artist's (the panel's screenshot shows no machine's path)
+    scene.bo2.bake_folder = "//" + os.path.relpath(OUT / "bake", ROOM.parent) + "/"
     operators = module("addon.blender.operators")
     started, seconds = yield from bake_all(bpy.ops.bo2.bake_probes,
                                            lambda: operators.BO2_OT_bake_probes.running)
@@ -278,9 +280,9 @@ def walk():
     # default), unpacked and packed again by the Light Probes panel's buttons
     bake_files = module("addon.blender.bake_files")
     objs = probes.probe_objects(scene)
-    own = bake_files.file_folder(scene)  # an absolute folder: the name and a digest
+    own = bake_files.file_folder(scene)
     check("the bakes are in the .blend's own folder and packed into it",
-          objs and own.name.startswith(f"{ROOM.stem}-") and all(
+          objs and own == (OUT / "bake" / ROOM.stem).resolve() and all(
               bake_files.packed(o) and bake_files.path(o).parent == own for o in objs),
           [str(bake_files.path(o)) for o in objs])
     unpacked = bpy.ops.bo2.unpack_bakes()
