@@ -127,6 +127,16 @@ def _samples(engine: str):
     return parse
 
 
+def _fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"must be between 0 and 1, got {text}")
+    return value
+
+
 def _frame(text: str) -> int:
     from .patterns import MAX_FRAME
 
@@ -160,7 +170,7 @@ def cmd_version(args) -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     from ..core import brdf, env_brdf
-    from . import bake, compare, export_probes, render, sh
+    from . import bake, compare, export_probes, render, report, sh
     from . import env_brdf as env_brdf_cmd
     from . import prefilter as prefilter_cmd
 
@@ -311,6 +321,32 @@ def build_parser() -> argparse.ArgumentParser:
     compare_cmd.add_argument("--resolution", type=_resolution,
                              help="size WxH in pixels of both")
     compare_cmd.set_defaults(func=compare.run)
+    report_cmd = sub.add_parser(
+        "report", help="compare many scenes with Cycles on one review page",
+        description="Render each .blend file's scene with BO2 Lighting and with Cycles (as bo2 "
+        "compare does), or read bo2 compare folders back, and write DIR/index.html: a static "
+        "page that works offline, with the scenes ranked by mean FLIP (worst first), an A/B "
+        "wipe between the engines, difference and FLIP maps, per-pass metrics and render "
+        "times (docs/report.md). Ctrl-C keeps the scenes done.")
+    report_cmd.add_argument("scenes", nargs="+", metavar="SCENE",
+                            help=".blend file, bo2 compare folder, or a folder of either")
+    report_cmd.add_argument("-o", "--output", required=True, metavar="DIR",
+                            help="report folder (created if missing)")
+    report_cmd.add_argument("--old-methods", action="store_true",
+                            help="also render BO2 Lighting with the talk's old methods (BO1 "
+                            "environment BRDF, normalization and prefilter), for the page's "
+                            "old/new toggle")
+    report_cmd.add_argument("--fail-above", type=_fraction, metavar="FLIP",
+                            help="exit 1 when a scene's mean LDR-FLIP is above FLIP (0 to 1); "
+                            "the failing scenes come first on the page")
+    report_cmd.add_argument("--title", default="Look-dev review", help="the page's title")
+    report_cmd.add_argument("--samples", type=_samples("bo2"),
+                            help="BO2 Lighting samples per pixel (default: each file's)")
+    report_cmd.add_argument("--cycles-samples", type=_samples("cycles"),
+                            help="Cycles samples per pixel (default: each file's)")
+    report_cmd.add_argument("--resolution", type=_resolution,
+                            help="size WxH in pixels of every render")
+    report_cmd.set_defaults(func=report.run)
     version = sub.add_parser("version", help="print the add-on version")
     version.set_defaults(func=cmd_version)
     return parser

@@ -359,23 +359,38 @@ def to_uint8(image: np.ndarray) -> np.ndarray:
     return np.round(np.clip(v, 0.0, 1.0) * 255.0).astype(np.uint8)
 
 
-def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
-    """Write an 8-bit RGB PNG (ISO/IEC 15948), atomically (a temporary file, then renamed).
+def png_bytes(image: np.ndarray) -> bytes:
+    """An 8-bit RGB or RGBA PNG (ISO/IEC 15948), each row with the "Up" filter.
 
-    path:  destination
-    image: (H, W, 3) uint8, or float display values in [0, 1]; row 0 at the top
+    image:   (H, W, 3 or 4) uint8, or float display values in [0, 1]; row 0 at the top
+    returns: the file's bytes
     """
-    rgb = image if image.dtype == np.uint8 else to_uint8(image)
-    h, w = rgb.shape[:2]
-    rows = np.concatenate([np.zeros((h, 1), np.uint8), rgb[..., :3].reshape(h, w * 3)], 1)
+    px = image if image.dtype == np.uint8 else to_uint8(image)
+    h, w, c = px.shape
+    if c not in (3, 4):
+        raise ValueError(f"a PNG needs 3 or 4 channels, got {c}")
+    rows = np.ascontiguousarray(px).reshape(h, w * c)
+    up = rows.copy()
+    up[1:] -= rows[:-1]  # filter type 2: each byte minus the one above it, modulo 256
+    rows = np.concatenate([np.full((h, 1), 2, np.uint8), up], 1)
 
     def chunk(kind: bytes, data: bytes) -> bytes:
         return (struct.pack(">I", len(data)) + kind + data
                 + struct.pack(">I", zlib.crc32(kind + data) & 0xFFFFFFFF))
 
-    data = (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", w, h, 8, 2, 0, 0, 0))
-            + chunk(b"IDAT", zlib.compress(np.ascontiguousarray(rows).tobytes(), 6))
-            + chunk(b"IEND", b""))
+    header = struct.pack(">IIBBBBB", w, h, 8, 2 if c == 3 else 6, 0, 0, 0)
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header)
+            + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6)) + chunk(b"IEND", b""))
+
+
+def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
+    """Write ``png_bytes(image)`` (RGB: the first three channels) atomically: a temporary
+    file, then renamed.
+
+    path:  destination
+    image: (H, W, >=3) uint8, or float display values in [0, 1]; row 0 at the top
+    """
+    data = png_bytes(image[..., :3])
     path = Path(path)
     tmp = path.with_name(f".{path.name}.partial")
     tmp.write_bytes(data)

@@ -1,0 +1,185 @@
+"""The look-dev review in Blender (docs/report.md): scenes rendered by both engines with
+``compare.run``, each into its own folder of the report, or ``bo2 compare`` folders read back;
+then their passes through each scene's colour management and ``core.report`` for the page.
+
+A report folder holds ``index.html``, ``report.json`` and ``scenes/<name>/``: the comparison's
+files (``bo2.exr``, ``cycles.exr``, ``metrics.json``, ...), ``old/bo2.exr`` where the scene was
+also rendered with the talk's old methods, and the page's pictures.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+import bpy
+
+from ..core import compare as core_compare
+from ..core import flip
+from ..core import report as core
+from . import compare, images, passes
+
+# The talk's old (Black Ops) methods, each a scene setting of BO2 Lighting: the environment BRDF
+# (slide 'Black Ops: environment map "Fresnel"'), the normalization ('Black Ops: normalization
+# algorithm') and the prefilter ('Black Ops: environment map pre-filtering').
+OLD_METHODS = {"env_brdf": "bo1", "normalization": "bo1", "prefilter": "bo1"}
+COLOR_MANAGEMENT = ("view_transform", "look", "exposure", "gamma")
+
+
+class Report:
+    """One report being written: ``add`` each scene's comparison folder as it is done, and the
+    page is rewritten after each (a stopped report keeps the scenes done)."""
+
+    def __init__(self, folder: Path, title: str, fail_above: float | None = None):
+        self.folder = compare.prepare_folder(Path(folder))
+        self.scenes_folder = compare.prepare_folder(self.folder / "scenes")
+        self.meta = {"title": title, "created": time.strftime("%Y-%m-%d %H:%M"),
+                     "blender_version": bpy.app.version_string, "fail_above": fail_above,
+                     "flip": flip.unavailable(), "pending": []}
+        self.entries: list[dict] = []
+        self.taken: set[str] = set()
+
+    def scene_folder(self, name: str) -> Path:
+        """A new folder for the scene ``name`` inside the report."""
+        return compare.prepare_folder(self.scenes_folder / core.slug(name, self.taken))
+
+    def add(self, source: Path, name: str, pending=()) -> dict:
+        """Read the comparison in ``source`` (a ``bo2 compare`` folder, with ``old/`` when the
+        old methods were rendered), write its pictures and the page; returns its entry."""
+        source = Path(source)
+        folder = source if source.parent == self.scenes_folder else self.scene_folder(name)
+        entry = core.analyse_scene(name, *read_comparison(source), folder, self.folder,
+                                   links(source, self.folder))
+        self.entries.append(entry)
+        self.write(pending)
+        return entry
+
+    def write(self, pending=()) -> Path:
+        """(Re)write the page with the scenes so far; ``pending``: names still to come."""
+        return core.write_page(self.folder, self.entries, {**self.meta, "pending": list(pending)})
+
+    def failing(self) -> list[dict]:
+        return core.failing(core.ranked(self.entries), self.meta["fail_above"])
+
+
+def links(source: Path, page: Path) -> dict:
+    """The EXRs of a comparison folder, relative to the page's folder."""
+    out = {}
+    for key, path in (("bo2", source / "bo2.exr"), ("bo2_old", source / "old" / "bo2.exr"),
+                      ("cycles", source / "cycles.exr")):
+        if path.exists():
+            out[key] = Path(os.path.relpath(path, page)).as_posix()
+    return out
+
+
+def read_comparison(source: Path) -> tuple[dict, dict]:
+    """``core.report.analyse_scene``'s passes and info from a comparison folder.
+
+    returns: ({variant: {pass label: (linear (H, W, 3), display (H, W, 3))}}, info)
+    """
+    path = source / "metrics.json"
+    try:
+        metrics = json.loads(path.read_text())
+        layer = metrics["view_layer"]
+        engines = metrics["engines"]
+    except (OSError, ValueError, KeyError, TypeError) as exc:
+        raise compare.CompareError(f"{path}: not a comparison's metrics.json ({exc})") from None
+    exrs = {"bo2": source / "bo2.exr", "cycles": source / "cycles.exr"}
+    old = source / "old" / "bo2.exr"
+    if old.exists():
+        exrs["bo2_old"] = old
+    read = {}
+    for key, exr in exrs.items():
+        try:
+            read[key] = compare.read_exr(exr, layer)
+        except Exception as exc:  # noqa: BLE001 - OpenEXR raises several kinds
+            raise compare.CompareError(f"{exr}: cannot be read ({exc})") from None
+        if "Combined" not in read[key]:
+            raise compare.CompareError(f"{exr}: no Combined pass of view layer {layer!r}")
+    shapes = {k: v["Combined"].shape[:2] for k, v in read.items()}
+    if len(set(shapes.values())) > 1:
+        raise compare.CompareError(f"{source}: the renders differ in size {shapes}")
+    cycles = read.pop("cycles")
+    pairs = {k: core_compare.light_pairs(v, cycles) for k, v in read.items()}
+    names = [n for n in pairs["bo2"] if all(n in p for p in pairs.values())]
+    linear = {"cycles": [pairs["bo2"][n][1] for n in names]}
+    linear.update({k: [p[n][0] for n in names] for k, p in pairs.items()})
+    cm = metrics.get("color_management", {})
+    order = list(linear)
+    display = to_display(cm, [im for k in order for im in linear[k]])
+    out, i = {}, 0
+    for k in order:
+        out[k] = {}
+        for n in names:
+            label = "Combined" if n == "Combined" else passes.readable_name(n)
+            out[k][label] = (linear[k][names.index(n)][..., :3], display[i])
+            i += 1
+    seconds = {k: engines[k]["render_seconds"] for k in ("bo2", "cycles") if k in engines}
+    samples = {k: engines[k].get("samples") for k in ("bo2", "cycles") if k in engines}
+    old_info = source / "old" / "render.json"
+    if "bo2_old" in out and old_info.exists():
+        info = json.loads(old_info.read_text())
+        seconds["bo2_old"], samples["bo2_old"] = info["render_seconds"], info.get("samples")
+    info = {"source": {"blend_file": metrics.get("blend_file"), "scene": metrics.get("scene"),
+                       "frame": metrics.get("frame")},
+            "resolution": metrics.get("resolution"), "color_management": cm,
+            "seconds": seconds, "samples": samples}
+    return out, info
+
+
+def to_display(cm: dict, linear: list) -> list:
+    """Scene-linear images through the colour management ``cm`` (metrics.json's
+    "color_management"), as Blender saves a render (``images.to_display``)."""
+    scene = bpy.data.scenes.new("BO2 Report colour")
+    try:
+        for attr in COLOR_MANAGEMENT:
+            if attr in cm:
+                try:
+                    setattr(scene.view_settings, attr, cm[attr])
+                except (TypeError, ValueError):
+                    pass  # a view or look this Blender lacks: its default
+        if "display_device" in cm:
+            try:
+                scene.display_settings.display_device = cm["display_device"]
+            except (TypeError, ValueError):
+                pass
+        return images.to_display(scene, linear)
+    finally:
+        bpy.data.scenes.remove(scene)
+
+
+def render_scene(scene, view_layer, folder: Path, old_methods: bool, on_stage=None) -> None:
+    """Render ``scene`` into ``folder`` as ``compare.run`` does, and first, when
+    ``old_methods``, BO2 Lighting with the talk's old methods into ``folder/old/``."""
+    if old_methods:
+        saved = {k: getattr(scene.bo2, k) for k in OLD_METHODS}
+        job = compare.Comparison(scene, view_layer, folder / "old")
+        try:
+            for k, v in OLD_METHODS.items():
+                setattr(scene.bo2, k, v)
+            if on_stage:
+                on_stage("BO2 Lighting render, old methods")
+            job.finish("bo2", compare.render_sync(job, "bo2"))
+        finally:
+            job.restore()
+            for k, v in saved.items():
+                setattr(scene.bo2, k, v)
+        (folder / "old" / "render.json").write_text(json.dumps(job.info["bo2"], indent=1))
+    compare.run(scene, view_layer, folder, on_stage=on_stage)
+
+
+def scenes_with_camera() -> list:
+    """The open file's scenes that have a camera, in name order."""
+    return sorted((s for s in bpy.data.scenes if s.camera is not None), key=lambda s: s.name)
+
+
+def comparison_folders(folder: Path) -> list[Path]:
+    """``folder`` itself when it holds a comparison, else its subfolders that do (name order)."""
+    folder = Path(folder)
+    if (folder / "metrics.json").exists():
+        return [folder]
+    if not folder.is_dir():
+        return []
+    return sorted(p for p in folder.iterdir() if (p / "metrics.json").exists())

@@ -1,0 +1,120 @@
+"""``bo2 report``: many scenes compared with Cycles on one static review page
+(``blender/report.py``, docs/report.md), with a progress bar; Ctrl-C keeps the scenes done."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+from ..blender import headless
+from . import CommandError, load_blend
+from .terminal import BatchProgress, exit_on_interrupt, quiet_blender
+
+
+def sources(paths: list[str]) -> list[tuple[str, Path]]:
+    """("blend", file) and ("folder", comparison folder) of the command's arguments, in order:
+    a .blend file, a ``bo2 compare`` folder, or a folder of either (one level down)."""
+    from ..blender import report
+
+    out = []
+    for text in paths:
+        path = Path(text)
+        if path.is_file() and path.suffix.lower() == ".blend":
+            out.append(("blend", path))
+        elif path.is_dir():
+            found = [("folder", p) for p in report.comparison_folders(path)]
+            if not (path / "metrics.json").exists():
+                found += [("blend", p) for p in sorted(path.glob("*.blend"))]
+            if not found:
+                raise CommandError(f"{path}: holds no .blend file and no comparison "
+                                   "(a bo2 compare folder has metrics.json)")
+            out += found
+        elif path.exists():
+            raise CommandError(f"{path}: not a .blend file or a folder")
+        else:
+            raise CommandError(f"{path}: no such file or folder")
+    return out
+
+
+def run(args) -> int:
+    """Compare each scene with Cycles and write the review page (docs/report.md)."""
+    from ..core import flip
+
+    if args.fail_above is not None and flip.unavailable():
+        raise CommandError(f"--fail-above needs FLIP: {flip.unavailable()}")
+    todo = sources(args.scenes)
+    from ..blender import compare, report
+
+    with quiet_blender():
+        try:
+            page = report.Report(Path(args.output), args.title, args.fail_above)
+        except compare.CompareError as exc:
+            raise CommandError(str(exc)) from None
+    renders = 3 if args.old_methods else 2
+    steps = [renders + 1 if kind == "blend" else 1 for kind, _ in todo]
+    progress = BatchProgress(sum(steps))
+    state = {"stage": "start", "written": 0}
+
+    def interrupted() -> str:
+        done = state["written"]
+        return (f"interrupted during {state['stage']}; {page.folder / 'index.html'} holds the "
+                f"{done} scene{'s' if done != 1 else ''} done" if done else
+                f"interrupted during {state['stage']}; no scene done")
+
+    def stage(text: str) -> None:
+        state["stage"] = text
+        progress.draw(text)
+
+    failures = 0
+    names = [p.stem if kind == "blend" else p.name for kind, p in todo]
+    with exit_on_interrupt(interrupted):
+        for i, (kind, path) in enumerate(todo):
+            pending = names[i + 1:]
+            try:
+                if kind == "blend":
+                    folder = render_blend(path, args, page, stage)
+                    progress.done += renders
+                    progress.draw()
+                else:
+                    folder = path
+                stage(f"{names[i]}: pictures")
+                with quiet_blender():
+                    page.add(folder, names[i], pending)
+                state["written"] += 1
+            except (CommandError, compare.CompareError) as exc:
+                failures += 1
+                progress.message(f"bo2: error: {names[i]}: {exc}", sys.stderr)
+            progress.done = sum(steps[:i + 1])
+            progress.draw()
+        progress.close()
+    if not page.entries:
+        raise CommandError("no scene could be compared")
+    index = page.write()
+    print(index)
+    bad = page.failing()
+    for entry in bad:
+        print(f"bo2: {entry['name']}: mean FLIP "
+              f"{entry['variants']['bo2']['metrics']['Combined']['flip_ldr']:.4f} above "
+              f"{args.fail_above}", file=sys.stderr)
+    return 1 if bad or failures else 0
+
+
+def render_blend(path: Path, args, page, stage) -> Path:
+    """Open ``path`` and render its scene (the file's active scene, as ``bo2 compare``) into a
+    new folder of the report; returns that folder."""
+    from ..blender import report
+
+    scene = load_blend(path)
+    if not headless.has_camera(scene):
+        raise CommandError(f"{path}: the scene has no active camera")
+    if args.resolution:
+        headless.set_resolution(scene, args.resolution)
+    if args.samples:
+        headless.set_samples(scene, "bo2", args.samples)
+    if args.cycles_samples:
+        headless.set_samples(scene, "cycles", args.cycles_samples)
+    folder = page.scene_folder(path.stem)
+    with quiet_blender():
+        report.render_scene(scene, headless.view_layer(), folder, args.old_methods,
+                            on_stage=lambda text: stage(f"{path.stem}: {text}"))
+    return folder
