@@ -37,8 +37,10 @@ demo: venv build
 lint: venv
 	$(VENV)/bin/ruff check .
 
+# The review page's browser tests drive a Chromium (tools/chromium.sh finds or installs one).
 test: venv venv45 build lint
-	$(VENV)/bin/pytest tests/core tests/cli tests/blender
+	@chromium=$$(tools/chromium.sh) || echo "make test: the browser tests will be skipped: no Chromium"; \
+	BO2_CHROMIUM="$$chromium" $(VENV)/bin/pytest tests/core tests/cli tests/blender tests/browser
 	$(VENV45)/bin/pytest tests/blender
 	@$(MAKE) --no-print-directory test52
 
