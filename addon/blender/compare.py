@@ -47,13 +47,15 @@ class CompareError(Exception):
 # Files
 
 
-def output_folder(scene) -> Path:
-    """The scene's Compare Folder (``scene.bo2.compare_folder``) as an absolute path."""
-    text = scene.bo2.compare_folder.strip()
+def output_folder(scene, setting: str = "compare_folder") -> Path:
+    """A folder setting of the scene (``scene.bo2.<setting>``, by default the Compare Folder)
+    as an absolute path."""
+    label = scene.bo2.bl_rna.properties[setting].name
+    text = getattr(scene.bo2, setting).strip()
     if not text:
-        raise CompareError("no Compare Folder is set")
+        raise CompareError(f"no {label} is set")
     if text.startswith("//") and not bpy.data.filepath:
-        raise CompareError("save the .blend file first, or choose an absolute Compare Folder")
+        raise CompareError(f"save the .blend file first, or choose an absolute {label}")
     return Path(bpy.path.abspath(text))
 
 
@@ -249,7 +251,7 @@ def render_sync(job: Comparison, key: str) -> float:
     label = ENGINES[key][1]
     try:
         start = time.perf_counter()
-        bpy.ops.render.render(layer=job.layer)
+        bpy.ops.render.render(layer=job.layer, scene=job.scene.name)
         seconds = time.perf_counter() - start
         interrupt.check()  # the bo2 command's Ctrl-C: nothing of this render is kept
     except RuntimeError as exc:

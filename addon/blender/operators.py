@@ -15,7 +15,8 @@ import time
 import bpy
 
 from ..core import compare as core_compare
-from . import bake, bake_files, compare, convert, lightmaps, node_groups, probes, worlds
+from ..core import report as core_report
+from . import bake, bake_files, compare, convert, lightmaps, node_groups, probes, report, worlds
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
           ("SELECTED", "Selected", "The selected light probes"),
@@ -408,6 +409,117 @@ class BO2_OT_compare_cycles(bpy.types.Operator):
         return {"FINISHED"}
 
 
+class BO2_OT_review_report(bpy.types.Operator):
+    """The look-dev review page (the tooltip is ``bl_description``)."""
+
+    bl_idname = "bo2.review_report"
+    bl_label = "Review Report"
+    bl_description = ("Compare this file's scenes (or Compare with Cycles folders) with Cycles "
+                      "on one web page in the Report Folder: ranked by FLIP, with an A/B wipe, "
+                      "difference and FLIP maps and per-pass metrics. Esc stops after the "
+                      "current scene and keeps the scenes done")
+    bl_options = {"REGISTER"}
+
+    _steps: list = []
+    _errors: list = []
+    _page = None
+    _timer = None
+    _done = 0
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and not bpy.app.is_job_running("RENDER")
+
+    def _start(self, context) -> bool:
+        try:
+            self._page, self._steps = report.plan(context)
+        except compare.CompareError as exc:
+            self.report({"ERROR"}, str(exc))
+            return False
+        self._done = 0
+        return True
+
+    def _step(self) -> str | None:
+        """Run the next scene; an error line, or None."""
+        name, step = self._steps[self._done]
+        self._done += 1
+        try:
+            step()
+        except compare.CompareError as exc:
+            return f"{name}: {exc}"
+        return None
+
+    def _finish(self, context, errors: list[str], stopped: bool = False) -> set:
+        page = self._page
+        if not page.entries:
+            self.report({"ERROR"}, "Review Report: no scene could be compared"
+                        + (f" ({errors[0]})" if errors else ""))
+            return {"CANCELLED"}
+        path = page.write([n for n, _ in self._steps[self._done:]])
+        for line in errors:
+            self.report({"WARNING"}, f"Review Report: {line}")
+        worst = core_report.ranked(page.entries)[0]
+        score = core_report.score(worst)
+        verb = "stopped after" if stopped else "compared"
+        self.report({"INFO"}, f"Review Report: {verb} {len(page.entries)} scene"
+                    f"{'s' * (len(page.entries) != 1)}; worst {worst['name']}"
+                    + (f" (mean FLIP {score:.3f})" if score is not None else "")
+                    + f"; {path}")
+        if not bpy.app.background and context.window_manager is not None:
+            bpy.ops.wm.url_open(url=path.as_uri())
+        return {"FINISHED"}
+
+    def execute(self, context):
+        if not self._start(context):
+            return {"CANCELLED"}
+        errors = [e for e in (self._step() for _ in self._steps) if e]
+        return self._finish(context, errors)
+
+    def invoke(self, context, event):
+        if bpy.app.background or context.window is None:
+            return self.execute(context)
+        if not self._start(context):
+            return {"CANCELLED"}
+        self._errors = []
+        wm = context.window_manager
+        wm.progress_begin(0, len(self._steps))
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        self._status(context)
+        return {"RUNNING_MODAL"}
+
+    def _status(self, context, text: str | None = "") -> None:
+        if context.workspace is None:
+            return
+        if text == "":
+            name = self._steps[self._done][0]
+            text = (f"Review Report: scene {self._done + 1} of {len(self._steps)}, {name} "
+                    "(Esc stops after it)")
+        context.workspace.status_text_set(text)
+
+    def _end(self, context) -> None:
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        self._status(context, None)
+
+    def modal(self, context, event):
+        if event.type == "ESC" and event.value == "PRESS":
+            self._end(context)
+            return self._finish(context, self._errors, stopped=True)
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        error = self._step()
+        if error:
+            self._errors.append(error)
+        context.window_manager.progress_update(self._done)
+        if self._done < len(self._steps):
+            self._status(context)
+            return {"RUNNING_MODAL"}
+        self._end(context)
+        return self._finish(context, self._errors)
+
+
 def _target_tree(context):
     """The shader tree to add to: the Shader Editor's, else the active object's material's."""
     space = context.space_data
@@ -559,5 +671,6 @@ class BO2_OT_evaluate_world(bpy.types.Operator):
 
 CLASSES = [BO2_OT_bake_probes, BO2_OT_clear_probes, BO2_OT_pack_bakes, BO2_OT_unpack_bakes,
            BO2_OT_bake_lightmaps,
-           BO2_OT_clear_lightmaps, BO2_OT_compare_cycles, BO2_OT_evaluate_world,
+           BO2_OT_clear_lightmaps, BO2_OT_compare_cycles, BO2_OT_review_report,
+           BO2_OT_evaluate_world,
            NODE_OT_bo2_add_material, MATERIAL_OT_bo2_new, MATERIAL_OT_bo2_convert]

@@ -210,6 +210,39 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         subtype="DIR_PATH",
         options={"PATH_SUPPORTS_BLEND_RELATIVE"},
     )
+    report_folder: bpy.props.StringProperty(
+        name="Report Folder",
+        description="Folder of the look-dev review: index.html (open it in a web browser), "
+        "report.json and each scene's renders and pictures ('//' is the .blend's folder)",
+        default="//bo2_report/",
+        subtype="DIR_PATH",
+        options={"PATH_SUPPORTS_BLEND_RELATIVE"},
+    )
+    report_source: bpy.props.EnumProperty(
+        name="Review",
+        description="What the look-dev review compares with Cycles",
+        items=[
+            ("SCENES", "This File's Scenes",
+             "Render every scene of this file that has a camera, with both engines"),
+            ("FOLDER", "Compare Folders",
+             "Read back the Compare with Cycles (bo2 compare) folders inside a folder, "
+             "without rendering"),
+        ],
+        default="SCENES",
+    )
+    report_source_folder: bpy.props.StringProperty(
+        name="Compare Folders",
+        description="A Compare with Cycles folder, or a folder of them, for the review",
+        default="//",
+        subtype="DIR_PATH",
+        options={"PATH_SUPPORTS_BLEND_RELATIVE"},
+    )
+    report_old_methods: bpy.props.BoolProperty(
+        name="Old Methods Too",
+        description="Also render BO2 Lighting with the talk's old methods (BO1 environment "
+        "BRDF, normalization and prefilter), for the page's old/new toggle",
+        default=False,
+    )
     bake_cycles_samples: bpy.props.IntProperty(
         name="Cycles Samples",
         description="Path-tracing samples per pixel of the captures (Cycles backend)",

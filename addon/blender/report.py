@@ -183,3 +183,37 @@ def comparison_folders(folder: Path) -> list[Path]:
     if not folder.is_dir():
         return []
     return sorted(p for p in folder.iterdir() if (p / "metrics.json").exists())
+
+
+def plan(context) -> tuple[Report, list[tuple[str, object]]]:
+    """The review of the scene's Review settings (``scene.bo2.report_*``), as steps to run one
+    at a time: [(scene name, step())], each step rendering or reading one scene and rewriting
+    the page. CompareError when there is nothing to review or nowhere to write."""
+    settings = context.scene.bo2
+    folder = compare.output_folder(context.scene, "report_folder")
+    if settings.report_source == "SCENES":
+        todo = [(s.name, s) for s in scenes_with_camera()]
+        if not todo:
+            raise compare.CompareError("no scene of this file has a camera")
+    else:
+        source = compare.output_folder(context.scene, "report_source_folder")
+        todo = [(p.name, p) for p in comparison_folders(source)]
+        if not todo:
+            raise compare.CompareError(f"{source}: holds no Compare with Cycles folder "
+                                       "(one with metrics.json)")
+    stem = Path(bpy.data.filepath).stem or "Untitled"
+    page = Report(folder, f"{stem}: look-dev review")
+    names = [name for name, _ in todo]
+    old = settings.report_old_methods
+
+    def step(i: int):
+        name, item = todo[i]
+        pending = names[i + 1:]
+        if isinstance(item, Path):
+            return page.add(item, name, pending)
+        layer = context.view_layer if item == context.scene else item.view_layers[0]
+        target = page.scene_folder(name)
+        render_scene(item, layer, target, old)
+        return page.add(target, name, pending)
+
+    return page, [(name, (lambda i=i: step(i))) for i, name in enumerate(names)]

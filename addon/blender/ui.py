@@ -219,8 +219,17 @@ class RENDER_PT_bo2_lookdev(_BO2Panel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.split_layout()
+        settings = context.scene.bo2
         layout.operator("bo2.compare_cycles", icon="IMAGE_REFERENCE")
-        layout.prop(context.scene.bo2, "compare_folder")
+        layout.prop(settings, "compare_folder")
+        layout.separator()
+        layout.prop(settings, "report_source")
+        if settings.report_source == "FOLDER":
+            layout.prop(settings, "report_source_folder")
+        else:
+            layout.prop(settings, "report_old_methods")
+        layout.prop(settings, "report_folder")
+        layout.operator("bo2.review_report", icon="DOCUMENTS")
 
 
 class VIEWLAYER_PT_bo2_passes(_BO2Panel, bpy.types.Panel):

@@ -3,10 +3,11 @@
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 
-from ..blender import headless
+from ..blender import headless, interrupt
 from . import CommandError, load_blend
 from .terminal import BatchProgress, exit_on_interrupt, quiet_blender
 
@@ -56,6 +57,7 @@ def run(args) -> int:
     state = {"stage": "start", "written": 0}
 
     def interrupted() -> str:
+        progress.clear()
         done = state["written"]
         return (f"interrupted during {state['stage']}; {page.folder / 'index.html'} holds the "
                 f"{done} scene{'s' if done != 1 else ''} done" if done else
@@ -65,6 +67,9 @@ def run(args) -> int:
         state["stage"] = text
         progress.draw(text)
 
+    # the .blend files load inside the Ctrl-C handler below: take SIGINT from bpy first, so that
+    # loading them does not take it back (``interrupt.install`` runs once)
+    interrupt.install(os.dup(2))
     failures = 0
     names = [p.stem if kind == "blend" else p.name for kind, p in todo]
     with exit_on_interrupt(interrupted):

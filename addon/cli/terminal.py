@@ -84,9 +84,13 @@ class BatchProgress:
         self.terminal.flush()
         self.width = len(line)
 
-    def message(self, text: str, stream) -> None:
+    def clear(self) -> None:
+        """Blank the bar's line (before a message, or the last words of an interrupt)."""
         self.terminal.write("\r" + " " * self.width + "\r")
         self.terminal.flush()
+
+    def message(self, text: str, stream) -> None:
+        self.clear()
         print(text, file=stream, flush=True)
         self.draw()
 
