@@ -6,7 +6,8 @@ For each scene of ``demo_blends/`` (built from its script when the .blend is mis
 into ``out/scenes/`` (a bake saves its .blend; the bakes go to ``out/scenes/bo2_bake/``): bake its
 light probes (``bo2 bake``; the room's lightmaps too, ``bo2 bake --lightmaps``), render it with
 BO2 Lighting and with Cycles and compare the two (``bo2 compare``: both EXRs, side-by-side,
-split and difference pictures, metrics.json in ``out/<scene>/``). Then render the talk's
+split and difference pictures, metrics.json in ``out/<scene>/``), and gather the comparisons on
+one review page (``bo2 report``, ``out/report/index.html``). Then render the talk's
 old-versus-new pairs (``tools/render_old_vs_new.py``,
 ``out/old_vs_new_pairs/``). Ends with a table (scene, bake, BO2 and Cycles times, speed-up, RMSE,
 PSNR) and the path of every picture. ``--docs`` also writes the pictures of the user guide
@@ -79,6 +80,10 @@ def main() -> int:
         rows.append((name, bake, engines["bo2"]["render_seconds"],
                      engines["cycles"]["render_seconds"], image["rmse"], image["psnr_db"]))
         pictures += [folder / p for p in ("side_by_side.png", "split.png", "difference.png")]
+    print("writing the look-dev review page -> out/report/index.html", flush=True)
+    run([str(BO2), "report", *[str(OUT / n) for n in SCENES], "-o", str(OUT / "report"),
+         "--title", "BO2 Lighting demo scenes"])
+    pictures.append(OUT / "report" / "index.html")
     print("rendering the old-versus-new pairs", flush=True)
     run([sys.executable, str(ROOT / "tools" / "render_old_vs_new.py"),
          str(OUT / "old_vs_new_pairs")])

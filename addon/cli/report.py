@@ -54,7 +54,7 @@ def run(args) -> int:
     renders = 3 if args.old_methods else 2
     steps = [renders + 1 if kind == "blend" else 1 for kind, _ in todo]
     progress = BatchProgress(sum(steps))
-    state = {"stage": "start", "written": 0}
+    state = {"stage": "start", "written": 0, "base": 0, "end": 0, "calls": 0}
 
     def interrupted() -> str:
         progress.clear()
@@ -64,7 +64,11 @@ def run(args) -> int:
                 f"interrupted during {state['stage']}; no scene done")
 
     def stage(text: str) -> None:
+        """A scene's next stage: its renders, then its pictures, each a step of the bar."""
         state["stage"] = text
+        if state["calls"]:
+            progress.done = min(state["base"] + state["calls"], state["end"] - 1)
+        state["calls"] += 1
         progress.draw(text)
 
     # the .blend files load inside the Ctrl-C handler below: take SIGINT from bpy first, so that
@@ -75,11 +79,10 @@ def run(args) -> int:
     with exit_on_interrupt(interrupted):
         for i, (kind, path) in enumerate(todo):
             pending = names[i + 1:]
+            state.update(base=sum(steps[:i]), end=sum(steps[:i + 1]), calls=0)
             try:
                 if kind == "blend":
                     folder = render_blend(path, args, page, stage)
-                    progress.done += renders
-                    progress.draw()
                 else:
                     folder = path
                 stage(f"{names[i]}: pictures")
