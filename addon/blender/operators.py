@@ -466,7 +466,10 @@ class BO2_OT_review_report(bpy.types.Operator):
                     + (f" (mean FLIP {score:.3f})" if score is not None else "")
                     + f"; {path}")
         if not bpy.app.background and context.window_manager is not None:
-            bpy.ops.wm.url_open(url=path.as_uri())
+            try:  # a system without a web browser: the page is written all the same
+                bpy.ops.wm.url_open(url=path.as_uri())
+            except RuntimeError:
+                pass
         return {"FINISHED"}
 
     def execute(self, context):

@@ -30,7 +30,8 @@ DOCS = {"render_tab": "ui_render_tab.png", "spot_light_tab": "ui_light_tab.png",
         "render_tab_lightmaps": "ui_lightmaps.png",
         "object_tab_lightmap": "ui_object_lightmap.png",
         "viewport_lightmap_texels": "ui_viewport_lightmap_texels.png",
-        "probe_bake_packed": "ui_probe_bake_packed.png"}
+        "probe_bake_packed": "ui_probe_bake_packed.png",
+        "render_tab_review": "ui_review.png"}
 
 
 def main(argv=None) -> int:

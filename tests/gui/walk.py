@@ -175,7 +175,9 @@ def walk():
     tab_check("Render tab", "render", {"BO2SceneSettings.samples",
                                        "BO2SceneSettings.shadow_resolution",
                                        "RenderSettings.preview_pixel_size",
-                                       "BO2SceneSettings.lightmap_density"})
+                                       "BO2SceneSettings.lightmap_density",
+                                       "BO2SceneSettings.report_source",
+                                       "BO2SceneSettings.report_folder"})
     yield from show_tab(None, "OUTPUT")
     yield 1.0
     tab_check("Output tab", "output", {"RenderSettings.resolution_x"})
@@ -319,6 +321,43 @@ def walk():
     yield from show_tab(floor, "OBJECT")
     yield 1.5
     screenshot("object_tab_lightmap", properties)
+
+    # 5c. The look-dev review of the open file's scenes, from the Look-Dev panel's button, at a
+    # tenth of the resolution; this Blender's Python 3.14 has no FLIP: the page says why
+    review = OUT / "review"
+    scene.bo2.report_folder = "//" + os.path.relpath(review, ROOM.parent) + "/"
+    scene.bo2.report_source = "SCENES"
+    r = scene.render
+    kept = (r.resolution_percentage, scene.bo2.samples, scene.cycles.samples)
+    r.resolution_percentage, scene.bo2.samples, scene.cycles.samples = 10, 1, 4
+    yield from show_tab(None, "RENDER")
+    window_region = next(r for r in properties.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+        for _ in range(20):  # down to the Look-Dev panel
+            bpy.ops.view2d.scroll_down(deltay=120)
+        started = bpy.ops.bo2.review_report("INVOKE_DEFAULT")
+    redraw()
+    yield 1.0
+    screenshot("render_tab_review", properties)
+    data, start = {}, time.perf_counter()
+    while time.perf_counter() - start < 600:
+        yield 2.0
+        try:
+            data = json.loads((review / "report.json").read_text())
+        except (OSError, ValueError):
+            continue
+        if not data.get("pending") and data.get("scenes"):
+            break
+    names = [s["name"] for s in data.get("scenes", [])]
+    check("Review Report renders the file's scenes onto one page", started == {"RUNNING_MODAL"}
+          and names == [scene.name] and (review / "index.html").exists(),
+          f"{started}; scenes {names}")
+    check("without FLIP the page says why", data.get("flip") is None
+          or "flip-evaluator" in data.get("flip", ""), data.get("flip"))
+    r.resolution_percentage, scene.bo2.samples, scene.cycles.samples = kept
+    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+        for _ in range(40):
+            bpy.ops.view2d.scroll_up(deltay=120)
 
     # 6. The viewport in Rendered shading, through the camera
     viewports = module("addon.blender.viewport")
