@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -82,7 +83,7 @@ def load_page(index: Path) -> dict:
     """Chromium's time to the load event and the bytes fetched by then, from file://."""
     from playwright.sync_api import sync_playwright
 
-    chromium = shutil.which("chromium")
+    chromium = os.environ.get("BO2_CHROMIUM") or shutil.which("chromium")
     fetched = []
     with sync_playwright() as p:
         browser = p.chromium.launch(executable_path=chromium, args=[
@@ -130,7 +131,8 @@ def main() -> int:
               f"(BO2 renders {bo2:.0f} s, Cycles renders {cycles:.0f} s; target 600 s)")
         for s in data["scenes"]:
             m = s["variants"]["bo2"]["metrics"]["Combined"]
-            print(f"  {s['name']:<28} FLIP {m['flip_ldr']:.3f}  PSNR {m['psnr_db'] or 0:5.1f}  "
+            flip = "  -  " if m["flip_ldr"] is None else f"{m['flip_ldr']:.3f}"
+            print(f"  {s['name']:<28} FLIP {flip}  PSNR {m['psnr_db'] or 0:5.1f}  "
                   f"BO2 {s['variants']['bo2']['seconds']:6.2f} s  "
                   f"Cycles {s['cycles_seconds']:6.2f} s")
     # 25 scenes on one page: those comparisons read back, plus the rooms and Ignis scenes

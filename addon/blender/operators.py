@@ -440,13 +440,16 @@ class BO2_OT_review_report(bpy.types.Operator):
         return True
 
     def _step(self) -> str | None:
-        """Run the next scene; an error line, or None."""
+        """Run the next scene; an error line, or None (the page lists the scenes that fail)."""
         name, step = self._steps[self._done]
         self._done += 1
         try:
             step()
-        except compare.CompareError as exc:
-            return f"{name}: {exc}"
+        except Exception as exc:  # noqa: BLE001 - one line per scene, the review goes on
+            text = str(exc) if isinstance(exc, compare.CompareError) else (
+                f"{type(exc).__name__}: {exc}")
+            self._page.fail(name, text)
+            return f"{name}: {text}"
         return None
 
     def _finish(self, context, errors: list[str], stopped: bool = False) -> set:
@@ -476,7 +479,11 @@ class BO2_OT_review_report(bpy.types.Operator):
         if not self._start(context):
             return {"CANCELLED"}
         errors = [e for e in (self._step() for _ in self._steps) if e]
-        return self._finish(context, errors)
+        try:
+            return self._finish(context, errors)
+        except (OSError, ValueError) as exc:
+            self.report({"ERROR"}, f"Review Report: the page cannot be written ({exc})")
+            return {"CANCELLED"}
 
     def invoke(self, context, event):
         if bpy.app.background or context.window is None:
@@ -502,25 +509,37 @@ class BO2_OT_review_report(bpy.types.Operator):
 
     def _end(self, context) -> None:
         wm = context.window_manager
-        wm.event_timer_remove(self._timer)
-        wm.progress_end()
+        if self._timer is not None:
+            wm.event_timer_remove(self._timer)
+            wm.progress_end()
+            self._timer = None
         self._status(context, None)
 
     def modal(self, context, event):
-        if event.type == "ESC" and event.value == "PRESS":
-            self._end(context)
-            return self._finish(context, self._errors, stopped=True)
-        if event.type != "TIMER":
+        stop = event.type == "ESC" and event.value == "PRESS"
+        if not stop and event.type != "TIMER":
             return {"PASS_THROUGH"}
-        error = self._step()
-        if error:
-            self._errors.append(error)
-        context.window_manager.progress_update(self._done)
-        if self._done < len(self._steps):
-            self._status(context)
-            return {"RUNNING_MODAL"}
+        try:
+            if not stop:
+                error = self._step()
+                if error:
+                    self._errors.append(error)
+                context.window_manager.progress_update(self._done)
+                if self._done < len(self._steps):
+                    self._status(context)
+                    return {"RUNNING_MODAL"}
+        except BaseException:
+            self._end(context)
+            raise
         self._end(context)
-        return self._finish(context, self._errors)
+        try:
+            return self._finish(context, self._errors, stopped=stop)
+        except (OSError, ValueError) as exc:
+            self.report({"ERROR"}, f"Review Report: the page cannot be written ({exc})")
+            return {"CANCELLED"}
+
+    def cancel(self, context):
+        self._end(context)
 
 
 def _target_tree(context):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import time
 from pathlib import Path
 
@@ -37,41 +38,54 @@ class Report:
         self.scenes_folder = compare.prepare_folder(self.folder / "scenes")
         self.meta = {"title": title, "created": time.strftime("%Y-%m-%d %H:%M"),
                      "blender_version": bpy.app.version_string, "fail_above": fail_above,
-                     "flip": flip.unavailable(), "pending": []}
+                     "flip": flip.unavailable(), "pending": [], "failed": []}
         self.entries: list[dict] = []
         self.taken: set[str] = set()
 
     def scene_folder(self, name: str) -> Path:
-        """A new folder for the scene ``name`` inside the report."""
-        return compare.prepare_folder(self.scenes_folder / core.slug(name, self.taken))
+        """A new, empty folder for the scene ``name`` inside the report (what an earlier
+        review left there is removed: its old-methods render must not pass for this one's)."""
+        folder = self.scenes_folder / core.slug(name, self.taken)
+        if folder.is_dir():
+            shutil.rmtree(folder)
+        return compare.prepare_folder(folder)
 
     def add(self, source: Path, name: str, pending=()) -> dict:
         """Read the comparison in ``source`` (a ``bo2 compare`` folder, with ``old/`` when the
         old methods were rendered), write its pictures and the page; returns its entry."""
         source = Path(source)
-        folder = source if source.parent == self.scenes_folder else self.scene_folder(name)
-        entry = core.analyse_scene(name, *read_comparison(source), folder, self.folder,
-                                   links(source, self.folder))
+        if source.parent == self.scenes_folder:  # rendered by this review, or by an earlier one
+            folder = source
+            self.taken.add(source.name.lower())
+        else:
+            folder = self.scene_folder(name)
+        try:
+            entry = core.analyse_scene(name, *read_comparison(source), folder, self.folder,
+                                       links(source, self.folder))
+            self.write(pending, [*self.entries, entry])
+        except (OSError, ValueError, images.ImageError) as exc:
+            raise compare.CompareError(f"cannot write its pictures or the page ({exc})") from None
         self.entries.append(entry)
-        self.write(pending)
         return entry
 
-    def write(self, pending=()) -> Path:
+    def fail(self, name: str, message: str) -> None:
+        """Note a scene that could not be compared; the page lists it."""
+        self.meta["failed"].append({"name": name, "error": message})
+
+    def write(self, pending=(), entries=None) -> Path:
         """(Re)write the page with the scenes so far; ``pending``: names still to come."""
-        return core.write_page(self.folder, self.entries, {**self.meta, "pending": list(pending)})
+        return core.write_page(self.folder, list(self.entries if entries is None else entries),
+                               {**self.meta, "pending": list(pending)})
 
     def failing(self) -> list[dict]:
         return core.failing(core.ranked(self.entries), self.meta["fail_above"])
 
 
 def links(source: Path, page: Path) -> dict:
-    """The EXRs of a comparison folder, relative to the page's folder."""
-    out = {}
-    for key, path in (("bo2", source / "bo2.exr"), ("bo2_old", source / "old" / "bo2.exr"),
-                      ("cycles", source / "cycles.exr")):
-        if path.exists():
-            out[key] = Path(os.path.relpath(path, page)).as_posix()
-    return out
+    """The EXRs of a comparison folder, linked from the page's folder."""
+    return {key: core.href(path, page) for key, path in (
+        ("bo2", source / "bo2.exr"), ("bo2_old", source / "old" / "bo2.exr"),
+        ("cycles", source / "cycles.exr")) if path.exists()}
 
 
 def read_comparison(source: Path) -> tuple[dict, dict]:
@@ -107,21 +121,21 @@ def read_comparison(source: Path) -> tuple[dict, dict]:
     linear = {"cycles": [pairs["bo2"][n][1] for n in names]}
     linear.update({k: [p[n][0] for n in names] for k, p in pairs.items()})
     cm = metrics.get("color_management", {})
-    order = list(linear)
-    display = to_display(cm, [im for k in order for im in linear[k]])
-    out, i = {}, 0
-    for k in order:
-        out[k] = {}
-        for n in names:
-            label = "Combined" if n == "Combined" else passes.readable_name(n)
-            out[k][label] = (linear[k][names.index(n)][..., :3], display[i])
-            i += 1
+    labels = ["Combined" if n == "Combined" else passes.readable_name(n) for n in names]
+    out = {}
+    for k, images_k in linear.items():  # one variant at a time: a 4K frame's passes are large
+        display = to_display(cm, images_k)
+        out[k] = {label: (lin[..., :3], disp)
+                  for label, lin, disp in zip(labels, images_k, display, strict=True)}
     seconds = {k: engines[k]["render_seconds"] for k in ("bo2", "cycles") if k in engines}
     samples = {k: engines[k].get("samples") for k in ("bo2", "cycles") if k in engines}
     old_info = source / "old" / "render.json"
     if "bo2_old" in out and old_info.exists():
-        info = json.loads(old_info.read_text())
-        seconds["bo2_old"], samples["bo2_old"] = info["render_seconds"], info.get("samples")
+        try:
+            info = json.loads(old_info.read_text())
+            seconds["bo2_old"], samples["bo2_old"] = info["render_seconds"], info.get("samples")
+        except (OSError, ValueError, KeyError, TypeError) as exc:
+            raise compare.CompareError(f"{old_info}: damaged ({exc})") from None
     info = {"source": {"blend_file": metrics.get("blend_file"), "scene": metrics.get("scene"),
                        "frame": metrics.get("frame")},
             "resolution": metrics.get("resolution"), "color_management": cm,
@@ -134,17 +148,14 @@ def to_display(cm: dict, linear: list) -> list:
     "color_management"), as Blender saves a render (``images.to_display``)."""
     scene = bpy.data.scenes.new("BO2 Report colour")
     try:
-        for attr in COLOR_MANAGEMENT:
+        settings = [(scene.display_settings, "display_device")]  # first: it limits the views
+        settings += [(scene.view_settings, attr) for attr in COLOR_MANAGEMENT]
+        for owner, attr in settings:
             if attr in cm:
                 try:
-                    setattr(scene.view_settings, attr, cm[attr])
+                    setattr(owner, attr, cm[attr])
                 except (TypeError, ValueError):
-                    pass  # a view or look this Blender lacks: its default
-        if "display_device" in cm:
-            try:
-                scene.display_settings.display_device = cm["display_device"]
-            except (TypeError, ValueError):
-                pass
+                    pass  # a display, view or look this Blender lacks: its default
         return images.to_display(scene, linear)
     finally:
         bpy.data.scenes.remove(scene)
@@ -166,7 +177,10 @@ def render_scene(scene, view_layer, folder: Path, old_methods: bool, on_stage=No
             job.restore()
             for k, v in saved.items():
                 setattr(scene.bo2, k, v)
-        (folder / "old" / "render.json").write_text(json.dumps(job.info["bo2"], indent=1))
+        path = folder / "old" / "render.json"
+        tmp = path.with_name(".render.json.partial")
+        tmp.write_text(json.dumps(job.info["bo2"], indent=1))
+        os.replace(tmp, path)
     compare.run(scene, view_layer, folder, on_stage=on_stage)
 
 

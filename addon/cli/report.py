@@ -80,6 +80,8 @@ def run(args) -> int:
         for i, (kind, path) in enumerate(todo):
             pending = names[i + 1:]
             state.update(base=sum(steps[:i]), end=sum(steps[:i + 1]), calls=0)
+            state["stage"] = f"{names[i]}: loading"
+            progress.draw(state["stage"])
             try:
                 if kind == "blend":
                     folder = render_blend(path, args, page, stage)
@@ -91,6 +93,7 @@ def run(args) -> int:
                 state["written"] += 1
             except (CommandError, compare.CompareError) as exc:
                 failures += 1
+                page.fail(names[i], str(exc))
                 progress.message(f"bo2: error: {names[i]}: {exc}", sys.stderr)
             progress.done = sum(steps[:i + 1])
             progress.draw()

@@ -24,6 +24,10 @@ from __future__ import annotations
 import numpy as np
 
 PIXELS_PER_DEGREE = 67.0
+# HDR-FLIP's automatic exposure range starts at the reference's largest luminance and ends at
+# its median, clamped below; for a reference darker than that clamp the range is reversed and
+# the implementation ends the process. Below this largest luminance HDR-FLIP is not computed.
+HDR_BLACK = 1e-5
 
 
 def unavailable() -> str | None:
@@ -51,13 +55,16 @@ def evaluate(reference, test, hdr: bool = False, colour: bool = False):
     hdr:             HDR-FLIP instead of LDR-FLIP
     colour:          return the error map through FLIP's magma colour map, (H, W, 3) float32 in
                      [0, 1], instead of the errors (H, W)
-    returns:         (error map, mean error in [0, 1])
+    returns:         (error map, mean error in [0, 1]); for HDR-FLIP of a black reference
+                     (luminance below ``HDR_BLACK`` everywhere) (None, None): it is undefined
     """
     import flip_evaluator
 
     ref, tst = _prepare(reference, hdr), _prepare(test, hdr)
     if ref.shape != tst.shape:
         raise ValueError(f"FLIP needs two images of one shape, got {ref.shape} and {tst.shape}")
+    if hdr and float((ref @ np.float32([0.2126, 0.7152, 0.0722])).max(initial=0.0)) < HDR_BLACK:
+        return None, None
     error, mean, _ = flip_evaluator.evaluate(ref, tst, "HDR" if hdr else "LDR", inputsRGB=True,
                                              applyMagma=colour, computeMeanError=True,
                                              parameters={"ppd": PIXELS_PER_DEGREE})

@@ -26,6 +26,7 @@ import math
 import os
 import re
 from pathlib import Path
+from urllib.parse import quote
 
 import numpy as np
 
@@ -59,14 +60,32 @@ def rgbe(linear) -> np.ndarray:
     return out
 
 
+def rgbe_stack(linear) -> np.ndarray:
+    """``rgbe`` as an opaque RGB image of twice the height, (2H, W, 3) uint8: the mantissas
+    above, the exponent (in all three channels) below. A browser's canvas keeps RGBA pixels
+    with their colour premultiplied by alpha, which would round the mantissas off."""
+    e = rgbe(linear)
+    return np.concatenate([e[..., :3], np.repeat(e[..., 3:], 3, -1)], 0)
+
+
 def shrink(image: np.ndarray, width: int) -> np.ndarray:
     """Box-filtered down to at most ``width`` pixels wide by a whole factor: (H, W, C)."""
-    f = max(1, math.ceil(image.shape[1] / width))
+    f = max(1, min(math.ceil(image.shape[1] / width), image.shape[0]))
     if f == 1:
         return image
     h, w = image.shape[0] // f * f, image.shape[1] // f * f
     a = np.asarray(image[:h, :w], np.float32)
     return a.reshape(h // f, f, w // f, f, -1).mean((1, 3))
+
+
+def href(path: Path, page: Path) -> str:
+    """A link from the page's folder ``page`` to ``path``: relative and percent-encoded, or a
+    file:// URL when no relative path exists (another drive)."""
+    try:
+        rel = Path(os.path.relpath(path, page)).as_posix()
+    except ValueError:
+        return Path(path).resolve().as_uri()
+    return quote(rel)  # ":" too: a first segment never reads as a URL scheme
 
 
 def slug(text: str, taken: set) -> str:
@@ -136,9 +155,10 @@ def analyse_scene(name: str, passes: dict, info: dict, folder: Path, page: Path,
         if use_flip:
             ldr_map, _ = flip.evaluate(ref_disp, disp, colour=True)
             hdr_map, hdr_mean = flip.evaluate(ref_lin, lin, hdr=True, colour=True)
-            metrics["Combined"]["flip_hdr"] = hdr_mean
+            metrics["Combined"]["flip_hdr"] = hdr_mean  # None for a black Cycles render
             pics["flip_ldr"] = write(f"flip_ldr_{v}.png", ldr_map)
-            pics["flip_hdr"] = write(f"flip_hdr_{v}.png", hdr_map)
+            if hdr_map is not None:
+                pics["flip_hdr"] = write(f"flip_hdr_{v}.png", hdr_map)
         entry_variants[v] = {"label": VARIANTS[v], "metrics": metrics, "pictures": pics,
                              "seconds": info["seconds"].get(v),
                              "samples": info.get("samples", {}).get(v)}
@@ -152,9 +172,10 @@ def analyse_scene(name: str, passes: dict, info: dict, folder: Path, page: Path,
 
 
 def _write_hdr(folder: Path, images: dict) -> str:
-    """``hdr.js``: the scene-linear renders as RGBE PNG data URLs, registered with the page."""
-    data = {k: "data:image/png;base64," + base64.b64encode(imaging.png_bytes(rgbe(v))).decode()
-            for k, v in images.items()}
+    """``hdr.js``: the scene-linear renders as ``rgbe_stack`` PNG data URLs, registered with
+    the page."""
+    data = {k: "data:image/png;base64," + base64.b64encode(imaging.png_bytes(rgbe_stack(v)))
+            .decode() for k, v in images.items()}
     text = f"BO2Report.hdrLoaded({json.dumps(folder.name)}, {json.dumps(data)});\n"
     _atomic_text(folder / "hdr.js", text)
     return "hdr.js"
@@ -207,9 +228,12 @@ def write_page(folder: Path, entries: list[dict], meta: dict) -> Path:
     data = {**meta, "definitions": {**compare.DEFINITIONS, **DEFINITIONS},
             "heat_gradient": f"linear-gradient(90deg,{heat})", "scenes": entries}
     text = json.dumps(data, indent=1, allow_nan=False)
+    head, rest = report_page.PAGE.split("__TITLE__")
+    middle, tail = rest.split("__DATA__")
+    title = html.escape(meta.get("title", "Look-dev review"))
+    # inside <script>, no "<" at all: neither "</script" nor "<!--" can end or bend it
+    page = head + title + middle + text.replace("<", "\\u003c") + tail
     _atomic_text(folder / "report.json", text + "\n")
-    page = report_page.PAGE.replace("__TITLE__", html.escape(meta.get("title", "Look-dev review")))
-    page = page.replace("__DATA__", text.replace("</", "<\\/"))
     _atomic_text(folder / "index.html", page)
     return folder / "index.html"
 

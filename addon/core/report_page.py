@@ -87,7 +87,7 @@ input.wipe { width: 100%; display: block; margin: 6px 0 0; }
 <main>
   <div id="notices"></div>
   <table id="summary"><thead><tr>
-    <th class="text" data-key="thumb">Scene</th><th class="text" data-key="name"></th>
+    <th class="text" data-key="name" colspan="2">Scene</th>
     <th data-key="flip_ldr">FLIP LDR</th><th data-key="flip_hdr">FLIP HDR</th>
     <th data-key="psnr_db">PSNR dB</th><th data-key="ssim">SSIM</th><th data-key="rmse">RMSE</th>
     <th data-key="bo2_s">BO2 s</th><th data-key="cycles_s">Cycles s</th>
@@ -137,6 +137,9 @@ window.BO2Report = (function () {
         : `All ${data.scenes.length} scenes at or below the mean FLIP limit ${data.fail_above}.`}));
   }
   if (data.flip) notices.append(el("div", {class: "notice", text: data.flip}));
+  for (const f of data.failed || []) {
+    notices.append(el("div", {class: "notice fail", text: `Not compared: ${f.name}: ${f.error}`}));
+  }
   if (data.pending && data.pending.length) {
     notices.append(el("div", {class: "notice", text: "Not rendered (the report was stopped): " +
       data.pending.join(", ")}));
@@ -167,7 +170,6 @@ window.BO2Report = (function () {
   function sortable(table) {
     table.querySelectorAll("th").forEach((th) => th.addEventListener("click", () => {
       const key = th.dataset.key;
-      if (key === "thumb") return;
       const ascending = th.getAttribute("aria-sort") !== "ascending";
       table.querySelectorAll("th").forEach((h) => h.removeAttribute("aria-sort"));
       th.setAttribute("aria-sort", ascending ? "ascending" : "descending");
@@ -297,6 +299,7 @@ window.BO2Report = (function () {
       (t && c ? ` \u00b7 ${(c / t).toFixed(1)}\u00d7 faster` : "");
     const body = s.table.tBodies[0];
     body.replaceChildren();
+    s.table.querySelectorAll("th").forEach((h) => h.removeAttribute("aria-sort"));
     for (const [name, m] of Object.entries(v.metrics)) {
       const r = el("tr", {}, el("td", {class: "text", text: name}), el("td", {text: fmt(m.flip_ldr, 4)}),
         el("td", {text: fmt(m.psnr_db, 2)}), el("td", {text: fmt(m.ssim, 3)}), el("td", {text: fmt(m.rmse, 4)}),
@@ -333,10 +336,11 @@ window.BO2Report = (function () {
     const key = `${view.value} ${exposure.value} ${s.variant}`;
     if (s.key === key) return;
     withHdr(entry, (images) => {
-      if (s.mode !== "wipe" || view.value === "rendered") return;
+      const now = `${view.value} ${exposure.value} ${s.variant}`;
+      if (s.mode !== "wipe" || view.value === "rendered" || s.key === now) return;
       s.base.src = tonemap(images.cycles);
       s.topImg.src = tonemap(images[s.variant]);
-      s.key = key;
+      s.key = now;
     });
   }
   function tonemap(image) {
@@ -360,26 +364,35 @@ window.BO2Report = (function () {
     if (hdr[key] && hdr[key].ready) { done(hdr[key].images); return; }
     (waiting[key] = waiting[key] || []).push(done);
     if (waiting[key].length > 1) return;
-    document.head.append(el("script", {src: entry.cycles_pictures.hdr}));
+    const script = el("script", {src: entry.cycles_pictures.hdr});
+    script.onerror = () => {
+      waiting[key] = [];
+      script.remove();
+      const s = scenes.find((x) => x.entry === entry);
+      s.legend.replaceChildren(`${entry.cycles_pictures.hdr} is missing: only "As rendered" can be shown`);
+    };
+    document.head.append(script);
   }
   function hdrLoaded(folder, urls) {
     const images = {}, names = Object.keys(urls);
     let left = names.length;
     for (const name of names) {
       const img = new Image();
-      img.onload = () => {
+      img.onload = () => {  // mantissas in the top half, the exponents below
+        const w = img.width, h = img.height / 2;
         const canvas = document.createElement("canvas");
-        canvas.width = img.width; canvas.height = img.height;
-        const ctx = canvas.getContext("2d");
+        canvas.width = w; canvas.height = 2 * h;
+        const ctx = canvas.getContext("2d", {willReadFrequently: true});
         ctx.drawImage(img, 0, 0);
-        const px = ctx.getImageData(0, 0, img.width, img.height).data;
-        const rgb = new Float32Array(img.width * img.height * 3);
-        for (let i = 0, j = 0; i < px.length; i += 4, j += 3) {
-          if (px[i + 3] === 0) continue;
-          const f = Math.pow(2, px[i + 3] - 136);
+        const px = ctx.getImageData(0, 0, w, 2 * h).data;
+        const rgb = new Float32Array(w * h * 3), n = w * h * 4;
+        for (let i = 0, j = 0; i < n; i += 4, j += 3) {
+          const e = px[n + i];
+          if (e === 0) continue;
+          const f = Math.pow(2, e - 136);
           rgb[j] = (px[i] + 0.5) * f; rgb[j + 1] = (px[i + 1] + 0.5) * f; rgb[j + 2] = (px[i + 2] + 0.5) * f;
         }
-        images[name] = {w: img.width, h: img.height, rgb};
+        images[name] = {w, h, rgb};
         if (--left === 0) {
           hdr[folder] = {ready: true, images};
           for (const cb of waiting[folder] || []) cb(images);
@@ -402,7 +415,11 @@ window.BO2Report = (function () {
     }
     refreshAll();
   });
-  exposure.addEventListener("input", refreshAll);
+  let frame = 0;  // one refresh per frame however fast the slider moves
+  exposure.addEventListener("input", () => {
+    exposureValue.textContent = `${Number(exposure.value).toFixed(1)} EV`;
+    if (!frame) frame = requestAnimationFrame(() => { frame = 0; refreshAll(); });
+  });
   const observer = new IntersectionObserver((items) => {
     for (const it of items) {
       const s = scenes.find((x) => x.el === it.target);

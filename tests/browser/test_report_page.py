@@ -106,9 +106,11 @@ def test_page_loads_with_every_picture(page):
     assert rows.count() == 4
     assert rows.locator("td.name").all_inner_texts() == ["scene 3", "scene 2", "scene 1",
                                                          "scene 0"]  # worst first
-    broken = page.evaluate("Array.from(document.images).filter(i => i.complete && "
+    page.evaluate("document.querySelectorAll('img').forEach(i => i.loading = 'eager')")
+    page.wait_for_function("Array.from(document.images).every(i => i.complete)")
+    broken = page.evaluate("Array.from(document.images).filter(i => "
                            "i.getAttribute('src') && i.naturalWidth === 0).length")
-    assert broken == 0
+    assert broken == 0 and page.locator("img").count() == 4 + 2 * 4  # thumbs, two per scene
     SHOTS.mkdir(parents=True, exist_ok=True)
     page.screenshot(path=SHOTS / "browser_page.png", full_page=True)
 
@@ -143,9 +145,11 @@ def test_sorting_reorders_rows(page):
     page.locator("#summary th[data-key=name]").click()
     assert names.all_inner_texts() == ["scene 0", "scene 1", "scene 2", "scene 3"]
     passes = page.locator("section.scene").first.locator("table.passes")
-    passes.locator("th[data-key=flip_ldr]").click()
-    firsts = passes.locator("tbody tr td:first-child").all_inner_texts()
-    assert sorted(firsts) == ["Combined", "Diffuse Direct"] and len(firsts) == 2
+    rows = passes.locator("tbody tr td:first-child")
+    assert rows.all_inner_texts() == ["Combined", "Diffuse Direct"]
+    passes.locator("th[data-key=pass]").click()  # ascending, then descending
+    passes.locator("th[data-key=pass]").click()
+    assert rows.all_inner_texts() == ["Diffuse Direct", "Combined"]
 
 
 def test_toggles_switch_pictures(page):
@@ -182,5 +186,25 @@ def test_exposure_and_view_transform(page):
     expected = srgb8(np.array(COLOURS["bo2"]) * 1.25 * 2)  # +1 EV
     assert np.abs(pixel(page, viewer, 0.5, 0.6) - expected).max() <= 2
     assert page.locator("#exposure-value").inner_text() == "1.0 EV"
+    page.select_option("#view", "neutral")
+    set_range(page, page.locator("#exposure"), 0)
+    page.wait_for_timeout(300)
+    expected = srgb8(pbr_neutral(np.array(COLOURS["bo2"]) * 1.25))
+    assert np.abs(pixel(page, viewer, 0.5, 0.6) - expected).max() <= 2
     page.select_option("#view", "rendered")
     assert sec.locator(".top img").get_attribute("src").endswith("/bo2.png")
+
+
+def pbr_neutral(c):
+    """Khronos PBR Neutral (the Khronos 3D Formats Working Group's reference, 2024)."""
+    start, desaturation = 0.8 - 0.04, 0.15
+    x = c.min()
+    c = c - (x - 6.25 * x * x if x < 0.08 else 0.04)
+    peak = c.max()
+    if peak < start:
+        return c
+    d = 1 - start
+    new_peak = 1 - d * d / (peak + d - start)
+    c = c * new_peak / peak
+    g = 1 - 1 / (desaturation * (peak - new_peak) + 1)
+    return c * (1 - g) + new_peak * g

@@ -59,6 +59,19 @@ def test_this_files_scenes(scene, tmp_path):
     assert "Second" in html and "<script" in html and "http" not in html.split("<body>")[1]
 
 
+def test_a_second_review_replaces_the_first(scene, tmp_path):
+    """Old methods in the first review only: the second shows no stale old-methods render."""
+    scene.bo2.report_folder = str(tmp_path / "review")
+    scene.bo2.report_old_methods = True
+    assert bpy.ops.bo2.review_report() == {"FINISHED"}
+    assert set(read_report(tmp_path / "review")["scenes"][0]["variants"]) == {"bo2", "bo2_old"}
+    scene.bo2.report_old_methods = False
+    assert bpy.ops.bo2.review_report() == {"FINISHED"}
+    [s] = read_report(tmp_path / "review")["scenes"]
+    assert set(s["variants"]) == {"bo2"}
+    assert not (tmp_path / "review" / "scenes" / s["folder"] / "old").exists()
+
+
 def test_compare_folders_read_back(scene, tmp_path):
     scene.view_settings.view_transform = "Standard"
     scene.bo2.compare_folder = str(tmp_path / "cmp" / "a")
