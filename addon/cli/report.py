@@ -80,7 +80,7 @@ def run(args) -> int:
         for i, (kind, path) in enumerate(todo):
             pending = names[i + 1:]
             state.update(base=sum(steps[:i]), end=sum(steps[:i + 1]), calls=0)
-            state["stage"] = f"{names[i]}: loading"
+            state["stage"] = f"{names[i]}: {'loading' if kind == 'blend' else 'reading'}"
             progress.draw(state["stage"])
             try:
                 if kind == "blend":
