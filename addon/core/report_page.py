@@ -53,6 +53,8 @@ section.scene h2 .badge { font-size: 12px; background: var(--bad); color: white;
 .viewer { position: relative; display: inline-block; line-height: 0; max-width: 100%;
           background: #000; cursor: ew-resize; touch-action: none; }
 .viewer img { max-width: 100%; height: auto; display: block; }
+.viewer .top img { width: 100%; }
+.viewer img.enlarged { image-rendering: pixelated; }
 .viewer .top { position: absolute; inset: 0; }
 .viewer .divider { position: absolute; top: 0; bottom: 0; width: 2px; background: white;
                    box-shadow: 0 0 3px black; pointer-events: none; }
@@ -104,6 +106,7 @@ window.BO2Report = (function () {
   const view = document.getElementById("view");
   const exposure = document.getElementById("exposure");
   const exposureValue = document.getElementById("exposure-value");
+  const MIN_WIDTH = 480;  // px: a smaller render is shown enlarged
   const MAGMA = "linear-gradient(90deg,#000004,#3b0f70,#8c2981,#de4968,#fe9f6d,#fcfdbf)";
 
   function el(tag, attrs, ...children) {
@@ -223,6 +226,11 @@ window.BO2Report = (function () {
     sec.append(row);
     const base = el("img", {class: "base", alt: "Cycles", loading: "lazy", src: entry.cycles_pictures.cycles});
     const topImg = el("img", {alt: "BO2 Lighting", loading: "lazy"});
+    const width = (entry.resolution || [0])[0];
+    if (width && width < MIN_WIDTH) {  // small renders enlarged, pixel for pixel
+      base.style.width = MIN_WIDTH + "px";
+      base.classList.add("enlarged"); topImg.classList.add("enlarged");
+    }
     const top = el("div", {class: "top"}, topImg);
     const divider = el("div", {class: "divider"});
     const viewer = el("div", {class: "viewer"}, base, top, divider,
@@ -296,7 +304,7 @@ window.BO2Report = (function () {
     const t = v.seconds, c = entry.cycles_seconds;
     s.times.textContent = `BO2 ${fmtSeconds(t)} s` + (v.samples ? ` (${v.samples} spp)` : "") +
       ` \u00b7 Cycles ${fmtSeconds(c)} s` + (entry.samples && entry.samples.cycles ? ` (${entry.samples.cycles} spp)` : "") +
-      (t && c ? ` \u00b7 ${(c / t).toFixed(1)}\u00d7 faster` : "");
+      (t && c ? ` \u00b7 speed-up ${(c / t).toFixed(1)}\u00d7` : "");
     const body = s.table.tBodies[0];
     body.replaceChildren();
     s.table.querySelectorAll("th").forEach((h) => h.removeAttribute("aria-sort"));

@@ -333,12 +333,13 @@ def walk():
     yield from show_tab(None, "RENDER")
     window_region = next(r for r in properties.regions if r.type == "WINDOW")
     with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-        for _ in range(20):  # down to the Look-Dev panel
+        for _ in range(40):  # down to the Look-Dev panel, the last of BO2's
             bpy.ops.view2d.scroll_down(deltay=120)
-        started = bpy.ops.bo2.review_report("INVOKE_DEFAULT")
     redraw()
-    yield 1.0
+    yield 1.5
     screenshot("render_tab_review", properties)
+    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+        started = bpy.ops.bo2.review_report("INVOKE_DEFAULT")
     data, start = {}, time.perf_counter()
     while time.perf_counter() - start < 600:
         yield 2.0
