@@ -331,6 +331,7 @@ def walk():
     kept = (r.resolution_percentage, scene.bo2.samples, scene.cycles.samples)
     r.resolution_percentage, scene.bo2.samples, scene.cycles.samples = 10, 1, 4
     yield from show_tab(None, "RENDER")
+    yield 1.5  # the tab drawn first: a region scrolls within what it has drawn
     window_region = next(r for r in properties.regions if r.type == "WINDOW")
     with bpy.context.temp_override(window=window(), area=properties, region=window_region):
         for _ in range(40):  # down to the Look-Dev panel, the last of BO2's
