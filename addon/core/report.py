@@ -104,7 +104,7 @@ def slug(text: str, taken: set) -> str:
 
 def variant_metrics(test: dict, reference: dict, use_flip: bool) -> dict:
     """Per pass: ``compare.image_metrics`` plus the mean LDR-FLIP ("flip_ldr", None without
-    FLIP).
+    FLIP, and for Combined, whose FLIP ``analyse_scene`` computes with its map).
 
     test, reference: {pass: (linear (H, W, 3), display (H, W, 3))}, the passes of ``test``
     """
@@ -112,7 +112,8 @@ def variant_metrics(test: dict, reference: dict, use_flip: bool) -> dict:
     for name, (lin, disp) in test.items():
         ref_lin, ref_disp = reference[name]
         m = compare.image_metrics(lin, ref_lin, disp, ref_disp)
-        m["flip_ldr"] = flip.evaluate(ref_disp, disp)[1] if use_flip else None
+        m["flip_ldr"] = flip.evaluate(ref_disp, disp)[1] if use_flip and (
+            name != "Combined") else None  # Combined's: with its map, in ``analyse_scene``
         out[name] = m
     return out
 
@@ -153,7 +154,7 @@ def analyse_scene(name: str, passes: dict, info: dict, folder: Path, page: Path,
                 "difference": write(f"difference_{v}.png",
                                      imaging.colormap(diffs[v][0] / scale_max))}
         if use_flip:
-            ldr_map, _ = flip.evaluate(ref_disp, disp, colour=True)
+            ldr_map, metrics["Combined"]["flip_ldr"] = flip.evaluate(ref_disp, disp, colour=True)
             hdr_map, hdr_mean = flip.evaluate(ref_lin, lin, hdr=True, colour=True)
             metrics["Combined"]["flip_hdr"] = hdr_mean  # None for a black Cycles render
             pics["flip_ldr"] = write(f"flip_ldr_{v}.png", ldr_map)
