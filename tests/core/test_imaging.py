@@ -144,8 +144,9 @@ def test_write_png_round_trip(tmp_path):
     length = struct.unpack(">I", data[start - 4:start])[0]
     raw = np.frombuffer(zlib.decompress(data[start + 4:start + 4 + length]), np.uint8)
     raw = raw.reshape(5, 1 + 7 * 3)
-    assert (raw[:, 0] == 0).all()
-    np.testing.assert_array_equal(raw[:, 1:].reshape(5, 7, 3), rgb)
+    assert (raw[:, 0] == 2).all()  # filter type 2, "Up": Raw(x) = Up(x) + Prior(x) mod 256
+    rows = np.cumsum(raw[:, 1:].astype(np.int64), 0) % 256
+    np.testing.assert_array_equal(rows.reshape(5, 7, 3), rgb)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.png"]  # no partial file left
 
 
