@@ -193,7 +193,7 @@ def test_shrink_and_slug():
 def entry(tmp_path, name, scale):
     """A scene whose BO2 render is Cycles' times ``scale``."""
     ramp = np.linspace(0.05, 0.9, 32, dtype=np.float32)
-    cycles = np.stack(np.meshgrid(ramp, ramp[:24]) + [np.full((24, 32), 0.3, np.float32)], -1)
+    cycles = np.stack([*np.meshgrid(ramp, ramp[:24]), np.full((24, 32), 0.3, np.float32)], -1)
     bo2 = cycles * scale
     passes = {k: {"Combined": (im, np.clip(im, 0, 1) ** (1 / 2.2))}
               for k, im in (("cycles", cycles), ("bo2", bo2))}
