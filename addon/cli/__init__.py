@@ -168,6 +168,15 @@ def cmd_version(args) -> int:
     return 0
 
 
+def _comparison_options(cmd, default: str, which: str) -> None:
+    """--samples, --cycles-samples and --resolution of a comparison with Cycles."""
+    cmd.add_argument("--samples", type=_samples("bo2"),
+                     help=f"BO2 Lighting samples per pixel (default: {default})")
+    cmd.add_argument("--cycles-samples", type=_samples("cycles"),
+                     help=f"Cycles samples per pixel (default: {default})")
+    cmd.add_argument("--resolution", type=_resolution, help=f"size WxH in pixels {which}")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from ..core import brdf, env_brdf
     from . import bake, compare, export_probes, render, report, sh
@@ -314,12 +323,7 @@ def build_parser() -> argparse.ArgumentParser:
                              help="output folder (created if missing)")
     compare_cmd.add_argument("--frame", type=_frame,
                              help="frame number (default: the file's current)")
-    compare_cmd.add_argument("--samples", type=_samples("bo2"),
-                             help="BO2 Lighting samples per pixel (default: the file's)")
-    compare_cmd.add_argument("--cycles-samples", type=_samples("cycles"),
-                             help="Cycles samples per pixel (default: the file's)")
-    compare_cmd.add_argument("--resolution", type=_resolution,
-                             help="size WxH in pixels of both")
+    _comparison_options(compare_cmd, "the file's", "of both")
     compare_cmd.set_defaults(func=compare.run)
     report_cmd = sub.add_parser(
         "report", help="compare many scenes with Cycles on one review page",
@@ -340,12 +344,7 @@ def build_parser() -> argparse.ArgumentParser:
                             help="exit 1 when a scene's mean LDR-FLIP is above FLIP (0 to 1); "
                             "the failing scenes come first on the page")
     report_cmd.add_argument("--title", default="Look-dev review", help="the page's title")
-    report_cmd.add_argument("--samples", type=_samples("bo2"),
-                            help="BO2 Lighting samples per pixel (default: each file's)")
-    report_cmd.add_argument("--cycles-samples", type=_samples("cycles"),
-                            help="Cycles samples per pixel (default: each file's)")
-    report_cmd.add_argument("--resolution", type=_resolution,
-                            help="size WxH in pixels of every render")
+    _comparison_options(report_cmd, "each file's", "of every render")
     report_cmd.set_defaults(func=report.run)
     version = sub.add_parser("version", help="print the add-on version")
     version.set_defaults(func=cmd_version)

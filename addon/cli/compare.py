@@ -12,6 +12,23 @@ from . import CommandError, load_blend
 from .terminal import exit_on_interrupt, quiet_blender
 
 
+def load_scene(path: Path, args):
+    """Open ``path`` for a comparison: its scene, with a camera (CommandError otherwise) and
+    the command's --frame, --resolution, --samples and --cycles-samples applied."""
+    scene = load_blend(path)
+    if not headless.has_camera(scene):
+        raise CommandError(f"{path}: the scene has no active camera")
+    if getattr(args, "frame", None) is not None:
+        headless.set_frame(scene, args.frame)
+    if args.resolution:
+        headless.set_resolution(scene, args.resolution)
+    if args.samples:
+        headless.set_samples(scene, "bo2", args.samples)
+    if args.cycles_samples:
+        headless.set_samples(scene, "cycles", args.cycles_samples)
+    return scene
+
+
 def run(args) -> int:
     """Render one frame with BO2 Lighting and with Cycles and compare them (docs/compare.md)."""
     folder = Path(args.output)
@@ -22,19 +39,9 @@ def run(args) -> int:
                            f"({exc.strerror or exc})") from None
     if not os.access(folder, os.W_OK | os.X_OK):
         raise CommandError(f"{folder}: output folder is not writable")
-    scene = load_blend(Path(args.scene))
+    scene = load_scene(Path(args.scene), args)
     from ..blender import compare
 
-    if not headless.has_camera(scene):
-        raise CommandError(f"{args.scene}: the scene has no active camera")
-    if args.frame is not None:
-        headless.set_frame(scene, args.frame)
-    if args.resolution:
-        headless.set_resolution(scene, args.resolution)
-    if args.samples:
-        headless.set_samples(scene, "bo2", args.samples)
-    if args.cycles_samples:
-        headless.set_samples(scene, "cycles", args.cycles_samples)
     stage = ["start"]
 
     def interrupted() -> str:

@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 
 from ..blender import headless, interrupt
-from . import CommandError, load_blend
+from . import CommandError
+from .compare import load_scene
 from .terminal import BatchProgress, exit_on_interrupt, quiet_blender
 
 
@@ -115,15 +116,7 @@ def render_blend(path: Path, args, page, stage) -> Path:
     new folder of the report; returns that folder."""
     from ..blender import report
 
-    scene = load_blend(path)
-    if not headless.has_camera(scene):
-        raise CommandError(f"{path}: the scene has no active camera")
-    if args.resolution:
-        headless.set_resolution(scene, args.resolution)
-    if args.samples:
-        headless.set_samples(scene, "bo2", args.samples)
-    if args.cycles_samples:
-        headless.set_samples(scene, "cycles", args.cycles_samples)
+    scene = load_scene(path, args)
     folder = page.scene_folder(path.stem)
     with quiet_blender():
         report.render_scene(scene, headless.view_layer(), folder, args.old_methods,
