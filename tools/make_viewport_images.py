@@ -72,7 +72,7 @@ def main() -> int:
         scene.bo2.bake_folder = folder
         scene.bo2.use_indirect = True
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        for _ in bake.bake_steps(scene, depsgraph, probes.probe_objects(scene), "BO2"):
+        for _ in bake.bake_steps(scene, probes.probe_objects(scene), "BO2"):
             pass
         cam = scene.camera.evaluated_get(depsgraph)
         camera = core_viewport.view_camera(

@@ -22,7 +22,7 @@ import numpy as np
 from .. import version
 from ..core import bake, capture, cubemap, lightmap_bake, lightmap_file, probe_file
 from ..core import lightmap as core_lightmap
-from . import bake_files, extract, images, interrupt, lightmaps, probes, worlds
+from . import bake_files, extract, images, interrupt, lightmaps, probes, render_graph, worlds
 from .probes import BakeError
 
 
@@ -81,7 +81,7 @@ _AXES = ((1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0),
 def enclosing_objects(scene, depsgraph, position) -> list[str]:
     """The names of the objects ``position`` may be inside of: every ray along the six axes
     meets the back of a surface first (the first surface met along each axis), or []. Rays
-    see what the viewport shows."""
+    see what ``depsgraph`` evaluates."""
     from mathutils import Vector
 
     names = set()
@@ -98,13 +98,15 @@ def _warn(report, message: str) -> None:
         report(message)
 
 
-def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
-    """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1].
+def bake_steps(scene, objs, backend: str = "BO2", report=None):
+    """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1] that
+    returns the number of probes written.
 
     backend: "BO2" (the engine's pipeline, ``scene.bo2.bake_bounces`` bounces) or "CYCLES"
              (one Cycles render per face, full global illumination: one bounce)
     report:  ``report(message)`` receives warnings
-    Closing the generator early (cancel) writes nothing.
+    The scene is read as a final render evaluates it (``render_graph``). Closing the
+    generator early (cancel) writes nothing.
     """
     settings = scene.bo2
     if not objs:
@@ -114,23 +116,28 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False, samples=int(settings.bake_samples))
     worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
-    core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False,
-                                                 should_stop=interrupt.requested)
-    for obj in objs:
-        if obj.data.type != "SPHERE":
-            continue
-        # an enclosing object smaller than the probe's reach is a prop it sits in; a larger one
-        # is the room around it (walls modelled with outward normals)
-        reach = 2.0 * float(obj.data.influence_distance)
-        inside = [name for name in enclosing_objects(scene, depsgraph,
-                                                     obj.matrix_world.translation)
-                  if scene.objects[name].dimensions.length < reach
-                  and not scene.objects[name].hide_probe_sphere]  # not in its captures
-        if inside:
-            warnings.append(f"Light probe '{obj.name}' seems to be inside object "
-                            f"{', '.join(repr(n) for n in inside)}: its captures see the "
-                            "inside; move the probe out, or raise its Clip Start past the "
-                            "surface")
+
+    def read(depsgraph):
+        core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False,
+                                                     should_stop=interrupt.requested)
+        for obj in objs:
+            if obj.data.type != "SPHERE":
+                continue
+            # an enclosing object smaller than the probe's reach is a prop it sits in; a larger
+            # one is the room around it (walls modelled with outward normals)
+            reach = 2.0 * float(obj.data.influence_distance)
+            inside = [name for name in enclosing_objects(scene, depsgraph,
+                                                         obj.matrix_world.translation)
+                      if scene.objects[name].dimensions.length < reach
+                      and not scene.objects[name].hide_probe_sphere]  # not in its captures
+            if inside:
+                warnings.append(f"Light probe '{obj.name}' seems to be inside object "
+                                f"{', '.join(repr(n) for n in inside)}: its captures see the "
+                                "inside; move the probe out, or raise its Clip Start past the "
+                                "surface")
+        return core_scene, warnings
+
+    core_scene, warnings = _read_for_render(scene, read)
     specs, odd = bake.check([probes.spec(o) for o in objs])
     if not specs:  # every probe was refused: the refusals are the error
         raise BakeError(f"No light probe can be baked: {'; '.join(odd)}")
@@ -140,7 +147,8 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))
     # the volumes' surroundings too, with either backend; Ctrl-C of the bo2 command stops it
-    captures = capture.Capture(core_scene, should_stop=interrupt.requested)
+    captures = capture.Capture(core_scene, should_stop=interrupt.requested,
+                               focus=bake.capture_region(specs))
     if backend == "BO2":
         grab = captures.cube
     else:
@@ -174,6 +182,15 @@ def bake_steps(scene, depsgraph, objs, backend: str = "BO2", report=None):
                         f"({reason}); the previous bake files are as they were") from None
     _declare(scene, targets)
     yield 1.0
+    return len(targets)
+
+
+def _read_for_render(scene, read):
+    """``render_graph.evaluate(scene, read)``; BakeError when Blender cannot render."""
+    try:
+        return render_graph.evaluate(scene, read)
+    except RuntimeError as exc:
+        raise BakeError(str(exc)) from None
 
 
 # --------------------------------------------------------------------------------------------
@@ -205,7 +222,14 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
                  "vertices are left out of its lightmap")
         d = lightmaps.density(obj, scene)
         name = lightmaps.uv_map(obj)
+        chosen = obj.bo2.lightmap_uv
+        if chosen and name is None:
+            warn(f"Object '{obj.name}': its Lightmap UV map '{chosen}' is not one of its UV "
+                 "maps; a layout is made for its lightmap instead")
         uvs = None if name is None else lightmaps.artist_uvs(obj, depsgraph, name, len(positions))
+        if name is not None and uvs is None:
+            warn(f"Object '{obj.name}': its modifiers leave no UV map '{name}'; a layout is "
+                 "made for its lightmap instead")
         if uvs is not None:
             width, height = core_lightmap.size_for(uvs[finite], positions[finite], d,
                                               s.max_resolution)
@@ -233,19 +257,23 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
     return targets, notes
 
 
-def cycles_lightmap(scene, obj, target, uv_map: str | None) -> np.ndarray:
+def render_mesh(obj, depsgraph):
+    """A new mesh datablock of ``obj`` as ``depsgraph`` evaluates it (its modifiers applied):
+    the stand-in a Cycles lightmap bake renders (``cycles_lightmap``); the caller removes it."""
+    return bpy.data.meshes.new_from_object(obj.evaluated_get(depsgraph),
+                                           preserve_all_data_layers=True, depsgraph=depsgraph)
+
+
+def cycles_lightmap(scene, obj, mesh, target, uv_map: str | None) -> np.ndarray:
     """(H, W, 3) irradiance, W/m^2, row 0 at v = 1, of ``obj``'s surface baked by Cycles in the
     layout ``target`` (``core.lightmap.Target``): its indirect light and the world's direct
     light (Bake > Diffuse without colour gives E / pi; the lamps' direct light, which the
     render adds live, is left out by baking the direct pass with the lamps hidden).
 
-    A copy of the evaluated object (its modifiers applied, the triangles the layout was made
-    for) stands in its place during its bake, with the layout as a UV map (or the object's own
-    map ``uv_map``) and a temporary Image Texture node in each material; all of it is removed
-    afterwards and nothing of the object is left changed."""
-    depsgraph = bpy.context.evaluated_depsgraph_get()
-    mesh = bpy.data.meshes.new_from_object(obj.evaluated_get(depsgraph),
-                                           preserve_all_data_layers=True, depsgraph=depsgraph)
+    ``mesh`` (``render_mesh``: the object as renders evaluate it, the triangles the layout
+    was made for) stands in the object's place during its bake, with the layout as a UV map
+    (or the object's own map ``uv_map``) and a temporary Image Texture node in each material;
+    all of it but ``mesh`` is removed afterwards and nothing of the object is left changed."""
     stand_in = bpy.data.objects.new("BO2 Lightmap Bake", mesh)
     stand_in.matrix_world = obj.matrix_world
     image = bpy.data.images.new("BO2 Lightmap Bake", target.width, target.height, alpha=False,
@@ -302,8 +330,8 @@ def cycles_lightmap(scene, obj, target, uv_map: str | None) -> np.ndarray:
         for mat, node in nodes:
             mat.node_tree.nodes.remove(node)
         bpy.data.objects.remove(stand_in)
-        bpy.data.meshes.remove(mesh)
         if added_material is not None:
+            mesh.materials.clear()
             bpy.data.materials.remove(added_material)
         bpy.data.images.remove(image)
         for o in saved[1]:
@@ -312,11 +340,17 @@ def cycles_lightmap(scene, obj, target, uv_map: str | None) -> np.ndarray:
         scene.render.engine, scene.cycles.samples, obj.hide_render = saved[2:]
 
 
-def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
-    """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1]; the files
-    are written at the end, all or nothing (closing it early writes nothing).
-    ``report(message)`` receives warnings. backend: "BO2" (``core.lightmap_bake``) or
-    "CYCLES" (``cycles_lightmap``, one object at a time; irradiance only)."""
+def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
+    """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1] that
+    returns the number of lightmaps written; the files are written at the end, all or
+    nothing (closing it early writes nothing). ``report(message)`` receives warnings.
+    backend: "BO2" (``core.lightmap_bake``) or "CYCLES" (``cycles_lightmap``, one object at
+    a time; irradiance only).
+
+    The objects are baked as a final render evaluates them (``render_graph``: Render levels,
+    render-only modifiers), which is what F12 draws. Where the viewport's mesh of an object
+    differs, its files also record the viewport's triangles and keys, so that the viewport
+    says why it lights that object with the probes rather than calling it stale."""
     def warn(message: str) -> None:
         if report is not None:
             report(message)
@@ -328,29 +362,46 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
     rs = dataclasses.replace(extract.render_settings(scene), border=None,
                              film_transparent=False)
     worlds.ensure(scene)
-    # the probes light the dynamic objects that the texels see
-    core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False, indirect=True,
-                                                 lightmaps=False,
-                                                 should_stop=interrupt.requested)
-    for w in warnings:
-        warn(w)
-    targets, notes = lightmap_plan(scene, depsgraph, core_scene, objs, warn)
-    s = lightmaps.settings(scene)
-    results: list = []
-    if backend == "CYCLES":
-        if s.directional:
-            warn("The Cycles backend bakes irradiance only: these lightmaps are not "
-                 "directional")
-            s = dataclasses.replace(s, directional=False)
-        for k, (target, note) in enumerate(zip(targets, notes, strict=True)):
-            image = cycles_lightmap(scene, scene.objects[target.name], target,
-                                    note["uv_map"] or None)
-            results.append(core_lightmap.Lightmap(np.ascontiguousarray(image), target.uvs))
-            interrupt.check()
-            yield (k + 1) / (len(targets) + 1)
-    else:
-        yield from lightmap_bake.steps(core_scene, targets, s, results,
-                                       should_stop=interrupt.requested, warn=warn)
+    cycles = backend == "CYCLES"
+
+    def read(depsgraph):
+        # the probes light the dynamic objects that the texels see
+        core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False,
+                                                     indirect=True, lightmaps=False,
+                                                     should_stop=interrupt.requested)
+        for w in warnings:
+            warn(w)
+        targets, notes = lightmap_plan(scene, depsgraph, core_scene, objs, warn)
+        meshes = {}
+        try:
+            for t in targets if cycles else ():
+                meshes[t.name] = render_mesh(scene.objects[t.name], depsgraph)
+        except BaseException:
+            bpy.data.batch_remove(list(meshes.values()))
+            raise
+        return core_scene, targets, notes, meshes
+
+    core_scene, targets, notes, meshes = _read_for_render(scene, read)
+    try:
+        viewport = _viewport_keys(scene, [t.name for t in targets])
+        s = lightmaps.settings(scene)
+        results: list = []
+        if cycles:
+            if s.directional:
+                warn("The Cycles backend bakes irradiance only: these lightmaps are not "
+                     "directional")
+                s = dataclasses.replace(s, directional=False)
+            for k, (target, note) in enumerate(zip(targets, notes, strict=True)):
+                image = cycles_lightmap(scene, scene.objects[target.name], meshes[target.name],
+                                        target, note["uv_map"] or None)
+                results.append(core_lightmap.Lightmap(np.ascontiguousarray(image), target.uvs))
+                interrupt.check()
+                yield (k + 1) / (len(targets) + 1)
+        else:
+            yield from lightmap_bake.steps(core_scene, targets, s, results,
+                                           should_stop=interrupt.requested, warn=warn)
+    finally:
+        bpy.data.batch_remove(list(meshes.values()))
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
     light = lightmap_bake.light_key(core_scene)
     files = []
@@ -360,7 +411,7 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
                 "denoise": s.denoise, "backend": backend,
                 "geometry_key": lightmap_bake.geometry_key(
                     core_scene.meshes[target.mesh].positions),
-                "light_key": light, "bake_time": stamp,
+                "light_key": light, **viewport.get(target.name, {}), "bake_time": stamp,
                 "seconds": round(time.perf_counter() - start, 3), "version": version()}
         obj = scene.objects[target.name]
         files.append((bake_files.target(scene, obj, bake_files.LIGHTMAPS), meta, result, obj))
@@ -375,6 +426,27 @@ def lightmap_steps(scene, depsgraph, objs, report=None, backend: str = "BO2"):
                         "lightmaps are as they were") from None
     _declare(scene, [(obj, path) for path, _, _, obj in files])
     yield 1.0
+    return len(files)
+
+
+def _viewport_keys(scene, names: list[str]) -> dict[str, dict]:
+    """Per object of ``names``, what the viewport's evaluation of the scene gives (its
+    modifiers' viewport settings; ``lightmaps.attach`` reads it in the viewport):
+    ``viewport_triangles``, ``viewport_geometry_key`` and ``viewport_light_key``."""
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    core_scene, _ = extract.extract_scene(depsgraph, extract.render_settings(scene),
+                                          camera=False, should_stop=interrupt.requested)
+    light = lightmap_bake.light_key(core_scene)
+    out = {}
+    for name in names:
+        k = lightmaps.batch_index(core_scene, name)
+        if k is None:
+            continue
+        positions = core_scene.meshes[k].positions
+        out[name] = {"viewport_triangles": len(positions),
+                     "viewport_geometry_key": lightmap_bake.geometry_key(positions),
+                     "viewport_light_key": light}
+    return out
 
 
 def _check_room(folder: Path, size: int) -> None:

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core import kernels, memory, pipeline
 from ..core.passes import PASSES
-from . import extract, interrupt, passes, viewport
+from . import extract, interrupt, passes, render_graph, viewport
 
 
 class BO2RenderEngine(bpy.types.RenderEngine):
@@ -84,6 +84,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             self.tag_redraw()  # poll until the refinement is done
 
     def render(self, depsgraph):
+        if render_graph.serve(depsgraph):  # a bake reading the scene as renders evaluate it
+            return
         scene = depsgraph.scene
         start = time.perf_counter()
         frame = None

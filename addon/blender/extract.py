@@ -807,5 +807,5 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         probes=load_probes(scene, world, warnings) if indirect else None,
     )
     if indirect and lightmaps:
-        baked_lightmaps.attach(scene, core, warnings)
+        baked_lightmaps.attach(scene, core, warnings, viewport=depsgraph.mode == "VIEWPORT")
     return core, warnings

@@ -159,14 +159,19 @@ def state(obj, scene) -> tuple[str, str]:
     return "BAKED", f"{w} x {h}, {kind}{lm.image.nbytes / 2**20:.1f} MiB"
 
 
-def attach(scene, core_scene: cs.Scene, warnings: list[str]) -> list[str]:
+def attach(scene, core_scene: cs.Scene, warnings: list[str], viewport: bool = False
+           ) -> list[str]:
     """Give each static object of ``core_scene`` (its own batch) its baked lightmap, in place;
     one warning for stale ones (used), one per lightmap that does not fit its mesh or cannot be
-    read (left out: the probes light the object). Returns the names of the stale ones."""
+    read (left out: the probes light the object). Returns the names of the stale ones.
+
+    Lightmaps are baked for the meshes a final render evaluates; ``viewport``: ``core_scene``
+    is the viewport's evaluation, compared with what the bake recorded of it (an object whose
+    viewport mesh differs, Levels Viewport below Render, is lit by the probes there)."""
     if not scene.bo2.use_lightmaps:
         return []
     light = None
-    stale = []
+    stale, render_only = [], []
     for k, batch in enumerate(core_scene.meshes):
         if batch.world_to_object is not None and np.ndim(batch.world_to_object) != 2:
             continue
@@ -179,26 +184,43 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str]) -> list[str]:
             warnings.append(f"Lightmap of '{obj.name}': its packed lightmap cannot be read "
                             f"({exc.strerror}); the probes light it instead")
             continue
-        if p is None or not p.exists():
+        if p is None:
+            continue
+        if not p.exists():
+            warnings.append(f"Lightmap of '{obj.name}': {p} is missing; the probes light it "
+                            "instead (bake the lightmaps again)")
             continue
         try:
             meta, lm = read(p)
         except probe_file.ProbeFileError as exc:
             warnings.append(f"Lightmap of '{obj.name}': {exc}; the probes light it instead")
             continue
-        if len(lm.uvs) != len(batch.positions):
-            warnings.append(f"Lightmap of '{obj.name}' was baked for {len(lm.uvs)} triangles, "
-                            f"the object has {len(batch.positions)}: re-bake the lightmaps; "
-                            "the probes light it until then")
+        prefix = "viewport_" if viewport and "viewport_light_key" in meta else ""
+        count = len(batch.positions)
+        if len(lm.uvs) != count:
+            if prefix and meta.get("viewport_triangles") == count:
+                render_only.append(obj.name)
+            else:
+                warnings.append(f"Lightmap of '{obj.name}' was baked for {len(lm.uvs)} "
+                                f"triangles, the object has {count}: re-bake the lightmaps; "
+                                "the probes light it until then")
             continue
         if light is None:
             light = lightmap_bake.light_key(core_scene)
-        if (meta.get("light_key") != light
-                or meta.get("geometry_key") != lightmap_bake.geometry_key(batch.positions)):
+        if (meta.get(prefix + "light_key") != light
+                or meta.get(prefix + "geometry_key")
+                != lightmap_bake.geometry_key(batch.positions)):
             stale.append(obj.name)
         core_scene.meshes[k] = dataclasses.replace(batch, lightmap=lm)
     if stale:
-        names = ", ".join(f"'{n}'" for n in stale[:5]) + (" ..." if len(stale) > 5 else "")
-        warnings.append(f"Lightmaps of {names} are stale (the scene changed since they were "
-                        "baked); re-bake the lightmaps")
+        warnings.append(f"Lightmaps of {_names(stale)} are stale (the scene changed since they "
+                        "were baked); re-bake the lightmaps")
+    if render_only:
+        warnings.append(f"Lightmaps of {_names(render_only)} are baked for the render's "
+                        "meshes (their modifiers' Render settings): renders use them, the "
+                        "viewport, whose meshes differ, lights these objects with the probes")
     return stale
+
+
+def _names(names: list[str]) -> str:
+    return ", ".join(f"'{n}'" for n in names[:5]) + (" ..." if len(names) > 5 else "")

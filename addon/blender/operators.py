@@ -80,10 +80,13 @@ class _ModalBake:
         return True
 
     def _step(self) -> float | None:
-        """Advance one step; the progress fraction, or None when done."""
+        """Advance one step; the progress fraction, or None when done (``_count`` is then
+        what the bake wrote)."""
         try:
             return next(self._steps)
-        except StopIteration:
+        except StopIteration as done:
+            if done.value is not None:
+                self._count = done.value
             return None
 
     def _finished(self, context) -> None:
@@ -169,8 +172,7 @@ class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
         objs = _objects(context, self.mode)
         probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
         self.what = f"light probe{'s' * (len(objs) != 1)}"
-        steps = bake.bake_steps(scene, context.evaluated_depsgraph_get(), objs,
-                                probes.capture_backend(scene),
+        steps = bake.bake_steps(scene, objs, probes.capture_backend(scene),
                                 report=lambda m: self.report({"WARNING"}, m))
         return steps, len(objs)
 
@@ -204,8 +206,7 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
         objs = _lightmap_objects(context, self.mode)
         probes.writable_folder(scene)
         self.what = f"lightmap{'s' * (len(objs) != 1)}"
-        steps = bake.lightmap_steps(scene, context.evaluated_depsgraph_get(), objs,
-                                    report=lambda m: self.report({"WARNING"}, m),
+        steps = bake.lightmap_steps(scene, objs, report=lambda m: self.report({"WARNING"}, m),
                                     backend=probes.capture_backend(scene))
         return steps, len(objs)
 

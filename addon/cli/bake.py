@@ -7,7 +7,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..blender import headless, interrupt
+from ..blender import interrupt
 from . import CommandError, load_blend
 from .terminal import progress_bar, quiet_blender, stderr_copy
 
@@ -40,19 +40,16 @@ def run(args) -> int:
     terminal = stderr_copy()  # the progress bar passes Blender's silencing
     try:
         folder = bake_files.file_folder(scene)
-        depsgraph = headless.depsgraph()
         with quiet_blender():
             if lightmapping:
                 folder = folder / bake_files.LIGHTMAPS
-                steps = bake.lightmap_steps(scene, depsgraph, objs, report=warnings.append,
+                steps = bake.lightmap_steps(scene, objs, report=warnings.append,
                                             backend=args.backend.upper())
             else:
-                steps = bake.bake_steps(scene, depsgraph, objs, args.backend.upper(),
+                steps = bake.bake_steps(scene, objs, args.backend.upper(),
                                         report=warnings.append)
             try:
-                for fraction in steps:
-                    interrupt.check()  # closing the generator writes nothing
-                    progress_bar(terminal, fraction, start)
+                count = _drive(steps, lambda fraction: progress_bar(terminal, fraction, start))
             except pipeline.Cancelled:  # a capture stopped by Ctrl-C
                 raise KeyboardInterrupt from None
     except probes.BakeError as exc:
@@ -65,10 +62,22 @@ def run(args) -> int:
     size = sum(p.stat().st_size for p in map(bake_files.path, objs) if p and p.is_file())
     seconds = time.perf_counter() - start
     _save(Path(args.scene))
-    print(f"baked {len(objs)} {what}{'s' * (len(objs) != 1)} into {folder} in {seconds:.2f} s "
+    print(f"baked {count} {what}{'s' * (count != 1)} into {folder} in {seconds:.2f} s "
           f"({size / 2**20:.2f} MiB{', packed into the .blend' if scene.bo2.bake_pack else ''})"
           f"; saved {args.scene}")
     return 0
+
+
+def _drive(steps, progress) -> int:
+    """Run a bake generator to its end, ``progress(fraction)`` after each step, Ctrl-C
+    checked between steps (closing the generator writes nothing); what it returns."""
+    while True:
+        interrupt.check()
+        try:
+            fraction = next(steps)
+        except StopIteration as done:
+            return done.value
+        progress(fraction)
 
 
 def _save(path: Path) -> None:

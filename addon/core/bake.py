@@ -226,6 +226,24 @@ def check(specs: list[ProbeSpec]) -> tuple[list[ProbeSpec], list[str]]:
     return kept, warnings
 
 
+def capture_region(specs: list[ProbeSpec]) -> tuple[np.ndarray, np.ndarray]:
+    """The world box (lo (3,), hi (3,)) float64, metres, whose shadows the captures of
+    ``specs`` need sharp: each probe's capture points out to a margin of the larger of their
+    spread and twice the probe's influence (at least 1 m, at most its Clip End). The suns'
+    shadow maps of a bake cover this box (``capture.Capture``), so a far terrain or ocean
+    does not spread their texels over kilometres; beyond it captures see no sun shadows."""
+    lo, hi = [], []
+    for s in specs:
+        points = s.points
+        scale = float(np.abs(np.asarray(s.local_to_world, np.float64)[:3, :3]).sum(0).max())
+        reach = s.influence if s.kind == "reflection" else s.influence * scale
+        margin = min(max(float(np.linalg.norm(np.ptp(points, axis=0))), 2.0 * reach, 1.0),
+                     s.clip_end)
+        lo.append(points.min(0) - margin)
+        hi.append(points.max(0) + margin)
+    return np.min(lo, axis=0), np.max(hi, axis=0)
+
+
 def _sh_of_cube(cube: np.ndarray) -> np.ndarray:
     size = cube.shape[1]
     weights = np.broadcast_to(cubemap.texel_solid_angles(size), (6, size, size)).reshape(-1)

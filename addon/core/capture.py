@@ -41,16 +41,18 @@ class Capture:
 
     scene: the scene (its camera and probes are ignored); its settings' samples and filter
            apply, the film is opaque and the border off
+    focus: the world box (lo (3,), hi (3,)) the captures see (``bake.capture_region``): the
+           suns' shadow maps cover it, or every caster when None
     """
 
     def __init__(self, scene: Scene, warn: Callable[[str], None] | None = None,
-                 should_stop: Callable[[], bool] | None = None):
+                 should_stop: Callable[[], bool] | None = None, focus: tuple | None = None):
         # no contact occlusion: a few texels per face cannot hold it, and the probes' light is
         # occluded at the look-up (``occlusion``)
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None,
                                        ambient_occlusion=False)
         self.scene = dataclasses.replace(scene, settings=settings, probes=None)
-        self.warn, self.should_stop = warn, should_stop
+        self.warn, self.should_stop, self.focus = warn, should_stop, focus
         self._frame = None  # the geometry, prepared once for every view
         # the dome directions its shadow maps were built for (``pipeline.dome_lit``; None:
         # no dome, for views without indirect light), or False before any: ``cube`` needs
@@ -72,7 +74,8 @@ class Capture:
                                            probes.world_sh))
         if self._shadowed is False or self._shadowed != dome:
             self._frame.shadow_maps = pipeline.build_shadow_maps(
-                self._frame, self.should_stop, fit_shadows=False, sky=dome is not None,
+                self._frame, self.should_stop, fit_shadows=False, focus=self.focus,
+                sky=dome is not None,
                 world_sh=None if probes is None else probes.world_sh)
             self._shadowed = dome
         frame = dataclasses.replace(self._frame, seen=self._seen[kind], scene=dataclasses.replace(

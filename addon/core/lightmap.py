@@ -12,16 +12,16 @@ far as the texel sees it), emission, and the light the scene bounces.
   face, each chart projected on the plane of its mean normal and turned to its smallest box,
   packed in rows at a density in texels per metre with padding between charts.
 - Texels (``kernels.lightmap.texels``): each texel's point on the surface.
-- Light (``lightmap_bake``): the direct light of the scene's lights at every texel (with the
-  shadow maps of a frame), then ``bounces`` gathers: every texel shoots cosine-distributed
-  rays through a BVH of the scene (``kernels.lightmap.gather``), and a ray brings the radiance
-  of what it meets: a lightmapped surface's radiance from the previous gather (emission +
-  albedo / pi (direct + indirect irradiance), read by its lightmap UV), an object without a
-  lightmap's (lit by the probes), or the world's. The first gather sees direct light, emission
-  and the world; each further one adds a bounce. The gathers before the last take a quarter
-  of the rays, and are filtered before they are gathered again; the last gathers the
-  irradiance of every bounce, the ones not gathered estimated as the geometric series that
-  the last increments continue (a progressive radiosity's ambient term, Cohen et al. 1988).
+- Light (``lightmap_bake``): the direct light of the scene's lights at every texel (shadows ray
+  traced, soft over the light's size), then ``bounces`` gathers: every texel shoots cosine-
+  distributed rays through a BVH of the scene (``kernels.lightmap.gather``), and a ray brings
+  the radiance of what it meets: a lightmapped surface's radiance from the previous gather
+  (emission + albedo / pi (direct + indirect irradiance), read by its lightmap UV), an object
+  without a lightmap's (lit by the probes), or the world's. The first gather sees direct light,
+  emission and the world; each further one adds a bounce. The gathers before the last take a
+  quarter of the rays, and are filtered before they are gathered again; the last gathers the
+  irradiance of every bounce, the ones not gathered estimated as the geometric series that the
+  last increments continue (a progressive radiosity's ambient term, Cohen et al. 1988).
 - Directional lightmaps (beyond the talk): the L1 SH of the incoming radiance per texel (as
   Bakery's SH mode and Godot's directional lightmaps), its constant term set so that the
   irradiance at the texel's normal is the gathered one: a normal map keeps its relief.

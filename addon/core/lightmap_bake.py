@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import pipeline, shade, shadows
+from . import pipeline, shade
 from . import probes as probe_light
 from .capture import face_camera, world_cube
 from .cubemap import FACES, _pad
@@ -52,6 +52,7 @@ class _Texels:
     geo: np.ndarray       # (M, 3) unit face normal
     chart: np.ndarray     # (H, W) int64 chart id of each texel, -1 none
     texel: float          # metres: the side of a texel on the surface, on average
+    offset: np.ndarray    # (M,) float32 metres: rays start this far above the surface
 
 
 def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -100,19 +101,109 @@ def _texels(target: Target, frame, first, index, scene_positions) -> _Texels:
                                 axis=1)
     texel = float(np.sqrt(np.nansum(area) / max(uv_area, 1e-12)))
     return _Texels(at, global_tri, p, n.astype(np.float32), geo.astype(np.float32),
-                   chart.reshape(h, w), texel)
+                   chart.reshape(h, w), texel, ray_offset(q))
 
 
-def _direct(frame, p, n, geo) -> np.ndarray:
+OFFSET = 2.0 ** -16  # of a triangle's largest coordinate: ``ray_offset``
+OFFSET_FLOOR = 1e-7  # metres: the least offset (a triangle at the origin)
+
+
+def ray_offset(corners: np.ndarray) -> np.ndarray:
+    """(N,) float32 metres: how far above its triangle (corners (N, 3, 3), float32 world
+    space) a ray starts so that it cannot meet the triangle it leaves. The point on the
+    triangle and the triangle's plane both come from float32 coordinates, whose rounding is
+    2^-24 of their magnitude: the offset follows the largest coordinate of the triangle, 256
+    times that rounding, so it stays far below any feature of the scene near the point
+    whatever the scene's extent (Waechter and Binder, "A Fast and Robust Method for Avoiding
+    Self-Intersection", Ray Tracing Gems, 2019, offset by the magnitude of the position)."""
+    scale = np.abs(np.asarray(corners, np.float64)).max(axis=(1, 2)) if len(corners) else \
+        np.zeros(0)
+    return np.maximum(OFFSET * scale, OFFSET_FLOOR).astype(np.float32)
+
+
+@dataclass
+class _Bvh:
+    """Triangles (T, 3, 3) float32 and their BVH (``kernels.lightmap.build_bvh``)."""
+
+    tris: np.ndarray
+    order: np.ndarray
+    bounds: np.ndarray
+    links: np.ndarray
+
+    @classmethod
+    def of(cls, tris: np.ndarray) -> _Bvh:
+        from .kernels import lightmap as kernels
+
+        tris = np.ascontiguousarray(tris, np.float32)
+        order = np.empty(len(tris), np.int32)
+        bounds = np.empty((max(2 * len(tris), 1), 6), np.float32)
+        links = np.empty((max(2 * len(tris), 1), 4), np.int32)
+        if len(tris):
+            kernels.build_bvh(tris, order, bounds, links)
+        return cls(tris, order, bounds, links)
+
+
+SHADOW_RAYS = 16  # shadow rays per texel and light, spread over the light's shape
+
+
+def light_samples(light, count: int = SHADOW_RAYS) -> tuple[np.ndarray, bool]:
+    """Where shadow rays go to reach ``light``: (samples (S, 3) float64, toward). A sun gives
+    unit directions within its disc (``radius``: its angular diameter), toward False; point
+    and spot lights points on their sphere, area lights points on a disc of half their
+    diagonal facing their direction (as their shadow maps, ``shadows``), toward True. A light
+    of no size gives one sample. Points on a disc follow Vogel's spiral (golden angle)."""
+    k = np.arange(count) + 0.5
+    r, phi = np.sqrt(k / count), k * np.pi * (3.0 - np.sqrt(5.0))
+    disc = np.stack([r * np.cos(phi), r * np.sin(phi)], 1)
+    axis = -np.asarray(light.direction, np.float64)[:3]
+    axis = axis / max(np.linalg.norm(axis), 1e-30)
+    t = np.cross(axis, [0.0, 0.0, 1.0] if abs(axis[2]) < 0.9 else [1.0, 0.0, 0.0])
+    t /= np.linalg.norm(t)
+    b = np.cross(axis, t)
+    if light.kind == "SUN":
+        spread = np.tan(0.5 * min(max(float(light.radius), 0.0), np.pi - 1e-3))
+        if spread <= 0.0:
+            return axis[None], False
+        d = axis + spread * (disc[:, :1] * t + disc[:, 1:] * b)
+        return d / np.linalg.norm(d, axis=1, keepdims=True), False
+    centre = np.asarray(light.position, np.float64)[:3]
+    if light.kind == "AREA":
+        size = 0.5 * float(np.hypot(*np.asarray(light.size, np.float64)[:2]))
+        if size <= 0.0:
+            return centre[None], True
+        return centre + size * (disc[:, :1] * t + disc[:, 1:] * b), True
+    radius = float(light.radius)
+    if radius <= 0.0:
+        return centre[None], True
+    z = 1.0 - 2.0 * k / count  # a Fibonacci sphere
+    ring = np.sqrt(np.maximum(1.0 - z * z, 0.0))
+    return centre + radius * np.stack([ring * np.cos(phi), ring * np.sin(phi), z], 1), True
+
+
+def _direct(frame, casters: _Bvh, reach: float, p, n, geo, offsets) -> np.ndarray:
     """(N, 3) irradiance of the scene's lights at points p with normals n, face normals geo,
-    shadowed by the frame's maps."""
+    shadowed by ray tracing ``casters`` (``SHADOW_RAYS`` per light, rays starting ``offsets``
+    (N,) m above the surface): exact at any scale, where a shadow map over the whole scene
+    (a far terrain) would blur every shadow away."""
+    from .kernels import lightmap as kernels
+
     out = np.zeros((len(p), 3), np.float32)
-    for light, smap in zip(frame.scene.lights, frame.shadow_maps, strict=False):
+    for light in frame.scene.lights:
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
         if not lit.any():
             continue
-        vis = np.ones(len(p), np.float32) if smap is None else shadows.shadow_visibility(
-            smap, p, geo, where=lit)
+        vis = np.ones(len(p), np.float32)
+        if light.shadow and len(casters.tris):
+            samples, toward = light_samples(light)
+            at = np.flatnonzero(lit)
+            v = np.empty(len(at), np.float32)
+            kernels.visibility(np.ascontiguousarray(p[at], np.float32),
+                               np.ascontiguousarray(geo[at], np.float32),
+                               np.ascontiguousarray(offsets[at], np.float32),
+                               np.ascontiguousarray(samples, np.float64), toward,
+                               casters.tris, casters.order, casters.bounds, casters.links,
+                               reach, v)
+            vis[at] = v
         cos = np.maximum(np.einsum("nk,nk->n", n, l_dir), 0.0)
         out += irradiance * (cos * vis * lit)[:, None]
     return out
@@ -141,9 +232,10 @@ def _surface(frame, tri, p, n, geo, bary=None):
     return reflectance, np.asarray(s.emission, np.float32)
 
 
-def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray) -> np.ndarray:
+def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Bvh,
+                     reach: float) -> np.ndarray:
     """(T, 3, 3) radiance of the corners (moved 5% in) of the frame's triangles ``dynamic``
-    (bool (T,)), lit directly and by the probes; 0 elsewhere."""
+    (bool (T,)), lit directly (``_direct``) and by the probes; 0 elsewhere."""
     out = np.zeros((len(frame.positions), 3, 3), np.float32)
     tri = np.flatnonzero(dynamic)
     if not len(tri):
@@ -158,7 +250,7 @@ def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray) -> np.ndarray:
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     geo, n = geo.astype(np.float32), n.astype(np.float32)
     albedo, emission = _surface(frame, t3, p, n, geo)
-    e = _direct(frame, p, n, geo)
+    e = _direct(frame, casters, reach, p, n, geo, np.repeat(ray_offset(q), 3))
     radiance = emission + albedo * e / np.float32(np.pi)
     if scene.probes is not None:
         diffuse, _ = probe_light.indirect(scene.probes, p, n, n, albedo,
@@ -200,7 +292,9 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
     base = dataclasses.replace(scene, camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0),
                                settings=dataclasses.replace(scene.settings, border=None))
     base = dataclasses.replace(base, probes=None)
-    frame = pipeline.prepare(base, warn, should_stop, fit_shadows=False)
+    # no shadow maps: the direct light of the texels is ray traced (``_direct``)
+    frame = pipeline.prepare(base, warn, should_stop,
+                             shadow_maps=[None] * pipeline.shadow_map_count(base))
     frame.scene = dataclasses.replace(frame.scene, probes=scene.probes)
     first, index = _frame_index(scene)
     positions = (np.concatenate([m.positions for m in scene.meshes]) if scene.meshes
@@ -225,6 +319,11 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
     map_base = np.concatenate([[0], np.cumsum(sizes)[:-1]]).astype(np.int64)
     map_width = np.array([t.width for t in targets], np.int64)
     map_height = np.array([t.height for t in targets], np.int64)
+    bvh = _Bvh.of(frame.positions)
+    tris, order, bounds, links = bvh.tris, bvh.order, bvh.bounds, bvh.links
+    casters = bvh if frame.casts is None else _Bvh.of(frame.positions[frame.casts])
+    extent = np.ptp(tris.reshape(-1, 3), axis=0) if len(tris) else np.ones(3)
+    reach = float(np.linalg.norm(extent)) * 2.0 + 1.0
     # what each texel is: albedo, emission and direct light, once
     albedo, emission, direct = [], [], []
     for tx in texels:
@@ -232,15 +331,9 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
         a, e = _surface(frame, tx.tri, tx.p, tx.n, tx.geo)
         albedo.append(a)
         emission.append(e)
-        direct.append(_direct(frame, tx.p, tx.n, tx.geo))
-    yield 0.1
-    corner = _corner_radiance(frame, scene, tri_map < 0)
-    tris = np.ascontiguousarray(frame.positions, np.float32)
-    order = np.empty(len(tris), np.int32)
-    bounds = np.empty((max(2 * len(tris), 1), 6), np.float32)
-    links = np.empty((max(2 * len(tris), 1), 4), np.int32)
-    if len(tris):
-        kernels.build_bvh(tris, order, bounds, links)
+        direct.append(_direct(frame, casters, reach, tx.p, tx.n, tx.geo, tx.offset))
+        yield 0.05 + 0.05 * len(direct) / len(texels)
+    corner = _corner_radiance(frame, scene, tri_map < 0, casters, reach)
     world = scene.world
     if world.texture is None:
         cube = np.zeros(1, np.float32)
@@ -249,9 +342,6 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
         cube_size = 32
         cube = _pad(world_cube(world, cube_size)).reshape(-1).astype(np.float32)
     color = np.asarray(world.color, np.float32).reshape(-1)[:3].copy()
-    extent = np.ptp(tris.reshape(-1, 3), axis=0) if len(tris) else np.ones(3)
-    reach = float(np.linalg.norm(extent)) * 2.0 + 1.0
-    params = np.array([1e-4 * max(float(extent.max()), 1.0), reach])
     indirect = [np.zeros((len(tx.at), 3), np.float32) for tx in texels]
     sh = [np.zeros((len(tx.at), 4, 3), np.float32) for tx in texels]
     variance = [np.zeros(len(tx.at), np.float32) for tx in texels]
@@ -303,10 +393,10 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
                 s = np.empty((hi - lo, 4, 3), np.float32)
                 b = np.empty(hi - lo, np.float32)
                 v = np.empty(hi - lo, np.float32)
-                kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], rays, params, tris,
-                               order, bounds, links, tri_map, tri_uv, corner, map_base,
-                               map_width, map_height, radiance, cube, cube_size, color, _FACES,
-                               e, s, b, v)
+                kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], tx.offset[lo:hi], rays,
+                               reach, tris, order, bounds, links, tri_map, tri_uv, corner,
+                               map_base, map_width, map_height, radiance, cube, cube_size,
+                               color, _FACES, e, s, b, v)
                 new_e[k][lo:hi], new_sh[k][lo:hi], new_var[k][lo:hi] = e, s, v
                 with lock:
                     done[0] += (hi - lo) * rays

@@ -358,13 +358,15 @@ def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np
 
 def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = None,
                       fit_shadows: bool = True, sky: bool | None = None,
-                      world_sh: np.ndarray | None = None, every_direction: bool = False) -> list:
+                      world_sh: np.ndarray | None = None, every_direction: bool = False,
+                      focus: tuple | None = None) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
     then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
     fitted as the lights' are; None towards directions the world sends no light from,
     ``dome_lit``, unless ``every_direction``: for a world that may change, as a viewport's):
     ``shadow_map_count`` maps, every face and cascade rendered at once on the render's
-    threads. Arguments as ``prepare``, ``shadow_map_count`` and ``dome_lit``."""
+    threads. Arguments as ``prepare``, ``shadow_map_count`` and ``dome_lit``; ``focus``:
+    without ``fit_shadows``, the world box whose shadows matter (``shadows.shadow_map_jobs``)."""
     scene = frame.scene
     count = shadow_map_count(scene, sky)
     if not len(frame.positions):
@@ -387,7 +389,7 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
     plans = []
     for light in scene.lights:
         poll()
-        plans.append(shadows.shadow_map_jobs(light, positions, view,
+        plans.append(shadows.shadow_map_jobs(light, positions, view, focus=focus,
                                              resolution=s.shadow_resolution, cutout=cutout))
     dome = count - len(scene.lights)
     lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
@@ -397,7 +399,7 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
         poll()
         plans.append(shadows.shadow_map_jobs(light, positions, view, resolution=s.sky_resolution,
                                              cutout=cutout, max_filter=sky_light.MAX_FILTER,
-                                             view_range=view_range)
+                                             view_range=view_range, focus=focus)
                      if on else ([], lambda done: None))
     done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
                               thread_count(s), poll, threading.Event())))

@@ -389,7 +389,8 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int,
 
 
 def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None,
-              max_filter: float = 0.0, view_range: tuple | None = None):
+              max_filter: float = 0.0, view_range: tuple | None = None,
+              focus: tuple | None = None):
     """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
     # Blender's largest angle is pi (in float32, a little above): keep the half angle below
@@ -399,6 +400,13 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         rects, splits = _fit_cascades(camera, basis, tris, res, view_range)
     elif len(tris):
         lo, hi = _extent(tris, basis[:2])
+        if focus is not None:
+            lo3, hi3 = (np.asarray(v, np.float64) for v in focus)
+            box = np.array([[(lo3, hi3)[(k >> a) & 1][a] for a in range(3)] for k in range(8)])
+            on_plane = box @ basis[:2].T
+            lo, hi = np.maximum(lo, on_plane.min(0)), np.minimum(hi, on_plane.max(0))
+            if not (lo <= hi).all():  # no caster over the region
+                lo, hi = on_plane.min(0), on_plane.max(0)
         half = 0.5 * max(float((hi - lo).max()), 1e-6) * (1.0 + 8.0 / res)
         rects, splits = np.array([[*(0.5 * (lo + hi)), half]]), np.zeros(0)
     else:
@@ -477,6 +485,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
 def shadow_map_jobs(
     light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024,
     cutout=None, max_filter: float = 0.0, view_range: tuple | None = None,
+    focus: tuple | None = None,
 ) -> tuple[list[Callable[[], object]], Callable[[list], ShadowMap | None]]:
     """The work of ``build_shadow_map`` as independent jobs (one per cube face or cascade, to
     run on any threads) and the function that assembles their results, in order, into the
@@ -484,7 +493,10 @@ def shadow_map_jobs(
     cutout: None, or (fades (T,) bool, alpha(tri (N,), bary (N, 3)) -> (N,)): casters that may
     be transparent and their alpha at texels (``_rasterize_casters``); max_filter: a sun's
     widest filter radius, metres (``ShadowMap.max_filter``); view_range: the
-    ``camera_depth_range`` of ``camera`` and these triangles, when known (many suns)."""
+    ``camera_depth_range`` of ``camera`` and these triangles, when known (many suns);
+    focus: without a camera, the world box (lo (3,), hi (3,)) whose shadows matter (the
+    region probe captures see): a sun's one cascade covers it rather than every caster (a
+    far terrain would leave a few texels to the whole of a room)."""
     if not light.shadow:
         return [], lambda results: None
     res = max(1, int(resolution))
@@ -492,7 +504,7 @@ def shadow_map_jobs(
     tris = np.ascontiguousarray(tris.reshape(-1, 3, 3),
                                 tris.dtype if tris.dtype == np.float32 else np.float64)
     if light.kind == "SUN":
-        return _sun_jobs(light, tris, camera, res, cutout, max_filter, view_range)
+        return _sun_jobs(light, tris, camera, res, cutout, max_filter, view_range, focus)
     return _perspective_jobs(light, tris, res, cutout)
 
 

@@ -6,10 +6,10 @@ import math
 import bpy
 import numpy as np
 import pytest
-from util import baked, principled, set_world_color
+from util import add_far_ground, baked, principled, render_extraction, set_world_color
 
 from bo2_lighting.addon.blender import bake as blender_bake
-from bo2_lighting.addon.blender import extract, lightmaps
+from bo2_lighting.addon.blender import engine, extract, lightmaps
 from bo2_lighting.addon.core import lightmap_file, pipeline
 
 
@@ -132,8 +132,7 @@ def test_cancelled_bake_keeps_the_previous_lightmaps(addon, tmp_path):
     folder = tmp_path / "bo2_bake" / "room" / "lightmaps"
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     scene.objects["Sun"].data.energy = 9.0
-    steps = blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
-                                        lightmaps.lightmap_objects(scene))
+    steps = blender_bake.lightmap_steps(scene, lightmaps.lightmap_objects(scene))
     fractions = [next(steps) for _ in range(3)]
     steps.close()
     assert fractions == sorted(fractions) and fractions[-1] < 1.0
@@ -148,8 +147,8 @@ def test_bad_input_is_one_message(addon, tmp_path):
     flat = bpy.data.objects.new("Flat", mesh)
     scene.collection.objects.link(flat)
     warnings = []
-    steps = blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
-                                        [flat, scene.objects["Floor"]], report=warnings.append)
+    steps = blender_bake.lightmap_steps(scene, [flat, scene.objects["Floor"]],
+                                        report=warnings.append)
     for _ in steps:
         pass
     assert any("'Flat'" in w and ("no surface area" in w or "no faces" in w) for w in warnings)
@@ -159,7 +158,7 @@ def test_bad_input_is_one_message(addon, tmp_path):
     for loop, corner in zip(uv.uv, [(0, 0), (1, 0), (1, 1), (0.8, 0.2)], strict=True):
         loop.vector = corner  # the second triangle folds back over the first
     warnings = []
-    for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), [floor],
+    for _ in blender_bake.lightmap_steps(scene, [floor],
                                          report=warnings.append):
         pass
     assert any("UV map 'LightmapUV'" in w and "a layout is made" in w for w in warnings)
@@ -170,8 +169,7 @@ def test_bad_input_is_one_message(addon, tmp_path):
     scene.bo2.lightmap_max_resolution = "4096"
     scene.bo2.lightmap_directional = True
     with pytest.raises(blender_bake.BakeError, match="MiB, more than"):
-        for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(),
-                                             lightmaps.lightmap_objects(scene)):
+        for _ in blender_bake.lightmap_steps(scene, lightmaps.lightmap_objects(scene)):
             pass
     # an unwritable folder
     scene.bo2.lightmap_density = 8.0
@@ -189,13 +187,13 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     floor = scene.objects["Floor"]
     nodes_before = {m.name: len(m.node_tree.nodes) for m in bpy.data.materials if m.node_tree}
     uv_before = [uv.name for uv in floor.data.uv_layers]
-    for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), objs,
+    for _ in blender_bake.lightmap_steps(scene, objs,
                                          backend="CYCLES"):
         pass
     meta, cycles = lightmap_file.read(baked(scene, "Floor"))
     assert meta["backend"] == "CYCLES"
     scene.bo2.lightmap_rays = 128
-    for _ in blender_bake.lightmap_steps(scene, bpy.context.evaluated_depsgraph_get(), objs):
+    for _ in blender_bake.lightmap_steps(scene, objs):
         pass
     _, ours = lightmap_file.read(baked(scene, "Floor"))
     inside = cycles.image[..., 1] > 0
@@ -232,3 +230,76 @@ def test_the_viewport_sees_a_new_bake_and_nothing_else(addon, tmp_path):
         obj.select_set(obj.name == "Floor")
     assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="SELECTED") == {"FINISHED"}
     assert "geometry" in viewport._differences(again, extraction())  # the new floor lightmap
+
+
+def test_subdivided_objects_are_baked_as_they_render(addon, tmp_path):
+    """A Subdivision Surface at Blender's defaults (Levels Viewport 1, Render 2): the bake reads
+    the render's mesh, so renders use every lightmap and call none stale; the viewport, whose
+    mesh differs, lights that object with the probes and says why, the others still fresh.
+    Cycles' bake of the same objects (its stand-in is the render's mesh too) agrees."""
+    scene = room(tmp_path)
+    block = scene.objects["Block"]
+    sub = block.modifiers.new("Subdivision", "SUBSURF")
+    assert (sub.levels, sub.render_levels) == (1, 2)
+    warnings = []
+    steps = blender_bake.lightmap_steps(scene, lightmaps.lightmap_objects(scene),
+                                        report=warnings.append)
+    for _ in steps:
+        pass
+    meta, lm = lightmap_file.read(baked(scene, "Block"))
+    assert len(lm.uvs) == 12 * 16 and meta["viewport_triangles"] == 12 * 4
+    core, warnings = render_extraction(scene, indirect=True)
+    assert all(m.lightmap is not None for m in core.meshes), warnings
+    assert not any("stale" in w or "was baked for" in w for w in warnings), warnings
+    # F12 says nothing either
+    engine.last_warnings.clear()
+    assert bpy.ops.render.render() == {"FINISHED"}
+    assert not any("stale" in w or "was baked for" in w for w in engine.last_warnings)
+    # the viewport: the block by the probes, the rest by their lightmaps, nothing stale
+    core, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
+    lit = {m.name: m.lightmap is not None for m in core.meshes}
+    assert lit == {"Floor": True, "Back": True, "Left": True, "Block": False}
+    assert any("'Block' are baked for the render's meshes" in w for w in warnings), warnings
+    assert not any("stale" in w or "was baked for" in w for w in warnings), warnings
+    # Cycles' bake of the same objects, at the render's subdivision
+    ours = lm.image
+    scene.bo2.bake_cycles_samples = 16
+    for _ in blender_bake.lightmap_steps(scene, [block], backend="CYCLES"):
+        pass
+    _, cycles = lightmap_file.read(baked(scene, "Block"))
+    assert len(cycles.uvs) == 12 * 16
+    inside = cycles.image[..., 1] > 0
+    ratio = ours[inside, 1].mean() / cycles.image[inside, 1].mean()
+    assert 0.8 < ratio < 1.25, ratio
+
+
+def test_a_far_ground_keeps_shadows_and_bounces(addon, tmp_path):
+    """A 10 km ground 50 m below the room (a terrain, an ocean) changes its lightmaps as
+    little as Cycles' bake says it does: ray offsets follow the float precision at each
+    texel, not the scene's size, and the direct light the bounces carry is ray traced, not
+    read from shadow maps spread over 10 km."""
+    scene = room(tmp_path)
+    scene.bo2.lightmap_rays = 64
+    scene.bo2.bake_cycles_samples = 32
+    objs = [scene.objects[n] for n in ("Back", "Floor", "Left")]
+    means = {}
+    for ground in (False, True):
+        if ground:
+            add_far_ground(scene)
+        for backend in ("CYCLES", "BO2"):
+            for _ in blender_bake.lightmap_steps(scene, objs, backend=backend):
+                pass
+            _, floor = lightmap_file.read(baked(scene, "Floor"))
+            if backend == "CYCLES":  # the texels Cycles bakes (its margin is black)
+                inside = floor.image[..., 1] > 0
+            means[ground, backend] = floor.image[inside, 1].mean()
+            if backend == "BO2" and ground:
+                # the block's shadow and contact darkening are still there
+                assert floor.image[..., 1].min() < 0.3 * floor.image[..., 1].mean()
+    for ground in (False, True):
+        floor_ratio = means[ground, "BO2"] / means[ground, "CYCLES"]
+        assert 0.93 < floor_ratio < 1.07, (ground, means)
+    # what the ground changes, as Cycles sees it
+    change = means[True, "BO2"] / means[False, "BO2"]
+    truth = means[True, "CYCLES"] / means[False, "CYCLES"]
+    assert abs(change - truth) < 0.04, (change, truth)

@@ -21,7 +21,7 @@ def run_bake(scene, objs=None) -> list[str]:
     warnings = []
     bpy.context.view_layer.update()
     objs = objs or probes.probe_objects(scene)
-    for _ in blender_bake.bake_steps(scene, bpy.context.evaluated_depsgraph_get(), objs,
+    for _ in blender_bake.bake_steps(scene, objs,
                                      report=warnings.append):
         pass
     return warnings

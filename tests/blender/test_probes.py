@@ -7,7 +7,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 import pytest
-from util import baked, principled, render_pixels, set_world_color
+from util import add_far_ground, baked, principled, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
@@ -160,8 +160,7 @@ def test_cancelled_bake_keeps_the_previous_files_byte_identical(addon, tmp_path)
     folder = bake(scene)
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     scene.objects["Sun"].data.energy = 10.0  # a different bake would differ
-    steps = blender_bake.bake_steps(scene, bpy.context.evaluated_depsgraph_get(),
-                                    probes.probe_objects(scene))
+    steps = blender_bake.bake_steps(scene, probes.probe_objects(scene))
     assert 0 < next(steps) < 1
     next(steps)
     steps.close()  # cancelled halfway
@@ -241,7 +240,7 @@ def test_a_probe_inside_an_object_is_named(addon, tmp_path):
     warnings = []
     bpy.context.view_layer.update()
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    steps = blender_bake.bake_steps(scene, depsgraph, [scene.objects["Reflection"]],
+    steps = blender_bake.bake_steps(scene, [scene.objects["Reflection"]],
                                     report=warnings.append)
     next(steps)
     steps.close()
@@ -255,8 +254,62 @@ def test_a_probe_inside_an_object_is_named(addon, tmp_path):
     bpy.ops.mesh.primitive_cube_add(size=12.0, location=(0.0, 0.0, 1.0))
     bpy.context.view_layer.update()
     warnings.clear()
-    steps = blender_bake.bake_steps(scene, bpy.context.evaluated_depsgraph_get(),
-                                    [scene.objects["Reflection"]], report=warnings.append)
+    steps = blender_bake.bake_steps(scene, [scene.objects["Reflection"]], report=warnings.append)
     next(steps)
     steps.close()
     assert not any("inside object" in w for w in warnings)
+
+
+def _volume_irradiance(scene, backend: str) -> np.ndarray:
+    """(K,) the Irradiance volume's samples' constant SH term (green), baked by ``backend``."""
+    for _ in blender_bake.bake_steps(scene, [scene.objects["Irradiance"]], backend):
+        pass
+    _, sh, _ = probe_file.read(baked(scene, "Irradiance"))
+    return sh[:, 0, 1]
+
+
+def test_a_far_ground_keeps_the_captures_shadows(addon, tmp_path):
+    """A 10 km ground 50 m below the room changes the volume's samples as Cycles' captures
+    say (a few percent): the suns' shadow maps of a bake cover the region the probes see, not
+    every caster (over 10 km the room's shadows were gone: +50% in the sphere's shadow)."""
+    scene = room(tmp_path)
+    # a shelf between the sun and the volume's middle sample, whose shadow it sits in
+    bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.2, -0.54, 1.3))
+    bpy.context.object.data.materials.append(lambert("Shelf", (0.6, 0.6, 0.6)))
+    scene.bo2.bake_bounces = 1  # as Cycles' backend: the world and one bounce of the lights
+    scene.bo2.bake_cycles_samples = 16
+    before = {b: _volume_irradiance(scene, b) for b in ("BO2", "CYCLES")}
+    add_far_ground(scene)
+    after = {b: _volume_irradiance(scene, b) for b in ("BO2", "CYCLES")}
+    change = after["BO2"] / before["BO2"]
+    truth = after["CYCLES"] / before["CYCLES"]
+    assert np.abs(change - truth).max() < 0.08, (change, truth)
+
+
+def test_captures_see_the_scene_as_renders_do(addon, tmp_path):
+    """An object shown in renders only (disabled in viewports) and a Subdivision Surface at
+    its Render level are in the probes' captures, as in F12."""
+    scene = room(tmp_path)
+    bpy.ops.mesh.primitive_plane_add(size=2.0, location=(0.3, -1.2, 0.8),
+                                     rotation=(math.pi / 2, 0, 0))
+    panel = bpy.context.object
+    glow = bpy.data.materials.new("Glow")
+    if glow.node_tree is None:
+        glow.use_nodes = True
+    bsdf = glow.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Emission Color" if "Emission Color" in bsdf.inputs else "Emission"] \
+        .default_value = (0.0, 0.0, 1.0, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = 20.0
+    panel.data.materials.append(glow)
+
+    def blue():
+        for _ in blender_bake.bake_steps(scene, [scene.objects["Reflection"]]):
+            pass
+        _, sh, _ = probe_file.read(baked(scene, "Reflection"))
+        return sh[0, 0, 2] / sh[0, 0, 0]
+
+    shown = blue()
+    panel.hide_viewport = True  # the monitor icon: not in the viewport's evaluation at all
+    assert blue() == pytest.approx(shown, rel=1e-3)
+    panel.hide_render = True
+    assert blue() < 0.5 * shown

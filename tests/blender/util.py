@@ -126,3 +126,22 @@ def baked(scene, name: str):
     from bo2_lighting.addon.blender import bake_files
 
     return bake_files.path(scene.objects[name])
+
+
+def add_far_ground(scene, size: float = 10000.0, depth: float = 50.0):
+    """A ``size`` m square ground (terrain, ocean) ``depth`` m below the scene, dynamic (no
+    lightmap of its own): what made every ray offset of a bake a metre long."""
+    bpy.ops.mesh.primitive_plane_add(size=size, location=(0.0, 0.0, -depth))
+    ground = bpy.context.object
+    ground.name = "Far Ground"
+    ground.data.materials.append(principled("Far Ground", (0.5, 0.5, 0.5), 0.8))
+    ground.bo2.lightmap_mode = "DYNAMIC"
+    return ground
+
+
+def render_extraction(scene, **kw):
+    """``extract.extract_scene`` of ``scene`` as a final render evaluates it (Render levels,
+    render-only modifiers): (core scene, warnings)."""
+    from bo2_lighting.addon.blender import extract, render_graph
+
+    return render_graph.evaluate(scene, lambda depsgraph: extract.extract_scene(depsgraph, **kw))

@@ -317,7 +317,8 @@ def _texel_value(radiance, base, width, height, u, v, c):
 
 
 _GATHER = nb.void(
-    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1], nb.int64, nb.float64[::1],
+    nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1], nb.int64,
+    nb.float64,
     # the BVH
     nb.float32[:, :, ::1], nb.int32[::1], nb.float32[:, ::1], nb.int32[:, ::1],
     # per triangle: lightmap (-1: none), lightmap UVs (T, 3, 2), corner radiance (T, 3, 3)
@@ -332,16 +333,16 @@ _GATHER = nb.void(
 
 
 @nb.njit(_GATHER, **_OPTIONS)
-def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_map, tri_uv,
+def gather(points, normals, geo, offsets, rays, reach, tris, order, bounds, links, tri_map, tri_uv,
            corner_radiance, map_base, map_width, map_height, radiance, world, world_size,
            world_color, faces, irradiance, sh, back, variance):
     """The light reaching each texel (``points``, unit ``normals`` and geometric normals
     ``geo`` (N, 3)) from ``rays`` cosine-distributed rays about the normal: irradiance
     (N, 3), W/m^2, the L1 SH (Y00, Y1-1, Y10, Y11) of the radiance over the hemisphere
     (N, 4, 3), estimated with weights 1 / cos clamped at 10, and the share of rays that met a
-    back face (their radiance counts as 0). params: (origin offset along geo, m, ray length, m).
+    back face (their radiance counts as 0). Each ray starts ``offsets`` (N,) m from its point
+    along ``geo`` and is ``reach`` m long.
     """
-    offset, reach = params[0], params[1]
     stack = np.empty(STACK, np.int64)
     chain_off = np.zeros((1, 1), np.int64)
     chain_size = np.full((1, 1), world_size, np.int64)
@@ -363,6 +364,7 @@ def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_m
         ln = math.sqrt(tx * tx + ty * ty + tz * tz)
         tx, ty, tz = tx / ln, ty / ln, tz / ln
         bx, by, bz = ny * tz - nz * ty, nz * tx - nx * tz, nx * ty - ny * tx
+        offset = np.float64(offsets[i])
         ox = points[i, 0] + offset * gx
         oy = points[i, 1] + offset * gy
         oz = points[i, 2] + offset * gz
@@ -433,3 +435,42 @@ def gather(points, normals, geo, rays, params, tris, order, bounds, links, tri_m
         back[i] = backs / rays
         mean = (0.2126 * acc[0] + 0.7152 * acc[1] + 0.0722 * acc[2]) / rays
         variance[i] = math.pi * math.pi * max(square / rays - mean * mean, 0.0) / rays
+
+
+@nb.njit(nb.void(nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1], nb.float64[:, ::1],
+                 nb.boolean, nb.float32[:, :, ::1], nb.int32[::1], nb.float32[:, ::1],
+                 nb.int32[:, ::1], nb.float64, nb.float32[::1]), **_OPTIONS)
+def visibility(points, geo, offsets, samples, toward, tris, order, bounds, links, reach, out):
+    """The share of a light that reaches each point (``points``, unit face normals ``geo``
+    (N, 3)) unblocked by the triangles of the BVH: a shadow ray per light sample above the
+    surface (``samples`` (S, 3): unit directions to a distant light, or with ``toward`` points
+    on the light), starting ``offsets`` (N,) m above the surface. ``out`` (N,) in [0, 1] (0
+    where no sample is above the surface)."""
+    stack = np.empty(STACK, np.int64)
+    for i in range(points.shape[0]):
+        gx, gy, gz = np.float64(geo[i, 0]), np.float64(geo[i, 1]), np.float64(geo[i, 2])
+        offset = np.float64(offsets[i])
+        ox = points[i, 0] + offset * gx
+        oy = points[i, 1] + offset * gy
+        oz = points[i, 2] + offset * gz
+        free = 0
+        above = 0
+        for k in range(samples.shape[0]):
+            if toward:
+                dx, dy, dz = samples[k, 0] - ox, samples[k, 1] - oy, samples[k, 2] - oz
+                length = math.sqrt(dx * dx + dy * dy + dz * dz)
+                if length <= 0.0:
+                    continue
+                dx, dy, dz = dx / length, dy / length, dz / length
+                tmax = length * (1.0 - 1e-6)
+            else:
+                dx, dy, dz = samples[k, 0], samples[k, 1], samples[k, 2]
+                tmax = reach
+            if dx * gx + dy * gy + dz * gz <= 0.0:  # this part of the light is under the surface
+                continue
+            above += 1
+            t, _, _, _ = _nearest(tris, order, bounds, links, stack, ox, oy, oz, dx, dy, dz,
+                                  tmax)
+            if t < 0:
+                free += 1
+        out[i] = free / above if above else 0.0
