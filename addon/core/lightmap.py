@@ -21,7 +21,9 @@ far as the texel sees it), emission, and the light the scene bounces.
   emission and the world; each further one adds a bounce. The gathers before the last take a
   quarter of the rays, and are filtered before they are gathered again; the last gathers the
   irradiance of every bounce, the ones not gathered estimated as the geometric series that the
-  last increments continue (a progressive radiosity's ambient term, Cohen et al. 1988).
+  last increments continue (a progressive radiosity's ambient term, Cohen et al. 1988). Rays
+  leave the surface by an offset that follows the float precision of the triangle's
+  coordinates (``lightmap_bake.ray_offset``), not the scene's size.
 - Directional lightmaps (beyond the talk): the L1 SH of the incoming radiance per texel (as
   Bakery's SH mode and Godot's directional lightmaps), its constant term set so that the
   irradiance at the texel's normal is the gathered one: a normal map keeps its relief.
