@@ -23,7 +23,6 @@ The bake folder is ``scene.bo2.bake_folder``, else the preferences' default, ``/
 
 from __future__ import annotations
 
-import atexit
 import hashlib
 import os
 import re
@@ -34,7 +33,7 @@ from pathlib import Path
 
 import bpy
 
-from . import props
+from . import interrupt, props
 
 LIGHTMAPS = "lightmaps"  # sub-folder of the lightmaps
 
@@ -146,7 +145,7 @@ _unpacked: list[Path] = []  # the folder of this process's copies of packed bake
 def _copies() -> Path:
     if not _unpacked:
         folder = Path(tempfile.mkdtemp(prefix="bo2_packed_"))
-        atexit.register(shutil.rmtree, folder, True)
+        interrupt.at_exit(lambda: shutil.rmtree(folder, True))
         _unpacked.append(folder)
     return _unpacked[0]
 
@@ -172,6 +171,13 @@ def readable(obj) -> Path | None:
             _copied[key] = copy
         return copy
     return path(obj)
+
+
+def failure(obj, path: Path, exc: Exception) -> str:
+    """Why ``obj``'s bake file ``path`` (``readable``) cannot be used, from the reader's error
+    ("<file name>: <why>"), naming the file once: its name, or "its packed bake"."""
+    reason = str(exc).removeprefix(f"{path.name}: ")
+    return f"{'its packed bake' if packed(obj) else path.name}: {reason}"
 
 
 def packed(obj) -> bool:

@@ -13,6 +13,7 @@ UI nothing installs it and the flag stays down.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import os
 import signal
@@ -48,6 +49,7 @@ def install(terminal: int = 2) -> None:
             time.sleep(0.05)
         with _files:
             os.write(terminal, b"\nbo2: interrupted\n")
+            leave()
             os._exit(130)
 
     signal.signal(signal.SIGINT, lambda *_: _requested.set())
@@ -80,6 +82,25 @@ def settle() -> None:
     """The command is ending by itself after Ctrl-C: the deadline no longer applies (the
     files lock is kept by this thread; ``writing`` may still take it again)."""
     _files.acquire(blocking=False)
+
+
+_cleanups: list = []  # what ``leave`` runs: temporary files of this process
+
+
+def at_exit(cleanup) -> None:
+    """Run ``cleanup()`` when the process ends, by itself (``atexit``) or ended by Ctrl-C's
+    deadline (``leave``), which skips atexit."""
+    atexit.register(cleanup)
+    _cleanups.append(cleanup)
+
+
+def leave() -> None:
+    """Run the ``at_exit`` clean-ups now: the process is about to end with ``os._exit``."""
+    while _cleanups:
+        try:
+            _cleanups.pop()()
+        except Exception:  # noqa: BLE001, S110 - the process is ending: clean what can be
+            pass
 
 
 @contextlib.contextmanager

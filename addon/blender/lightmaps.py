@@ -153,7 +153,7 @@ def state(obj, scene) -> tuple[str, str]:
     try:
         meta, lm = read(p)
     except probe_file.ProbeFileError as exc:
-        return "DAMAGED", str(exc)
+        return "DAMAGED", bake_files.failure(obj, p, exc)
     h, w = lm.image.shape[:2]
     kind = "directional, " if lm.directional else ""
     return "BAKED", f"{w} x {h}, {kind}{lm.image.nbytes / 2**20:.1f} MiB"
@@ -193,7 +193,8 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str], viewport: bool = Fa
         try:
             meta, lm = read(p)
         except probe_file.ProbeFileError as exc:
-            warnings.append(f"Lightmap of '{obj.name}': {exc}; the probes light it instead")
+            warnings.append(f"Lightmap of '{obj.name}': {bake_files.failure(obj, p, exc)}; the "
+                            "probes light it instead")
             continue
         prefix = "viewport_" if viewport and "viewport_light_key" in meta else ""
         count = len(batch.positions)

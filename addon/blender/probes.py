@@ -127,8 +127,7 @@ def bake_state(obj) -> BakeState:
     try:
         meta = _read(path)[0]
     except probe_file.ProbeFileError as exc:
-        where = "its packed bake" if bake_files.packed(obj) else path.name
-        return BakeState("DAMAGED", path, {}, f"{where}: {exc}")
+        return BakeState("DAMAGED", path, {}, bake_files.failure(obj, path, exc))
     described = spec(obj).describe()
     if meta.get("kind") != described["kind"]:
         return BakeState("DAMAGED", path, meta, f"{path.name}: the bake is of a "

@@ -26,6 +26,7 @@ modules; ``bpy`` is imported only by the commands that need it, so ``bo2 --help`
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import re
 import sys
@@ -134,6 +135,23 @@ def _fraction(text: str) -> float:
         raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
     if not 0.0 <= value <= 1.0:
         raise argparse.ArgumentTypeError(f"must be between 0 and 1, got {text}")
+    return value
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text}")
+    return value
+
+
+def _scale(text: str) -> float:
+    value = _finite(text)
+    if not value > 0.0:
+        raise argparse.ArgumentTypeError(f"must be above 0, got {text}")
     return value
 
 
@@ -267,9 +285,13 @@ def build_parser() -> argparse.ArgumentParser:
                      "talk's, else the input's)")
     pre.add_argument("--mips", type=_positive, metavar="N",
                      help="number of mips (default: down to 1 x 1)")
-    pre.add_argument("--gloss-scale", type=float, default=10.0,
+    pre.add_argument("--gloss-scale", type=_finite, default=10.0,
                      help="cmft filters: specular power 2^(scale gloss + bias) (default 10)")
-    pre.add_argument("--gloss-bias", type=float, default=1.0, help="(default 1)")
+    pre.add_argument("--gloss-bias", type=_finite, default=1.0, help="(default 1)")
+    pre.add_argument("--scale", type=_scale, default=1.0, metavar="K",
+                     help="multiply the environment's radiance by K before filtering (the "
+                     "SH too): brings a sun's texels under 65504, the largest value of the "
+                     "half floats of KTX2 and DDS; the metadata records K (default 1)")
     pre.add_argument("--edge-fixup", choices=("none", "warp"), default="none",
                      help="warp: edge texels filtered at the edge's direction, for GPUs "
                      "without seamless cube filtering (the shader scales the lookup's minor "

@@ -115,3 +115,21 @@ def plan(pattern: str, blends: list[Path], frames: list[int] | None) -> dict[str
                                  "image has its own path")
             planned[key] = out, image
     return planned
+
+
+def overwrites_input(inputs, outputs) -> str | None:
+    """Why writing ``outputs`` would destroy one of ``inputs`` (an output is an input, by any
+    path to the same file), or None."""
+    def same(a: Path, b: Path) -> bool:
+        try:
+            return a.resolve() == b.resolve() or (a.exists() and b.exists()
+                                                  and os.path.samefile(a, b))
+        except OSError:
+            return False
+
+    for out in map(Path, outputs):
+        for source in map(Path, inputs):
+            if same(out, source):
+                return (f"{out}: this is the input {source}; writing it would replace it: "
+                        "choose another output")
+    return None

@@ -11,10 +11,12 @@ from pathlib import Path
 import numpy as np
 
 from . import BadInput
+from .patterns import overwrites_input
 from .terminal import progress_bar
 
 FILTERS = ("bo2", "bo1", "phong", "phongbrdf", "blinn", "blinnbrdf")
 MAX_SIZE = 4096  # face size of mip 0 (a 4096 cube is 805 MiB of float32 RGB)
+HALF_MAX = 65504.0  # the largest finite half float
 
 
 def read_cube(paths: list[str], size: int | None):
@@ -32,9 +34,29 @@ def read_cube(paths: list[str], size: int | None):
             if bad:
                 print(f"bo2: warning: {path}: {bad} texels are NaN or infinite; read as 0",
                       file=sys.stderr)
-        return ef.to_cube(images, size)
+            negative = int((image[..., :3] < 0.0).any(axis=-1).sum())
+            if negative:  # no radiance is negative: a filter would spread them as darkness
+                print(f"bo2: warning: {path}: {negative} texels are negative; read as 0",
+                      file=sys.stderr)
+        return np.maximum(ef.to_cube(images, size), 0.0)
     except ef.ImageError as exc:
         raise BadInput(str(exc)) from None
+
+
+def _warn_half_float(outputs: list[Path], mips: list[np.ndarray], scale: float) -> None:
+    """One warning when KTX2 or DDS outputs (RGBA16F) clip texels above 65504."""
+    if not any(o.suffix.lower() in (".ktx2", ".dds") for o in outputs):
+        return
+    over = sum(int((m[..., :3] > HALF_MAX).any(axis=-1).sum()) for m in mips)
+    if over:
+        peak = max(float(m[..., :3].max()) for m in mips)
+        fit = scale * HALF_MAX / peak
+        step = 10.0 ** (np.floor(np.log10(fit)) - 2)  # three digits, rounded down: it fits
+        fit = np.floor(fit / step) * step
+        print(f"bo2: warning: {over} texels are above {HALF_MAX:g}, the largest half float of "
+              f"KTX2 and DDS, and are clipped there (the brightest is {peak:.7g}; the JSON's "
+              f"SH keeps the real values); --scale {fit:.3g} brings every texel under it",
+              file=sys.stderr)
 
 
 def run(args) -> int:
@@ -42,6 +64,8 @@ def run(args) -> int:
     from ..core import engine_export, prefilter
 
     outputs = [Path(o) for o in args.output]
+    if why := overwrites_input(args.images, outputs):
+        raise BadInput(why)
     for out in outputs:
         if out.suffix.lower().lstrip(".") not in engine_export.FORMATS:
             raise BadInput(f"{out}: unknown format; use .ktx2, .dds or .exr")
@@ -57,7 +81,7 @@ def run(args) -> int:
                        "(bo2 or cmft's); bo1's cascade filters each mip from the previous one")
     size = args.size or (prefilter.top_resolution() if args.filter == "bo2" else None)
     start = time.perf_counter()
-    cube = read_cube(args.images, size)
+    cube = read_cube(args.images, size) * np.float32(args.scale)
     size = cube.shape[1]
     full = size.bit_length()
     count = args.mips or full
@@ -88,11 +112,13 @@ def run(args) -> int:
     meta = engine_export.chain_metadata(
         args.filter, powers, size, engine_export.cube_sh(cube),
         source=str(Path(args.images[0]).name), edge_fixup=args.edge_fixup,
-        exclude_base=bool(args.exclude_base),
+        exclude_base=bool(args.exclude_base), **({"scale": args.scale} if args.scale != 1.0
+                                                 else {}),
         **({"gloss_scale": args.gloss_scale, "gloss_bias": args.gloss_bias}
            if args.filter not in ("bo2", "bo1") else {}))
     if args.filter == "bo1":
         meta["mip_phong_power_note"] = "BO1 mips are angular Gaussians: power ~ 1 / sigma^2"
+    _warn_half_float(outputs, mips, args.scale)
     written = []
     for out in outputs:
         try:

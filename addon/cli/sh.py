@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from . import BadInput, CommandError
+from .patterns import overwrites_input
 
 
 def _head(path: Path) -> bytes:
@@ -54,9 +55,11 @@ def _read(path: Path) -> np.ndarray:
 def run(args) -> int:
     """Print the 9 RGB SH coefficients of the radiance of a lat-long (equirectangular) image;
     with ``-o`` / ``--header`` write them, and the tinted scalar SH, for an engine."""
-    from ..core import engine_export, gpu_textures, sh
+    from ..core import engine_export, gpu_textures, probe_file, sh
 
     path = Path(args.image)
+    if why := overwrites_input([path], [o for o in (args.output, args.header) if o]):
+        raise BadInput(why)
     coefficients = sh.project_equirect(_read(path))
     if args.axes == "y-up":
         coefficients = sh.rotate(coefficients, gpu_textures.Y_UP)
@@ -68,11 +71,14 @@ def run(args) -> int:
     if args.header:
         writes.append((Path(args.header), engine_export.sh_header(path.stem, coefficients,
                                                                   path.name, args.axes)))
-    for out, text in writes:
-        try:
-            engine_export.write_text(out, text)
-        except OSError as exc:
-            raise BadInput(f"{out}: cannot write ({exc.strerror})") from None
+    try:  # all of them or none
+        probe_file.replace_all([(out, lambda tmp, text=text: Path(tmp).write_text(
+            text, encoding="utf-8")) for out, text in writes])
+    except OSError as exc:
+        where = exc.filename or "output"
+        raise BadInput(f"{where}: cannot write ({exc.strerror}); nothing was written") from None
+    except probe_file.ProbeFileError as exc:
+        raise BadInput(f"{exc}; nothing was written") from None
     if args.json:
         print(json.dumps(record))
     else:

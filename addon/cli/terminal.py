@@ -10,6 +10,7 @@ import sys
 import tempfile
 import time
 
+from ..blender import interrupt
 from ..blender.headless import HeadlessError
 from . import CommandError
 
@@ -125,6 +126,7 @@ def exit_on_interrupt(describe):
                 return
             if data[0] == signal.SIGINT:
                 os.write(terminal, f"bo2: error: {describe()}\n".encode())
+                interrupt.leave()
                 os._exit(130)
 
     previous = signal.signal(signal.SIGINT, lambda *_: None)

@@ -12,14 +12,13 @@ density, the bake settings, the keys that tell a stale lightmap (``lightmap_bake
 
 from __future__ import annotations
 
-import json
 import os
 from pathlib import Path
 
 import numpy as np
 
 from .lightmap import Lightmap
-from .probe_file import ProbeFileError, _digest, replace_all, write_parts
+from .probe_file import ProbeFileError, _digest, read_parts, replace_all, write_parts
 
 __all__ = ["FORMAT", "read", "write_all"]
 
@@ -45,17 +44,10 @@ def write_all(files: list[tuple[str | os.PathLike, dict, Lightmap]]) -> None:
 def read(path: str | os.PathLike) -> tuple[dict, Lightmap]:
     """Read a lightmap written by ``write_all``: (metadata, ``Lightmap``); raises
     ``probe_file.ProbeFileError`` with a one-line reason."""
-    import OpenEXR
-
     path = Path(path)
     if not path.is_file():
         raise ProbeFileError(f"{path.name}: no baked lightmap (bake the lightmaps)")
-    try:
-        parts = OpenEXR.File(str(path)).parts
-        meta = json.loads(parts[0].header["bo2.meta"])
-        images = [(p.name(), np.asarray(p.channels["RGB"].pixels, np.float32)) for p in parts]
-    except Exception as exc:  # noqa: BLE001 - any decoding failure is "corrupt"
-        raise ProbeFileError(f"{path.name}: not a readable lightmap file ({exc})") from None
+    meta, images = read_parts(path, "lightmap")
     if meta.get("format") != FORMAT:
         raise ProbeFileError(f"{path.name}: lightmap format {meta.get('format')!r}, expected "
                              f"{FORMAT} (re-bake)")

@@ -21,15 +21,17 @@ file as it was.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FORMAT", "ProbeFileError", "read", "replace_all", "size_bound", "write", "write_all",
-           "write_parts"]
+__all__ = ["FORMAT", "ProbeFileError", "read", "read_parts", "replace_all", "size_bound", "write",
+           "write_all", "write_parts"]
 
 FORMAT = 1
 """Layout version stored in the metadata; files of another version are refused."""
@@ -146,27 +148,58 @@ def _digest(images) -> str:
     return h.hexdigest()
 
 
+@contextlib.contextmanager
+def _library_silenced():
+    """File descriptors 1 and 2 sent to the null device: OpenEXR prints its own warnings about
+    a damaged file there, which a reader turns into one message of its own."""
+    sys.stdout.flush()
+    sys.stderr.flush()
+    saved = [os.dup(1), os.dup(2)]
+    null = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(null, 1)
+        os.dup2(null, 2)
+        yield
+    finally:
+        os.dup2(saved[0], 1)
+        os.dup2(saved[1], 2)
+        for fd in (*saved, null):
+            os.close(fd)
+
+
+def read_parts(path: Path, what: str) -> tuple[dict, list[tuple[str, np.ndarray]]]:
+    """The ``bo2.meta`` of a bake file's first part and every part's (name, RGB pixels
+    float32), in file order; ProbeFileError "<file>: not a readable <what> file (<why>)",
+    the file named once, the library's own output silenced."""
+    import OpenEXR
+
+    try:
+        with _library_silenced():
+            parts = OpenEXR.File(str(path)).parts
+            meta = json.loads(parts[0].header["bo2.meta"])
+            images = [(p.name(), np.asarray(p.channels["RGB"].pixels, np.float32))
+                      for p in parts]
+    except Exception as exc:  # noqa: BLE001 - any decoding failure is "corrupt"
+        why = str(exc).replace(f"'{path}' ", "").replace(str(path), "the file")
+        raise ProbeFileError(f"{path.name}: not a readable {what} file ({why})") from None
+    return meta, images
+
+
 def read(path: str | os.PathLike) -> tuple[dict, np.ndarray, dict[str, list[np.ndarray]]]:
     """Read a probe written by ``write``.
 
     returns: (meta, sh (K, 9, 3) float32, {chain: [(6, S_m, S_m, 3) float32, ...]})
     raises:  ProbeFileError with a one-line reason
     """
-    import OpenEXR
-
     path = Path(path)
     if not path.is_file():
         raise ProbeFileError(f"{path.name}: no baked file (bake the probes)")
-    try:
-        parts = OpenEXR.File(str(path)).parts
-        meta = json.loads(parts[0].header["bo2.meta"])
-        images = {p.name(): np.asarray(p.channels["RGB"].pixels, np.float32) for p in parts}
-    except Exception as exc:  # noqa: BLE001 - any decoding failure is "corrupt"
-        raise ProbeFileError(f"{path.name}: not a readable probe file ({exc})") from None
+    meta, parts = read_parts(path, "probe")
+    images = dict(parts)
     if meta.get("format") != FORMAT:
         raise ProbeFileError(f"{path.name}: probe file format {meta.get('format')!r}, "
                              f"expected {FORMAT} (re-bake)")
-    order = ["sh"] + [n for n in (p.name() for p in parts) if n != "sh"]
+    order = ["sh"] + [n for n, _ in parts if n != "sh"]
     if meta.get("checksum") != _digest([(n, images[n]) for n in order if n in images]):
         raise ProbeFileError(f"{path.name}: damaged file (its pixels do not match their "
                              "checksum; re-bake)")

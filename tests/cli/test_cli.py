@@ -272,6 +272,20 @@ def test_sh_bad_inputs(tmp_path):
         one_error_line(proc)
 
 
+def test_sh_writes_all_its_outputs_or_none(tmp_path):
+    """A header that cannot be written leaves no JSON either (and no temporary file); the
+    image itself as an output is refused."""
+    write_png(tmp_path / "sky.png", np.full((8, 16, 3), 128, np.uint8))
+    blocker = tmp_path / "a_file"
+    blocker.write_text("not a folder")
+    proc = bo2("sh", tmp_path / "sky.png", "-o", tmp_path / "sh.json", "--header",
+               blocker / "sh.h")
+    assert proc.returncode == 2 and "nothing was written" in one_error_line(proc)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a_file", "sky.png"]
+    proc = bo2("sh", tmp_path / "sky.png", "-o", tmp_path / "sky.png")
+    assert proc.returncode == 2 and "this is the input" in one_error_line(proc)
+
+
 def write_png(path, rgb):
     """A minimal 8-bit RGB PNG (ISO/IEC 15948): signature, IHDR, one IDAT, IEND."""
     import struct

@@ -114,3 +114,25 @@ def test_a_cycles_render_is_ended_too(tmp_path):
     assert proc.returncode == 130, proc.stderr_text
     assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
     assert list(tmp_path.iterdir()) == []
+
+
+def test_the_deadline_exit_removes_the_copies_of_packed_bakes(tmp_path):
+    """Ctrl-C while work does not poll (a lightmap bake's last 5%): the process is ended at
+    the deadline, skipping atexit; the copies of packed bakes in the temporary folder go too."""
+    import os
+    import sys
+
+    code = ("import sys, time, bpy\n"
+            "from bo2_lighting.addon.blender import bake_files, interrupt\n"
+            "interrupt.install()\n"
+            "print(bake_files._copies(), flush=True)\n"
+            "time.sleep(60)\n")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            env={**os.environ, "TMPDIR": str(tmp_path)})
+    folder = proc.stdout.readline().strip()
+    assert folder.startswith(str(tmp_path)) and os.path.isdir(folder)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and "bo2: interrupted" in err
+    assert not list(tmp_path.glob("bo2_packed_*"))

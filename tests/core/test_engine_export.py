@@ -352,3 +352,80 @@ def test_prefilter_bad_input_is_one_line_and_exit_2(tmp_path):
     OpenEXR.File({}, {"RGB": img}).write(str(nan))
     proc = bo2("prefilter", nan, "-o", tmp_path / "n.ktx2", "--size", "8")
     assert proc.returncode == 0 and "1 texels are NaN or infinite" in proc.stderr
+
+
+def test_prefilter_refuses_what_would_lose_data(tmp_path):
+    """Its own input as output is refused before anything is written; a non-finite gloss
+    mapping is refused up front; negative texels are read as 0 with a warning."""
+    src = tmp_path / "sky.exr"
+    import OpenEXR
+
+    img = np.ones((16, 32, 3), np.float32)
+    img[2, 3] = -5.0
+    OpenEXR.File({}, {"RGB": img}).write(str(src))
+    before = src.read_bytes()
+    for out in (src, tmp_path / "." / "sky.exr"):
+        proc = bo2("prefilter", src, "-o", out, "--size", "8")
+        assert proc.returncode == 2 and "this is the input" in one_error(proc)
+        assert src.read_bytes() == before
+    for value in ("nan", "inf", "-inf"):
+        proc = bo2("prefilter", src, "-o", tmp_path / "g.ktx2", "--filter", "phong",
+                   f"--gloss-scale={value}")
+        assert proc.returncode == 2 and "finite" in proc.stderr, proc.stderr
+    proc = bo2("prefilter", src, "-o", tmp_path / "n.exr", "--size", "8")
+    assert proc.returncode == 0 and "1 texels are negative; read as 0" in proc.stderr
+    parts = OpenEXR.File(str(tmp_path / "n.exr")).parts
+    assert min(float(p.channels["RGB"].pixels.min()) for p in parts) >= 0.0
+
+
+def test_prefilter_says_when_half_floats_clip_and_scales(tmp_path):
+    """A sun of 10^6 in a KTX2 (half floats, at most 65504): one warning that names the
+    brightest value and the --scale that fits; with that scale nothing clips and the files
+    record it."""
+    import OpenEXR
+
+    src = tmp_path / "sun.exr"
+    img = np.full((16, 32, 3), 0.5, np.float32)
+    img[4, 10] = 1e6
+    OpenEXR.File({}, {"RGB": img}).write(str(src))
+    proc = bo2("prefilter", src, "-o", tmp_path / "a.ktx2", "--size", "8", "--json")
+    assert proc.returncode == 0, proc.stderr
+    warning = [w for w in proc.stderr.splitlines() if "65504" in w]
+    assert len(warning) == 1 and "clipped" in warning[0] and "--scale" in warning[0]
+    scale = float(warning[0].split("--scale ")[1].split()[0])
+    assert 0.0 < scale < 1.0
+    proc = bo2("prefilter", src, "-o", tmp_path / "b.ktx2", "--size", "8", "--json",
+               "--scale", scale)
+    assert proc.returncode == 0 and "65504" not in proc.stderr, proc.stderr
+    meta = json.loads(proc.stdout.splitlines()[-1])
+    assert meta["scale"] == pytest.approx(scale)
+    proc = bo2("prefilter", src, "-o", tmp_path / "c.exr", "--size", "8")
+    assert proc.returncode == 0 and "65504" not in proc.stderr  # float32: nothing clips
+    for bad in ("0", "-1", "nan"):
+        proc = bo2("prefilter", src, "-o", tmp_path / "d.ktx2", f"--scale={bad}")
+        assert proc.returncode == 2
+
+
+def test_a_damaged_bake_file_is_named_once_and_the_library_is_silent(tmp_path):
+    """OpenEXR's own complaints about a damaged file stay out of stdout and stderr; the
+    error names the file once."""
+    from bo2_lighting.addon.core import probe_file
+
+    path = tmp_path / "probe.exr"
+    probe_file.write(path, {"kind": "reflection"}, np.zeros((1, 9, 3), np.float32),
+                     {"bo2": [np.ones((6, 4, 4, 3), np.float32)]})
+    data = bytearray(path.read_bytes())
+    for k, at in enumerate((len(data) - 30, len(data) // 2)):
+        broken = bytearray(data)
+        broken[at:at + 20] = b"\xff" * 20
+        bad = tmp_path / f"bad{k}.exr"
+        bad.write_bytes(bytes(broken))
+        code = ("import sys; from bo2_lighting.addon.core import probe_file\n"
+                "try: probe_file.read(sys.argv[1])\n"
+                "except probe_file.ProbeFileError as e: print('refused:', e, file=sys.stderr)")
+        proc = subprocess.run([sys.executable, "-c", code, str(bad)], capture_output=True,
+                              text=True, timeout=120)
+        assert proc.stdout == "", proc.stdout
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("refused: "), proc.stderr
+        assert lines[0].count(bad.name) == 1 and str(tmp_path) not in lines[0], lines[0]
