@@ -164,6 +164,14 @@ def test_bad_input_is_one_message(addon, tmp_path):
     assert any("UV map 'LightmapUV'" in w and "a layout is made" in w for w in warnings)
     meta, _ = lightmap_file.read(baked(scene, "Floor"))
     assert meta["uv_map"] == ""
+    # a Lightmap UV map the object does not have: said, and a layout is made
+    floor.data.uv_layers.remove(floor.data.uv_layers["LightmapUV"])
+    floor.bo2.lightmap_uv = "Nope"
+    warnings = []
+    for _ in blender_bake.lightmap_steps(scene, [floor], report=warnings.append):
+        pass
+    assert any("Lightmap UV map 'Nope' is not one of its UV maps" in w for w in warnings)
+    floor.bo2.lightmap_uv = ""
     # a density beyond the memory cap
     scene.bo2.lightmap_density = 1000.0
     scene.bo2.lightmap_max_resolution = "4096"
@@ -303,3 +311,16 @@ def test_a_far_ground_keeps_shadows_and_bounces(addon, tmp_path):
     change = means[True, "BO2"] / means[False, "BO2"]
     truth = means[True, "CYCLES"] / means[False, "CYCLES"]
     assert abs(change - truth) < 0.04, (change, truth)
+
+
+def test_a_deleted_lightmap_file_is_said(addon, tmp_path):
+    """Lightmaps kept beside the .blend (not packed): a file deleted since is one warning and
+    the probes light that object, as a deleted probe file is."""
+    scene = room(tmp_path)
+    scene.bo2.bake_pack = False
+    assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
+    baked(scene, "Left").unlink()
+    core, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
+    assert [m.name for m in core.meshes if m.lightmap is None] == ["Left"]
+    assert sum("Lightmap of 'Left'" in w and "is missing" in w for w in warnings) == 1
+    assert lightmaps.state(scene.objects["Left"], scene)[0] == "MISSING"

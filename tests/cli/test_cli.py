@@ -458,6 +458,16 @@ def test_bake_lightmaps(tmp_path):
     assert meta["backend"] == "BO2" and meta["uv_map"] == ""
     # a lone plane under no world: nothing but the sun, whose direct light is not baked
     assert lm.uvs.shape == (2, 3, 2) and np.isfinite(lm.image).all() and lm.image.max() == 0.0
+    # an object with no faces is left out with a warning, and not counted
+    script = ("import sys, bpy; bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
+              "m = bpy.data.meshes.new('Wire'); m.from_pydata([(0, 0, 0), (1, 0, 0)], [(0, 1)],"
+              " []); bpy.context.scene.collection.objects.link(bpy.data.objects.new('Wire', m));"
+              " bpy.ops.wm.save_mainfile()")
+    subprocess.run([sys.executable, "-c", script, str(blend)], check=True, capture_output=True)
+    proc = bo2("bake", blend, "--lightmaps")
+    assert proc.returncode == 0, proc.stderr
+    assert "baked 1 lightmap into" in proc.stdout
+    assert "'Wire' has no faces that render" in proc.stderr
     proc = bo2("bake", blend, "--lightmaps", "Nope")
     assert proc.returncode == 1 and "no static mesh object named Nope" in one_error_line(proc)
     proc = bo2("bake", blend, "--lightmaps", "--probes", "Reflection")
