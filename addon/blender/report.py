@@ -34,7 +34,11 @@ class Report:
     page is rewritten after each (a stopped report keeps the scenes done)."""
 
     def __init__(self, folder: Path, title: str, fail_above: float | None = None):
-        self.folder = compare.prepare_folder(Path(folder))
+        folder = Path(folder)
+        if (folder / "index.html").exists() and not (folder / "report.json").exists():
+            raise compare.CompareError(f"{folder} holds an index.html that is not a review "
+                                       "page (no report.json beside it); choose another folder")
+        self.folder = compare.prepare_folder(folder)
         self.scenes_folder = compare.prepare_folder(self.folder / "scenes")
         self.meta = {"title": title, "created": time.strftime("%Y-%m-%d %H:%M"),
                      "blender_version": bpy.app.version_string, "fail_above": fail_above,

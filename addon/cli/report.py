@@ -38,6 +38,21 @@ def sources(paths: list[str]) -> list[tuple[str, Path]]:
     return out
 
 
+def distinct_names(paths: list[Path]) -> list[str]:
+    """The scenes' names on the page: each path's last part, with as many of its folders
+    before it as tell two paths of the same name apart ("a/shot", "b/shot")."""
+    parts = [Path(os.path.abspath(p)).parts for p in paths]
+    depth = [1] * len(paths)
+    while True:
+        names = ["/".join(p[-d:]) for p, d in zip(parts, depth, strict=True)]
+        clash = {n for n in names if names.count(n) > 1}
+        grow = [k for k, n in enumerate(names) if n in clash and depth[k] < len(parts[k])]
+        if not grow:
+            return names
+        for k in grow:
+            depth[k] += 1
+
+
 def run(args) -> int:
     """Compare each scene with Cycles and write the review page (docs/report.md)."""
     from ..core import flip
@@ -76,7 +91,7 @@ def run(args) -> int:
     # loading them does not take it back (``interrupt.install`` runs once)
     interrupt.install(os.dup(2))
     failures = 0
-    names = [p.stem if kind == "blend" else p.name for kind, p in todo]
+    names = distinct_names([p.with_suffix("") if kind == "blend" else p for kind, p in todo])
     with exit_on_interrupt(interrupted):
         for i, (kind, path) in enumerate(todo):
             pending = names[i + 1:]
@@ -85,7 +100,7 @@ def run(args) -> int:
             progress.draw(state["stage"])
             try:
                 if kind == "blend":
-                    folder = render_blend(path, args, page, stage)
+                    folder = render_blend(path, names[i], args, page, stage)
                 else:
                     folder = path
                 stage(f"{names[i]}: pictures")
@@ -111,14 +126,14 @@ def run(args) -> int:
     return 1 if bad or failures else 0
 
 
-def render_blend(path: Path, args, page, stage) -> Path:
+def render_blend(path: Path, name: str, args, page, stage) -> Path:
     """Open ``path`` and render its scene (the file's active scene, as ``bo2 compare``) into a
-    new folder of the report; returns that folder."""
+    new folder of the report for the scene ``name``; returns that folder."""
     from ..blender import report
 
     scene = load_scene(path, args)
-    folder = page.scene_folder(path.stem)
+    folder = page.scene_folder(name)
     with quiet_blender():
         report.render_scene(scene, headless.view_layer(), folder, args.old_methods,
-                            on_stage=lambda text: stage(f"{path.stem}: {text}"))
+                            on_stage=lambda text: stage(f"{name}: {text}"))
     return folder

@@ -34,12 +34,15 @@ def test_render_and_reuse(tmp_path, compared):
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.strip() == str(out / "index.html")
     found = scenes(out)
-    assert sorted(s["name"] for s in found) == ["first_light", "first_light"]
+    # two scenes of one name are told apart by their folders
+    assert sorted(s["name"] for s in found) == [f"{compared.parent.name}/first_light",
+                                                "demo_blends/first_light"]
     rendered = next(s for s in found if "bo2_old" in s["variants"])
     reused = next(s for s in found if "bo2_old" not in s["variants"])
-    assert rendered["folder"] == "first_light" and reused["folder"] == "first_light_2"
+    assert rendered["folder"] == "demo_blends_first_light"
+    assert reused["folder"] == f"{compared.parent.name}_first_light"
     assert reused["links"]["cycles"].endswith("cmp0/first_light/cycles.exr")
-    assert (out / "scenes" / "first_light" / "old" / "bo2.exr").exists()
+    assert (out / "scenes" / "demo_blends_first_light" / "old" / "bo2.exr").exists()
     assert not (compared / "hdr.js").exists()  # a reused folder is only read
     for s in found:
         assert 0 < s["variants"]["bo2"]["metrics"]["Combined"]["flip_ldr"] < 1
@@ -88,7 +91,7 @@ def test_interrupt_keeps_the_scenes_done(tmp_path, compared):
                             text=True)
     try:
         deadline = time.monotonic() + 180
-        bo2_exr = out / "scenes" / "first_light_2" / "bo2.exr"
+        bo2_exr = out / "scenes" / "demo_blends_first_light" / "bo2.exr"
         while not bo2_exr.exists() and time.monotonic() < deadline:
             assert proc.poll() is None, proc.communicate()
             time.sleep(0.1)
@@ -99,8 +102,20 @@ def test_interrupt_keeps_the_scenes_done(tmp_path, compared):
         proc.kill()
     assert proc.returncode == 130
     last = stderr.strip().splitlines()[-1]
-    assert last == (f"bo2: error: interrupted during first_light: Cycles render; "
+    assert last == (f"bo2: error: interrupted during demo_blends/first_light: Cycles render; "
                     f"{out / 'index.html'} holds the 1 scene done")
     data = json.loads((out / "report.json").read_text())
-    assert [s["name"] for s in data["scenes"]] == ["first_light"]
-    assert data["pending"] == ["first_light"]
+    assert [s["name"] for s in data["scenes"]] == [f"{compared.parent.name}/first_light"]
+    assert data["pending"] == ["demo_blends/first_light"]
+
+
+def test_a_folder_with_a_page_of_its_own_is_left_alone(tmp_path, compared):
+    """-o into a folder whose index.html is not a review page (no report.json): refused, the
+    page untouched; a review's own folder is rewritten."""
+    site = tmp_path / "site"
+    site.mkdir()
+    (site / "index.html").write_text("<p>my page</p>")
+    proc = bo2("report", compared, "-o", site)
+    assert proc.returncode == 1 and "is not a review page" in one_error_line(proc)
+    assert (site / "index.html").read_text() == "<p>my page</p>"
+    assert sorted(p.name for p in site.iterdir()) == ["index.html"]
