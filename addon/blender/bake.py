@@ -20,7 +20,7 @@ import bpy
 import numpy as np
 
 from .. import version
-from ..core import bake, capture, cubemap, lightmap_bake, lightmap_file, probe_file
+from ..core import bake, capture, cubemap, lightmap_bake, lightmap_file, memory, probe_file
 from ..core import lightmap as core_lightmap
 from . import bake_files, extract, images, interrupt, lightmaps, probes, render_graph, worlds
 from .probes import BakeError
@@ -254,7 +254,19 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
         raise BakeError(f"The lightmaps would take {need / 2**20:.0f} MiB, more than the "
                         f"{s.memory_cap / 2**20:.0f} MiB cap: lower Texels per Metre or Max "
                         "Resolution")
+    baking, have = lightmap_bake.bake_bytes(targets, s), memory.physical()
+    texels = sum(t.width * t.height for t in targets) / 1e6
+    if have is not None and baking > 0.8 * have:
+        raise BakeError(f"Baking these lightmaps ({texels:.1f} M texels) would take about "
+                        f"{memory.size(baking)} of memory, more than this machine's "
+                        f"{memory.size(have)} allow: lower Texels per Metre or Max Resolution")
+    if baking > BAKE_NOTE:
+        warn(f"Baking these lightmaps ({texels:.1f} M texels) takes about "
+             f"{memory.size(baking)} of memory")
     return targets, notes
+
+
+BAKE_NOTE = 2 << 30  # bytes: a lightmap bake that takes more says so up front
 
 
 def render_mesh(obj, depsgraph):

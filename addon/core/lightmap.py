@@ -43,13 +43,14 @@ References
 
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass
 
 import numpy as np
 
 __all__ = ["CHART_ANGLE", "Lightmap", "LightmapError", "Settings", "Target", "as_sh", "denoise",
-           "dilate", "layout", "memory_bytes", "overlaps", "sample", "seam_jumps", "seams",
-           "size_for", "stitch", "uv_islands"]
+           "denoise_steps", "dilate", "layout", "memory_bytes", "overlaps", "sample",
+           "seam_jumps", "seams", "size_for", "stitch", "uv_islands"]
 
 CHART_ANGLE = 45.0  # degrees: a face joins a chart while its normal is within this of the seed's
 SH_SCALE_C0 = 0.5 / np.sqrt(np.pi)
@@ -311,76 +312,84 @@ def overlaps(uvs: np.ndarray, width: int, height: int) -> int:
 
 def dilate(image: np.ndarray, valid: np.ndarray, passes: int = 16) -> np.ndarray:
     """``image`` (H, W, C) with the texels outside ``valid`` (H, W) filled by the mean of
-    their valid neighbours (8-connected), ``passes`` times outwards; the rest stay 0."""
-    out = np.where(valid[..., None], image, 0.0).astype(np.float32)
-    have = valid.copy()
-    h, w = have.shape
+    their valid neighbours (8-connected), ``passes`` times outwards
+    (``kernels.lightmap.dilate_pass``); the rest stay 0. (H, W, C) float32."""
+    from .kernels import lightmap as kernels
+
+    out = np.ascontiguousarray(np.where(valid[..., None], image, 0.0), np.float32)
+    have = np.array(valid, bool)  # a copy: the passes write into it
+    spare, spare_have = np.empty_like(out), np.empty_like(have)
     for _ in range(passes):
-        if have.all():
+        if not kernels.dilate_pass(out, have, spare, spare_have):
             break
-        total = np.zeros_like(out)
-        count = np.zeros((h, w), np.float32)
-        padded = np.pad(out, ((1, 1), (1, 1), (0, 0)))
-        mask = np.pad(have, 1).astype(np.float32)
-        for dy in (-1, 0, 1):
-            for dx in (-1, 0, 1):
-                if dx == dy == 0:
-                    continue
-                m = mask[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
-                total += padded[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] * m[..., None]
-                count += m
-        grow = ~have & (count > 0)
-        if not grow.any():
-            break
-        out[grow] = total[grow] / count[grow, None]
-        have = have | grow
+        out, spare, have, spare_have = spare, out, spare_have, have
     return out
 
 
 def denoise(image: np.ndarray, chart: np.ndarray, position: np.ndarray, normal: np.ndarray,
             variance: np.ndarray, texel: float, levels: int = 3, sigma_normal: float = 0.1,
             sigma_luminance: float = 4.0) -> np.ndarray:
+    """``denoise_steps`` run to its end: the filtered (H, W, C) float32 image."""
+    steps = denoise_steps(image, chart, position, normal, variance, texel, levels,
+                          sigma_normal, sigma_luminance)
+    while True:
+        try:
+            next(steps)
+        except StopIteration as done:
+            return done.value
+
+
+BAND = 1 << 18  # texels of the rows filtered between two progress steps of ``denoise_steps``
+
+
+def denoise_steps(image: np.ndarray, chart: np.ndarray, position: np.ndarray,
+                  normal: np.ndarray, variance: np.ndarray, texel: float, levels: int = 3,
+                  sigma_normal: float = 0.1, sigma_luminance: float = 4.0,
+                  threads: int | None = None):
     """Edge-avoiding a-trous filter of ``image`` (H, W, C) within charts (Dammertz et al.,
     "Edge-avoiding a-trous wavelet transform for fast global illumination filtering", HPG
     2010, with the variance-guided luminance weight of Schied et al., "Spatiotemporal
     variance-guided filtering", HPG 2017): ``levels`` passes of a 5 x 5 B3-spline kernel with
-    holes of 2^k texels. A neighbour counts if it is in the same chart (``chart`` (H, W), -1
-    none), weighted by exp(-(1 - n.n') / ``sigma_normal``) (``normal`` (H, W, 3)), by its
-    distance to the texel's tangent plane over the texel size ``texel`` (metres; ``position``
-    (H, W, 3)), and by its luminance difference over ``sigma_luminance`` standard deviations
-    of the estimate (``variance`` (H, W), of the luminance, quartered each pass)."""
+    holes of 2^k texels (``kernels.lightmap.atrous``). A neighbour counts if it is in the same
+    chart (``chart`` (H, W), -1 none), weighted by exp(-(1 - n.n') / ``sigma_normal``)
+    (``normal`` (H, W, 3)), by its distance to the texel's tangent plane over the texel size
+    ``texel`` (metres; ``position`` (H, W, 3)), and by its luminance difference over
+    ``sigma_luminance`` standard deviations of the estimate (``variance`` (H, W), of the
+    luminance, quartered each pass).
+
+    A generator: it yields the finished fraction after each band of ``BAND`` texels (filtered
+    on ``threads`` threads) and returns the filtered (H, W, C) float32 image."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    from .kernels import lightmap as kernels
+
     h, w, c = image.shape
-    valid = chart >= 0
-    luma = np.array([0.2126, 0.7152, 0.0722])[:c] if c == 3 else None
-    out = image.astype(np.float64)
-    var = np.asarray(variance, np.float64)
-    kernel = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
-    for level in range(levels):
-        step = 1 << level
-        pad = 2 * step
-        img = np.pad(out, ((pad, pad), (pad, pad), (0, 0)))
-        ch = np.pad(chart, pad, constant_values=-1)
-        pos = np.pad(position.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
-        nor = np.pad(normal.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
-        lum = (out[..., :3] @ luma if luma is not None else out[..., 0])
-        lum_p = np.pad(lum, pad)
-        scale = sigma_luminance * np.sqrt(var) + 1e-6 * (np.abs(lum) + 1e-6)
-        acc = np.zeros_like(out)
-        total = np.zeros((h, w))
-        for a in range(5):
-            for b in range(5):
-                dy, dx = (a - 2) * step, (b - 2) * step
-                win = (slice(pad + dy, pad + dy + h), slice(pad + dx, pad + dx + w))
-                same = (ch[win] == chart) & valid
-                plane = np.abs(((pos[win] - position) * normal).sum(-1)) / max(texel, 1e-6)
-                bend = (1.0 - (nor[win] * normal).sum(-1)) / sigma_normal
-                shade = np.abs(lum_p[win] - lum) / scale
-                wgt = same * kernel[a] * kernel[b] * np.exp(-plane - bend - shade)
-                acc += wgt[..., None] * img[win]
-                total += wgt
-        out = np.where(valid[..., None], acc / np.maximum(total, 1e-30)[..., None], out)
-        var = var / 4.0
-    return out.astype(np.float32)
+    luma = np.array([0.2126, 0.7152, 0.0722]) if c == 3 else np.eye(c)[0]
+    src = np.ascontiguousarray(image, np.float32)
+    chart = np.ascontiguousarray(chart, np.int64)
+    pos = np.ascontiguousarray(position, np.float32)
+    nor = np.ascontiguousarray(normal, np.float32)
+    var = np.ascontiguousarray(variance, np.float32)
+    rows = max(1, BAND // max(w, 1))
+    bands = [(y, min(y + rows, h)) for y in range(0, h, rows)]
+    total = max(levels * len(bands), 1)
+    done = 0
+    with ThreadPoolExecutor(max_workers=max(1, threads or os.cpu_count() or 1)) as pool:
+        for level in range(levels):
+            out = np.empty_like(src)
+            jobs = [pool.submit(kernels.atrous, src, chart, pos, nor, var, luma, float(texel),
+                                1 << level, float(sigma_normal), float(sigma_luminance),
+                                0.25 ** level, y0, y1, out) for y0, y1 in bands]
+            try:
+                for job in jobs:
+                    job.result()
+                    done += 1
+                    yield done / total
+            finally:
+                for job in jobs:
+                    job.cancel()
+            src = out
+    return src
 
 
 def seams(positions: np.ndarray, uvs: np.ndarray) -> np.ndarray:

@@ -28,7 +28,7 @@ from .lightmap import (
     LightmapError,
     Settings,
     Target,
-    denoise,
+    denoise_steps,
     dilate,
     seams,
     stitch,
@@ -36,7 +36,7 @@ from .lightmap import (
 )
 from .scene import Scene
 
-__all__ = ["bake", "geometry_key", "light_key", "steps"]
+__all__ = ["bake", "bake_bytes", "geometry_key", "light_key", "ray_offset", "steps"]
 
 _FACES = np.array(FACES)  # writable, as the kernel takes it
 
@@ -325,14 +325,21 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
     extent = np.ptp(tris.reshape(-1, 3), axis=0) if len(tris) else np.ones(3)
     reach = float(np.linalg.norm(extent)) * 2.0 + 1.0
     # what each texel is: albedo, emission and direct light, once
-    albedo, emission, direct = [], [], []
-    for tx in texels:
-        poll()
-        a, e = _surface(frame, tx.tri, tx.p, tx.n, tx.geo)
-        albedo.append(a)
-        emission.append(e)
-        direct.append(_direct(frame, casters, reach, tx.p, tx.n, tx.geo, tx.offset))
-        yield 0.05 + 0.05 * len(direct) / len(texels)
+    albedo = [np.empty((len(tx.at), 3), np.float32) for tx in texels]
+    emission = [np.empty((len(tx.at), 3), np.float32) for tx in texels]
+    direct = [np.empty((len(tx.at), 3), np.float32) for tx in texels]
+    texel_count = sum(len(tx.at) for tx in texels)
+    seen = 0
+    for k, tx in enumerate(texels):
+        for lo in range(0, len(tx.at), CHUNK):
+            poll()
+            part = slice(lo, lo + CHUNK)
+            albedo[k][part], emission[k][part] = _surface(frame, tx.tri[part], tx.p[part],
+                                                          tx.n[part], tx.geo[part])
+            direct[k][part] = _direct(frame, casters, reach, tx.p[part], tx.n[part],
+                                      tx.geo[part], tx.offset[part])
+            seen += len(tx.p[part])
+            yield 0.05 + 0.05 * seen / max(texel_count, 1)
     corner = _corner_radiance(frame, scene, tri_map < 0, casters, reach)
     world = scene.world
     if world.texture is None:
@@ -349,16 +356,31 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
     # the bounces before the last gather with a quarter of the rays: their noise is averaged
     # by the last gather, whose own noise is what the lightmap keeps
     counts = [max(8, int(settings.rays) // 4)] * (bounces - 1) + [int(settings.rays)]
-    texel_count = sum(len(tx.at) for tx in texels)
-    total_rays = texel_count * sum(counts)
+    # the work, in rays per texel: the gathers, and each pass of the filter (``_clean``)
+    filtering = (bounces - 1 + bool(settings.denoise)) * DENOISE_RAYS
+    total_work = max(texel_count * (sum(counts) + filtering), 1)
     done = [0]
     lock = threading.Lock()
     threads = pipeline.thread_count(scene.settings)
+
+    def at(work: float) -> float:
+        poll()
+        return 0.1 + 0.89 * min(work / total_work, 1.0)
+
+    def filtered(k: int, values, var):
+        """Target k's ``values`` through ``_clean``, its progress counted."""
+        size = len(texels[k].at) * DENOISE_RAYS
+        out = yield from _scaled(_clean(texels[k], targets[k], values, var, threads=threads),
+                                 lambda f: at(done[0] + f * size))
+        done[0] += size
+        return out
+
     history: list[list[np.ndarray]] = []  # each gather's filtered irradiance, per target
     for bounce, rays in enumerate(counts):
         if bounce:  # the last gather's noise, filtered before it is gathered again
-            history.append([_clean(tx, target, indirect[k], variance[k])
-                            for k, (tx, target) in enumerate(zip(texels, targets, strict=True))])
+            history.append([])
+            for k in range(len(texels)):
+                history[-1].append((yield from filtered(k, indirect[k], variance[k])))
         current = history[-1] if history else indirect
         if bounce == len(counts) - 1 and len(history) >= 2:
             current = _converged(history[-2], history[-1],
@@ -403,14 +425,43 @@ def steps(scene: Scene, targets: list[Target], settings: Settings | None, result
             return run
 
         for _ in pipeline._ordered([job(*j) for j in jobs], threads, poll, stop):
-            yield 0.1 + 0.85 * done[0] / max(total_rays, 1)
+            yield at(done[0])
         indirect, sh, variance = new_e, new_sh, new_var
     out = []
     for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
-        poll()
-        out.append(_finish(scene, target, tx, indirect[k], sh[k], variance[k], settings))
+        values = _lightmap_values(tx, indirect[k], sh[k], settings)
+        if settings.denoise:
+            values = yield from filtered(k, values, variance[k])
+        out.append(_finish(scene, target, tx, values, settings))
+        yield at(done[0])
     results.extend(out)
     yield 1.0
+
+
+BAKE_BYTES = 340  # per texel of the lightmaps, while baking (``tools/bench_lightmap_bake.py``)
+BAKE_BYTES_DIRECTIONAL = 440
+
+
+def bake_bytes(targets: list[Target], settings: Settings) -> int:
+    """Bytes a bake of ``targets`` holds at its peak, about: per texel of their images, the
+    texels' points and surfaces, each gather's results and the filter's images."""
+    texels = sum(int(t.width) * int(t.height) for t in targets)
+    return texels * (BAKE_BYTES_DIRECTIONAL if settings.directional else BAKE_BYTES)
+
+
+DENOISE_RAYS = 16  # a texel's pass of the filter costs about as much as this many rays
+CHUNK = 1 << 18  # texels whose surface and direct light are worked out between two steps
+
+
+def _scaled(steps, at):
+    """Run the generator ``steps``, yielding ``at(fraction)`` for each fraction it yields;
+    returns what it returns."""
+    while True:
+        try:
+            fraction = next(steps)
+        except StopIteration as done:
+            return done.value
+        yield at(fraction)
 
 
 def _converged(previous: list[np.ndarray], last: list[np.ndarray],
@@ -432,8 +483,9 @@ def _converged(previous: list[np.ndarray], last: list[np.ndarray],
 
 
 def _clean(tx: _Texels, target: Target, values: np.ndarray, variance: np.ndarray,
-           texel: float | None = None) -> np.ndarray:
-    """One target's texel values (M, C) through ``lightmap.denoise``: (M, C)."""
+           threads: int | None = None):
+    """One target's texel values (M, C) through ``lightmap.denoise_steps``: a generator of
+    its progress fractions that returns (M, C)."""
     h, w = target.height, target.width
     c = values.shape[1]
     image = np.zeros((h * w, c), np.float32)
@@ -442,26 +494,29 @@ def _clean(tx: _Texels, target: Target, values: np.ndarray, variance: np.ndarray
     nor = np.zeros((h * w, 3), np.float32)
     var = np.zeros(h * w, np.float32)
     pos[tx.at], nor[tx.at], var[tx.at] = tx.p, tx.n, variance
-    out = denoise(image.reshape(h, w, c), tx.chart, pos.reshape(h, w, 3), nor.reshape(h, w, 3),
-                  var.reshape(h, w), tx.texel if texel is None else texel)
+    out = yield from denoise_steps(image.reshape(h, w, c), tx.chart, pos.reshape(h, w, 3),
+                                   nor.reshape(h, w, 3), var.reshape(h, w), tx.texel,
+                                   threads=threads)
     return out.reshape(-1, c)[tx.at]
 
 
-def _finish(scene: Scene, target: Target, tx: _Texels, irradiance, sh, variance,
+def _lightmap_values(tx: _Texels, irradiance, sh, settings: Settings) -> np.ndarray:
+    """What one target's lightmap stores per texel, (M, 3) irradiance or (M, 12) L1 SH."""
+    if not settings.directional:
+        return irradiance
+    # Y00 set so the irradiance at the texel's normal is the gathered one
+    l1 = np.einsum("nk,nkc->nc", tx.n[:, [1, 2, 0]], sh[:, 1:4]) * (SH_SCALE_C1 * 2.0 / 3.0
+                                                                      * np.pi)
+    sh = sh.copy()
+    sh[:, 0] = (irradiance - l1) / (np.pi * SH_SCALE_C0)
+    return sh.reshape(-1, 12)
+
+
+def _finish(scene: Scene, target: Target, tx: _Texels, values: np.ndarray,
             settings: Settings) -> Lightmap:
-    """One target's texels made an image: directional or not, denoised, dilated, stitched."""
+    """One target's texel values (``_lightmap_values``, filtered) made an image: dilated,
+    stitched."""
     h, w = target.height, target.width
-    if settings.directional:
-        # Y00 set so the irradiance at the texel's normal is the gathered one
-        l1 = np.einsum("nk,nkc->nc", tx.n[:, [1, 2, 0]], sh[:, 1:4]) * (SH_SCALE_C1 * 2.0 / 3.0
-                                                                          * np.pi)
-        sh = sh.copy()
-        sh[:, 0] = (irradiance - l1) / (np.pi * SH_SCALE_C0)
-        values = sh.reshape(-1, 12)
-    else:
-        values = irradiance
-    if settings.denoise:
-        values = _clean(tx, target, values, variance)
     c = values.shape[1]
     image = np.zeros((h * w, c), np.float32)
     image[tx.at] = values

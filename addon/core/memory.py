@@ -9,7 +9,7 @@ memory runs out: Blender's own memory and the render's transient buffers come on
 
 from __future__ import annotations
 
-__all__ = ["OutOfMemory", "frame_bytes", "limit_note", "out_of_memory"]
+__all__ = ["OutOfMemory", "frame_bytes", "limit_note", "out_of_memory", "physical", "size"]
 
 _PER_TRIANGLE = 36 + 36 + 4 + 4 + 3  # positions, normals, material, instance, flags
 _PER_INSTANCE = 16 * 8 + 6 * 4  # world_to_object float64, texture space float32
@@ -58,7 +58,17 @@ def _dome_maps(scene) -> int:
     return int(lit.sum())
 
 
-def _size(count: int) -> str:
+def physical() -> int | None:
+    """Bytes of memory this machine has, or None where the system does not say (Windows)."""
+    import os
+
+    try:
+        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, OSError, ValueError):
+        return None
+
+
+def size(count: int) -> str:
     """Bytes as 'N MiB' under a GiB, else 'N.N GiB'."""
     return f"{count / 2**20:.0f} MiB" if count < 2**30 else f"{count / 2**30:.1f} GiB"
 
@@ -73,7 +83,7 @@ def limit_note() -> str:
         return ""
     if soft == resource.RLIM_INFINITY:
         return ""
-    return f" under a limit of {_size(soft)} of address space (ulimit -v)"
+    return f" under a limit of {size(soft)} of address space (ulimit -v)"
 
 
 def out_of_memory(scene, error: MemoryError | None = None) -> str:
@@ -84,13 +94,13 @@ def out_of_memory(scene, error: MemoryError | None = None) -> str:
         read = ""
         if isinstance(error, OutOfMemory):
             read = (f": its {error.triangles:,} triangles need about "
-                    f"{_size(error.triangles * _PER_TRIANGLE)} beside Blender's own")
+                    f"{size(error.triangles * _PER_TRIANGLE)} beside Blender's own")
         return (f"BO2 Lighting ran out of memory reading the scene{read}{limit_note()}; hide "
                 "or simplify objects, or render on a machine with more memory")
     tris = sum(len(m.positions) for m in scene.meshes)
     maps = sum(1 for light in scene.lights if light.shadow) + _dome_maps(scene)
     return (f"BO2 Lighting ran out of memory: {tris:,} triangles and {maps} shadow "
             f"map{'s' * (maps != 1)} need about "
-            f"{_size(frame_bytes(scene))} beside Blender's own{limit_note()}; lower "
+            f"{size(frame_bytes(scene))} beside Blender's own{limit_note()}; lower "
             "the shadow resolution, hide or simplify objects, or render on a machine with more "
             "memory")

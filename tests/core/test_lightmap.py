@@ -208,6 +208,112 @@ def test_direct_light_bounces_into_the_lightmap_and_shadows_count():
     assert near > 2 * far > 0.0
 
 
+def denoise_reference(image, chart, position, normal, variance, texel: float, levels: int = 3,
+                      sigma_normal: float = 0.1, sigma_luminance: float = 4.0) -> np.ndarray:
+    """``lightmap.denoise`` in NumPy, tap by tap over whole images: the reference its
+    kernel (``kernels.lightmap.atrous``) is held to."""
+    h, w, c = image.shape
+    valid = chart >= 0
+    luma = np.array([0.2126, 0.7152, 0.0722])[:c] if c == 3 else None
+    out = image.astype(np.float64)
+    var = np.asarray(variance, np.float64)
+    kernel = np.array([1.0, 4.0, 6.0, 4.0, 1.0]) / 16.0
+    for level in range(levels):
+        step = 1 << level
+        pad = 2 * step
+        img = np.pad(out, ((pad, pad), (pad, pad), (0, 0)))
+        ch = np.pad(chart, pad, constant_values=-1)
+        pos = np.pad(position.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
+        nor = np.pad(normal.astype(np.float64), ((pad, pad), (pad, pad), (0, 0)))
+        lum = (out[..., :3] @ luma if luma is not None else out[..., 0])
+        lum_p = np.pad(lum, pad)
+        scale = sigma_luminance * np.sqrt(var) + 1e-6 * (np.abs(lum) + 1e-6)
+        acc = np.zeros_like(out)
+        total = np.zeros((h, w))
+        for a in range(5):
+            for b in range(5):
+                dy, dx = (a - 2) * step, (b - 2) * step
+                win = (slice(pad + dy, pad + dy + h), slice(pad + dx, pad + dx + w))
+                same = (ch[win] == chart) & valid
+                plane = np.abs(((pos[win] - position) * normal).sum(-1)) / max(texel, 1e-6)
+                bend = (1.0 - (nor[win] * normal).sum(-1)) / sigma_normal
+                shade = np.abs(lum_p[win] - lum) / scale
+                wgt = same * kernel[a] * kernel[b] * np.exp(-plane - bend - shade)
+                acc += wgt[..., None] * img[win]
+                total += wgt
+        out = np.where(valid[..., None], acc / np.maximum(total, 1e-30)[..., None], out)
+        var = var / 4.0
+    return out.astype(np.float32)
+
+
+def test_the_denoise_kernel_matches_its_reference():
+    """Two charts, a curved one, noise, varying variance, 1 and 3 channels and 12, and a band
+    size that splits the rows: the kernel's levels equal the NumPy reference's."""
+    rng = np.random.default_rng(5)
+    h, w = 40, 56
+    chart = np.full((h, w), -1)
+    chart[3:37, 2:30] = 0
+    chart[5:30, 33:54] = 1
+    ys, xs = np.mgrid[0:h, 0:w]
+    pos = np.stack([xs * 0.05, ys * 0.05, 0.02 * np.sin(xs * 0.3)], -1).astype(np.float32)
+    nor = np.stack([-0.006 * np.cos(xs * 0.3), np.zeros_like(pos[..., 0]),
+                    np.ones_like(pos[..., 0])], -1)
+    nor = (nor / np.linalg.norm(nor, axis=-1, keepdims=True)).astype(np.float32)
+    var = rng.uniform(0.001, 0.05, (h, w)).astype(np.float32)
+    band = lightmap.BAND
+    lightmap.BAND = 7 * w  # several bands
+    try:
+        for c in (3, 1, 12):
+            noisy = rng.uniform(0.2, 2.0, (h, w, c)).astype(np.float32)
+            got = lightmap.denoise(noisy, chart, pos, nor, var, texel=0.05)
+            want = denoise_reference(noisy, chart, pos, nor, var, texel=0.05)
+            np.testing.assert_allclose(got, want, rtol=2e-5, atol=2e-6)
+    finally:
+        lightmap.BAND = band
+    steps = list(lightmap.denoise_steps(noisy, chart, pos, nor, var, texel=0.05))
+    assert steps == sorted(steps) and steps[-1] == 1.0
+
+
+def dilate_reference(image: np.ndarray, valid: np.ndarray, passes: int = 16) -> np.ndarray:
+    """``lightmap.dilate`` in NumPy, a pass over whole shifted images: its kernel's
+    reference."""
+    out = np.where(valid[..., None], image, 0.0).astype(np.float32)
+    have = valid.copy()
+    h, w = have.shape
+    for _ in range(passes):
+        if have.all():
+            break
+        total = np.zeros_like(out)
+        count = np.zeros((h, w), np.float32)
+        padded = np.pad(out, ((1, 1), (1, 1), (0, 0)))
+        mask = np.pad(have, 1).astype(np.float32)
+        for dy in (-1, 0, 1):
+            for dx in (-1, 0, 1):
+                if dx == dy == 0:
+                    continue
+                m = mask[1 + dy:1 + dy + h, 1 + dx:1 + dx + w]
+                total += padded[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] * m[..., None]
+                count += m
+        grow = ~have & (count > 0)
+        if not grow.any():
+            break
+        out[grow] = total[grow] / count[grow, None]
+        have = have | grow
+    return out
+
+
+def test_the_dilate_kernel_matches_its_reference():
+    rng = np.random.default_rng(9)
+    image = rng.uniform(0.0, 4.0, (37, 53, 3)).astype(np.float32)
+    valid = np.zeros((37, 53), bool)
+    valid[5:20, 4:17] = True
+    valid[25:30, 30:50] = True
+    valid[33, 2] = True
+    for passes in (1, 3, 16, 60):
+        np.testing.assert_allclose(lightmap.dilate(image, valid, passes),
+                                   dilate_reference(image, valid, passes), rtol=1e-6)
+
+
 def test_clean_up():
     rng = np.random.default_rng(0)
     h, w = 32, 32

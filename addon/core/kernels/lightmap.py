@@ -474,3 +474,101 @@ def visibility(points, geo, offsets, samples, toward, tris, order, bounds, links
             if t < 0:
                 free += 1
         out[i] = free / above if above else 0.0
+
+
+_ATROUS = nb.void(nb.float32[:, :, ::1], nb.int64[:, ::1], nb.float32[:, :, ::1],
+                  nb.float32[:, :, ::1], nb.float32[:, ::1], nb.float64[::1], nb.float64,
+                  nb.int64, nb.float64, nb.float64, nb.float64, nb.int64, nb.int64,
+                  nb.float32[:, :, ::1])
+
+
+@nb.njit(_ATROUS, **_OPTIONS)
+def atrous(image, chart, position, normal, variance, luma, texel, step, sigma_normal,
+           sigma_luminance, var_scale, row0, row1, out):
+    """One level of ``lightmap.denoise`` (the edge-avoiding a-trous filter) for the rows
+    ``row0`` to ``row1`` of ``out`` (H, W, C), from ``image`` (H, W, C): a 5 x 5 B3-spline
+    kernel with holes of ``step`` texels, a neighbour counting if it is in the texel's chart
+    (``chart`` (H, W), -1 none: copied), weighted by exp(-(plane + bend + shade)): its
+    distance to the texel's tangent plane over ``texel`` (``position``, ``normal`` (H, W,
+    3)), (1 - n.n') / ``sigma_normal``, and its luminance difference (weights ``luma`` (C,))
+    over ``sigma_luminance`` standard deviations (``variance`` (H, W) times ``var_scale``)."""
+    h, w, c = image.shape
+    kernel = (1.0 / 16.0, 4.0 / 16.0, 6.0 / 16.0, 4.0 / 16.0, 1.0 / 16.0)
+    acc = np.empty(c)
+    inv_texel = 1.0 / max(texel, 1e-6)
+    for y in range(row0, row1):
+        for x in range(w):
+            ch = chart[y, x]
+            if ch < 0:
+                for k in range(c):
+                    out[y, x, k] = image[y, x, k]
+                continue
+            lum = 0.0
+            for k in range(c):
+                lum += luma[k] * image[y, x, k]
+            scale = (sigma_luminance * math.sqrt(max(variance[y, x] * var_scale, 0.0))
+                     + 1e-6 * (abs(lum) + 1e-6))
+            px, py, pz = position[y, x, 0], position[y, x, 1], position[y, x, 2]
+            nx, ny, nz = normal[y, x, 0], normal[y, x, 1], normal[y, x, 2]
+            acc[:] = 0.0
+            total = 0.0
+            for a in range(5):
+                yy = y + (a - 2) * step
+                if yy < 0 or yy >= h:
+                    continue
+                for b in range(5):
+                    xx = x + (b - 2) * step
+                    if xx < 0 or xx >= w or chart[yy, xx] != ch:
+                        continue
+                    plane = abs((position[yy, xx, 0] - px) * nx + (position[yy, xx, 1] - py)
+                                * ny + (position[yy, xx, 2] - pz) * nz) * inv_texel
+                    bend = (1.0 - (normal[yy, xx, 0] * nx + normal[yy, xx, 1] * ny
+                                   + normal[yy, xx, 2] * nz)) / sigma_normal
+                    other = 0.0
+                    for k in range(c):
+                        other += luma[k] * image[yy, xx, k]
+                    shade = abs(other - lum) / scale
+                    wgt = kernel[a] * kernel[b] * math.exp(-plane - bend - shade)
+                    total += wgt
+                    for k in range(c):
+                        acc[k] += wgt * image[yy, xx, k]
+            for k in range(c):
+                out[y, x, k] = acc[k] / max(total, 1e-30)
+
+
+@nb.njit(nb.int64(nb.float32[:, :, ::1], nb.boolean[:, ::1], nb.float32[:, :, ::1],
+                  nb.boolean[:, ::1]), **_OPTIONS)
+def dilate_pass(image, have, out, grown):
+    """One pass of ``lightmap.dilate``: ``out`` and ``grown`` (H, W) are ``image`` (H, W, C)
+    and ``have`` with every texel outside ``have`` that has neighbours in it (8-connected)
+    set to their mean. Returns how many texels grew."""
+    h, w, c = image.shape
+    count = 0
+    for y in range(h):
+        for x in range(w):
+            grown[y, x] = have[y, x]
+            for k in range(c):
+                out[y, x, k] = image[y, x, k]
+            if have[y, x]:
+                continue
+            n = 0
+            for dy in range(-1, 2):
+                yy = y + dy
+                if yy < 0 or yy >= h:
+                    continue
+                for dx in range(-1, 2):
+                    xx = x + dx
+                    if xx < 0 or xx >= w or not have[yy, xx]:
+                        continue
+                    if n == 0:
+                        for k in range(c):
+                            out[y, x, k] = 0.0
+                    n += 1
+                    for k in range(c):
+                        out[y, x, k] += image[yy, xx, k]
+            if n:
+                for k in range(c):
+                    out[y, x, k] /= n
+                grown[y, x] = True
+                count += 1
+    return count
