@@ -324,3 +324,24 @@ def test_a_deleted_lightmap_file_is_said(addon, tmp_path):
     assert [m.name for m in core.meshes if m.lightmap is None] == ["Left"]
     assert sum("Lightmap of 'Left'" in w and "is missing" in w for w in warnings) == 1
     assert lightmaps.state(scene.objects["Left"], scene)[0] == "MISSING"
+
+
+def test_the_memory_a_bake_takes_is_said_up_front(addon, tmp_path, monkeypatch):
+    """A big bake says how much memory it takes before it starts; one that the machine cannot
+    hold is refused with that figure, the previous lightmaps kept."""
+    from bo2_lighting.addon.core import memory
+
+    scene = room(tmp_path)
+    objs = lightmaps.lightmap_objects(scene)
+    monkeypatch.setattr(blender_bake, "BAKE_NOTE", 0)
+    warnings = []
+    for _ in blender_bake.lightmap_steps(scene, objs, report=warnings.append):
+        pass
+    [said] = [w for w in warnings if "takes about" in w]
+    assert "M texels" in said and "of memory" in said
+    before = baked(scene, "Floor").read_bytes() if baked(scene, "Floor").exists() else None
+    monkeypatch.setattr(memory, "physical", lambda: 1 << 20)
+    with pytest.raises(blender_bake.BakeError, match="more than this machine's 1 MiB"):
+        for _ in blender_bake.lightmap_steps(scene, objs):
+            pass
+    assert before is None or baked(scene, "Floor").read_bytes() == before

@@ -420,6 +420,23 @@ def test_export_probes_for_an_engine(tmp_path):
     assert proc.returncode == 2 and "is a file" in one_error_line(proc)
 
 
+def test_export_probes_with_a_damaged_bake(tmp_path):
+    """A damaged probe file: one warning naming it once, nothing of OpenEXR's own on stdout or
+    stderr; the other probe and the world are exported."""
+    blend = probe_blend(tmp_path)
+    assert bo2("bake", blend, "--no-pack").returncode == 0
+    [damaged] = (tmp_path / "bo2_bake" / "probes").glob("Reflection-*")
+    data = bytearray(damaged.read_bytes())
+    data[-30:-10] = b"\xff" * 20  # the last pixels' compressed data
+    damaged.write_bytes(bytes(data))
+    proc = bo2("export-probes", blend, "-o", tmp_path / "export")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.startswith("exported 1 probe and the world"), proc.stdout
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bo2: warning: Light probe 'Reflection'")
+    assert lines[0].count(damaged.name) == 1, lines[0]
+
+
 def test_bake_with_cycles(tmp_path):
     from bo2_lighting.addon.core import probe_file
 
