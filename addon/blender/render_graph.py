@@ -8,7 +8,8 @@ smallest size and with nothing drawn, and calls ``read(depsgraph)`` from the eng
 ``render()`` (``serve``) with that graph: what it returns must not keep references into it.
 
 The render result the Image Editor shows is kept: the render goes into a render slot of its
-own (``SLOT``), and the slot shown before is shown again. The scene's settings changed for it
+own (``SLOT``), and the slot shown before is shown again; without an earlier render, the
+Render Result image this render made is removed. The scene's settings changed for it
 (engine, size, border, compositing, sequencer) are restored whatever happens.
 """
 
@@ -92,6 +93,9 @@ def evaluate(scene, read: Callable[[Any], Any], view_layer=None):
          r.use_sequencer) = saved
         if slots is not None:
             _restore_slot(*slots)
+        else:  # Blender made the Render Result image for this render: no render of the user's
+            for image in [i for i in bpy.data.images if i.type == "RENDER_RESULT"]:
+                bpy.data.images.remove(image)
     if request.error is not None:
         raise request.error
     if not request.done:
