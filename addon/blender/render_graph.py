@@ -9,8 +9,9 @@ smallest size and with nothing drawn, and calls ``read(depsgraph)`` from the eng
 
 The render result the Image Editor shows is kept: the render goes into a render slot of its
 own (``SLOT``), and the slot shown before is shown again; without an earlier render, the
-Render Result image this render made is removed. The scene's settings changed for it
-(engine, size, border, compositing, sequencer) are restored whatever happens.
+Render Result image this render made is removed. The settings changed for it (the scene's
+engine, size, border, compositing and sequencer, the view layer's Use for Rendering) are
+restored whatever happens.
 """
 
 from __future__ import annotations
@@ -60,7 +61,7 @@ def evaluate(scene, read: Callable[[Any], Any], view_layer=None):
     layer = view_layer or bpy.context.view_layer
     r = scene.render
     saved = (r.engine, r.resolution_percentage, r.use_border, r.use_compositing,
-             r.use_sequencer)
+             r.use_sequencer, layer.use)
     camera = scene.camera
     stand_in = None
     slots = _spare_slot()
@@ -76,6 +77,7 @@ def evaluate(scene, read: Callable[[Any], Any], view_layer=None):
         r.resolution_percentage = min(100, max(1, -(-800 // max(1, min(r.resolution_x,
                                                                        r.resolution_y)))))
         r.use_border = r.use_compositing = r.use_sequencer = False
+        layer.use = True  # a view layer off for renders is still the one the bake reads
         try:
             bpy.ops.render.render(layer=layer.name, scene=scene.name)
         except RuntimeError as exc:  # "Cannot render, ...": Blender's reason, one line
@@ -90,7 +92,7 @@ def evaluate(scene, read: Callable[[Any], Any], view_layer=None):
             bpy.data.objects.remove(stand_in)
             bpy.data.cameras.remove(data)
         (r.engine, r.resolution_percentage, r.use_border, r.use_compositing,
-         r.use_sequencer) = saved
+         r.use_sequencer, layer.use) = saved
         if slots is not None:
             _restore_slot(*slots)
         else:  # Blender made the Render Result image for this render: no render of the user's
