@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import threading
+import time
 import weakref
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -274,13 +275,28 @@ def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
     return results
 
 
+STEP_SECONDS = 0.1  # ``steps`` yields at most this often: a modal bake redraws at each step
+
+
 def steps(scene: Scene, targets: list[Target], settings: Settings | None, results: list,
           should_stop: Callable[[], bool] | None = None,
           warn: Callable[[str], None] | None = None) -> Iterator[float]:
-    """``bake`` as a generator of progress fractions in [0, 1], each after a short step;
-    the lightmaps are appended to ``results`` at the end. ``scene.probes`` lights the
+    """``bake`` as a generator of progress fractions in [0, 1], one every ``STEP_SECONDS``
+    or so; the lightmaps are appended to ``results`` at the end. ``scene.probes`` lights the
     objects without a lightmap that the rays meet. Closing it early stops the work; nothing
     is written here."""
+    last = time.monotonic()
+    for fraction in _steps(scene, targets, settings, results, should_stop, warn):
+        now = time.monotonic()
+        if fraction >= 1.0 or now - last >= STEP_SECONDS:
+            last = now
+            yield fraction
+
+
+def _steps(scene: Scene, targets: list[Target], settings: Settings | None, results: list,
+           should_stop: Callable[[], bool] | None = None,
+           warn: Callable[[str], None] | None = None) -> Iterator[float]:
+    """``steps``, a fraction after every short piece of work."""
     from .kernels import lightmap as kernels
 
     settings = settings or Settings()
