@@ -39,8 +39,7 @@ def main(argv=None) -> int:
     parser.add_argument("zip", type=Path)
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "gui")
     parser.add_argument("--docs", type=Path)
-    # the viewport's waits in software GL on 2 cores take 8 of the walk's minutes
-    parser.add_argument("--timeout", type=float, default=1800.0)
+    parser.add_argument("--timeout", type=float, default=1200.0)
     args = parser.parse_args(argv)
     runner = subprocess.run([str(ROOT / "tools" / "gui_blender.sh")], capture_output=True,
                             text=True)
