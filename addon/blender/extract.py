@@ -9,13 +9,14 @@ ignored; panoramic cameras are refused with a clear error.
 from __future__ import annotations
 
 import collections
+import dataclasses
 import hashlib
 from collections.abc import Callable
 
 import bpy
 import numpy as np
 
-from ..core import memory, pipeline, texture
+from ..core import memory, pipeline, texture, world_sun
 from ..core import scene as cs
 from . import lightmaps as baked_lightmaps
 from . import worlds
@@ -308,7 +309,7 @@ def _environment(node, world_name: str, warnings: list[str]):
     return tex, rotation
 
 
-def extract_world(scene, warnings: list[str]) -> cs.World:
+def _world(scene, warnings: list[str]) -> cs.World:
     """The background: the Background node's colour or equirectangular texture, times strength;
     any other tree, its equirect rendered by Cycles (``worlds``), or its viewport colour with a
     warning when it is not rendered."""
@@ -316,9 +317,11 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
     if world is None:
         return cs.World(color=np.zeros(3, np.float32))
     if not worlds.direct(world):
-        tex = worlds.lookup(scene, world)
-        if tex is not None:
-            return cs.World(color=np.asarray(tex.mips[-1][0, 0, :3], np.float32), texture=tex)
+        rendered = worlds.lookup(scene, world)
+        if rendered is not None:
+            tex = rendered.texture
+            return cs.World(color=np.asarray(tex.mips[-1][0, 0, :3], np.float32), texture=tex,
+                            sun=rendered.sun)
         reason = worlds.problem(world)
         warnings.append(f"World '{world.name}' cannot be evaluated ({reason}); its viewport "
                         "colour is used" if reason else
@@ -354,6 +357,20 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
             warnings.append(f"World '{world.name}': node '{src.name}' on the background colour "
                             "is not supported; the Background node's own colour is used")
     return cs.World(color=color * strength)
+
+
+def extract_world(scene, warnings: list[str]) -> cs.World:
+    """The background (``_world``) with its sun taken out as a light (``core.world_sun``):
+    EEVEE's World > Sun settings (Threshold, Angle, Shadow) are the world's for both."""
+    world = _world(scene, warnings)
+    source = scene.world
+    if source is None or not source.sun_threshold > 0.0:
+        return world
+    shadow = bool(source.use_sun_shadow)
+    if world.sun is not None:  # a Sky Texture's disc
+        return dataclasses.replace(world, sun=dataclasses.replace(world.sun, shadow=shadow))
+    return world_sun.split(world, float(source.sun_threshold), float(source.sun_angle), shadow,
+                           warnings.append)
 
 
 def _visibility(obj, view_layer) -> tuple[bool, bool, bool, bool, bool]:
@@ -759,6 +776,13 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
     return meshes, lights, objects, batches
 
 
+def _lit_by(world: cs.World) -> bool:
+    """Whether ``world`` sends any light."""
+    if world.texture is not None:
+        return world.strength > 0.0
+    return bool(np.any(np.asarray(world.color) > 0.0))
+
+
 def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
                   indirect: bool = False, cache: SceneCache | None = None,
                   should_stop: Callable[[], bool] | None = None, lightmaps: bool = True):
@@ -794,9 +818,12 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         warnings.append(f"Camera '{viewer.name}': Clip End is not beyond Clip Start, so it "
                         "sees no geometry (as in Cycles)")
         meshes = []
-    if not lights:
-        warnings.append("The scene has no lights: only emission and the world are visible")
     world = extract_world(scene, warnings)
+    if world.sun is not None:
+        lights.append(world.sun)
+    if not lights and not _lit_by(world):
+        warnings.append("The scene has no lights and its world is black: only emission is "
+                        "visible")
     core = cs.Scene(
         camera=camera,
         meshes=meshes,

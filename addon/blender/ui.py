@@ -601,6 +601,7 @@ class WORLD_PT_bo2_light(_BO2Panel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         scene, world = context.scene, context.world
+        self.draw_sun(layout, world)
         if worlds.direct(world):
             layout.label(text="Read directly: a colour or an equirect HDRI", icon="CHECKMARK")
             return
@@ -616,6 +617,17 @@ class WORLD_PT_bo2_light(_BO2Panel, bpy.types.Panel):
                      "Changed since it was rendered: the viewport colour stands in",
                      icon="CHECKMARK" if ready else "INFO")
         layout.operator("bo2.evaluate_world", icon="WORLD")
+
+    @staticmethod
+    def draw_sun(layout, world):
+        """EEVEE's own World > Sun settings: the same world gives both engines one sun."""
+        layout.use_property_split = True
+        col = layout.column(heading="Sun")
+        col.prop(world, "sun_threshold", text="Threshold")
+        sub = col.column()
+        sub.active = world.sun_threshold > 0.0
+        sub.prop(world, "sun_angle", text="Angle")
+        sub.prop(world, "use_sun_shadow", text="Shadow")
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,

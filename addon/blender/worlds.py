@@ -14,6 +14,11 @@ world changes in the viewport, and by the World panel's button. It is kept in me
 written beside the bakes (``<bake folder>/world_<digest>.exr``, replaced atomically), where a
 render started some other way (a farm's ``blender -b -f``) finds it.
 
+A Sky Texture's sun disc (World > Sun Threshold above 0, EEVEE's setting) is not left in the
+image, where its energy would be smeared over the sphere: the image is rendered without it, and
+the disc alone (a small view of it rendered with and without it) gives the world's sun its exact
+irradiance (``Rendered.sun``, ``core.world_sun``).
+
 A tree Cycles cannot evaluate here (a Script node, an image that is missing) is not rendered:
 the world's viewport colour stands in, with one warning.
 """
@@ -28,18 +33,36 @@ import tempfile
 from collections import OrderedDict
 from pathlib import Path
 
+import json
+from typing import NamedTuple
+
 import bpy
 import numpy as np
+from mathutils import Vector
 
 from ..core import texture
+from ..core.scene import Light
 from . import images, probes
 
-__all__ = ["WIDTH", "WorldError", "digest", "direct", "ensure", "lookup", "problem"]
+__all__ = ["WIDTH", "Rendered", "WorldError", "digest", "direct", "ensure", "lookup",
+           "problem"]
 
 WIDTH = 1024  # of the equirect; its height is half
 SAMPLES = 16
 KEPT = 4  # worlds kept in memory
-_memory: OrderedDict[str, texture.Texture] = OrderedDict()
+DISC_SKIES = {"NISHITA", "SINGLE_SCATTERING", "MULTIPLE_SCATTERING"}  # Sky Textures with a sun
+PATCH = 64  # pixels across the view of a sun disc
+PATCH_WIDTH = 4.0  # the view's angle, in the disc's diameters
+
+
+class Rendered(NamedTuple):
+    """A world tree rendered: its equirect, and the sun disc taken out of it (a "SUN" light)."""
+
+    texture: texture.Texture
+    sun: Light | None
+
+
+_memory: OrderedDict[str, Rendered] = OrderedDict()
 
 
 class WorldError(Exception):
@@ -170,6 +193,7 @@ def digest(world) -> str:
                    else _value(s.default_value)) for s in node.inputs]
         parts.append((node.id_data.name_full, node.name, node.bl_idname, props, inputs,
                       bool(node.mute)))
+    parts.append(("sun disc taken out", world.sun_threshold > 0.0))
     trees = {n.id_data for n in _nodes_of(world.node_tree)}
     for tree in sorted(trees, key=lambda t: t.name_full):
         for link in tree.links:
@@ -188,12 +212,21 @@ def _path(scene, key: str) -> Path | None:
         return None
 
 
-def _keep(key: str, tex: texture.Texture) -> texture.Texture:
-    _memory[key] = tex
+def _keep(key: str, rendered: Rendered) -> Rendered:
+    _memory[key] = rendered
     _memory.move_to_end(key)
     while len(_memory) > KEPT:
         _memory.popitem(last=False)
-    return tex
+    return rendered
+
+
+def _sun_light(sun: dict | None) -> Light | None:
+    """The world's sun from its record ({"direction": towards it, "irradiance", "angle"})."""
+    if not sun:
+        return None
+    towards = np.asarray(sun["direction"], np.float64)
+    return Light("SUN", np.asarray(sun["irradiance"], np.float32), direction=-towards,
+                 radius=float(sun["angle"]), name="World sun")
 
 
 def _texture(pixels: np.ndarray, name: str) -> texture.Texture:
@@ -201,9 +234,9 @@ def _texture(pixels: np.ndarray, name: str) -> texture.Texture:
                                 interpolation="Linear", name=name)
 
 
-def lookup(scene, world) -> texture.Texture | None:
-    """The rendered equirect of ``world``'s tree as it is now, from memory or from the bake
-    folder; None when it was not rendered (``ensure``)."""
+def lookup(scene, world) -> Rendered | None:
+    """The rendered equirect of ``world``'s tree as it is now and its sun, from memory or from
+    the bake folder; None when it was not rendered (``ensure``)."""
     key = digest(world)
     if key in _memory:
         _memory.move_to_end(key)
@@ -216,21 +249,23 @@ def lookup(scene, world) -> texture.Texture | None:
 
         part = OpenEXR.File(str(path)).parts[0]
         pixels = np.asarray(part.channels["RGB"].pixels, np.float32)
+        sun = json.loads(part.header.get("bo2.sun", "null"))
     except Exception:  # noqa: BLE001 - a damaged file is rendered again by ``ensure``
         return None
     if pixels.ndim != 3 or pixels.shape[2] != 3:
         return None
-    return _keep(key, _texture(pixels, f"{world.name} (rendered)"))
+    return _keep(key, Rendered(_texture(pixels, f"{world.name} (rendered)"), _sun_light(sun)))
 
 
-def _write(path: Path, pixels: np.ndarray, key: str) -> None:
+def _write(path: Path, pixels: np.ndarray, key: str, sun: dict | None) -> None:
     import OpenEXR
 
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".exr", dir=path.parent)
     os.close(fd)
     try:
-        header = {"compression": OpenEXR.ZIP_COMPRESSION, "bo2.world": key}
+        header = {"compression": OpenEXR.ZIP_COMPRESSION, "bo2.world": key,
+                  "bo2.sun": json.dumps(sun)}
         OpenEXR.File(header, {"RGB": np.ascontiguousarray(pixels, np.float32)}).write(tmp)
         os.replace(tmp, path)
     finally:
@@ -238,13 +273,10 @@ def _write(path: Path, pixels: np.ndarray, key: str) -> None:
             os.unlink(tmp)
 
 
-def render(world, width: int = WIDTH) -> np.ndarray:
-    """(width / 2, width, 3) float32 radiance of ``world``'s tree, Environment Texture mapping
-    (row 0 at the top, ``sh.equirect_directions``), rendered by Cycles in a scene of its own.
-    Not during a render (Blender renders one thing at a time)."""
-    reason = problem(world)
-    if reason is not None:
-        raise WorldError(reason)
+@contextlib.contextmanager
+def _stage(world):
+    """A scene of its own holding nothing but ``world`` and a camera, rendered by Cycles on
+    the CPU with the Standard view; yields (scene, camera object), removed afterwards."""
     scene = bpy.data.scenes.new("BO2 World")
     cam_data = bpy.data.cameras.new("BO2 World")
     cam = bpy.data.objects.new("BO2 World", cam_data)
@@ -252,33 +284,99 @@ def render(world, width: int = WIDTH) -> np.ndarray:
         scene.world = world
         scene.collection.objects.link(cam)
         scene.camera = cam
-        cam_data.type = "PANO"
-        if hasattr(cam_data, "panorama_type"):
-            cam_data.panorama_type = "EQUIRECTANGULAR"
-        else:  # Blender 4.5 keeps it in Cycles' settings
-            cam_data.cycles.panorama_type = "EQUIRECTANGULAR"
-        # Cycles' equirect camera looks along its local -Z: this rotation lines its image up
-        # with an Environment Texture's (azimuth from +X towards +Y, left to right reversed)
-        cam.rotation_euler = (math.pi / 2, 0.0, -math.pi / 2)
         r = scene.render
         r.engine = "CYCLES"
-        r.resolution_x, r.resolution_y, r.resolution_percentage = width, width // 2, 100
+        r.resolution_percentage = 100
         r.filter_size = 1.0
         scene.cycles.samples = SAMPLES
         scene.cycles.device = "CPU"
         scene.view_settings.view_transform = "Standard"
-        with tempfile.TemporaryDirectory() as tmp:
-            path = Path(tmp) / "world.exr"
-            bpy.ops.render.render(scene=scene.name)
-            images.save_render_result(scene, path, "OPEN_EXR", "32")
-            pixels = images.read_file(path)[..., :3]
+        yield scene, cam
     finally:
         bpy.data.objects.remove(cam)
         bpy.data.cameras.remove(cam_data)
         bpy.data.scenes.remove(scene)
-    if not np.isfinite(pixels).all():
-        pixels = np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0)
-    return np.ascontiguousarray(np.maximum(pixels, 0.0), np.float32)
+
+
+def _shoot(scene, width: int, height: int) -> np.ndarray:
+    """(height, width, 3) float32 radiance of ``scene``'s render, non-finite values 0."""
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / "world.exr"
+        bpy.ops.render.render(scene=scene.name)
+        images.save_render_result(scene, path, "OPEN_EXR", "32")
+        pixels = images.read_file(path)[..., :3]
+    return np.nan_to_num(pixels, nan=0.0, posinf=0.0, neginf=0.0).astype(np.float32)
+
+
+def _discs(world) -> list:
+    """The Sky Texture nodes of ``world``'s own tree that draw a sun disc where their
+    parameters say (their Vector input left to the view direction)."""
+    return [n for n in world.node_tree.nodes
+            if n.type == "TEX_SKY" and not n.mute and n.sky_type in DISC_SKIES
+            and n.sun_disc and not any(s.is_linked for s in n.inputs)]
+
+
+def _disc_sun(scene, cam, node) -> dict | None:
+    """The sun of Sky Texture ``node`` (its disc on in the staged world): its direction from
+    the node's elevation and rotation, its irradiance the sum over a view of the disc of
+    (radiance with the disc - without) times each pixel's solid angle. None when no light of
+    it reaches the sky (below the horizon)."""
+    elevation, rotation = node.sun_elevation, node.sun_rotation
+    towards = np.array([math.sin(rotation) * math.cos(elevation),
+                        math.cos(rotation) * math.cos(elevation), math.sin(elevation)])
+    angle = max(float(node.sun_size), 1e-3)
+    cam.data.type = "PERSP"
+    cam.data.sensor_fit = "AUTO"
+    cam.data.angle = PATCH_WIDTH * angle
+    cam.rotation_mode = "QUATERNION"
+    cam.rotation_quaternion = Vector(towards.tolist()).to_track_quat("-Z", "Y")
+    with_disc = _shoot(scene, PATCH, PATCH)
+    node.sun_disc = False
+    without = _shoot(scene, PATCH, PATCH)
+    half = math.tan(cam.data.angle / 2.0)
+    x = ((np.arange(PATCH) + 0.5) / PATCH * 2.0 - 1.0) * half
+    r2 = x[None, :] ** 2 + x[:, None] ** 2
+    d_omega = (2.0 * half / PATCH) ** 2 / (1.0 + r2) ** 1.5
+    irradiance = ((with_disc - without) * d_omega[..., None]).sum(axis=(0, 1))
+    if not (irradiance > 0.0).any():
+        return None
+    return {"direction": towards.tolist(), "irradiance": np.maximum(irradiance, 0.0).tolist(),
+            "angle": float(node.sun_size)}
+
+
+def render(world, width: int = WIDTH) -> tuple[np.ndarray, dict | None]:
+    """``world``'s tree rendered by Cycles in a scene of its own: (width / 2, width, 3) float32
+    radiance, Environment Texture mapping (row 0 at the top, ``sh.equirect_directions``), and
+    its sun ({"direction": (3,) towards it, "irradiance": (3,) W/m^2, "angle": radians}) or
+    None. With World > Sun Threshold above 0, the first Sky Texture that draws a
+    sun disc is rendered without it and its disc is the sun. Not during a render (Blender
+    renders one thing at a time)."""
+    reason = problem(world)
+    if reason is not None:
+        raise WorldError(reason)
+    copy = world.copy() if world.sun_threshold > 0.0 and _discs(world) else None
+    sun = None
+    try:
+        with _stage(world if copy is None else copy) as (scene, cam):
+            if copy is not None:
+                node = _discs(copy)[0]
+                sun = _disc_sun(scene, cam, node)
+            cam.data.type = "PANO"
+            if hasattr(cam.data, "panorama_type"):
+                cam.data.panorama_type = "EQUIRECTANGULAR"
+            else:  # Blender 4.5 keeps it in Cycles' settings
+                cam.data.cycles.panorama_type = "EQUIRECTANGULAR"
+            # Cycles' equirect camera looks along its local -Z: this rotation lines its image
+            # up with an Environment Texture's (azimuth from +X towards +Y, left to right
+            # reversed)
+            cam.rotation_mode = "XYZ"
+            cam.rotation_euler = (math.pi / 2, 0.0, -math.pi / 2)
+            pixels = _shoot(scene, width, width // 2)
+    finally:
+        if copy is not None:
+            bpy.data.worlds.remove(copy)
+    return np.ascontiguousarray(np.maximum(pixels, 0.0), np.float32), sun
 
 
 def ensure(scene) -> bool:
@@ -291,15 +389,15 @@ def ensure(scene) -> bool:
     if lookup(scene, world) is not None:
         return True
     try:
-        pixels = render(world)
+        pixels, sun = render(world)
     except (WorldError, images.ImageError, RuntimeError):
         return False
     key = digest(world)
-    _keep(key, _texture(pixels, f"{world.name} (rendered)"))
+    _keep(key, Rendered(_texture(pixels, f"{world.name} (rendered)"), _sun_light(sun)))
     path = _path(scene, key)
     if path is not None:
         with contextlib.suppress(OSError):  # the memory copy serves this session
-            _write(path, pixels, key)
+            _write(path, pixels, key, sun)
     return True
 
 

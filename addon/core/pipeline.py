@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import affine, material, occlusion, probes, raster, sh, shade, shadows, texture
+from . import affine, material, occlusion, probes, raster, sh, shade, shadows, texture, world_sun
 from . import lightmap as lightmap_light
 from . import sky as sky_light
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
@@ -508,11 +508,14 @@ def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
     if world.texture is None:
         return np.broadcast_to(np.asarray(world.color, np.float32), (len(x), 3))
     _, d = scene.camera.rays(x, y)
-    d = affine.linear(d, world.rotation)
-    px = texture.sample(world.texture, texture.direction_to_equirect_uv(d),
+    px = texture.sample(world.texture,
+                        texture.direction_to_equirect_uv(affine.linear(d, world.rotation)),
                         world.background_lod or None)
     scale = np.float32(world.strength * world.background_alpha)
-    return (px[:, :3] * scale).astype(np.float32)
+    out = px[:, :3] * scale
+    if world.sun is not None:
+        out += world_sun.disc_radiance(world, d) * np.float32(world.background_alpha)
+    return out.astype(np.float32)
 
 
 def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> material.Points:

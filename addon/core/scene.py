@@ -206,6 +206,8 @@ class World:
     background_lod: mip level of the texture the camera sees (a viewport's studio light blur);
               the light it casts is unchanged
     background_alpha: opacity of the background the camera sees (a studio light's)
+    sun:      the world's sun taken out of the texture (``world_sun``), a "SUN" ``Light`` that
+              is also one of the scene's lights; the camera sees its disc (``world_sun``)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
@@ -214,6 +216,7 @@ class World:
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     background_lod: float = 0.0
     background_alpha: float = 1.0
+    sun: Light | None = None
 
 
 @dataclass

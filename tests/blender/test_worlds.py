@@ -5,6 +5,7 @@ Cycles' own renders of the same world, seen by a camera and lighting a sphere.""
 import math
 
 import bpy
+from mathutils import Vector
 import numpy as np
 import pytest
 from util import render_pixels
@@ -164,3 +165,119 @@ def test_non_finite_and_zero_worlds_render_finite(addon, empty_scene, tmp_path, 
         assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
         px = render_pixels(scene, "BO2_LIGHTING", samples=1)
         assert np.isfinite(px).all()
+
+
+def sky_world(elevation_deg, rotation_deg=30.0, strength=0.05):
+    """A Sky Texture world (the version's physical model) with its sun disc."""
+    world = bpy.data.worlds.new("Sky")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    nt = world.node_tree
+    node = nt.nodes.new("ShaderNodeTexSky")
+    if bpy.app.version < (5, 0, 0):
+        node.sky_type = "NISHITA"
+    node.sun_elevation, node.sun_rotation = (math.radians(elevation_deg),
+                                             math.radians(rotation_deg))
+    nt.links.new(node.outputs["Color"], nt.nodes["Background"].inputs["Color"])
+    nt.nodes["Background"].inputs["Strength"].default_value = strength
+    return world
+
+
+def lit_card(scene, towards):
+    """A white diffuse card facing ``towards`` (3,), seen straight on from 3 m."""
+    bpy.ops.mesh.primitive_plane_add(size=1.0)
+    card = bpy.context.object
+    rot = Vector(towards).to_track_quat("Z", "Y")
+    card.rotation_mode = "QUATERNION"
+    card.rotation_quaternion = rot
+    mat = bpy.data.materials.new("White")
+    if bpy.app.version < (5, 0, 0):
+        mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    bsdf.inputs["Roughness"].default_value = 1.0
+    (bsdf.inputs.get("Specular IOR Level") or bsdf.inputs.get("Specular")).default_value = 0.0
+    card.data.materials.append(mat)
+    cam = look(scene, (0, 0, 0), angle=10.0, size=(16, 16))
+    cam.rotation_mode = "QUATERNION"
+    cam.rotation_quaternion = Vector(towards).to_track_quat("Z", "Y")
+    cam.location = 3.0 * Vector(towards)
+    return card
+
+
+def test_a_sky_texture_sun_disc_is_the_worlds_sun(addon, empty_scene, tmp_path):
+    """The disc's irradiance against Cycles' own: a white Lambert card facing the sun has
+    radiance 0.8 E / pi more with the disc than without (Cycles, the disc toggled)."""
+    scene = empty_scene
+    scene.world = sky_world(40.0)
+    scene.bo2.bake_folder = str(tmp_path)
+    towards = (math.sin(math.radians(30)) * math.cos(math.radians(40)),
+               math.cos(math.radians(30)) * math.cos(math.radians(40)), math.sin(math.radians(40)))
+    lit_card(scene, towards)
+    assert worlds.ensure(scene)
+    warnings = []
+    world = extract.extract_world(scene, warnings)
+    assert not warnings and world.sun is not None and world.sun.shadow
+    np.testing.assert_allclose(-world.sun.direction, towards, atol=1e-6)
+    assert world.sun.radius == pytest.approx(scene.world.node_tree.nodes["Sky Texture"]
+                                             .sun_size)
+    on = render_pixels(scene, "CYCLES", samples=64)[4:12, 4:12, :3].mean((0, 1))
+    scene.world.node_tree.nodes["Sky Texture"].sun_disc = False
+    off = render_pixels(scene, "CYCLES", samples=64)[4:12, 4:12, :3].mean((0, 1))
+    np.testing.assert_allclose(0.8 * world.sun.color / math.pi, on - off, rtol=0.05)
+    # the image it lights the world with holds no disc: the disc's node was switched off
+    lum = world.texture.linear(0)[..., :3] @ np.array([0.2126, 0.7152, 0.0722], np.float32)
+    assert lum.max() * world.strength < 100.0
+    # the engine counts it once: the card's brightness as Cycles' with the disc
+    scene.world.node_tree.nodes["Sky Texture"].sun_disc = True
+    bo2 = render_pixels(scene, "BO2_LIGHTING", samples=1)[4:12, 4:12, :3].mean((0, 1))
+    np.testing.assert_allclose(bo2, on, rtol=0.1)
+    # Threshold 0: no sun, the disc stays in the image
+    scene.world.sun_threshold = 0.0
+    assert worlds.ensure(scene)
+    assert extract.extract_world(scene, []).sun is None
+
+
+def test_a_sun_below_the_horizon_gives_no_sun(addon, empty_scene, tmp_path):
+    scene = empty_scene
+    scene.world = sky_world(-10.0)
+    scene.bo2.bake_folder = str(tmp_path)
+    assert worlds.ensure(scene)
+    warnings = []
+    world = extract.extract_world(scene, warnings)
+    assert world.sun is None and np.isfinite(world.texture.linear(0)).all()
+
+
+def test_an_hdri_sun_is_taken_out_with_the_worlds_settings(addon, empty_scene, tmp_path):
+    """An HDRI read directly, its sun a single texel of 1e6: one shadowed sun light of the
+    World > Sun Angle, the texel clamped; no warning that the scene has no lights."""
+    scene = empty_scene
+    img = bpy.data.images.new("sun", 64, 32, float_buffer=True)
+    px = np.full((32, 64, 4), 0.3, np.float32)
+    px[20, 40, :3] = 1e6  # Blender's rows from the bottom: above the horizon
+    img.pixels.foreach_set(px.ravel())
+    img.pack()
+    world = bpy.data.worlds.new("HDRI")
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = img
+    world.node_tree.links.new(env.outputs["Color"],
+                              world.node_tree.nodes["Background"].inputs["Color"])
+    scene.world = world
+    world.sun_angle = math.radians(1.0)
+    world.use_sun_shadow = False
+    assert worlds.direct(world)
+    got = extract.extract_world(scene, warnings := [])
+    assert not warnings and got.sun is not None and not got.sun.shadow
+    assert got.sun.radius == pytest.approx(math.radians(1.0))
+    assert -got.sun.direction[2] > 0.0  # above the horizon
+    assert got.texture.linear(0).max() <= 10.0 * 1.0001
+    bpy.ops.mesh.primitive_plane_add(size=2.0)
+    look(scene, (math.radians(60), 0, 0), size=(16, 12)).location = (0, -4, 3)
+    from bo2_lighting.addon.blender import engine
+    engine.last_warnings.clear()
+    render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert not any("no lights" in w for w in engine.last_warnings)
+    world.sun_threshold = 0.0
+    assert extract.extract_world(scene, []).sun is None
