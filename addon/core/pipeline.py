@@ -774,8 +774,11 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> n
             occlusion (both see the near surfaces: not their product), with what bounces off
             the occluders put back as for the latter (``occlusion.multi_bounce``); divided by
             the contact occlusion's, which all indirect light gets."""
-            vis = sky_light.visibility(sky, scene.probes.world_sh, p[k], n[k], geo[k],
-                                       poll=None if tick is None else lambda: tick(0.0))
+            pk, nk, gk = p[k], n[k], geo[k]
+            vis = sky_light.upsampled(
+                lambda j: sky_light.visibility(sky, scene.probes.world_sh, pk[j], nk[j], gk[j],
+                                               poll=None if tick is None else lambda: tick(0.0)),
+                sx[k], sy[k], pk, gk, sky_light.stride(cam.height))
             both = occlusion.multi_bounce(np.minimum(vis, ao[k]), rho[k])[:, 0]
             return both / np.maximum(occlusion.multi_bounce(ao[k], rho[k])[:, 0], 1e-3)
 

@@ -31,9 +31,13 @@ import numpy as np
 from . import sh, shadows
 from .scene import Light
 
-__all__ = ["Sky", "dome", "dome_lights", "radiance_weights", "visibility"]
+__all__ = ["Sky", "dome", "dome_lights", "radiance_weights", "upsampled", "visibility"]
 
 MAX_FILTER = 0.25  # metres: the dome's widest shadow filter (``shadows.ShadowMap``)
+LOOKUP_ROWS = 135  # rows of a frame's grid of points where the dome is looked up (``stride``)
+SAME_NORMAL = 0.95  # cosine: a neighbour's visibility is used across no sharper bend
+SAME_PLANE = 0.2  # a neighbour's tangent plane passes within this share of its distance
+ENOUGH = 0.5  # share of the bilinear weight on the point's surface that is blended
 
 
 def dome(count: int) -> np.ndarray:
@@ -105,4 +109,71 @@ def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.n
     out = np.ones(n, np.float32)
     lit = total > 1e-12
     out[lit] = np.clip(seen[lit] / total[lit], 0.0, 1.0)
+    return out
+
+
+def stride(height: int) -> int:
+    """Pixels between the points where the dome is looked up in a frame ``height`` pixels high
+    (``upsampled``): a grid of about ``LOOKUP_ROWS`` rows whatever the resolution, since the
+    dome's shadows are as soft on the screen (4 pixels at 540 rows)."""
+    return max(1, round(height / LOOKUP_ROWS))
+
+
+def upsampled(evaluate: Callable[[np.ndarray], np.ndarray], x: np.ndarray, y: np.ndarray,
+              points: np.ndarray, normals: np.ndarray, stride: int) -> np.ndarray:
+    """(N,) float32: ``evaluate`` (indices (M,) -> (M,) values) at every point, looked up at
+    the points of every ``stride``-th pixel across and down only, and blended bilinearly from
+    those of the four around a point that lie on its surface (normals within ``SAME_NORMAL``,
+    the point within ``SAME_PLANE`` of each one's tangent plane, relative to their distance)
+    elsewhere: joint bilateral upsampling (Kopf et al., "Joint bilateral upsampling", SIGGRAPH
+    2007), with the exact value where less than ``ENOUGH`` of the weight is on its surface. The dome's
+    visibility is smooth over a surface (its cells' penumbrae span ``MAX_FILTER``), so it is
+    looked up at about 1 / stride^2 of the points.
+
+    x, y:    (N,) window positions of the points, pixels
+    points:  (N, 3) world positions; normals (N, 3) unit normals
+    """
+    n = len(x)
+    out = np.empty(n, np.float32)
+    if stride <= 1 or n == 0:
+        out[:] = evaluate(np.arange(n))
+        return out
+    half = stride // 2
+    xi, yi = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    anchor = ((xi - half) % stride == 0) & ((yi - half) % stride == 0)
+    ia = np.flatnonzero(anchor)
+    rest = np.flatnonzero(~anchor)
+    if not len(ia):
+        out[:] = evaluate(np.arange(n))
+        return out
+    out[ia] = evaluate(ia)
+    cx, cy = (xi[ia] - half) // stride, (yi[ia] - half) // stride
+    x0, y0 = cx.min(), cy.min()
+    table = np.full((cy.max() - y0 + 1, cx.max() - x0 + 1), -1, np.int64)
+    table[cy - y0, cx - x0] = ia
+    fx = (xi[rest] - half) / stride - x0
+    fy = (yi[rest] - half) / stride - y0
+    c0x, c0y = np.floor(fx).astype(np.int64), np.floor(fy).astype(np.int64)
+    tx, ty = (fx - c0x).astype(np.float32), (fy - c0y).astype(np.float32)
+    p, nrm = points[rest], normals[rest]
+    total = np.zeros(len(rest), np.float32)
+    value = np.zeros(len(rest), np.float32)
+    for dx, dy in ((0, 0), (1, 0), (0, 1), (1, 1)):
+        w = (tx if dx else 1.0 - tx) * (ty if dy else 1.0 - ty)
+        gx, gy = c0x + dx, c0y + dy
+        inside = (gx >= 0) & (gy >= 0) & (gx < table.shape[1]) & (gy < table.shape[0])
+        k = np.full(len(rest), -1, np.int64)
+        k[inside] = table[gy[inside], gx[inside]]
+        q = np.maximum(k, 0)
+        step = p - points[q]
+        ok = (k >= 0) & (np.einsum("nc,nc->n", nrm, normals[q]) >= SAME_NORMAL) & (
+            np.abs(np.einsum("nc,nc->n", step, normals[q]))
+            <= SAME_PLANE * np.linalg.norm(step, axis=1))
+        total += np.where(ok, w, 0.0)
+        value += np.where(ok, w * out[q], 0.0)
+    exact = total < ENOUGH
+    blend = rest[~exact]
+    out[blend] = value[~exact] / total[~exact]
+    if exact.any():
+        out[rest[exact]] = evaluate(rest[exact])
     return out
