@@ -31,8 +31,7 @@ import bpy
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT / "demo_blends"))
-from scene_kit import (ball, camera, empty_scene, light, principled, probe,  # noqa: E402
-                      save, slab)
+from scene_kit import ball, camera, empty_scene, light, principled, probe, save, slab  # noqa: E402
 
 ENVMAPS = ROOT.parent / "shared" / "reference" / "envmaps"
 
@@ -140,8 +139,9 @@ def build_hdri_sun_venice(out: Path):
     marble = principled("Marble", (0.7, 0.68, 0.62), roughness=0.4)
     brick = principled("Brick", (0.5, 0.2, 0.12), roughness=0.8)
     slab("Floor", (-8, -8, -0.1), (8, 8, 0), marble)
-    for k in range(4):
-        slab(f"Step {k}", (-1.5, -1.0 + 0.4 * k, 0), (1.5, 2.0, 0.2 * (k + 1)), brick)
+    for k in range(4):  # side by side, not overlapping
+        slab(f"Step {k}", (-1.5, -1.0 + 0.4 * k, 0), (1.5, -0.6 + 0.4 * k, 0.2 * (k + 1)),
+             brick)
     for k, r in enumerate((0.5, 0.35, 0.22)):
         ball(f"Stack {k}", r, (2.2, -0.8, 0.8 + 0.75 * k), marble)
     slab("Plinth", (1.8, -1.2, 0), (2.6, -0.4, 0.3), brick)

@@ -16,7 +16,7 @@ import traceback
 import bpy
 import numpy as np
 
-from ..core import kernels, memory, pipeline
+from ..core import bounce, kernels, memory, pipeline
 from ..core.passes import PASSES
 from . import extract, interrupt, passes, render_graph, viewport
 
@@ -103,6 +103,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                                                     should_stop=should_stop)
             for message in warnings if not self.is_preview else ():
                 self._warn(message)
+            if not self.is_preview:
+                self.update_stats("BO2 Lighting", "Baking the bounce without probes")
+                frame = bounce.attach(frame, should_stop)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
             tiles = pipeline.render_tiles(

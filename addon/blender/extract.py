@@ -622,6 +622,7 @@ def render_settings(scene) -> cs.RenderSettings:
         specular_occlusion=bool(s.use_specular_occlusion),
         sky_directions=int(s.sky_directions),
         sky_resolution=int(s.sky_resolution),
+        implicit_bounce=bool(s.use_implicit_bounce),
         threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)
         border=render_border(scene, width, height),
     )

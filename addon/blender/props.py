@@ -54,6 +54,13 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         items=[(str(n), f"{n} px", "") for n in (256, 512, 1024, 2048, 4096)],
         default="1024",
     )
+    use_implicit_bounce: bpy.props.BoolProperty(
+        name="Bounce Without Probes",
+        description="A scene without a Volume light probe still gets the light that bounces "
+        "off its surfaces (the ground under objects): a coarse volume over the scene, baked "
+        "on the first frame of each content and kept",
+        default=True,
+    )
     use_ambient_occlusion: bpy.props.BoolProperty(
         name="Ambient Occlusion",
         description="Contact occlusion of probe and world light: the frame's own surfaces "

@@ -127,6 +127,7 @@ class RENDER_PT_bo2_indirect(_BO2Panel, bpy.types.Panel):
         sub = col.column()
         sub.active = settings.sky_directions != "0"
         sub.prop(settings, "sky_resolution", text="Resolution")
+        col.prop(settings, "use_implicit_bounce")
         col.prop(settings, "use_ambient_occlusion")
         sub = col.column()
         sub.active = settings.use_ambient_occlusion

@@ -27,13 +27,12 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import math
 import os
 import tempfile
 from collections import OrderedDict
 from pathlib import Path
-
-import json
 from typing import NamedTuple
 
 import bpy

@@ -21,6 +21,7 @@ the background counting as 0 in all but Combined, as Cycles accumulates them.
 from __future__ import annotations
 
 import dataclasses
+import hashlib
 import os
 import threading
 from collections import deque
@@ -393,17 +394,46 @@ def build_shadow_maps(frame: Frame, should_stop: Callable[[], bool] | None = Non
                                              resolution=s.shadow_resolution, cutout=cutout))
     dome = count - len(scene.lights)
     lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
-    view_range = (shadows.camera_depth_range(view, positions)
-                  if view is not None and lit.any() else None)  # the same for every sun
-    for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):
-        poll()
-        plans.append(shadows.shadow_map_jobs(light, positions, view, resolution=s.sky_resolution,
-                                             cutout=cutout, max_filter=sky_light.MAX_FILTER,
-                                             view_range=view_range, focus=focus)
-                     if on else ([], lambda done: None))
+    key = None if cutout is not None or not lit.any() else _dome_key(
+        positions, view, focus, s.sky_resolution, lit)
+    with _domes_lock:
+        kept = _domes.get(key) if key is not None else None
+    if kept is None:
+        view_range = (shadows.camera_depth_range(view, positions)
+                      if view is not None and lit.any() else None)  # the same for every sun
+        for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):
+            poll()
+            plans.append(shadows.shadow_map_jobs(
+                light, positions, view, resolution=s.sky_resolution, cutout=cutout,
+                max_filter=sky_light.MAX_FILTER, view_range=view_range, focus=focus)
+                if on else ([], lambda done: None))
     done = iter(list(_ordered([job for jobs, _ in plans for job in jobs],
                               thread_count(s), poll, threading.Event())))
-    return [finish([next(done) for _ in jobs]) for jobs, finish in plans]
+    maps = [finish([next(done) for _ in jobs]) for jobs, finish in plans]
+    if kept is not None:
+        return maps + kept
+    if key is not None:
+        with _domes_lock:
+            _domes[key] = maps[len(scene.lights):]
+            while len(_domes) > DOMES_KEPT:
+                _domes.pop(next(iter(_domes)))
+    return maps
+
+
+DOMES_KEPT = 2  # the dome's maps of the last geometries and views, reused while they stay
+_domes: dict = {}
+_domes_lock = threading.Lock()
+
+
+def _dome_key(positions: np.ndarray, view, focus, resolution: int, lit: np.ndarray) -> tuple:
+    """What the dome's maps depend on: the casters' triangles, the view they are fitted to
+    (None: all casters, or ``focus``), their resolution and the lit directions."""
+    digest = hashlib.blake2b(np.ascontiguousarray(positions).view(np.uint8), digest_size=16)
+    camera = None if view is None else (
+        np.asarray(view.world_to_camera, np.float64).tobytes(),
+        np.asarray(view.projection, np.float64).tobytes(), view.width, view.height)
+    where = None if focus is None else np.asarray(focus, np.float64).tobytes()
+    return (digest.hexdigest(), camera, where, int(resolution), lit.tobytes())
 
 
 def _caster_alpha(frame: Frame, tri, bary) -> np.ndarray:

@@ -230,6 +230,8 @@ class Probes:
                 ``ReflectionProbe.mips``
     world_color: (3,) radiance of a world of one colour (its prefiltered chains are that
                 colour everywhere, so they are not sampled), else None
+    bounce:     the implicit volume of what surfaces send after one bounce (``bounce``),
+                added to the world's light where it reaches a point, or None
     packed:     the chains as the indirect kernel takes them (``_packed_chains``), once
     """
 
@@ -238,6 +240,7 @@ class Probes:
     world_color: np.ndarray | None = None
     reflection: list[ReflectionProbe] = field(default_factory=list)
     volumes: list[IrradianceVolume] = field(default_factory=list)
+    bounce: IrradianceVolume | None = None
     packed: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
 
@@ -271,13 +274,20 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
                 None if view is None else view[k])
             total[k] += w[k]
     world_sh = np.asarray(probes.world_sh, np.float32)
-    if acc is None and sky is None:
+    if acc is None and sky is None and probes.bounce is None:
         return world_sh
     if acc is None:
         acc = np.zeros((n, 9, 3), np.float32)
     over = total > 1.0
     acc[over] /= total[over, None, None]
     share = np.maximum(1.0 - total, 0.0)
+    if probes.bounce is not None:  # where the world's light reaches, what bounced off surfaces
+        w = probes.bounce.weight(points) * share
+        k = np.flatnonzero(w > 0)
+        if k.size:
+            acc[k] += w[k, None, None] * probes.bounce.sample_sh(
+                points[k], None if normals is None else normals[k],
+                None if view is None else view[k])
     if sky is not None:
         k = np.flatnonzero(share > 0.0)
         if k.size:

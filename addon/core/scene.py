@@ -241,6 +241,8 @@ class RenderSettings:
     sky_directions: directions of the dome of shadow maps through which the world's light is
                     occluded (``sky``); 0 lets it reach every point
     sky_resolution: size of each of the dome's shadow maps, texels
+    implicit_bounce: a scene without a volume probe gets the light that bounces off its
+                    surfaces from a coarse volume baked on demand (``bounce``)
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
     threads:        tiles and shadow-map faces rendered at once (the kernels release the
                     GIL); 0 = one per CPU core
@@ -265,6 +267,7 @@ class RenderSettings:
     specular_occlusion: bool = True
     sky_directions: int = 32
     sky_resolution: int = 256
+    implicit_bounce: bool = True
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None

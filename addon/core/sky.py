@@ -126,7 +126,8 @@ def upsampled(evaluate: Callable[[np.ndarray], np.ndarray], x: np.ndarray, y: np
     those of the four around a point that lie on its surface (normals within ``SAME_NORMAL``,
     the point within ``SAME_PLANE`` of each one's tangent plane, relative to their distance)
     elsewhere: joint bilateral upsampling (Kopf et al., "Joint bilateral upsampling", SIGGRAPH
-    2007), with the exact value where less than ``ENOUGH`` of the weight is on its surface. The dome's
+    2007). Where less than ``ENOUGH`` of the weight is on its surface (along edges), the same
+    again on a grid twice as fine, down to a look-up at every point. The dome's
     visibility is smooth over a surface (its cells' penumbrae span ``MAX_FILTER``), so it is
     looked up at about 1 / stride^2 of the points.
 
@@ -174,6 +175,8 @@ def upsampled(evaluate: Callable[[np.ndarray], np.ndarray], x: np.ndarray, y: np
     exact = total < ENOUGH
     blend = rest[~exact]
     out[blend] = value[~exact] / total[~exact]
-    if exact.any():
-        out[rest[exact]] = evaluate(rest[exact])
+    if exact.any():  # along edges: the same on a grid twice as fine, down to every point
+        again = rest[exact]
+        out[again] = upsampled(lambda j: evaluate(again[j]), x[again], y[again],
+                               points[again], normals[again], stride // 2)
     return out

@@ -5,9 +5,9 @@ Cycles' own renders of the same world, seen by a camera and lighting a sphere.""
 import math
 
 import bpy
-from mathutils import Vector
 import numpy as np
 import pytest
+from mathutils import Vector
 from util import render_pixels
 
 from bo2_lighting.addon.blender import extract, worlds

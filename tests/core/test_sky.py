@@ -162,3 +162,45 @@ def test_no_maps_towards_directions_that_send_no_light():
     got = sky.visibility(frame.sky, zenith, p, n, n)
     for k in range(2):
         np.testing.assert_allclose(got[k], brute_force(p[k], slabs[1:], zenith), atol=0.04)
+
+
+def _grid(width, height):
+    y, x = np.mgrid[0:height, 0:width].astype(np.float64) + 0.5
+    return x.ravel(), y.ravel()
+
+
+def test_upsampling_reproduces_a_smooth_value_and_looks_up_a_sixteenth():
+    """On one plane a linear function of position is blended exactly (bilinear weights
+    reproduce it) between the points where it is looked up, one in stride^2."""
+    x, y = _grid(64, 48)
+    points = np.stack([x * 0.01, y * 0.01, np.zeros_like(x)], 1)
+    normals = np.broadcast_to(np.float32([0, 0, 1]), points.shape).copy()
+    f = (0.2 + 0.5 * points[:, 0] + 0.3 * points[:, 1]).astype(np.float32)
+    asked = []
+
+    def evaluate(k):
+        asked.append(len(k))
+        return f[k]
+
+    out = sky.upsampled(evaluate, x, y, points, normals, 4)
+    inner = (x > 2) & (x < 62) & (y > 2) & (y < 46)  # between the looked-up points
+    np.testing.assert_allclose(out[inner], f[inner], atol=1e-5)
+    np.testing.assert_allclose(out, f, atol=0.011)  # beyond: the nearest ones' value
+    assert sum(asked) < 0.2 * len(x)
+
+
+def test_upsampling_never_blends_across_an_edge():
+    """Two planes at right angles (a wall on a floor) with values that jump: every point gets
+    its own side's value exactly as a direct look-up gives it."""
+    x, y = _grid(40, 40)
+    wall = x < 17.0
+    points = np.where(wall[:, None], np.stack([np.zeros_like(x), x, y], 1) * 0.01,
+                      np.stack([x, np.zeros_like(x), y], 1) * 0.01)
+    normals = np.where(wall[:, None], np.float32([1, 0, 0]), np.float32([0, 1, 0]))
+    f = np.where(wall, 0.1, 0.9).astype(np.float32)
+    out = sky.upsampled(lambda k: f[k], x, y, points, normals, 4)
+    np.testing.assert_allclose(out, f, rtol=1e-6)
+
+
+def test_stride_follows_the_frame_height():
+    assert sky.stride(540) == 4 and sky.stride(1080) == 8 and sky.stride(64) == 1

@@ -64,9 +64,10 @@ def test_nan_texels_and_no_sun():
     assert world_sun.find(px, 0.0)[0] is None
 
 
-def _world(px, rotation=np.eye(3), strength=1.0):
+def _world(px, rotation=None, strength=1.0):
     tex = texture.make_texture(px, srgb=False, name="test")
-    return World(texture=tex, strength=strength, rotation=rotation)
+    return World(texture=tex, strength=strength,
+                 rotation=np.eye(3) if rotation is None else rotation)
 
 
 def test_split_turns_two_suns_into_one_light_and_one_warning():

@@ -1,0 +1,153 @@
+"""The ground's bounce where no volume was placed: an implicit coarse irradiance volume.
+
+An artist's quick look-dev set (objects on a ground under an HDRI, no probes) is lit by the
+world (occluded by the dome, ``sky``) and the lamps; what bounces off the ground onto the
+objects' undersides came only from baked volumes, so without one they went dark (57% under
+Cycles). Here a coarse grid over the scene is baked on demand, as a volume probe is
+(``bake.Bake``: the engine's captures, escape and dilation), with the world's background black
+in the captures: each sample holds the light that surfaces send it after one bounce, lit by the
+lamps and by the world through the dome, not the world itself. The renderer adds it to the
+world's light wherever the world's light reaches a point (``probes.Probes.bounce``); placed
+volumes hold the bounce already and replace both.
+
+The grid spans the middle of the geometry (the 2nd to 98th percentile of the triangles' centres
+per axis, so a ground reaching to the horizon does not spread it thin) grown by ``MARGIN`` of
+its size, with at most ``MAX_SAMPLES`` samples at equal spacing. It is kept per content
+(``key``: geometry, materials, lights, world) for the last ``KEPT`` scenes: a frame of the
+same scene reuses it.
+
+Measured against three choices (docs/engine.md): reflective dome maps miss what is nearer than
+a map's texel, and a screen-space bounce misses the ground the camera does not see under an
+object; one bounce from a coarse volume reaches both, at the price of a bake on the first frame.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import threading
+from collections import OrderedDict
+from collections.abc import Callable
+
+import numpy as np
+
+from . import bake, capture
+from .lightmap_bake import geometry_key
+from .pipeline import Cancelled
+from .probes import IrradianceVolume
+from .scene import Scene, World
+from .texture import Texture
+
+__all__ = ["FACE_SIZE", "MAX_SAMPLES", "attach", "key", "spec"]
+
+MAX_SAMPLES = 64  # samples of the grid
+MARGIN = 0.15  # of the geometry's extent, around it
+MIN_EXTENT = 0.5  # metres: the grid's smallest side
+FACE_SIZE = 16  # texels of each capture's cube face (as a volume bake's)
+FADE = 0.25  # local units outside the box over which its weight fades
+KEPT = 2
+_cache: OrderedDict[str, IrradianceVolume | None] = OrderedDict()
+_lock = threading.Lock()
+
+
+def spec(scene: Scene) -> bake.ProbeSpec | None:
+    """The implicit volume of ``scene``'s geometry (``bake.ProbeSpec``), or None without any."""
+    centres = [m.positions.mean(axis=1) for m in scene.meshes if len(m.positions)]
+    if not centres:
+        return None
+    c = np.concatenate(centres).astype(np.float64)
+    c = c[np.isfinite(c).all(axis=1)]
+    if not len(c):
+        return None
+    lo, hi = np.percentile(c, 2, axis=0), np.percentile(c, 98, axis=0)
+    size = np.maximum(hi - lo, MIN_EXTENT)
+    mid = (lo + hi) / 2.0
+    size = size * (1.0 + 2.0 * MARGIN)
+    step = (np.prod(size) / MAX_SAMPLES) ** (1.0 / 3.0)
+    res = np.clip(np.round(size / step), 2, MAX_SAMPLES).astype(int)
+    while np.prod(res) > MAX_SAMPLES:
+        res[np.argmax(size / res)] -= 1
+    m = np.eye(4)
+    m[:3, 3] = mid
+    m[[0, 1, 2], [0, 1, 2]] = size / 2.0
+    return bake.ProbeSpec("Implicit bounce", "irradiance", m, influence=FADE, falloff=1.0,
+                          resolution=tuple(int(r) for r in res))
+
+
+def _digest_value(value) -> object:
+    if isinstance(value, Texture):
+        return value.digest
+    if isinstance(value, np.ndarray):
+        return hashlib.blake2b(np.ascontiguousarray(value).tobytes(), digest_size=8).hexdigest()
+    if isinstance(value, (tuple, list)):
+        return [_digest_value(v) for v in value]
+    return repr(value)
+
+
+def _world_key(world: World) -> object:
+    return _digest_value((world.color, world.texture, world.strength, world.rotation))
+
+
+def key(scene: Scene) -> str:
+    """A digest of what the bounce depends on: every triangle's place and material, the
+    materials' programs, the lights, the world and the settings that change a capture."""
+    h = hashlib.sha256()
+    for m in scene.meshes:
+        h.update(geometry_key(m.positions).encode())
+        h.update(np.asarray(m.material, np.int32).tobytes())
+        h.update(repr((m.shadow, m.volume_probes)).encode())
+    for mat in scene.materials:
+        h.update(repr([(op.kind, op.args, _digest_value(op.param))
+                       for op in mat.program.ops]).encode())
+    for light in scene.lights:
+        h.update(repr(_digest_value([light.kind, light.color, light.position, light.direction,
+                                     light.radius, light.spot_size, light.spot_blend,
+                                     light.size, light.shadow])).encode())
+    h.update(repr(_world_key(scene.world)).encode())
+    s = scene.settings
+    h.update(repr((s.sky_directions, s.sky_resolution, s.shadow_resolution,
+                   s.specular_model)).encode())
+    return h.hexdigest()[:24]
+
+
+def _bake(scene: Scene, where: bake.ProbeSpec,
+          should_stop: Callable[[], bool] | None) -> IrradianceVolume:
+    black = dataclasses.replace(scene, world=World(color=np.zeros(3, np.float32)))
+    cap = capture.Capture(black, should_stop=should_stop, focus=bake.capture_region([where]))
+    job = bake.Bake([where], scene.world, cap.cube, bounces=1, volume_face_size=FACE_SIZE,
+                    surfaces=cap.surfaces)
+    for _ in job.steps():
+        if should_stop is not None and should_stop():
+            raise Cancelled()
+    result = job.results[0]
+    return where.probe(result.coeffs, None, result.validity)
+
+
+def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
+           bake_missing: bool = True) -> Scene:
+    """``scene`` with the implicit bounce in its probes (``Probes.bounce``) when they hold no
+    volume; unchanged without probes (no indirect light) or geometry. The volume is baked
+    when this content has none yet (``bake_missing``; False: only one kept is used, as a
+    viewport's redraws do)."""
+    probes = scene.probes
+    if probes is None or probes.volumes or not scene.meshes \
+            or not scene.settings.implicit_bounce:
+        return scene
+    where = spec(scene)
+    if where is None:
+        return scene
+    k = key(scene)
+    with _lock:
+        found = k in _cache
+        volume = _cache.get(k)
+        if found:
+            _cache.move_to_end(k)
+    if not found:
+        if not bake_missing:
+            return scene
+        volume = _bake(scene, where, should_stop)
+        with _lock:
+            _cache[k] = volume
+            while len(_cache) > KEPT:
+                _cache.popitem(last=False)
+    return dataclasses.replace(scene, probes=dataclasses.replace(probes, bounce=volume))
