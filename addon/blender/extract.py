@@ -369,8 +369,7 @@ def extract_world(scene, warnings: list[str]) -> cs.World:
     shadow = bool(source.use_sun_shadow)
     if world.sun is not None:  # a Sky Texture's disc
         return dataclasses.replace(world, sun=dataclasses.replace(world.sun, shadow=shadow))
-    return world_sun.split(world, float(source.sun_threshold), float(source.sun_angle), shadow,
-                           warnings.append)
+    return world_sun.split(world, float(source.sun_threshold), float(source.sun_angle), shadow)
 
 
 def _visibility(obj, view_layer) -> tuple[bool, bool, bool, bool, bool]:

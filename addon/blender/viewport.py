@@ -13,7 +13,7 @@ import dataclasses
 import bpy
 import numpy as np
 
-from ..core import kernels, viewport
+from ..core import bounce, kernels, viewport
 from ..core.scene import Camera
 from . import extract, probes, studio, worlds
 
@@ -211,6 +211,8 @@ class Viewport:
         except extract.SceneError as exc:
             self.error, self._unsent = str(exc), changed  # sent with the next update
             return set()
+        # the bounce without probes once a render has baked it for this content
+        scene = bounce.attach(scene, bake_missing=False)
         # the studio light replaces the world and the probes (made on the render thread)
         self._world_light = studio_world is not None and bool(settings.use_indirect)
         if studio_world is not None:

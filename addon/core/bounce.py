@@ -40,7 +40,7 @@ from .texture import Texture
 
 __all__ = ["FACE_SIZE", "MAX_SAMPLES", "attach", "key", "spec"]
 
-MAX_SAMPLES = 64  # samples of the grid
+MAX_SAMPLES = 32  # samples of the grid
 MARGIN = 0.15  # of the geometry's extent, around it
 MIN_EXTENT = 0.5  # metres: the grid's smallest side
 FACE_SIZE = 16  # texels of each capture's cube face (as a volume bake's)

@@ -15,7 +15,7 @@ L_t the texel's radiance (texture times strength), Y_t its luminance (Rec. 709),
 threshold, dw_t its solid angle (``sh.equirect_solid_angles``), d_t its direction. The region
 is the connected set of texels above the threshold that holds the brightest one (the equirect
 wraps around in azimuth), within ``MAX_RADIUS`` of it; a second bright region is left in the
-world's light, with one warning. A Sky Texture's sun disc is not found here: Blender's side
+world's light. A Sky Texture's sun disc is not found here: Blender's side
 renders it on its own (``blender/worlds.py``) and hands over its exact irradiance.
 """
 
@@ -34,7 +34,6 @@ from .scene import Light, World
 __all__ = ["MAX_RADIUS", "Sun", "disc_radiance", "find", "split"]
 
 MAX_RADIUS = math.radians(15.0)  # the widest region taken as the sun, from its brightest texel
-SECOND = 0.1  # a second region of this share of the sun's energy is worth a warning
 _LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)
 
 
@@ -147,8 +146,7 @@ def _found(tex: texture.Texture, threshold: float) -> tuple[Sun | None, texture.
     return value
 
 
-def split(world: World, threshold: float, angle: float, shadow: bool = True,
-          warn=None) -> World:
+def split(world: World, threshold: float, angle: float, shadow: bool = True) -> World:
     """``world`` with its sun taken out of its texture and set as ``World.sun``.
 
     threshold: luminance of the world's radiance (texture times strength) above which light
@@ -156,8 +154,8 @@ def split(world: World, threshold: float, angle: float, shadow: bool = True,
                already (a Sky Texture's disc), or one without a texture: unchanged
     angle:     the sun's angular diameter, radians (World > Sun Angle)
     shadow:    whether it casts shadows
-    warn:      called with one message when other regions above the threshold are left in the
-               world's light
+
+    Other regions above the threshold stay in the world's light (nothing is dropped).
     """
     if world.sun is not None or world.texture is None or not threshold > 0.0 \
             or not world.strength > 0.0:
@@ -165,9 +163,6 @@ def split(world: World, threshold: float, angle: float, shadow: bool = True,
     sun, tex = _found(world.texture, threshold / world.strength)
     if sun is None:
         return world
-    if warn is not None and sun.others > SECOND:
-        warn(f"The world has other regions brighter than its Sun Threshold ({threshold:g}), "
-             f"{sun.others:.0%} of its sun's energy: only the brightest casts a sun's shadow")
     towards = np.asarray(world.rotation, np.float64).T @ sun.direction
     light = Light("SUN", sun.irradiance * np.float32(world.strength),
                   direction=-towards / np.linalg.norm(towards), radius=float(angle),
