@@ -798,12 +798,15 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> n
         s = scene.settings
         sky = frame.sky
         rho = (mat.albedo @ sh.LUMINANCE_REC709.astype(np.float32))[:, None]
+        if scene.probes.bounce is not None:  # what bounces off the occluders is baked
+            rho = np.zeros_like(rho)
 
         def seen(k):
             """The world's light is occluded by the darker of the dome and the contact
             occlusion (both see the near surfaces: not their product), with what bounces off
-            the occluders put back as for the latter (``occlusion.multi_bounce``); divided by
-            the contact occlusion's, which all indirect light gets."""
+            the occluders put back as for the latter (``occlusion.multi_bounce``) unless the
+            bounce without probes holds it; divided by the contact occlusion's, which all
+            indirect light gets."""
             pk, nk, gk = p[k], n[k], geo[k]
             vis = sky_light.upsampled(
                 lambda j: sky_light.visibility(sky, scene.probes.world_sh, pk[j], nk[j], gk[j],
