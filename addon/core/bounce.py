@@ -32,7 +32,6 @@ from collections.abc import Callable
 import numpy as np
 
 from . import bake, capture
-from .lightmap_bake import geometry_key
 from .pipeline import Cancelled
 from .probes import IrradianceVolume
 from .scene import Scene, World
@@ -93,7 +92,7 @@ def key(scene: Scene) -> str:
     materials' programs, the lights, the world and the settings that change a capture."""
     h = hashlib.sha256()
     for m in scene.meshes:
-        h.update(geometry_key(m.positions).encode())
+        h.update(np.ascontiguousarray(m.positions, np.float32).view(np.uint8))
         h.update(np.asarray(m.material, np.int32).tobytes())
         h.update(repr((m.shadow, m.volume_probes)).encode())
     for mat in scene.materials:

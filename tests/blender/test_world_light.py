@@ -4,7 +4,6 @@ of a ball over a white ground under a uniform sky is lit by the ground's bounce.
 import math
 
 import bpy
-import numpy as np
 from util import principled, render_pixels
 
 from bo2_lighting.addon.blender import extract
