@@ -10,11 +10,11 @@ lamps and by the world through the dome, not the world itself. The renderer adds
 world's light wherever the world's light reaches a point (``probes.Probes.bounce``); placed
 volumes hold the bounce already and replace both.
 
-The grid spans the middle of the geometry (the 2nd to 98th percentile of the triangles' centres
-per axis, so a ground reaching to the horizon does not spread it thin) grown by ``MARGIN`` of
-its size, with at most ``MAX_SAMPLES`` samples at equal spacing. It is kept per content
-(``key``: geometry, materials, lights, world) for the last ``KEPT`` scenes: a frame of the
-same scene reuses it.
+The grid spans the objects' bounding boxes, but those of objects over ``WIDE`` times the
+median object's size (a ground reaching to the horizon would spread it thin), grown by
+``MARGIN`` of its size, with at most ``MAX_SAMPLES`` samples at equal spacing. It is kept
+per content (``key``: geometry, materials, lights, world) for the last ``KEPT`` scenes: a
+frame of the same scene reuses it.
 
 Measured against three choices (docs/engine.md): reflective dome maps miss what is nearer than
 a map's texel, and a screen-space bounce misses the ground the camera does not see under an
@@ -41,6 +41,7 @@ __all__ = ["FACE_SIZE", "MAX_SAMPLES", "attach", "key", "spec"]
 
 MAX_SAMPLES = 32  # samples of the grid
 MARGIN = 0.15  # of the geometry's extent, around it
+WIDE = 4.0  # an object this many times the median object's size is not spanned (a ground)
 MIN_EXTENT = 0.5  # metres: the grid's smallest side
 FACE_SIZE = 16  # texels of each capture's cube face (as a volume bake's)
 FADE = 0.25  # local units outside the box over which its weight fades
@@ -51,17 +52,22 @@ _lock = threading.Lock()
 
 def spec(scene: Scene) -> bake.ProbeSpec | None:
     """The implicit volume of ``scene``'s geometry (``bake.ProbeSpec``), or None without any."""
-    centres = [m.positions.mean(axis=1) for m in scene.meshes if len(m.positions)]
-    if not centres:
+    boxes = []
+    for m in scene.meshes:
+        p = np.asarray(m.positions, np.float64).reshape(-1, 3)
+        p = p[np.isfinite(p).all(axis=1)]
+        if len(p):
+            boxes.append((p.min(axis=0), p.max(axis=0)))
+    if not boxes:
         return None
-    c = np.concatenate(centres).astype(np.float64)
-    c = c[np.isfinite(c).all(axis=1)]
-    if not len(c):
-        return None
-    lo, hi = np.percentile(c, 2, axis=0), np.percentile(c, 98, axis=0)
-    size = np.maximum(hi - lo, MIN_EXTENT)
+    lo, hi = (np.array(b) for b in zip(*boxes, strict=True))
+    diagonal = np.linalg.norm(hi - lo, axis=1)
+    small = diagonal <= WIDE * np.median(diagonal)  # a ground, a terrain, a sky dome: not
+    if small.any():
+        lo, hi = lo[small], hi[small]
+    lo, hi = lo.min(axis=0), hi.max(axis=0)
+    size = np.maximum(hi - lo, MIN_EXTENT) * (1.0 + 2.0 * MARGIN)
     mid = (lo + hi) / 2.0
-    size = size * (1.0 + 2.0 * MARGIN)
     step = (np.prod(size) / MAX_SAMPLES) ** (1.0 / 3.0)
     res = np.clip(np.round(size / step), 2, MAX_SAMPLES).astype(int)
     while np.prod(res) > MAX_SAMPLES:

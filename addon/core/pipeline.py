@@ -799,7 +799,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> n
         sky = frame.sky
         rho = (mat.albedo @ sh.LUMINANCE_REC709.astype(np.float32))[:, None]
         if scene.probes.bounce is not None:  # what bounces off the occluders is baked
-            rho = np.zeros_like(rho)
+            rho = rho * (1.0 - scene.probes.bounce.weight(p))[:, None]
 
         def seen(k):
             """The world's light is occluded by the darker of the dome and the contact

@@ -457,7 +457,8 @@ def walk():
     screenshot("viewport_world_of_nodes")
     yield from show_tab(None, "WORLD")
     yield 1.0
-    tab_check("World tab (nodes)", "world", set())
+    tab_check("World tab (nodes)", "world",
+              {"World.sun_threshold", "World.sun_angle", "World.use_sun_shadow"})
 
 
 def bake_all(operator, running):
