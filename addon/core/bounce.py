@@ -16,9 +16,11 @@ median object's size (a ground reaching to the horizon would spread it thin), gr
 per content (``key``: geometry, materials, lights, world) for the last ``KEPT`` scenes: a
 frame of the same scene reuses it.
 
-Measured against three choices (docs/engine.md): reflective dome maps miss what is nearer than
-a map's texel, and a screen-space bounce misses the ground the camera does not see under an
-object; one bounce from a coarse volume reaches both, at the price of a bake on the first frame.
+Chosen over two others (docs/probes.md): reflective dome maps miss what is nearer than a map's
+texel, and a screen-space bounce misses the ground the camera does not see under an object;
+one bounce from a coarse volume reaches both, at the price of a bake on the first frame. Where
+it reaches, the dome's visibility is not brightened by the multi-bounce fit
+(``occlusion.multi_bounce``), which stood in for this very bounce.
 """
 
 from __future__ import annotations
@@ -40,11 +42,13 @@ from .texture import Texture
 __all__ = ["FACE_SIZE", "MAX_SAMPLES", "attach", "key", "spec"]
 
 MAX_SAMPLES = 32  # samples of the grid
+MIN_SAMPLES = 3  # along each axis: a point between two layers blends both from its surface
 MARGIN = 0.15  # of the geometry's extent, around it
 WIDE = 4.0  # an object this many times the median object's size is not spanned (a ground)
 MIN_EXTENT = 0.5  # metres: the grid's smallest side
 FACE_SIZE = 16  # texels of each capture's cube face (as a volume bake's)
 FADE = 0.25  # local units outside the box over which its weight fades
+FACING = 1.0  # the look-up's facing bias: samples behind a surface weigh less, none is cut
 KEPT = 2
 _cache: OrderedDict[str, IrradianceVolume | None] = OrderedDict()
 _lock = threading.Lock()
@@ -69,14 +73,15 @@ def spec(scene: Scene) -> bake.ProbeSpec | None:
     size = np.maximum(hi - lo, MIN_EXTENT) * (1.0 + 2.0 * MARGIN)
     mid = (lo + hi) / 2.0
     step = (np.prod(size) / MAX_SAMPLES) ** (1.0 / 3.0)
-    res = np.clip(np.round(size / step), 2, MAX_SAMPLES).astype(int)
+    res = np.clip(np.round(size / step), MIN_SAMPLES, MAX_SAMPLES).astype(int)
     while np.prod(res) > MAX_SAMPLES:
-        res[np.argmax(size / res)] -= 1
+        res[np.argmax(np.where(res > MIN_SAMPLES, size / res, 0.0))] -= 1
     m = np.eye(4)
     m[:3, 3] = mid
     m[[0, 1, 2], [0, 1, 2]] = size / 2.0
     return bake.ProbeSpec("Implicit bounce", "irradiance", m, influence=FADE, falloff=1.0,
-                          resolution=tuple(int(r) for r in res))
+                          resolution=tuple(int(r) for r in res),
+                          volume=bake.VolumeSettings(facing_bias=FACING))
 
 
 def _digest_value(value) -> object:
