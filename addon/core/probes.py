@@ -132,6 +132,7 @@ class IrradianceVolume:
     view_bias: float = 0.0
     facing_bias: float | None = None
     falloff: float = 1.0
+    _positions: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def _local(self, points: np.ndarray) -> np.ndarray:
         inv = affine.inverse(self.local_to_world)
@@ -164,44 +165,23 @@ class IrradianceVolume:
                 pts = pts + np.float32(self.view_bias) * step * view
         q = self._local(pts)
         # sample i sits at local (i + 0.5) / res * 2 - 1 (volume_sample_positions)
-        f = (q + 1.0) * 0.5 * res - 0.5
-        f = np.clip(f, 0.0, res - 1.0)
-        i0 = np.minimum(np.floor(f).astype(np.int64), res - 2).clip(0)
-        t = (f - i0).astype(np.float32)
-        i1 = np.minimum(i0 + 1, res - 1)
+        f = np.clip((q + 1.0) * 0.5 * res - 0.5, 0.0, res - 1.0).astype(np.float32)
         facing = normals is not None and self.facing_bias is not None
-        if facing:
-            m = np.asarray(self.local_to_world, np.float64)
-        weights, corners = [], []
-        for corner in range(8):
-            bits = [(corner >> k) & 1 for k in range(3)]
-            idx = tuple(np.where(b, i1[:, k], i0[:, k]) for k, b in enumerate(bits))
-            w = np.ones(len(pts), np.float32)
-            for k, b in enumerate(bits):
-                w *= t[:, k] if b else 1.0 - t[:, k]
-            weights.append(w)
-            corners.append(idx)
-        plain = np.stack(weights)  # (8, N)
-        kept = plain.copy()
-        for c, idx in enumerate(corners):
-            if self.validity is not None:
-                kept[c] *= self.validity[idx]
-            if facing:
-                local = (np.stack(idx, -1) + 0.5) / res * 2.0 - 1.0
-                to = (local @ m[:3, :3].T + m[:3, 3]).astype(np.float32) - pts
-                to /= np.maximum(np.linalg.norm(to, axis=-1, keepdims=True), 1e-6)
-                kept[c] *= np.maximum(np.einsum("nk,nk->n", to, normals)
-                                      + np.float32(self.facing_bias), 0.0)
-        if self.validity is not None:  # where facing leaves nothing, the valid samples
-            valid = plain * np.stack([self.validity[idx] for idx in corners])
-            plain = np.where(valid.sum(0) > 1e-6, valid, plain)
-        total = kept.sum(0)
-        blend = np.where(total > 1e-6, kept / np.maximum(total, 1e-30),
-                         plain / np.maximum(plain.sum(0), 1e-30))
-        out = np.zeros((len(pts), 9, 3), np.float32)
-        for c, idx in enumerate(corners):
-            out += blend[c][:, None, None] * self.sh[idx]
-        return out
+        if self._positions is None:
+            self._positions = np.ascontiguousarray(volume_sample_positions(
+                self.local_to_world, self.resolution).reshape(-1, 3), np.float32)
+        from .kernels import indirect as kernels
+
+        out = np.empty((len(pts), 27), np.float32)
+        n = np.ascontiguousarray(normals if facing else np.zeros((len(pts), 3)), np.float32)
+        kernels.volume_blend(
+            np.ascontiguousarray(f), np.asarray(res, np.int64), self._positions,
+            np.ascontiguousarray(np.ones(1) if self.validity is None else self.validity,
+                                 np.float32).reshape(-1), self.validity is not None,
+            np.ascontiguousarray(pts, np.float32), n, facing,
+            np.float32(self.facing_bias if facing else 0.0),
+            np.ascontiguousarray(self.sh, np.float32).reshape(-1, 27), out)
+        return out.reshape(-1, 9, 3)
 
 
 def grid_spacing(local_to_world: np.ndarray, resolution) -> float:

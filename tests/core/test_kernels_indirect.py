@@ -185,3 +185,62 @@ def test_quadrature_is_not_a_shading_model():
     with pytest.raises(ValueError, match="environment BRDF 'truth'"):
         cp.indirect(probes, np.zeros((2, 3), np.float32), n, n, n, n, np.ones(2, np.float32),
                     env_model="truth")
+
+
+def volume_sh_numpy(vol, points, normals=None):
+    """The NumPy form of ``IrradianceVolume.sample_sh`` (no biases): trilinear weights of the
+    eight samples around each point, times validity and the facing weight; where those leave
+    nothing, trilinear over the valid samples, or over all."""
+    res = np.asarray(vol.resolution)
+    pts = np.asarray(points, np.float32)
+    q = vol._local(pts)
+    f = np.clip((q + 1.0) * 0.5 * res - 0.5, 0.0, res - 1.0)
+    i0 = np.minimum(np.floor(f).astype(np.int64), res - 2).clip(0)
+    t = (f - i0).astype(np.float32)
+    i1 = np.minimum(i0 + 1, res - 1)
+    m = np.asarray(vol.local_to_world, np.float64)
+    plain, kept, corners = [], [], []
+    for corner in range(8):
+        bits = [(corner >> k) & 1 for k in range(3)]
+        idx = tuple(np.where(b, i1[:, k], i0[:, k]) for k, b in enumerate(bits))
+        w = np.ones(len(pts), np.float32)
+        for k, b in enumerate(bits):
+            w *= t[:, k] if b else 1.0 - t[:, k]
+        keep = w * (1.0 if vol.validity is None else vol.validity[idx])
+        if normals is not None and vol.facing_bias is not None:
+            local = (np.stack(idx, -1) + 0.5) / res * 2.0 - 1.0
+            to = (local @ m[:3, :3].T + m[:3, 3]).astype(np.float32) - pts
+            to /= np.maximum(np.linalg.norm(to, axis=-1, keepdims=True), 1e-6)
+            keep = keep * np.maximum(np.einsum("nk,nk->n", to, normals) + vol.facing_bias, 0)
+        plain.append(w)
+        kept.append(keep)
+        corners.append(idx)
+    plain, kept = np.stack(plain), np.stack(kept)
+    if vol.validity is not None:
+        valid = plain * np.stack([vol.validity[idx] for idx in corners])
+        plain = np.where(valid.sum(0) > 1e-6, valid, plain)
+    total = kept.sum(0)
+    blend = np.where(total > 1e-6, kept / np.maximum(total, 1e-30),
+                     plain / np.maximum(plain.sum(0), 1e-30))
+    return sum(blend[c][:, None, None] * vol.sh[idx] for c, idx in enumerate(corners))
+
+
+@pytest.mark.parametrize("facing_bias", [None, 0.0, 0.5, 1.0])
+def test_volume_look_up_kernel_matches_numpy(facing_bias):
+    rng = np.random.default_rng(5)
+    m = np.diag([2.0, 1.5, 1.0, 1.0])
+    m[:3, 3] = (0.3, -0.2, 1.0)
+    res = (4, 3, 5)
+    validity = (rng.random(res) > 0.3).astype(np.float32)
+    validity[0, 0, 0] = 0.0
+    vol = cp.IrradianceVolume("v", m, res, rng.normal(size=(*res, 9, 3)).astype(np.float32),
+                              0.5, validity, facing_bias=facing_bias)
+    points = (rng.uniform(-1.3, 1.3, size=(2000, 3)) * (2.0, 1.5, 1.0)
+              + (0.3, -0.2, 1.0)).astype(np.float32)
+    normals = rng.normal(size=(2000, 3)).astype(np.float32)
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    np.testing.assert_allclose(vol.sample_sh(points, normals),
+                               volume_sh_numpy(vol, points, normals), rtol=1e-4, atol=1e-5)
+    plain = cp.IrradianceVolume("v", m, res, vol.sh, 0.5)
+    np.testing.assert_allclose(plain.sample_sh(points), volume_sh_numpy(plain, points),
+                               rtol=1e-4, atol=1e-5)

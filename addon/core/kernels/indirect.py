@@ -338,3 +338,67 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
                   limits[2], brdf)
         for c in range(3):
             specular[i, c] = acc[c] * brdf[c]
+
+
+@nb.njit(nb.void(nb.float32[:, ::1], nb.int64[::1], nb.float32[:, ::1], nb.float32[::1],
+                 nb.boolean, nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean, nb.float32,
+                 nb.float32[:, ::1], nb.float32[:, ::1]), **_OPTIONS)
+def volume_blend(grid, res, positions, validity, has_validity, points, normals, facing,
+                 facing_bias, samples, out):
+    """An irradiance volume's look-up (``IrradianceVolume.sample_sh``, whose NumPy form the
+    tests hold it to): ``out`` (N, K) the blend of the eight samples around each point at
+    continuous grid coordinates ``grid`` (N, 3) (clamped to [0, res - 1]) of a volume of ``res``
+    (3,) samples, x-major, at world ``positions`` (S, 3) with ``validity`` (S,) and rows
+    ``samples`` (S, K): trilinear weights, times validity, times the facing weight
+    max(0, unit(sample - point) . normal + facing_bias) when ``facing``; where those leave
+    nothing, trilinear over the valid samples, or over all."""
+    n, k = out.shape
+    w_plain = np.empty(8, np.float32)
+    w_kept = np.empty(8, np.float32)
+    rows = np.empty(8, np.int64)
+    for i in range(n):
+        i0 = np.empty(3, np.int64)
+        t = np.empty(3, np.float32)
+        for a in range(3):
+            j = min(int(math.floor(grid[i, a])), res[a] - 2)
+            j = max(j, 0)
+            i0[a] = j
+            t[a] = grid[i, a] - j
+        kept_sum = 0.0
+        valid_sum = 0.0
+        plain_sum = 0.0
+        for c in range(8):
+            w = 1.0
+            idx = np.int64(0)
+            for a in range(3):
+                bit = (c >> a) & 1
+                j = min(i0[a] + bit, res[a] - 1)
+                idx = idx * res[a] + j
+                w *= t[a] if bit else 1.0 - t[a]
+            rows[c] = idx
+            w_plain[c] = w
+            v = validity[idx] if has_validity else 1.0
+            kept = w * v
+            if facing:
+                dx = positions[idx, 0] - points[i, 0]
+                dy = positions[idx, 1] - points[i, 1]
+                dz = positions[idx, 2] - points[i, 2]
+                length = max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
+                dot = (dx * normals[i, 0] + dy * normals[i, 1] + dz * normals[i, 2]) / length
+                kept *= max(dot + facing_bias, 0.0)
+            w_kept[c] = kept
+            kept_sum += kept
+            valid_sum += w * v
+            plain_sum += w
+        for j in range(k):
+            out[i, j] = 0.0
+        for c in range(8):
+            if kept_sum > 1e-6:
+                b = w_kept[c] / kept_sum
+            elif has_validity and valid_sum > 1e-6:
+                b = w_plain[c] * validity[rows[c]] / valid_sum
+            else:
+                b = w_plain[c] / max(plain_sum, 1e-30)
+            if b != 0.0:
+                for j in range(k):
+                    out[i, j] += b * samples[rows[c], j]
