@@ -623,12 +623,12 @@ class WORLD_PT_bo2_light(_BO2Panel, bpy.types.Panel):
     def draw_sun(layout, world):
         """EEVEE's own World > Sun settings: the same world gives both engines one sun."""
         layout.use_property_split = True
-        col = layout.column(heading="Sun")
-        col.prop(world, "sun_threshold", text="Threshold")
+        col = layout.column()
+        col.prop(world, "sun_threshold", text="Sun Threshold")
         sub = col.column()
         sub.active = world.sun_threshold > 0.0
-        sub.prop(world, "sun_angle", text="Angle")
-        sub.prop(world, "use_sun_shadow", text="Shadow")
+        sub.prop(world, "sun_angle", text="Sun Angle")
+        sub.prop(world, "use_sun_shadow", text="Sun Shadow")
 
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
