@@ -64,9 +64,13 @@ def sky_world(elevation_deg, rotation_deg, strength=0.04):
 
 def hdri_world(name, rotation_deg=0.0, strength=1.0):
     """An Environment Texture world of ``ENVMAPS/<name>.hdr``, rotated about Z."""
+    path = ENVMAPS / f"{name}.hdr"
+    if not path.is_file():
+        raise SystemExit(f"build_world_scenes: {path.name} is missing from the reference "
+                         "environment maps (shared/reference/envmaps beside the project)")
     world, tree = _world_nodes(name)
     env = tree.nodes.new("ShaderNodeTexEnvironment")
-    env.image = bpy.data.images.load(str(ENVMAPS / f"{name}.hdr"))
+    env.image = bpy.data.images.load(str(path))
     coord = tree.nodes.new("ShaderNodeTexCoord")
     mapping = tree.nodes.new("ShaderNodeMapping")
     mapping.inputs["Rotation"].default_value[2] = math.radians(rotation_deg)
