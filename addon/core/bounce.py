@@ -35,7 +35,7 @@ import numpy as np
 
 from . import bake, capture
 from .pipeline import Cancelled
-from .probes import IrradianceVolume
+from .probes import IrradianceVolume, sends_light
 from .scene import Scene, World
 from .texture import Texture
 
@@ -136,12 +136,13 @@ def _bake(scene: Scene, where: bake.ProbeSpec,
 def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
            bake_missing: bool = True) -> Scene:
     """``scene`` with the implicit bounce in its probes (``Probes.bounce``) when they hold no
-    volume; unchanged without probes (no indirect light) or geometry. The volume is baked
+    volume; unchanged without probes (no indirect light), without geometry, or under a black
+    world (a scene lit by its lamps alone keeps its frame time: no bake). The volume is baked
     when this content has none yet (``bake_missing``; False: only one kept is used, as a
     viewport's redraws do)."""
     probes = scene.probes
     if probes is None or probes.volumes or not scene.meshes \
-            or not scene.settings.implicit_bounce:
+            or not scene.settings.implicit_bounce or not sends_light(probes):
         return scene
     where = spec(scene)
     if where is None:

@@ -137,24 +137,29 @@ def test_the_digest_follows_the_content_and_bad_trees_fall_back(addon, empty_sce
     assert len(warnings) == 1 and "gone.hdr" in warnings[0] and "viewport colour" in warnings[0]
 
 
+def hdri_world(name, pixels):
+    """A world of one equirectangular Environment Texture of ``pixels`` (H, W, 4), packed."""
+    img = bpy.data.images.new(name, pixels.shape[1], pixels.shape[0], float_buffer=True)
+    img.pixels.foreach_set(pixels.ravel())
+    img.pack()
+    world = bpy.data.worlds.new(name)
+    if bpy.app.version < (5, 0, 0):
+        world.use_nodes = True
+    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
+    env.image = img
+    world.node_tree.links.new(env.outputs["Color"],
+                              world.node_tree.nodes["Background"].inputs["Color"])
+    return world
+
+
 @pytest.mark.parametrize("value", [float("nan"), float("inf")])
 def test_non_finite_and_zero_worlds_render_finite(addon, empty_scene, tmp_path, value):
     """An HDRI with NaN or infinite texels and a world of zero strength bake and render
     finite."""
     scene = empty_scene
-    img = bpy.data.images.new("bad", 16, 8, float_buffer=True)
     px = np.full((8, 16, 4), 0.5, np.float32)
     px[2, 3, :3] = value
-    img.pixels.foreach_set(px.ravel())
-    img.pack()
-    world = bpy.data.worlds.new("Bad")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    env.image = img
-    world.node_tree.links.new(env.outputs["Color"], world.node_tree.nodes["Background"]
-                              .inputs["Color"])
-    scene.world = world
+    world = scene.world = hdri_world("Bad", px)
     scene.bo2.bake_folder = str(tmp_path)
     bpy.ops.mesh.primitive_plane_add(size=4.0)
     bpy.ops.object.lightprobe_add(type="VOLUME", location=(0, 0, 1))
@@ -252,19 +257,9 @@ def test_an_hdri_sun_is_taken_out_with_the_worlds_settings(addon, empty_scene, t
     """An HDRI read directly, its sun a single texel of 1e6: one shadowed sun light of the
     World > Sun Angle, the texel clamped; no warning that the scene has no lights."""
     scene = empty_scene
-    img = bpy.data.images.new("sun", 64, 32, float_buffer=True)
     px = np.full((32, 64, 4), 0.3, np.float32)
     px[20, 40, :3] = 1e6  # Blender's rows from the bottom: above the horizon
-    img.pixels.foreach_set(px.ravel())
-    img.pack()
-    world = bpy.data.worlds.new("HDRI")
-    if bpy.app.version < (5, 0, 0):
-        world.use_nodes = True
-    env = world.node_tree.nodes.new("ShaderNodeTexEnvironment")
-    env.image = img
-    world.node_tree.links.new(env.outputs["Color"],
-                              world.node_tree.nodes["Background"].inputs["Color"])
-    scene.world = world
+    world = scene.world = hdri_world("HDRI", px)
     world.sun_angle = math.radians(1.0)
     world.use_sun_shadow = False
     assert worlds.direct(world)
