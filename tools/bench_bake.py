@@ -32,7 +32,7 @@ import time
 
 import numpy as np
 
-from bo2_lighting.addon.core import cubemap, prefilter
+from bo2_lighting.addon.core.formulas import cubemap, prefilter
 
 TARGETS_BO2 = {256: 1.0}  # seconds, full chain, this project's goals (2 cores)
 TARGETS_PROBE = {128: 0.5}  # seconds, one whole probe
@@ -108,14 +108,15 @@ def probe_scene():
 def time_probe_bake(size: int, repeat: int, workers: int) -> tuple[float, float]:
     """Capture (six faces rendered by the engine, 4 samples, shadows) + SH + both prefiltered
     chains of one reflection probe of face size ``size``: (cold, warm) seconds."""
-    from bo2_lighting.addon.core import capture
+    from bo2_lighting.addon.core.bakes import capture
+    from bo2_lighting.addon.core.lighting.world_probes import filtered
 
     scene = probe_scene()
     scene.settings.threads = workers
 
     def bake():
         cube = capture.Capture(scene).cube(np.array([0.0, 0.0, 1.5]), size, 0.05, 1e4)
-        capture.filtered(cube)
+        filtered(cube)
 
     return timed(bake, repeat)
 

@@ -29,7 +29,8 @@ SCENE = ROOT / "demo_blends" / "first_light.blend"
 
 
 def texture_seconds() -> float:
-    from bo2_lighting.addon.core import kernels, texture
+    from bo2_lighting.addon.core import kernels
+    from bo2_lighting.addon.core.formulas import texture
 
     kernels.load()
     rng = np.random.default_rng(0)

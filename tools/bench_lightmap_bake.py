@@ -7,11 +7,11 @@ The scene is an open room (floor, two walls, a block, a sun, a blue sky) on a 10
 below it, the ground lightmapped (static) at ``--resolution`` texels on a side: one lightmap of
 millions of texels, as an outdoor level's terrain. Each backend bakes in a process of its own
 (``bo2 bake``'s code, ``blender.bake.lightmap_steps``), so that each peak memory is its own:
-BO2 Lighting's (``core.lightmap_bake``) and Cycles' (Blender's Bake > Diffuse of the same
+BO2 Lighting's (``core.bakes.lightmap_bake``) and Cycles' (Blender's Bake > Diffuse of the same
 layout, ``--cycles-samples`` samples). Printed per backend: seconds, peak resident memory, the
 bytes per texel it held above the scene's, and the longest wait between two progress steps
 (what an artist watching the bar sees stand still); for BO2, the memory the bake announced
-(``core.lightmap_bake.bake_bytes``).
+(``core.bakes.lightmap_bake.bake_bytes``).
 """
 
 from __future__ import annotations
@@ -76,7 +76,7 @@ def child(args) -> None:
     import resource
 
     from bo2_lighting.addon.blender import bake
-    from bo2_lighting.addon.core import lightmap_bake
+    from bo2_lighting.addon.core.bakes import lightmap_bake
 
     folder = Path(tempfile.mkdtemp())
     scene, ground = build(folder, args.resolution, args.rays, args.bounces,
@@ -95,7 +95,7 @@ def child(args) -> None:
         last, fraction = now, fraction_now
     seconds = time.perf_counter() - start
     peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    from bo2_lighting.addon.core import lightmap_file
+    from bo2_lighting.addon.core.files import lightmap_file
 
     meta, lm = lightmap_file.read(bake.bake_files.path(ground))
     texels = meta["width"] * meta["height"]

@@ -20,7 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bo2_lighting.addon.core import imaging
+from bo2_lighting.addon.core.review import imaging
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_render import BO2, run  # noqa: E402

@@ -19,7 +19,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from bo2_lighting.addon.core import environment_files, prefilter
+from bo2_lighting.addon.core.files import environment_files
+from bo2_lighting.addon.core.formulas import prefilter
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -1,4 +1,4 @@
-"""Benchmark of the NumPy rasterizer (``addon/core/raster.py``): speed and peak memory.
+"""Benchmark of the NumPy rasterizer (``addon/core/render/raster.py``): speed and peak memory.
 
 Usage: python tools/bench_raster.py [--repeat N]
 
@@ -22,7 +22,7 @@ import tracemalloc
 
 import numpy as np
 
-from bo2_lighting.addon.core import pipeline, raster
+from bo2_lighting.addon.core.render import pipeline, raster
 
 
 def window_to_clip(pts, width, height, z, w):

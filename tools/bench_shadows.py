@@ -1,4 +1,5 @@
-"""Benchmark of the shadow maps (``addon/core/shadows.py``): build and query time, peak memory.
+"""Benchmark of the shadow maps (``addon/core/render/shadows.py``): build and query time, peak
+memory.
 
 Usage: python tools/bench_shadows.py [--points N] [--triangles N] [--resolutions 1024 2048]
                                      [--order random|screen]
@@ -24,7 +25,7 @@ import tracemalloc
 
 import numpy as np
 
-from bo2_lighting.addon.core import shadows
+from bo2_lighting.addon.core.render import shadows
 from bo2_lighting.addon.core.scene import Camera, Light
 
 

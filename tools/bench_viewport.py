@@ -43,7 +43,7 @@ def main() -> int:
     import bo2_lighting
     from bo2_lighting.addon.blender import viewport
     from bo2_lighting.addon.core import kernels
-    from bo2_lighting.addon.core import viewport as core_viewport
+    from bo2_lighting.addon.core.render import viewport as core_viewport
 
     bo2_lighting.register()
     bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()), load_ui=False)

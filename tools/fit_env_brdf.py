@@ -33,10 +33,11 @@ each round from the best point with smaller steps; the whole is run from BO2's o
 last round lowers the mean of the 9 ratios with the largest one held. The coefficients are
 rounded to 4 decimals.
 
-Prints the coefficients (as the ``FIT_A0``, ``FIT_A1`` lines of ``addon/core/env_brdf.py``),
-the operation counts and the error tables. ``--check`` refits and exits 1 unless every
-unrounded coefficient lies within 1e-3 of the committed one. ``--no-fit`` prints the tables of
-the committed coefficients only. About two minutes for the fit and one for the tables.
+Prints the coefficients (as the ``FIT_A0``, ``FIT_A1`` lines of
+``addon/core/formulas/env_brdf.py``), the operation counts and the error tables. ``--check`` refits
+and exits 1 unless every unrounded coefficient lies within 1e-3 of the committed one. ``--no-fit``
+prints the tables of the committed coefficients only. About two minutes for the fit and one for the
+tables.
 """
 
 from __future__ import annotations
@@ -47,7 +48,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from bo2_lighting.addon.core import env_brdf
+from bo2_lighting.addon.core.formulas import env_brdf
 
 # The grid of the error tables of docs/env_brdf.md and of its figures (the whole domain).
 GLOSS = np.linspace(0.0, 1.0, 201)

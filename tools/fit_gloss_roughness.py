@@ -43,7 +43,7 @@ import math
 
 import numpy as np
 
-from bo2_lighting.addon.core import brdf
+from bo2_lighting.addon.core.formulas import brdf
 
 GLOSSES = np.round(np.linspace(0.0, 1.0, 11), 2)  # rows of the lobe table
 FIT_GLOSSES = np.round(np.linspace(0.0, 1.0, 21), 2)  # points of the closed-form fit

@@ -98,7 +98,7 @@ def main() -> int:
 
     import bo2_lighting
     from bo2_lighting.addon.blender import images
-    from bo2_lighting.addon.core import imaging
+    from bo2_lighting.addon.core.review import imaging
 
     rows = []
     for asset in args.assets:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from bo2_lighting.addon.blender import images
-from bo2_lighting.addon.core import imaging
+from bo2_lighting.addon.core.review import imaging
 
 
 def resize(image: np.ndarray, width: int) -> np.ndarray:

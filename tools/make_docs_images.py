@@ -15,7 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from bo2_lighting.addon.core import brdf, imaging, pipeline, texture
+from bo2_lighting.addon.core.formulas import brdf, texture
+from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.review import imaging
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
 
 ROOT = Path(__file__).resolve().parent.parent

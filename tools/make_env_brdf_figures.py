@@ -25,7 +25,7 @@ import fit_env_brdf
 import matplotlib
 import numpy as np
 
-from bo2_lighting.addon.core import env_brdf
+from bo2_lighting.addon.core.formulas import env_brdf
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402  (after the back end is chosen)

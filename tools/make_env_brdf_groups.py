@@ -2,7 +2,7 @@
 
 Usage: python tools/make_env_brdf_groups.py [--check]
 
-One shader node group per analytic model of ``addon/core/env_brdf.py``, built from Math and
+One shader node group per analytic model of ``addon/core/formulas/env_brdf.py``, built from Math and
 Vector Math nodes only, so that Cycles and EEVEE evaluate the same formula as the engine:
 
 - "BO2 Environment BRDF":        Black Ops II's EnvironmentBRDF (slide "Final approximation")
@@ -23,7 +23,7 @@ import json
 import sys
 from pathlib import Path
 
-from bo2_lighting.addon.core import env_brdf
+from bo2_lighting.addon.core.formulas import env_brdf
 
 OUT = Path(__file__).resolve().parents[1] / "node_groups"
 

@@ -2,7 +2,7 @@
 
 Usage: python tools/make_env_brdf_table.py [--check]
 
-The ground truth of ``core.env_brdf.ground_truth`` (deterministic quadrature) on 64 gloss
+The ground truth of ``core.formulas.env_brdf.ground_truth`` (deterministic quadrature) on 64 gloss
 values 0, 1/63, ..., 1 and 64 values of n.v = (j/63)^2 (the first clamped to 1e-4), squared
 so that the grazing angles, where the parts change fastest, get more samples: the bilinear
 look-up stays within 1e-3 of the quadrature everywhere (the test checks it). Both parts
@@ -17,7 +17,7 @@ import sys
 
 import numpy as np
 
-from bo2_lighting.addon.core import env_brdf
+from bo2_lighting.addon.core.formulas import env_brdf
 
 SIZE = 64
 

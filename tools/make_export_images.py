@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bo2_lighting.addon.core import imaging
+from bo2_lighting.addon.core.review import imaging
 
 ROOT = Path(__file__).resolve().parents[1]
 BO2 = Path(sys.executable).parent / "bo2"

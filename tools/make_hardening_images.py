@@ -78,7 +78,8 @@ def shifted_thresholds(px, py, layer):
 
 def stacked_alpha_shadows(out: Path) -> None:
     import bo2_lighting
-    from bo2_lighting.addon.core import imaging, raster
+    from bo2_lighting.addon.core.render import raster
+    from bo2_lighting.addon.core.review import imaging
 
     bo2_lighting.register()
     scene = shadow_scene()
@@ -107,7 +108,7 @@ def instances_forest(out: Path) -> None:
     import bench_instances
 
     from bo2_lighting.addon.blender import images
-    from bo2_lighting.addon.core import imaging
+    from bo2_lighting.addon.core.review import imaging
 
     with tempfile.TemporaryDirectory() as tmp:
         blend = Path(tmp) / "forest.blend"

@@ -27,7 +27,7 @@ W, H = 480, 270
 
 def display(image) -> np.ndarray:
     """(H, W, 3) display values of a viewport image (rows bottom to top)."""
-    from bo2_lighting.addon.core.texture import linear_to_srgb
+    from bo2_lighting.addon.core.formulas.texture import linear_to_srgb
 
     rgb = np.asarray(image.pixels[::-1, :, :3], np.float32)
     return rgb if image.data else linear_to_srgb(np.clip(rgb, 0.0, 1.0))
@@ -35,7 +35,7 @@ def display(image) -> np.ndarray:
 
 def grid(tiles: list[tuple[str, np.ndarray]], columns: int) -> np.ndarray:
     """Labelled tiles, ``columns`` per row, on the docs' dark background."""
-    from bo2_lighting.addon.core import imaging
+    from bo2_lighting.addon.core.review import imaging
 
     scale = 2
     strip = 8 * scale + 6
@@ -61,8 +61,9 @@ def main() -> int:
 
     import bo2_lighting
     from bo2_lighting.addon.blender import bake, probes, viewport
-    from bo2_lighting.addon.core import imaging, kernels
-    from bo2_lighting.addon.core import viewport as core_viewport
+    from bo2_lighting.addon.core import kernels
+    from bo2_lighting.addon.core.render import viewport as core_viewport
+    from bo2_lighting.addon.core.review import imaging
 
     bo2_lighting.register()
     bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()), load_ui=False)

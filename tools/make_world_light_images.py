@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 import OpenEXR
 
-from bo2_lighting.addon.core import imaging, texture
+from bo2_lighting.addon.core.formulas import texture
+from bo2_lighting.addon.core.review import imaging
 
 
 def combined(path: Path) -> np.ndarray:

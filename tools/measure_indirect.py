@@ -64,7 +64,7 @@ import bo2_lighting
 from bo2_lighting.addon.blender import bake_files
 from bo2_lighting.addon.blender import compare as blender_compare
 from bo2_lighting.addon.blender import images as blender_images
-from bo2_lighting.addon.core import compare, imaging
+from bo2_lighting.addon.core.review import compare, imaging
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDS = [ROOT / "demo_blends" / f"{name}.blend"
@@ -251,7 +251,8 @@ def lightmap_seams(folder: Path) -> dict:
     largest jump, the share of seam points whose jump exceeds the gradient beside them, and
     the memory the images and UVs take in a frame."""
     from bo2_lighting.addon.blender import extract
-    from bo2_lighting.addon.core import lightmap, lightmap_file
+    from bo2_lighting.addon.core.files import lightmap_file
+    from bo2_lighting.addon.core.lighting import lightmap
 
     core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), camera=False,
                                     indirect=False)

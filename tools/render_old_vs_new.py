@@ -34,7 +34,7 @@ import bo2_lighting
 from bo2_lighting.addon.blender import compare as blender_compare
 from bo2_lighting.addon.blender import images as blender_images
 from bo2_lighting.addon.blender import probes
-from bo2_lighting.addon.core import compare, imaging
+from bo2_lighting.addon.core.review import compare, imaging
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDS = ROOT / "demo_blends"

@@ -56,7 +56,7 @@ def adopt(scene) -> list[str]:
 
 def _baked_for(obj, file: Path, sub: str) -> bool:
     """Whether the earlier version's ``file`` was baked for ``obj`` as it stands."""
-    from ..core import lightmap_file, probe_file
+    from ..core.files import lightmap_file, probe_file
 
     try:
         if sub:

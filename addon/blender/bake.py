@@ -1,6 +1,6 @@
-"""Baking Blender's light probes and lightmaps: the scene extracted once, ``core.bake`` run with
-a capture by the engine's pipeline or by Cycles (``core.lightmap_bake`` for lightmaps), the
-files written when every probe (lightmap) is done.
+"""Baking Blender's light probes and lightmaps: the scene extracted once, ``core.bakes.bake`` run
+with a capture by the engine's pipeline or by Cycles (``core.bakes.lightmap_bake`` for lightmaps),
+the files written when every probe (lightmap) is done.
 
 ``bake_steps`` (``lightmap_steps``) is the whole bake as a generator of progress fractions,
 so that the modal operator runs it a step per timer tick (Esc stops it between steps) and
@@ -20,8 +20,11 @@ import bpy
 import numpy as np
 
 from .. import version
-from ..core import bake, capture, cubemap, lightmap_bake, lightmap_file, memory, probe_file
-from ..core import lightmap as core_lightmap
+from ..core.bakes import bake, capture, lightmap_bake
+from ..core.files import lightmap_file, probe_file
+from ..core.formulas import cubemap
+from ..core.kernels import machine
+from ..core.lighting import lightmap as core_lightmap
 from . import bake_files, extract, images, interrupt, lightmaps, probes, render_graph, worlds
 from .probes import BakeError
 
@@ -254,15 +257,15 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
         raise BakeError(f"The lightmaps would take {need / 2**20:.0f} MiB, more than the "
                         f"{s.memory_cap / 2**20:.0f} MiB cap: lower Texels per Metre or Max "
                         "Resolution")
-    baking, have = lightmap_bake.bake_bytes(targets, s), memory.physical()
+    baking, have = lightmap_bake.bake_bytes(targets, s), machine.physical()
     texels = sum(t.width * t.height for t in targets) / 1e6
     if have is not None and baking > 0.8 * have:
         raise BakeError(f"Baking these lightmaps ({texels:.1f} M texels) would take about "
-                        f"{memory.size(baking)} of memory, more than this machine's "
-                        f"{memory.size(have)} allow: lower Texels per Metre or Max Resolution")
+                        f"{machine.size(baking)} of memory, more than this machine's "
+                        f"{machine.size(have)} allow: lower Texels per Metre or Max Resolution")
     if baking > BAKE_NOTE:
         warn(f"Baking these lightmaps ({texels:.1f} M texels) takes about "
-             f"{memory.size(baking)} of memory")
+             f"{machine.size(baking)} of memory")
     return targets, notes
 
 
@@ -278,7 +281,7 @@ def render_mesh(obj, depsgraph):
 
 def cycles_lightmap(scene, obj, mesh, target, uv_map: str | None) -> np.ndarray:
     """(H, W, 3) irradiance, W/m^2, row 0 at v = 1, of ``obj``'s surface baked by Cycles in the
-    layout ``target`` (``core.lightmap.Target``): its indirect light and the world's direct
+    layout ``target`` (``core.lighting.lightmap.Target``): its indirect light and the world's direct
     light (Bake > Diffuse without colour gives E / pi; the lamps' direct light, which the
     render adds live, is left out by baking the direct pass with the lamps hidden).
 
@@ -356,7 +359,7 @@ def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
     """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1] that
     returns the number of lightmaps written; the files are written at the end, all or
     nothing (closing it early writes nothing). ``report(message)`` receives warnings.
-    backend: "BO2" (``core.lightmap_bake``) or "CYCLES" (``cycles_lightmap``, one object at
+    backend: "BO2" (``core.bakes.lightmap_bake``) or "CYCLES" (``cycles_lightmap``, one object at
     a time; irradiance only).
 
     The objects are baked as a final render evaluates them (``render_graph``: Render levels,

@@ -1,7 +1,7 @@
 """Where each object's bake lives: its own OpenEXR file, declared by an image datablock.
 
-A light probe's bake, or a mesh's lightmap, is one OpenEXR file (``core.probe_file``,
-``core.lightmap_file``). The object holds an image datablock that declares it
+A light probe's bake, or a mesh's lightmap, is one OpenEXR file (``core.files.probe_file``,
+``core.files.lightmap_file``). The object holds an image datablock that declares it
 (``object.bo2.bake``): the file's path relative to the .blend, so that Blender's External
 Data tools (Report Missing Files, Make Paths Relative) and Blender Asset Tracer see it and
 move it with the .blend, or the file's bytes packed into the .blend (``pack``), so that a

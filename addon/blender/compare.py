@@ -7,8 +7,8 @@ every pass), ``side_by_side.png``, ``split.png`` and ``difference.png`` (display
 the linear pixels are put in a float image and saved with ``Image.save_render`` as a 16-bit PNG,
 which applies the scene's view transform, look, exposure, gamma and curves exactly as Blender's
 render output does, then read back as display values (``images.to_display``); metrics and the
-report are ``core.compare``, the pictures ``core.imaging``. The compositor is not applied: the
-comparison is of the view layer's passes.
+report are ``core.review.compare``, the pictures ``core.review.imaging``. The compositor is not
+applied: the comparison is of the view layer's passes.
 
 Cycles' Diffuse and Glossy light passes exclude the surface colour (Blender composites
 DiffDir x DiffCol); BO2 Lighting's include it. BO2's light passes are therefore compared with
@@ -27,9 +27,9 @@ from pathlib import Path
 
 import bpy
 
-from ..core import compare as core
-from ..core import imaging
-from ..core.passes import PASSES
+from ..core.render.passes import PASSES
+from ..core.review import compare as core
+from ..core.review import imaging
 from . import images, interrupt, passes, worlds
 
 # key -> (engine identifier, label, EXR file name)

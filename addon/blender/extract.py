@@ -16,8 +16,10 @@ from collections.abc import Callable
 import bpy
 import numpy as np
 
-from ..core import memory, pipeline, texture, world_sun
 from ..core import scene as cs
+from ..core.formulas import texture
+from ..core.lighting import world_sun
+from ..core.render import memory, pipeline
 from . import lightmaps as baked_lightmaps
 from . import worlds
 from .materials import convert_material, load_image
@@ -68,7 +70,7 @@ def extract_camera(depsgraph) -> cs.Camera:
 def _read_mesh(mesh, requires=frozenset(), warn=None, warn_ngons=None):
     """Object-space triangles of an evaluated mesh.
 
-    requires: corner attributes the materials read (``core.material.Program.requires``)
+    requires: corner attributes the materials read (``core.scene.material.Program.requires``)
     warn:     called with the key of each attribute the mesh cannot give
     warn_ngons: called when n-gons leave a normal map with per-triangle tangents
     returns:  positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
@@ -360,7 +362,7 @@ def _world(scene, warnings: list[str]) -> cs.World:
 
 
 def extract_world(scene, warnings: list[str]) -> cs.World:
-    """The background (``_world``) with its sun taken out as a light (``core.world_sun``):
+    """The background (``_world``) with its sun taken out as a light (``core.lighting.world_sun``):
     EEVEE's World > Sun settings (Threshold, Angle, Shadow) are the world's for both."""
     world = _world(scene, warnings)
     source = scene.world

@@ -116,7 +116,7 @@ def set_samples(scene, engine: str, samples: int) -> None:
 def enable_all_passes(layer, engine: str) -> None:
     """Turn on every pass the chosen engine writes (BO2: the engine's passes but Combined, which
     stays as the view layer has it; Cycles: the same names without the BO2 material passes)."""
-    from ..core.passes import PASSES
+    from ..core.render.passes import PASSES
     from . import passes
 
     for name in PASSES:

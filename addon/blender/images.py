@@ -16,7 +16,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core import texture
+from ..core.formulas import texture
 from .passes import blender_name, channel_ids
 
 SETTINGS = ("media_type", "file_format", "color_mode", "color_depth", "exr_codec",

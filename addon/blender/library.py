@@ -16,7 +16,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core import texture
+from ..core.formulas import texture
 from . import images, node_groups
 
 LIBRARY_NAME = "BO2 Lighting"

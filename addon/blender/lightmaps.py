@@ -3,9 +3,9 @@
 A mesh object is static when its Lightmap setting says so (``object.bo2.lightmap_mode``), or,
 on Auto, when neither it nor a parent is animated and no armature deforms it. Its lightmap UVs
 are its own UV map chosen in the panel (or named ``LightmapUV``) when that map's charts do not
-overlap, else a layout the bake makes (``core.lightmap.layout``), stored in the lightmap's file:
-the object's UV maps are never touched. Each lightmap is one OpenEXR file
-(``core.lightmap_file``) in ``lightmaps/`` of the .blend's bake folder, or packed into the
+overlap, else a layout the bake makes (``core.lighting.lightmap.layout``), stored in the lightmap's
+file: the object's UV maps are never touched. Each lightmap is one OpenEXR file
+(``core.files.lightmap_file``) in ``lightmaps/`` of the .blend's bake folder, or packed into the
 .blend, declared by the object's image datablock (``bake_files``), written when every lightmap
 is done, all or nothing. At render time (``attach``) each static object takes its
 lightmap; one that no longer fits its mesh is left out and one baked before the scene changed
@@ -19,8 +19,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import lightmap, lightmap_bake, lightmap_file, probe_file
 from ..core import scene as cs
+from ..core.bakes import lightmap_bake
+from ..core.files import lightmap_file, probe_file
+from ..core.lighting import lightmap
 from . import bake_files, probes
 
 UV_NAME = "LightmapUV"

@@ -1,4 +1,4 @@
-"""Blender materials -> ``core.scene.Material`` (a compiled ``core.material.Program``).
+"""Blender materials -> ``core.scene.Material`` (a compiled ``core.scene.material.Program``).
 
 A node tree is translated once per material: each node becomes operations of the core's
 material program with Blender's semantics (the core evaluates them; this module only reads
@@ -21,11 +21,11 @@ from collections import OrderedDict
 import bpy
 import numpy as np
 
-from ..core import node_math as nm
-from ..core import texture
-from ..core.material import ProgramBuilder
-from ..core.recursion import Bounded
+from ..core.formulas import texture
 from ..core.scene import Material
+from ..core.scene import node_math as nm
+from ..core.scene.material import ProgramBuilder
+from ..core.scene.recursion import Bounded
 from . import images
 from .node_groups import is_bo2_material_node
 
@@ -212,7 +212,7 @@ class _Compiler:
 
     def output(self, node, out, ctx: tuple, into) -> tuple[int, str]:
         """(register, kind) of output ``out`` of ``node`` in group context ``ctx``; graphs of
-        any depth, their deepest nodes compiled first (``core.recursion``)."""
+        any depth, their deepest nodes compiled first (``core.scene.recursion``)."""
         key = (ctx, node.as_pointer(), out.identifier)
         if key in self.memo:
             return self.memo[key]

@@ -39,7 +39,7 @@ MATERIAL_GROUP = "BO2 Material"
 PRINCIPLED_GROUP = "BO2 Principled to Talk"
 ENV_BRDF_GROUPS = {"bo2": "BO2 Environment BRDF", "bo1": "BO2 Environment BRDF (BO1)",
                    "fit": "BO2 Environment BRDF (Fit)"}
-"""Environment BRDF group of each analytic model of ``core.env_brdf`` (specs written by
+"""Environment BRDF group of each analytic model of ``core.formulas.env_brdf`` (specs written by
 ``tools/make_env_brdf_groups.py``)."""
 GROUP_NAMES = (GLOSS_GROUP, MATERIAL_GROUP, *ENV_BRDF_GROUPS.values(), PRINCIPLED_GROUP)
 """Names of the groups, dependencies first."""

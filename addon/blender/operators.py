@@ -14,8 +14,8 @@ import time
 
 import bpy
 
-from ..core import compare as core_compare
-from ..core import report as core_report
+from ..core.review import compare as core_compare
+from ..core.review import report as core_report
 from . import bake, bake_files, compare, convert, lightmaps, node_groups, probes, report, worlds
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),

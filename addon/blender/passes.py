@@ -1,4 +1,5 @@
-"""The core's passes (``core.passes``) as Blender knows them: view layer flags and 5.0's names.
+"""The core's passes (``core.render.passes``) as Blender knows them: view layer flags and 5.0's
+names.
 
 Blender 5.0 renamed some built-in passes; the engine registers and writes every pass under the
 running Blender's name, as Cycles does, so that compositor set-ups work with both engines.
@@ -9,7 +10,7 @@ from __future__ import annotations
 
 import bpy
 
-from ..core.passes import PASSES
+from ..core.render.passes import PASSES
 
 # Pass (pipeline name) -> its flag on the view layer, or on the view layer's ``bo2`` settings.
 FLAGS = {

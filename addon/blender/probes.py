@@ -3,10 +3,10 @@
 Sphere light probes are reflection probes (influence distance and falloff); Volume light probes
 are irradiance volumes (their x/y/z resolution; the object's box, with the influence distance
 around it); the World is the fallback of both. Each probe object's bake is one OpenEXR file
-(``core.probe_file``) that the object's image datablock declares, in the .blend's folder inside
-the bake folder or packed into the .blend (``bake_files``); the bake folder is
+(``core.files.probe_file``) that the object's image datablock declares, in the .blend's folder
+inside the bake folder or packed into the .blend (``bake_files``); the bake folder is
 ``scene.bo2.bake_folder``, ``//bo2_bake/`` (next to the .blend) by default. Baking is
-``core.bake``, driven by ``blender/bake.py``.
+``core.bakes.bake``, driven by ``blender/bake.py``.
 """
 
 from __future__ import annotations
@@ -17,8 +17,10 @@ from pathlib import Path
 
 import numpy as np
 
-from ..core import bake, probe_file
-from ..core import probes as cp
+from ..core.bakes import bake
+from ..core.files import probe_file
+from ..core.lighting import probes as cp
+from ..core.lighting.world_probes import world_probes
 from ..core.scene import World
 from . import bake_files, props
 from .bake_files import BakeError, bake_folder, writable_folder  # noqa: F401 (re-exported)
@@ -172,7 +174,7 @@ def _probe_from_file(obj, state: BakeState, warnings: list[str]):
 def load_probes(scene, world: World, warnings: list[str]) -> cp.Probes:
     """The world fallback and every baked probe of ``scene`` (missing, stale or corrupt
     bakes: one warning each, and the world instead)."""
-    result = bake.world_probes(world)
+    result = world_probes(world)
     objs = probe_objects(scene)
     if not objs:
         return result

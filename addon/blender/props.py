@@ -3,7 +3,8 @@
 
 import bpy
 
-from ..core import brdf, viewport
+from ..core.formulas import brdf
+from ..core.render import viewport
 
 _SPECULAR_DESCRIPTIONS = {
     "reference": ("Reference", "The talk's terms (slides 'Black Ops: normal distribution "

@@ -1,6 +1,6 @@
 """The look-dev review in Blender (docs/report.md): scenes rendered by both engines with
 ``compare.run``, each into its own folder of the report, or ``bo2 compare`` folders read back;
-then their passes through each scene's colour management and ``core.report`` for the page.
+then their passes through each scene's colour management and ``core.review.report`` for the page.
 
 A report folder holds ``index.html``, ``report.json`` and ``scenes/<name>/``: the comparison's
 files (``bo2.exr``, ``cycles.exr``, ``metrics.json``, ...), ``old/bo2.exr`` where the scene was
@@ -17,9 +17,9 @@ from pathlib import Path
 
 import bpy
 
-from ..core import compare as core_compare
-from ..core import flip
-from ..core import report as core
+from ..core.review import compare as core_compare
+from ..core.review import flip
+from ..core.review import report as core
 from . import compare, images, passes
 
 # The talk's old (Black Ops) methods, each a scene setting of BO2 Lighting: the environment BRDF
@@ -93,7 +93,7 @@ def links(source: Path, page: Path) -> dict:
 
 
 def read_comparison(source: Path) -> tuple[dict, dict]:
-    """``core.report.analyse_scene``'s passes and info from a comparison folder.
+    """``core.review.report.analyse_scene``'s passes and info from a comparison folder.
 
     returns: ({variant: {pass label: (linear (H, W, 3), display (H, W, 3))}}, info)
     """

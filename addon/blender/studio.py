@@ -3,7 +3,7 @@
 With Scene World off, the scene is lit by the viewport's studio HDRI instead of its world and
 probes, as Cycles does: the HDRI's rotation and strength light it, its blur and opacity show in
 the background. The HDRI's texture is read once per file (``_textures``); its SH and
-prefiltered chain are computed once per HDRI and rotation (``core.bake.world_probes``).
+prefiltered chain are computed once per HDRI and rotation (``core.lighting.world_probes``).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import scene as cs
-from ..core import texture
+from ..core.formulas import texture
 from . import extract, images
 
 _textures: dict[str, tuple] = {}  # path -> ((mtime_ns, size), Texture); a few HDRIs at most

@@ -7,7 +7,7 @@ Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external
 import bpy
 
 from ..core import kernels
-from ..core.passes import PASSES
+from ..core.render.passes import PASSES
 from . import (
     adoption,
     bake_files,

@@ -1,4 +1,4 @@
-"""The 3D viewport's Rendered shading: depsgraph updates -> ``core.viewport.Session``.
+"""The 3D viewport's Rendered shading: depsgraph updates -> ``core.render.viewport.Session``.
 
 ``changes()`` turns the depsgraph's updates into what changed for the core and forgets exactly
 that in the extraction cache (a moved object keeps its mesh, an edited mesh is read again, a
@@ -13,14 +13,16 @@ import dataclasses
 import bpy
 import numpy as np
 
-from ..core import bounce, kernels, viewport
+from ..core import kernels
+from ..core.bakes import bounce
+from ..core.render import viewport
 from ..core.scene import Camera
 from . import extract, probes, studio, worlds
 
 
 def changes(updates, cache: extract.SceneCache) -> set[str]:
     """What the depsgraph ``updates`` (``Depsgraph.updates``, or records with the same ``id``
-    and ``is_updated_*`` fields) changed, as ``core.viewport.CHANGES``; the extraction
+    and ``is_updated_*`` fields) changed, as ``core.render.viewport.CHANGES``; the extraction
     ``cache`` forgets what they made stale."""
     changed: set[str] = set()
     for update in updates:
@@ -259,7 +261,7 @@ class Viewport:
         return True
 
     def set_camera(self, camera) -> bool:
-        """Render through ``camera`` (``core.viewport.view_camera``) when it differs from the
+        """Render through ``camera`` (``core.render.viewport.view_camera``) when it differs from the
         last one; True when it did."""
         if self.camera is not None and viewport.same_camera(self.camera, camera):
             return False

@@ -17,7 +17,7 @@ render started some other way (a farm's ``blender -b -f``) finds it.
 A Sky Texture's sun disc (World > Sun Threshold above 0, EEVEE's setting) is not left in the
 image, where its energy would be smeared over the sphere: the image is rendered without it, and
 the disc alone (a small view of it rendered with and without it) gives the world's sun its exact
-irradiance (``Rendered.sun``, ``core.world_sun``).
+irradiance (``Rendered.sun``, ``core.lighting.world_sun``).
 
 A tree Cycles cannot evaluate here (a Script node, an image that is missing) is not rendered:
 the world's viewport colour stands in, with one warning.
@@ -39,7 +39,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
-from ..core import texture
+from ..core.formulas import texture
 from ..core.scene import Light
 from . import images, probes
 

@@ -196,7 +196,7 @@ def _comparison_options(cmd, default: str, which: str) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from ..core import brdf, env_brdf
+    from ..core.formulas import brdf, env_brdf
     from . import bake, compare, export_probes, render, report, sh
     from . import env_brdf as env_brdf_cmd
     from . import prefilter as prefilter_cmd

@@ -16,7 +16,7 @@ def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
     scene = load_blend(Path(args.scene))
     from ..blender import bake, bake_files, lightmaps, probes
-    from ..core import pipeline
+    from ..core.render import pipeline
 
     lightmapping = args.lightmaps is not None
     if lightmapping:

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from ..blender import headless
-from ..core.compare import headline
+from ..core.review.compare import headline
 from . import CommandError, load_blend
 from .terminal import exit_on_interrupt, quiet_blender
 

@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from ..core import env_brdf
+from ..core.formulas import env_brdf
 from . import CommandError
 
 

@@ -18,7 +18,7 @@ from . import BadInput, CommandError, load_blend
 def _to_y_up(matrix) -> list:
     """A (4, 4) local-to-world transform whose world is the engine's (Y up): C M. The local
     axes stay the probe's own, so a volume's samples keep their (x, y, z) indices."""
-    from ..core import gpu_textures
+    from ..core.formulas import gpu_textures
 
     c = np.eye(4)
     c[:3, :3] = gpu_textures.Y_UP
@@ -26,7 +26,7 @@ def _to_y_up(matrix) -> list:
 
 
 def _sh(coefficients) -> list:
-    from ..core import gpu_textures, sh
+    from ..core.formulas import gpu_textures, sh
 
     return sh.rotate(np.asarray(coefficients, np.float64), gpu_textures.Y_UP).tolist()
 
@@ -34,7 +34,8 @@ def _sh(coefficients) -> list:
 def _chain(out: Path, stem: str, name: str, fmt: str, mips: list, coefficients,
            extra: dict) -> dict:
     """Write one bo2 chain as ``<stem>.<fmt>``; its manifest entry."""
-    from ..core import engine_export, prefilter
+    from ..core.files import engine_export
+    from ..core.formulas import prefilter
 
     size = mips[0].shape[1]
     meta = engine_export.chain_metadata(
@@ -64,7 +65,7 @@ def run(args) -> int:
         raise BadInput(f"{out}: is a file, not a folder")
     scene = load_blend(Path(args.scene))
     from ..blender import extract, probes
-    from ..core import gpu_textures
+    from ..core.formulas import gpu_textures
 
     start = time.perf_counter()
     warnings: list[str] = []
@@ -117,7 +118,7 @@ def run(args) -> int:
                             "probes' own local axes to it",
                     "units": "metres; radiance SH of sh.basis (docs/sh.md)",
                     "format": args.format, "world": world_entry, "probes": entries}
-        from ..core import engine_export
+        from ..core.files import engine_export
 
         engine_export.write_text(out / "probes.json", json.dumps(manifest, indent=1) + "\n")
     except OSError as exc:

@@ -22,7 +22,7 @@ HALF_MAX = 65504.0  # the largest finite half float
 def read_cube(paths: list[str], size: int | None):
     """The cube map (``cubemap.FACES``) of one lat-long or cross image or six faces; BadInput
     for what cannot be read."""
-    from ..core import environment_files as ef
+    from ..core.files import environment_files as ef
 
     try:
         images = [ef.read_image(p) for p in paths]
@@ -61,7 +61,8 @@ def _warn_half_float(outputs: list[Path], mips: list[np.ndarray], scale: float) 
 
 def run(args) -> int:
     """Prefilter IMAGE (or six faces) into ``-o`` files."""
-    from ..core import engine_export, prefilter
+    from ..core.files import engine_export
+    from ..core.formulas import prefilter
 
     outputs = [Path(o) for o in args.output]
     if why := overwrites_input(args.images, outputs):

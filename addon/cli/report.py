@@ -55,7 +55,7 @@ def distinct_names(paths: list[Path]) -> list[str]:
 
 def run(args) -> int:
     """Compare each scene with Cycles and write the review page (docs/report.md)."""
-    from ..core import flip
+    from ..core.review import flip
 
     if args.fail_above is not None and flip.unavailable():
         raise CommandError(f"--fail-above needs FLIP: {flip.unavailable()}")

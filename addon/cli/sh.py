@@ -24,7 +24,7 @@ def _head(path: Path) -> bytes:
 
 
 def _read(path: Path) -> np.ndarray:
-    from ..core import environment_files as ef
+    from ..core.files import environment_files as ef
 
     head = _head(path)
     if head[:2] == b"#?" or head == b"\x76\x2f\x31\x01" or not path.is_file():
@@ -55,7 +55,8 @@ def _read(path: Path) -> np.ndarray:
 def run(args) -> int:
     """Print the 9 RGB SH coefficients of the radiance of a lat-long (equirectangular) image;
     with ``-o`` / ``--header`` write them, and the tinted scalar SH, for an engine."""
-    from ..core import engine_export, gpu_textures, probe_file, sh
+    from ..core.files import engine_export, probe_file
+    from ..core.formulas import gpu_textures, sh
 
     path = Path(args.image)
     if why := overwrites_input([path], [o for o in (args.output, args.header) if o]):

@@ -15,7 +15,7 @@ from test_probes import bake, room
 from util import render_pixels
 
 from bo2_lighting.addon.blender import adoption, bake_files, probes
-from bo2_lighting.addon.core import probe_file
+from bo2_lighting.addon.core.files import probe_file
 
 
 def render(scene):

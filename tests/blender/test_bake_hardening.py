@@ -15,7 +15,8 @@ from test_probes import room
 from util import baked, render_pixels
 
 from bo2_lighting.addon.blender import bake_files, probes
-from bo2_lighting.addon.core import capture, probe_file
+from bo2_lighting.addon.core.bakes import capture
+from bo2_lighting.addon.core.files import probe_file
 
 
 def files(folder):

@@ -100,7 +100,7 @@ def test_operator_writes_everything(scene, tmp_path):
 
 
 def test_view_transform_is_applied(scene, tmp_path):
-    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.formulas import texture
 
     pictures = {}
     for view in ("Standard", "AgX"):

@@ -82,7 +82,7 @@ def test_glossy_highlight_matches_cycles(addon, gloss):
 def test_glossy_sphere_pixels_match_the_talks_brdf(addon, gloss):
     """Pixels of the sphere against the closed form: ray-sphere intersection through each
     pixel centre, then (1/pi) D_pl F V (n.l) E with E = P / (4 pi d^2), computed here."""
-    from bo2_lighting.addon.core import brdf
+    from bo2_lighting.addon.core.formulas import brdf
 
     scene = glossy_sphere_scene(gloss)
     scene.render.filter_size = 0.0  # one sample at each pixel centre

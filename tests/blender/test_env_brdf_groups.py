@@ -1,4 +1,4 @@
-"""The environment BRDF node groups, rendered by Cycles, against ``core.env_brdf``.
+"""The environment BRDF node groups, rendered by Cycles, against ``core.formulas.env_brdf``.
 
 An emission plane fills an orthographic view; its colour is a group's output, with gloss
 running across the image and n.v up it (one value per pixel, from the UV map), and rf0 = 0,
@@ -14,7 +14,7 @@ import pytest
 from util import add_ortho_camera, bare_material, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import node_groups
-from bo2_lighting.addon.core import env_brdf
+from bo2_lighting.addon.core.formulas import env_brdf
 
 W, H = 40, 30
 RF0 = (0.0, 0.04, 1.0)

@@ -1,4 +1,5 @@
-"""The equirectangular mapping of ``core.texture`` is the one of Blender's Environment Texture.
+"""The equirectangular mapping of ``core.formulas.texture`` is the one of Blender's Environment
+Texture.
 
 Independent values: Cycles renders. The world shows a 64 x 32 float image (Non-Color, Closest
 interpolation) whose texels encode their own UV: R = cos(2 pi u), G = sin(2 pi u) (smooth across
@@ -18,7 +19,7 @@ import pytest
 from mathutils import Vector
 
 from bo2_lighting.addon.blender import images
-from bo2_lighting.addon.core import texture
+from bo2_lighting.addon.core.formulas import texture
 
 W, H = 64, 32
 RES = 5  # odd: the centre pixel is centred on the camera axis

@@ -220,7 +220,7 @@ def render_viewport(scene):
 
 def probe_luminance(scene):
     assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
-    from bo2_lighting.addon.core import probe_file
+    from bo2_lighting.addon.core.files import probe_file
 
     _, sh, chains = probe_file.read(bake_files.path(scene.objects["Probe"]))
     assert np.isfinite(sh).all() and all(np.isfinite(m).all() for c in chains.values()

@@ -147,7 +147,7 @@ def test_cache_drops_the_least_recently_used_beyond_its_size(addon, monkeypatch)
 def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monkeypatch):
     """A cached image file is not loaded to be recognised (its path, size and modification
     time are), and a new file at the same path makes a new texture."""
-    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.formulas import texture
 
     made = []
     real = texture.make_texture
@@ -180,7 +180,7 @@ def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monke
 def test_settings_of_one_image_share_its_levels(addon, tmp_path):
     """Two nodes reading one image with other extensions and interpolations: one chain in
     memory and in the cache, filled once for both."""
-    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.formulas import texture
 
     path, _ = png(tmp_path, 64, 32, name="shared.png")
     image = bpy.data.images.load(str(path), check_existing=False)

@@ -10,7 +10,8 @@ from util import add_far_ground, baked, principled, render_extraction, set_world
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import engine, extract, lightmaps
-from bo2_lighting.addon.core import lightmap_file, pipeline
+from bo2_lighting.addon.core.files import lightmap_file
+from bo2_lighting.addon.core.render import pipeline
 
 
 def room(tmp_path):
@@ -79,7 +80,7 @@ def test_bake_and_render_with_lightmaps(addon, tmp_path):
     assert np.isfinite(lm.image).all() and lm.image.min() >= 0.0
     # the floor's lightmap is darker beside the block's base than in the open
     _, floor_lm = lightmap_file.read(baked(scene, "Floor"))
-    from bo2_lighting.addon.core import lightmap
+    from bo2_lighting.addon.core.lighting import lightmap
 
     def floor_at(x, y):  # the plane's UVs: (x + 2) / 4, (y + 2) / 4
         return lightmap.sample(floor_lm.image, np.array([[(x + 2) / 4, (y + 2) / 4]]))[0]
@@ -329,7 +330,7 @@ def test_a_deleted_lightmap_file_is_said(addon, tmp_path):
 def test_the_memory_a_bake_takes_is_said_up_front(addon, tmp_path, monkeypatch):
     """A big bake says how much memory it takes before it starts; one that the machine cannot
     hold is refused with that figure, the previous lightmaps kept."""
-    from bo2_lighting.addon.core import memory
+    from bo2_lighting.addon.core.kernels import machine
 
     scene = room(tmp_path)
     objs = lightmaps.lightmap_objects(scene)
@@ -340,7 +341,7 @@ def test_the_memory_a_bake_takes_is_said_up_front(addon, tmp_path, monkeypatch):
     [said] = [w for w in warnings if "takes about" in w]
     assert "M texels" in said and "of memory" in said
     before = baked(scene, "Floor").read_bytes() if baked(scene, "Floor").exists() else None
-    monkeypatch.setattr(memory, "physical", lambda: 1 << 20)
+    monkeypatch.setattr(machine, "physical", lambda: 1 << 20)
     with pytest.raises(blender_bake.BakeError, match="more than this machine's 1 MiB"):
         for _ in blender_bake.lightmap_steps(scene, objs):
             pass

@@ -776,7 +776,7 @@ def test_gltf_occlusion_dims_indirect_light(addon):
 def test_images_are_prepared_once_per_session(addon, monkeypatch):
     """Three image nodes of one image, two materials, two frames and a second render: the image
     becomes a texture once, and again only after it changes."""
-    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.formulas import texture
 
     calls = []
     real = texture.make_texture

@@ -15,7 +15,7 @@ import pytest
 from util import bare_material
 
 from bo2_lighting.addon.blender import images, node_groups, operators
-from bo2_lighting.addon.core import brdf
+from bo2_lighting.addon.core.formulas import brdf
 
 MATERIAL_INPUTS = [
     ("Albedo", "NodeSocketColor", (0.8, 0.8, 0.8, 1.0)),

@@ -12,7 +12,7 @@ from util import baked, render_pixels
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
-from bo2_lighting.addon.core import probe_file
+from bo2_lighting.addon.core.files import probe_file
 
 SAMPLE = (5.0 / 3.0, -5.0 / 3.0, 1.5)  # the 3 x 3 x 2 volume's sample (2, 0, 1)
 

@@ -11,7 +11,7 @@ from util import add_far_ground, baked, principled, render_pixels, set_world_col
 
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
-from bo2_lighting.addon.core import probe_file
+from bo2_lighting.addon.core.files import probe_file
 
 RES = 48
 

@@ -141,7 +141,7 @@ def test_pass_table_maps_to_blender(addon, tmp_path):
     import OpenEXR
 
     from bo2_lighting.addon.blender import images, passes
-    from bo2_lighting.addon.core.passes import PASSES
+    from bo2_lighting.addon.core.render.passes import PASSES
 
     scene, layer = bpy.context.scene, bpy.context.view_layer
     assert set(PASSES) | set(passes.CYCLES_COLOR) == set(passes.FLAGS)
@@ -178,8 +178,8 @@ def test_a_foreign_numba_is_one_clear_error(addon, monkeypatch):
 
 def test_running_out_of_memory_is_one_message_with_the_figure(addon, monkeypatch):
     """A render that runs out of memory stops with one message that names memory, the
-    triangles and what the frame needs (``core.memory.frame_bytes``), and Blender goes on."""
-    from bo2_lighting.addon.core import pipeline
+    triangles and what the frame needs (``core.render.memory.frame_bytes``), and Blender goes on."""
+    from bo2_lighting.addon.core.render import pipeline
 
     scene = lambert_plane_scene("SUN")
     real = pipeline.render_tiles
@@ -188,7 +188,7 @@ def test_running_out_of_memory_is_one_message_with_the_figure(addon, monkeypatch
         raise MemoryError()
 
     monkeypatch.setattr(pipeline, "render_tiles", starved)
-    # the sun's map; the world is black: no dome (``core.sky``)
+    # the sun's map; the world is black: no dome (``core.render.sky``)
     with pytest.raises(RuntimeError, match=r"ran out of memory: 2 triangles and 1 shadow map "
                                            r"need about 17 MiB beside Blender's own"):
         render_pixels(scene, "BO2_LIGHTING", samples=1)
@@ -207,7 +207,7 @@ def test_contact_occlusion_is_searched_without_indirect_light_only_for_its_pass(
     """A black world and no probe: the frame has no indirect light to occlude, so the engine
     searches contact occlusion only while the view layer's AO pass is on."""
     from bo2_lighting.addon.blender import passes
-    from bo2_lighting.addon.core import pipeline
+    from bo2_lighting.addon.core.render import pipeline
 
     scene = lambert_plane_scene("SUN")
     searched = []

@@ -17,7 +17,7 @@ from test_compare_cycles import build
 
 from bo2_lighting.addon.blender import images
 from bo2_lighting.addon.blender import report as blender_report
-from bo2_lighting.addon.core import flip
+from bo2_lighting.addon.core.review import flip
 
 
 @pytest.fixture

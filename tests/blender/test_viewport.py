@@ -14,9 +14,9 @@ import pytest
 from util import camera_of, render_pixels, set_world_color
 
 from bo2_lighting.addon.blender import viewport
-from bo2_lighting.addon.core import bake as core_bake
-from bo2_lighting.addon.core import pipeline
-from bo2_lighting.addon.core import viewport as core_viewport
+from bo2_lighting.addon.core.lighting import world_probes
+from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render import viewport as core_viewport
 
 W, H = 96, 64
 
@@ -305,8 +305,8 @@ def test_studio_light_lights_the_viewport_as_the_same_world_would(view, monkeypa
     open_view(view, scene)
     own = view.session.image().pixels.copy()
     threads = []  # where the HDRI's SH and chains are made: not on Blender's thread
-    real = core_bake.world_probes
-    monkeypatch.setattr(core_bake, "world_probes", lambda world, *args: (
+    real = world_probes.world_probes
+    monkeypatch.setattr(world_probes, "world_probes", lambda world, *args: (
         threads.append(threading.current_thread()), real(world, *args))[1])
     depsgraph = bpy.context.evaluated_depsgraph_get()
     space, light = studio_space()

@@ -1,5 +1,5 @@
-"""The world's light where no probe was placed (``core.bounce``), against Cycles: the underside
-of a ball over a white ground under a uniform sky is lit by the ground's bounce."""
+"""The world's light where no probe was placed (``core.bakes.bounce``), against Cycles: the
+underside of a ball over a white ground under a uniform sky is lit by the ground's bounce."""
 
 import math
 

@@ -111,8 +111,8 @@ def render_passes(scene, engine: str, names, samples: int = 16) -> dict:
 
 def camera_of(scene, width: int, height: int):
     """The scene camera as the viewport's region camera would be in camera view, for a region
-    of ``width`` x ``height`` pixels (``core.viewport.view_camera``)."""
-    from bo2_lighting.addon.core import viewport
+    of ``width`` x ``height`` pixels (``core.render.viewport.view_camera``)."""
+    from bo2_lighting.addon.core.render import viewport
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     cam = scene.camera.evaluated_get(depsgraph)

@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import flip, report
+from bo2_lighting.addon.core.review import flip, report
 
 ROOT = Path(__file__).resolve().parents[2]
 SHOTS = ROOT / "out" / "report"

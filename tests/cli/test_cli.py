@@ -152,7 +152,7 @@ def test_env_brdf_prints_the_slide_value():
 def test_env_brdf_json_rgb_and_models():
     import json
 
-    from bo2_lighting.addon.core import env_brdf
+    from bo2_lighting.addon.core.formulas import env_brdf
 
     for model in env_brdf.MODELS:
         proc = bo2("env-brdf", "--gloss", "0.3", "--nov", "0.2", "--rf0", "0", "0.04", "1",
@@ -194,7 +194,7 @@ def read_rgbe(path):
 def test_sh_of_a_reference_hdri():
     import json
 
-    from bo2_lighting.addon.core import sh
+    from bo2_lighting.addon.core.formulas import sh
 
     hdri = ENVMAPS / "venice_sunset_1k.hdr"
     if not hdri.is_file():
@@ -351,7 +351,7 @@ def probe_blend(tmp_path, with_probes=True):
 
 
 def test_bake_writes_the_bake_folder(tmp_path):
-    from bo2_lighting.addon.core import probe_file
+    from bo2_lighting.addon.core.files import probe_file
 
     blend = probe_blend(tmp_path)
     proc = bo2("bake", blend, "--probes", "Reflection")
@@ -376,7 +376,8 @@ def test_export_probes_for_an_engine(tmp_path):
     axes (the l = 1 band of Blender's z is the engine's y)."""
     import json
 
-    from bo2_lighting.addon.core import cubemap, probe_file
+    from bo2_lighting.addon.core.files import probe_file
+    from bo2_lighting.addon.core.formulas import cubemap
 
     blend = probe_blend(tmp_path)
     assert bo2("bake", blend, "--no-pack").returncode == 0
@@ -438,7 +439,7 @@ def test_export_probes_with_a_damaged_bake(tmp_path):
 
 
 def test_bake_with_cycles(tmp_path):
-    from bo2_lighting.addon.core import probe_file
+    from bo2_lighting.addon.core.files import probe_file
 
     blend = probe_blend(tmp_path)
     proc = bo2("bake", blend, "--probes", "Irradiance", "--backend", "cycles", timeout=900)
@@ -464,7 +465,7 @@ def test_bake_bad_input(tmp_path):
 
 
 def test_bake_lightmaps(tmp_path):
-    from bo2_lighting.addon.core import lightmap_file
+    from bo2_lighting.addon.core.files import lightmap_file
 
     blend = probe_blend(tmp_path)
     proc = bo2("bake", blend, "--lightmaps")

@@ -8,7 +8,7 @@ import time
 import pytest
 from test_cli import BO2, DEMO, bo2, empty_blend, one_error_line
 
-from bo2_lighting.addon.core import flip
+from bo2_lighting.addon.core.review import flip
 
 SMALL = ("--resolution", "64x36", "--samples", "1", "--cycles-samples", "4")
 needs_flip = pytest.mark.skipif(flip.unavailable() is not None, reason="no flip-evaluator")

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import affine
+from bo2_lighting.addon.core.formulas import affine
 
 RNG = np.random.default_rng(5)
 

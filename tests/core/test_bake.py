@@ -14,9 +14,10 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import bake
+from bo2_lighting.addon.core.bakes import bake
+from bo2_lighting.addon.core.formulas.texture import make_texture
+from bo2_lighting.addon.core.lighting.world_probes import world_key, world_probes
 from bo2_lighting.addon.core.scene import World
-from bo2_lighting.addon.core.texture import make_texture
 
 C00 = 2.0 * math.sqrt(math.pi)
 
@@ -142,12 +143,12 @@ def test_world_probes_are_keyed_on_content():
     pixels = np.random.default_rng(1).random((8, 16, 4)).astype(np.float32)
     a = World(texture=make_texture(pixels.copy(), srgb=False), strength=2.0)
     b = World(texture=make_texture(pixels.copy(), srgb=False), strength=2.0)
-    assert bake.world_key(a, 16) == bake.world_key(b, 16)
-    assert bake.world_probes(a).world_sh is bake.world_probes(b).world_sh  # computed once
+    assert world_key(a, 16) == world_key(b, 16)
+    assert world_probes(a).world_sh is world_probes(b).world_sh  # computed once
     pixels[0, 0, 0] += 1.0
     c = World(texture=make_texture(pixels, srgb=False), strength=2.0)
-    assert bake.world_key(c, 16) != bake.world_key(a, 16)
-    assert bake.world_key(World(strength=2.0), 16) != bake.world_key(World(strength=3.0), 16)
+    assert world_key(c, 16) != world_key(a, 16)
+    assert world_key(World(strength=2.0), 16) != world_key(World(strength=3.0), 16)
     # a world of one colour: its probe says so (its chains are not sampled)
-    np.testing.assert_allclose(bake.world_probes(World(color=np.ones(3))).world_color, 1.0)
-    assert bake.world_probes(a).world_color is None
+    np.testing.assert_allclose(world_probes(World(color=np.ones(3))).world_color, 1.0)
+    assert world_probes(a).world_color is None

@@ -1,4 +1,4 @@
-"""The implicit bounce (``core.bounce``) against the analytic bounce of a ground under a
+"""The implicit bounce (``core.bakes.bounce``) against the analytic bounce of a ground under a
 uniform sky: a Lambert ground of albedo a lit by a sky of radiance L everywhere above it has
 radiance a L, so a point over a wide ground facing down receives pi a L from it (the bounce,
 times the share of its lower hemisphere the ground fills)."""
@@ -8,7 +8,9 @@ import math
 import numpy as np
 from test_volume_leaks import cube as box
 
-from bo2_lighting.addon.core import bake, bounce, probes, sh
+from bo2_lighting.addon.core.bakes import bake, bounce
+from bo2_lighting.addon.core.formulas import sh
+from bo2_lighting.addon.core.lighting import probes
 from bo2_lighting.addon.core.scene import (
     Camera,
     Material,

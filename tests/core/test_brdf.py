@@ -1,4 +1,5 @@
-"""Tests of addon/core/brdf.py (Lazarov 2013, direct-lighting terms) against independent values.
+"""Tests of addon/core/formulas/brdf.py (Lazarov 2013, direct-lighting terms) against independent
+values.
 
 Independent values used here:
 - hand arithmetic for the spot values (written out next to each number);
@@ -17,7 +18,7 @@ import warnings
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import brdf
+from bo2_lighting.addon.core.formulas import brdf
 
 GLOSSES = (0.0, 0.25, 0.5, 0.75, 1.0)
 N = np.array([0.0, 0.0, 1.0])

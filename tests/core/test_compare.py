@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import compare
+from bo2_lighting.addon.core.review import compare
 
 RNG = np.random.default_rng(7)
 

@@ -15,7 +15,7 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import cubemap, texture
+from bo2_lighting.addon.core.formulas import cubemap, texture
 
 RNG = np.random.default_rng(11)
 

@@ -10,7 +10,7 @@ import dataclasses
 import numpy as np
 from test_volume_leaks import cube, grey, scene_of
 
-from bo2_lighting.addon.core import pipeline
+from bo2_lighting.addon.core.render import pipeline
 from bo2_lighting.addon.core.scene import Camera, Light
 
 

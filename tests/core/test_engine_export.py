@@ -18,14 +18,8 @@ import numpy as np
 import pytest
 from rgbe import read_rgbe
 
-from bo2_lighting.addon.core import (
-    cubemap,
-    engine_export,
-    environment_files,
-    gpu_textures,
-    prefilter,
-    sh,
-)
+from bo2_lighting.addon.core.files import engine_export, environment_files
+from bo2_lighting.addon.core.formulas import cubemap, gpu_textures, prefilter, sh
 
 ROOT = Path(__file__).resolve().parents[2]
 ENVMAPS = ROOT.parent / "shared" / "reference" / "envmaps"
@@ -409,7 +403,7 @@ def test_prefilter_says_when_half_floats_clip_and_scales(tmp_path):
 def test_a_damaged_bake_file_is_named_once_and_the_library_is_silent(tmp_path):
     """OpenEXR's own complaints about a damaged file stay out of stdout and stderr; the
     error names the file once."""
-    from bo2_lighting.addon.core import probe_file
+    from bo2_lighting.addon.core.files import probe_file
 
     path = tmp_path / "probe.exr"
     probe_file.write(path, {"kind": "reflection"}, np.zeros((1, 9, 3), np.float32),

@@ -1,11 +1,11 @@
-"""Environment BRDF (core/env_brdf.py): the ground truth by two independent methods plus a
+"""Environment BRDF (core/formulas/env_brdf.py): the ground truth by two independent methods plus a
 brute-force grid over light directions, the shipped table, and the talk's approximations
 against hand-computed values of the slides' formulas."""
 
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import brdf, env_brdf
+from bo2_lighting.addon.core.formulas import brdf, env_brdf
 
 # Gloss values of the talk's plots, the two ends of n.v, and alpha = 8192 (g = 1).
 GLOSS = np.array([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
@@ -163,7 +163,7 @@ def test_indirect_specular_of_a_uniform_environment_integrates_the_direct_brdf()
     """Under a uniform environment of radiance L the split approximation is exact: the
     reflected radiance is L times the direct specular BRDF (brdf.direct_brdf, the talk's terms)
     integrated over the hemisphere, summed here over a midpoint grid of light directions."""
-    from bo2_lighting.addon.core import shade
+    from bo2_lighting.addon.core.lighting import shade
 
     radiance = np.array([[2.0, 1.0, 0.5]], np.float32)
     for gloss, nv, rf0 in ((0.2, 0.7, 0.04), (0.6, 0.25, 0.9)):

@@ -13,7 +13,7 @@ import zlib
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import imaging
+from bo2_lighting.addon.core.review import imaging
 
 RNG = np.random.default_rng(7)
 

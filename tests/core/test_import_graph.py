@@ -72,3 +72,69 @@ def test_the_checker_finds_a_cycle_inside_a_function(tmp_path):
     (pkg / "b.py").write_text("def f():\n    from .a import g\n")
     files = {module_name(p, tmp_path): p for p in sorted(pkg.rglob("*.py"))}
     assert find_cycle(import_graph(files)) == ["addon.a", "addon.b", "addon.a"]
+
+
+# The core's rooms, bottom floor first: a module imports from its own floor or those below.
+FLOORS = ("kernels", "formulas", "scene", "lighting", "render", "bakes", "files", "review")
+
+
+def _room(module: str) -> str | None:
+    parts = module.split(".")
+    return parts[2] if len(parts) > 2 and parts[:2] == ["addon", "core"] else None
+
+
+def _runtime_imports(tree: ast.AST) -> list[ast.ImportFrom]:
+    """The relative imports of a module, those under ``if TYPE_CHECKING:`` left out."""
+    found = []
+
+    def visit(node):
+        if isinstance(node, ast.If) and getattr(node.test, "id", None) == "TYPE_CHECKING":
+            return
+        if isinstance(node, ast.ImportFrom) and node.level:
+            found.append(node)
+        for child in ast.iter_child_nodes(node):
+            visit(child)
+
+    visit(tree)
+    return found
+
+
+def _edges(files: dict[str, Path]):
+    """(module, imported add-on module, imported name, the name it is bound to) of every
+    relative import."""
+    for name, path in files.items():
+        package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+        for node in _runtime_imports(ast.parse(path.read_text(), filename=str(path))):
+            base = package.split(".")
+            base = base[:len(base) - node.level + 1]
+            stem = ".".join(base + ([node.module] if node.module else []))
+            for alias in node.names:
+                target = f"{stem}.{alias.name}"
+                yield (name, target if target in files else stem, alias.name,
+                       alias.asname or alias.name)
+
+
+def test_the_core_rooms_import_downwards_only():
+    files = {module_name(p): p for p in sorted(ADDON.rglob("*.py"))}
+    rooms = {_room(name) for name in files} - {None}
+    assert rooms == set(FLOORS), "a room of core/ is missing from FLOORS (or gone)"
+    upward = [f"{a} -> {b}" for a, b, *_ in _edges(files)
+              if _room(a) and _room(b) and FLOORS.index(_room(b)) > FLOORS.index(_room(a))]
+    assert not upward, upward
+
+
+def test_no_module_imports_another_modules_private_name():
+    files = {module_name(p): p for p in sorted(ADDON.rglob("*.py"))}
+    private = [f"{a} imports {name} from {b}" for a, b, name, _ in _edges(files)
+               if name.startswith("_") and not name.startswith("__") and b != a]
+    modules = {}  # per module: the names it binds to other add-on modules
+    for a, b, name, bound in _edges(files):
+        if b.endswith("." + name) and b in files:
+            modules.setdefault(a, set()).add(bound)
+    for a, path in files.items():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if (isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name)
+                    and node.value.id in modules.get(a, ()) and node.attr.startswith("_")
+                    and not node.attr.startswith("__")):
+                private.append(f"{a} reads {node.value.id}.{node.attr}")
+    assert not private, private

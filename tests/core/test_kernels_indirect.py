@@ -14,8 +14,8 @@ sums in another order).
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import cubemap, env_brdf, sh
-from bo2_lighting.addon.core import probes as cp
+from bo2_lighting.addon.core.formulas import cubemap, env_brdf, sh
+from bo2_lighting.addon.core.lighting import probes as cp
 
 RNG = np.random.default_rng(17)
 EPS = 1e-6

@@ -13,7 +13,8 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import brdf, shade
+from bo2_lighting.addon.core.formulas import brdf
+from bo2_lighting.addon.core.lighting import shade
 from bo2_lighting.addon.core.scene import Light
 
 RNG = np.random.default_rng(21)
@@ -157,7 +158,7 @@ def test_camera_rays_bit_for_bit():
 
 def test_splat_and_compose_place_every_value():
     from bo2_lighting.addon.core.kernels import shading
-    from bo2_lighting.addon.core.passes import SAMPLED, SAMPLED_WIDTH
+    from bo2_lighting.addon.core.render.passes import SAMPLED, SAMPLED_WIDTH
 
     m = 500
     p, n, diff, spec, dind, gind, emit, alb, rf0 = (
@@ -193,7 +194,7 @@ def test_plane_hits_give_the_ray_differentials_of_uv_derivatives():
     """The barycentrics where the neighbouring pixels' rays meet the triangle's plane
     (``plane_hits``, what the material programs' screen steps use) give the UV steps of
     ``texture.uv_derivatives`` (the NumPy reference, Igehy 1999)."""
-    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.formulas import texture
     from bo2_lighting.addon.core.kernels import shading
     from bo2_lighting.addon.core.scene import Camera
 

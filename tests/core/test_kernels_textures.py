@@ -12,7 +12,7 @@
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import texture
+from bo2_lighting.addon.core.formulas import texture
 from bo2_lighting.addon.core.kernels import textures as kernels
 
 RNG = np.random.default_rng(5)

@@ -1,12 +1,15 @@
 """Lightmaps: layouts, texels, rays, the gather against brute-force integrals, the clean-up,
-files and the renderer's use of them (``core.lightmap``, ``core.lightmap_bake``)."""
+files and the renderer's use of them (``core.lighting.lightmap``, ``core.bakes.lightmap_bake``)."""
 
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import bake as core_bake
-from bo2_lighting.addon.core import lightmap, lightmap_bake, lightmap_file, pipeline, probe_file
+from bo2_lighting.addon.core.bakes import bake as core_bake
+from bo2_lighting.addon.core.bakes import lightmap_bake
+from bo2_lighting.addon.core.files import lightmap_file, probe_file
 from bo2_lighting.addon.core.kernels import lightmap as kernels
+from bo2_lighting.addon.core.lighting import lightmap
+from bo2_lighting.addon.core.render import pipeline
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, Scene, World
 
 
@@ -428,7 +431,7 @@ def test_directional_lightmaps_keep_the_irradiance_at_the_normal():
     (sh,) = lightmap_bake.bake(scene, [target], lightmap.Settings(
         rays=128, bounces=1, denoise=False, directional=True))
     assert sh.directional and sh.image.shape == flat.image.shape[:2] + (12,)
-    from bo2_lighting.addon.core import sh as core_sh
+    from bo2_lighting.addon.core.formulas import sh as core_sh
 
     q = np.array([[0.8, 0.5], [0.3, 0.5]])
     coeffs = lightmap.as_sh(lightmap.sample(sh.image, q))

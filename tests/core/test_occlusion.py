@@ -1,11 +1,13 @@
-"""Contact occlusion (``core.occlusion``): the AO pass of a frame against the brute-force
+"""Contact occlusion (``core.formulas.occlusion``): the AO pass of a frame against the brute-force
 integral of the cosine-weighted hemisphere, rays blocked within the occlusion distance."""
 
 import numpy as np
 import pytest
 from test_sky import box, brute_force
 
-from bo2_lighting.addon.core import bake, occlusion, pipeline
+from bo2_lighting.addon.core.bakes import bake
+from bo2_lighting.addon.core.formulas import occlusion
+from bo2_lighting.addon.core.render import pipeline
 from bo2_lighting.addon.core.scene import (
     Camera,
     Material,
@@ -88,7 +90,7 @@ def test_without_indirect_light_it_is_searched_for_its_pass_alone():
     and with the pass it is the brute-force hemisphere's."""
     import dataclasses
 
-    from bo2_lighting.addon.core import probes
+    from bo2_lighting.addon.core.lighting import probes
     from bo2_lighting.addon.core.scene import Light
 
     cam = Camera.look_at((2.2, -0.4, 1.6), (0.3, 0.0, 0.0), np.radians(50), 160, 120)

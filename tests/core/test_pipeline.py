@@ -10,7 +10,7 @@ import threading
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import pipeline
+from bo2_lighting.addon.core.render import pipeline
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
 
 W, H = 40, 30
@@ -219,7 +219,7 @@ def test_instanced_batches_and_the_memory_they_need():
     its instance's matrix; a frame with more triangles than a raster keeps at once draws
     from its projection a chunk at a time (the same image as one set-up); ``memory.
     frame_bytes`` is within 10% of what the prepared frame and its shadow maps hold."""
-    from bo2_lighting.addon.core import memory, raster
+    from bo2_lighting.addon.core.render import memory, raster
 
     cube = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]],
                     np.float32) * 0.4 - [0.2, 0.2, 0.0]

@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import cubemap, prefilter
+from bo2_lighting.addon.core.formulas import cubemap, prefilter
 
 TABLE = np.array(
     [

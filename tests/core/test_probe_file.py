@@ -1,11 +1,11 @@
-"""Probe files (core/probe_file.py): round trip, atomic replacement, clear errors."""
+"""Probe files (core/files/probe_file.py): round trip, atomic replacement, clear errors."""
 
 import os
 
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import probe_file
+from bo2_lighting.addon.core.files import probe_file
 
 
 def chains(size=8):

@@ -1,4 +1,5 @@
-"""Indirect light from probes (core/probes.py): irradiance volumes, blending, normalization.
+"""Indirect light from probes (core/lighting/probes.py): irradiance volumes, blending,
+normalization.
 
 Values are checked against closed forms: the irradiance of a constant environment is pi L, of
 the SH of one direction the clamped-cosine convolution; the normalizations against the
@@ -8,13 +9,14 @@ algorithm" evaluated by hand."""
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import capture, cubemap, env_brdf, sh
-from bo2_lighting.addon.core import probes as cp
+from bo2_lighting.addon.core.formulas import cubemap, env_brdf, sh
+from bo2_lighting.addon.core.lighting import probes as cp
+from bo2_lighting.addon.core.lighting.world_probes import filtered, world_cube
 from bo2_lighting.addon.core.scene import World
 
 
 def constant_probes(radiance):
-    world_sh, mips = capture.filtered(capture.world_cube(World(color=np.float32(radiance)), 16))
+    world_sh, mips = filtered(world_cube(World(color=np.float32(radiance)), 16))
     return cp.Probes(world_sh=world_sh, world_mips=mips)
 
 
@@ -140,20 +142,20 @@ def test_normalization_is_bounded_and_names_are_checked():
 
 def test_world_cube_follows_the_equirect_mapping():
     """A world texture that is bright only around +Y lights the +Y face of the cube."""
-    from bo2_lighting.addon.core import texture
+    from bo2_lighting.addon.core.formulas import texture
 
     h, w = 64, 128
     img = np.zeros((h, w, 3), np.float32)
     # u = 0.5 - atan2(y, x) / 2pi: +Y (atan2 = pi/2) is u = 0.25
     img[:, int(0.2 * w):int(0.3 * w)] = 1.0
     world = World(texture=texture.make_texture(img, srgb=False), strength=2.0)
-    cube = capture.world_cube(world, 16)
+    cube = world_cube(world, 16)
     plus_y = 2  # face order +X, -X, +Y, -Y, +Z, -Z
     assert cube[plus_y, 8, 8].min() > 1.9 and cube[plus_y - 1].max() == 0.0
     assert cubemap.FACES[plus_y][0].tolist() == [0, 1, 0]
     # A Mapping rotation of 90 degrees about Z (x -> y): the +X face now reads the +Y band.
     world.rotation = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
-    turned = capture.world_cube(world, 16)
+    turned = world_cube(world, 16)
     assert turned[0, 8, 8].min() > 1.9 and turned[plus_y, 8, 8].max() == 0.0
 
 

@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import raster
+from bo2_lighting.addon.core.render import raster
 
 # --------------------------------------------------------------------------------------------
 # helpers
@@ -851,7 +851,7 @@ def test_a_view_drawn_once_is_projected_and_culled_in_one_pass_bit_for_bit():
     """``pipeline.tile_clip`` of a view's ``Projection`` (``with_camera(once=True)``) gives
     the clip coordinates and triangles of the projected view's, bit for bit, unseen triangles
     left out."""
-    from bo2_lighting.addon.core import pipeline
+    from bo2_lighting.addon.core.render import pipeline
 
     rng = np.random.default_rng(4)
     positions = (rng.uniform(-4, 4, (2000, 1, 3)) + rng.normal(0, 0.5, (2000, 3, 3)))

@@ -1,11 +1,11 @@
-"""Bounded recursion (``core.recursion``) over chains deeper than Python's stack allows,
+"""Bounded recursion (``core.scene.recursion``) over chains deeper than Python's stack allows,
 against the values the chains compute by a plain loop."""
 
 import sys
 
 import pytest
 
-from bo2_lighting.addon.core.recursion import Bounded
+from bo2_lighting.addon.core.scene.recursion import Bounded
 
 
 def chain(length: int, unmemoized=frozenset()):

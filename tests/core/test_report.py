@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from rgbe import read_rgbe
 
-from bo2_lighting.addon.core import flip, imaging, report
+from bo2_lighting.addon.core.review import flip, imaging, report
 
 needs_flip = pytest.mark.skipif(flip.unavailable() is not None, reason="no flip-evaluator")
 

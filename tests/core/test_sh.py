@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import rgbe
 
-from bo2_lighting.addon.core import sh, texture
+from bo2_lighting.addon.core.formulas import sh, texture
 
 RNG = np.random.default_rng(11)
 ENVMAPS = Path(__file__).resolve().parents[2].parent / "shared" / "reference" / "envmaps"

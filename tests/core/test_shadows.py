@@ -11,7 +11,7 @@ Independent references used here (computed in this file, never with the module's
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import shadows
+from bo2_lighting.addon.core.render import shadows
 from bo2_lighting.addon.core.scene import Camera, Light
 
 # --------------------------------------------------------------------------------------------

@@ -1,4 +1,4 @@
-"""The world as a light that must be seen (``core.sky``): the fraction of a uniform world's
+"""The world as a light that must be seen (``core.render.sky``): the fraction of a uniform world's
 light that reaches a point, against the view factor of the opening it sees it through."""
 
 import math
@@ -7,7 +7,9 @@ import numpy as np
 import pytest
 from test_volume_leaks import cube as box
 
-from bo2_lighting.addon.core import bake, pipeline, sh, sky
+from bo2_lighting.addon.core.bakes import bake
+from bo2_lighting.addon.core.formulas import sh
+from bo2_lighting.addon.core.render import pipeline, sky
 from bo2_lighting.addon.core.scene import (
     Camera,
     Material,

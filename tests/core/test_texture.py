@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import texture
+from bo2_lighting.addon.core.formulas import texture
 from bo2_lighting.addon.core.scene import Camera
 
 RNG = np.random.default_rng(7)

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from test_pipeline import HALF_H, HALF_W, H, W, lambert_scene, pixel_centres
 
-from bo2_lighting.addon.core import material, pipeline, viewport
-from bo2_lighting.addon.core.probes import Probes, ReflectionProbe
-from bo2_lighting.addon.core.scene import Light, Material
+from bo2_lighting.addon.core.lighting.probes import Probes, ReflectionProbe
+from bo2_lighting.addon.core.render import pipeline, viewport
+from bo2_lighting.addon.core.scene import Light, Material, material
 
 LIGHT = np.array([0.7, -0.4, 1.5])
 POWER = 80.0
@@ -95,14 +95,14 @@ def test_geometry_and_light_changes_prepare_again(session):
 
 
 def test_a_world_lit_anew_keeps_the_dome(session):
-    """The viewport's dome of shadow maps (``core.sky``) looks every way, so that a world
+    """The viewport's dome of shadow maps (``core.render.sky``) looks every way, so that a world
     turned, lit anew or darkened needs no new maps (an F12 of a black world builds none)."""
-    from bo2_lighting.addon.core import bake
+    from bo2_lighting.addon.core.lighting.world_probes import world_probes
     from bo2_lighting.addon.core.scene import World
 
     def lit(value):
         world = World(color=np.full(3, value, np.float32))
-        return dataclasses.replace(scene(), world=world, probes=bake.world_probes(world))
+        return dataclasses.replace(scene(), world=world, probes=world_probes(world))
 
     session.update(lit(0.0), viewport.CHANGES)
     assert session.wait(60)

@@ -17,8 +17,8 @@ import math
 
 import numpy as np
 
-from bo2_lighting.addon.core import bake, capture
-from bo2_lighting.addon.core import probes as cp
+from bo2_lighting.addon.core.bakes import bake, capture
+from bo2_lighting.addon.core.lighting import probes as cp
 from bo2_lighting.addon.core.scene import (
     Camera,
     Light,

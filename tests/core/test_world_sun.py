@@ -1,5 +1,5 @@
-"""The world's sun (``core.world_sun``) against analytic values: a cap of known radiance and
-half-angle a holds the irradiance L 2 pi (1 - cos a) towards its axis; one texel of an equirect
+"""The world's sun (``core.lighting.world_sun``) against analytic values: a cap of known radiance
+and half-angle a holds the irradiance L 2 pi (1 - cos a) towards its axis; one texel of an equirect
 spans (2 pi / W) (cos theta_0 - cos theta_1) steradians."""
 
 import math
@@ -7,7 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core import sh, texture, world_sun
+from bo2_lighting.addon.core.formulas import sh, texture
+from bo2_lighting.addon.core.lighting import world_sun
 from bo2_lighting.addon.core.scene import World
 
 

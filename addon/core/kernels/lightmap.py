@@ -1,5 +1,5 @@
-"""Lightmap kernels (``core.lightmap``): texels of a UV layout, a BVH of the scene's triangles,
-rays through it, and the hemisphere gather of every texel.
+"""Lightmap kernels (``core.lighting.lightmap``): texels of a UV layout, a BVH of the scene's
+triangles, rays through it, and the hemisphere gather of every texel.
 
 - ``texels``: each texel of a lightmap gets the triangle and barycentric weights of the first
   of a grid of sub-texel positions (the centre first) that falls inside a triangle of its UV

@@ -1,4 +1,5 @@
-"""Ground-truth-based ambient occlusion (``core.occlusion``), pixel by pixel, then filtered.
+"""Ground-truth-based ambient occlusion (``core.formulas.occlusion``), pixel by pixel, then
+filtered.
 
 For each pixel of a tile, ``SLICES`` planes through the view vector, each searched on both sides
 in the frame's view-space depths for the highest horizon within the radius, and the cosine-

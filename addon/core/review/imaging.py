@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .texture import linear_to_srgb
+from ..formulas.texture import linear_to_srgb
 
 # ---------------------------------------------------------------------------------------------
 # Colour map

@@ -66,8 +66,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import affine, raster
-from .scene import Camera, Light
+from ..formulas import affine
+from ..scene import Camera, Light
+from . import raster
 
 __all__ = ["ShadowMap", "build_shadow_map", "camera_depth_range", "shadow_map_jobs",
            "shadow_visibility"]
@@ -224,7 +225,7 @@ def _pyramid(dist: np.ndarray, depth: np.ndarray) -> list[np.ndarray]:
     """Reduction pyramid of one (res, res) map: levels MIP_FIRST_LEVEL, ... as (side, side, 3)
     float32 (least dist, least depth, greatest depth); an odd side's last blocks are cut by the
     edge (``kernels.raster.reduction``)."""
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     levels = []
     side, level = dist.shape[-1], 0
@@ -259,7 +260,7 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
         kind, basis, tan_half = "PERSPECTIVE", _frame(light.direction)[None], np.tan(0.5 * fov)
     else:
         kind, basis, tan_half = "CUBE", _CUBE, 1.0
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     closest, reach = kernels.distances(tris, origin) if len(tris) else (np.inf, 1.0)
     far = 1.01 * reach + 1e-3
@@ -312,7 +313,7 @@ def camera_depth_range(camera: Camera, tris: np.ndarray):
 
     returns: corners(z) -> (4, 3) camera-space corners at view depth z, near, far, z0, z1
     """
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     proj = np.asarray(camera.projection, np.float64)
     ndc = np.array([[x, y, -1.0, 1.0] for x, y in ((-1, -1), (1, -1), (1, 1), (-1, 1))])
@@ -339,7 +340,7 @@ def camera_depth_range(camera: Camera, tris: np.ndarray):
 def _extent(tris: np.ndarray, axes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The least and greatest (A,) of the corners of ``tris`` (T, 3, 3) along ``axes``
     (A, 3) float64 (``kernels.raster.extent``: one pass, no temporary of the triangles)."""
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     rows = np.zeros((len(axes), 4))
     rows[:, :3] = axes
@@ -411,7 +412,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         rects, splits = np.array([[*(0.5 * (lo + hi)), half]]), np.zeros(0)
     else:
         rects, splits = np.zeros((0, 3)), np.zeros(0)
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     view_proj = np.zeros((len(rects), 4, 4))
     z_min = np.zeros(len(rects))
@@ -435,7 +436,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         m[3, 3] = 1.0
 
     def cascade(c: int):
-        from .kernels import raster as kernels
+        from ..kernels import raster as kernels
 
         if cutout is None:  # the depths straight from the triangles
             cx, cy, half = rects[c]
@@ -587,7 +588,7 @@ def _packed(sm: ShadowMap) -> tuple:
     """The map's arrays and constants as the visibility kernel takes them (built once)."""
     if sm.kernel_args is not None:
         return sm.kernel_args
-    from .kernels import shadows as kernels
+    from ..kernels import shadows as kernels
 
     res = sm.resolution
     kind = {"CUBE": kernels.CUBE, "PERSPECTIVE": kernels.PERSPECTIVE, "ORTHO": kernels.ORTHO}
@@ -647,7 +648,7 @@ def shadow_visibility(
     returns:    (N,) float32 in [0, 1], 1 = fully lit; points outside every map, and points
                 with non-finite coordinates, are lit
     """
-    from .kernels import shadows as kernels
+    from ..kernels import shadows as kernels
 
     p = np.require(np.asarray(points, np.float32).reshape(-1, 3), np.float32, ["C", "W"])
     n = np.require(np.asarray(normals, np.float32).reshape(-1, 3), np.float32, ["C", "W"])

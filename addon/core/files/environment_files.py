@@ -36,7 +36,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cubemap, gpu_textures
+from ..formulas import cubemap, gpu_textures
 
 __all__ = ["ImageError", "read_image", "to_cube"]
 

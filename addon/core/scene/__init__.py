@@ -4,18 +4,24 @@ The Blender host (``addon/blender/extract.py``) translates a depsgraph into thes
 core knows nothing of Blender. Conventions (``docs/engine.md``): world space is
 Blender's (Z up, right-handed, metres), colours are scene-linear float32 RGB, light values are
 Blender's units (W for point, spot and area lights; W/m^2 irradiance for sun).
+
+A surface is a program (``material``: the node tree compiled, its node maths in ``node_math``,
+deep graphs evaluated within a bounded stack by ``recursion``).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from . import affine
+from ..formulas import affine
+from ..formulas.texture import Texture
 from .material import Program, talk_program
-from .probes import Probes
-from .texture import Texture
+
+if TYPE_CHECKING:  # the lighting floor, above this one, holds the probes
+    from ..lighting.probes import Probes
 
 LIGHT_KINDS = ("POINT", "SPOT", "SUN", "AREA")
 
@@ -79,7 +85,7 @@ class Camera:
                  spans x in [c, c + 1), y in [r, r + 1))
         returns: origins (N, 3) on the near plane and unit directions (N, 3), float32
         """
-        from .kernels import shading
+        from ..kernels import shading
 
         inv = affine.inverse(self.projection @ self.world_to_camera)
         # Clip-space points on the near (z = -1) and a middle (z = 0) plane, as affine functions
@@ -97,7 +103,7 @@ class Camera:
 
 @dataclass
 class Material:
-    """A surface: its compiled node tree (``core.material.Program``) and its settings.
+    """A surface: its compiled node tree (``core.scene.material.Program``) and its settings.
 
     program: what the surface is at each point (``material.talk_program()``: a grey dielectric)
     backface_culling: cull faces seen from behind
@@ -199,8 +205,8 @@ class World:
     """The background seen by the camera.
 
     color:    (3,) constant radiance, W/(m^2 sr), used when there is no texture
-    texture:  optional equirectangular ``core.texture.Texture`` (Blender's Environment Texture
-              mapping), radiance = texture * strength
+    texture:  optional equirectangular ``core.formulas.texture.Texture`` (Blender's Environment
+              Texture mapping), radiance = texture * strength
     strength: multiplier of the texture
     rotation: (3, 3) world-to-texture rotation (a Mapping node's rotation), identity by default
     background_lod: mip level of the texture the camera sees (a viewport's studio light blur);

@@ -15,11 +15,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import cubemap, pipeline, prefilter, sh
-from .probes import Probes
-from .scene import Camera, Scene, World
+from ..formulas import cubemap
+from ..lighting.probes import Probes
+from ..render import pipeline
+from ..scene import Camera, Scene
 
-__all__ = ["Capture", "Surfaces", "face_camera", "filtered", "world_cube"]
+__all__ = ["Capture", "Surfaces", "face_camera"]
 
 
 def face_camera(position, face: int, size: int, near: float, far: float) -> Camera:
@@ -144,27 +145,3 @@ class Surfaces:
     front_ratio: float
     back_direction: np.ndarray | None
     back_distance: float
-
-
-def world_cube(world: World, size: int) -> np.ndarray:
-    """(6, size, size, 3) float32 radiance of the world: its colour, or its Environment Texture
-    (Blender's equirectangular mapping and Mapping rotation) times strength, resampled without
-    aliasing by ``cubemap.equirect_to_cube``."""
-    if world.texture is None:
-        return np.broadcast_to(np.asarray(world.color, np.float32)[:3],
-                               (6, size, size, 3)).copy()
-    cube = cubemap.equirect_to_cube(world.texture.linear(0)[..., :3], size,
-                                    rotation=world.rotation)
-    return (cube * np.float32(world.strength)).astype(np.float32)
-
-
-def filtered(cube: np.ndarray) -> tuple[np.ndarray, dict[str, list[np.ndarray]]]:
-    """SH (9, 3) and both prefiltered chains {"bo2": cosine power, "bo1": angular Gaussian} of
-    a captured cube (6, S, S, 3)."""
-    size = cube.shape[1]
-    coeffs = sh.project(cubemap.texel_directions(size).reshape(-1, 3), cube.reshape(-1, 3),
-                        np.broadcast_to(cubemap.texel_solid_angles(size),
-                                        (6, size, size)).reshape(-1))
-    chains = {"bo2": prefilter.prefilter_cosine_power(cube),
-              "bo1": prefilter.prefilter_angular_gaussian(cube)}
-    return np.asarray(coeffs, np.float32), chains

@@ -21,9 +21,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import bake, pipeline
+from ..lighting import world_probes
+from ..scene import Camera, Scene
+from . import pipeline
 from .passes import EMPTY_DEPTH
-from .scene import Camera, Scene
 
 # What ``Session.update`` may be told changed.
 CHANGES = frozenset({"geometry", "materials", "lights", "camera", "settings", "world", "probes"})
@@ -174,7 +175,7 @@ class Session:
     def update(self, scene: Scene, changed, world_light: bool = False) -> int:
         """Render ``scene`` anew; ``changed`` names what differs from the last update (a subset
         of ``CHANGES``; anything on the first update). With ``world_light``, the scene is lit
-        by its world alone: the world's probes (``bake.world_probes``, about a second for a
+        by its world alone: the world's probes (``world_probes.world_probes``, about a second for a
         new HDRI) are made on the render thread, not the caller's. Returns the update's
         number."""
         changed = frozenset(changed)
@@ -262,7 +263,8 @@ class Session:
                 number, self._busy = self._updates, True
             try:
                 if world_light:
-                    scene = dataclasses.replace(scene, probes=bake.world_probes(scene.world))
+                    lit = world_probes.world_probes(scene.world)
+                    scene = dataclasses.replace(scene, probes=lit)
                 self._render(scene, changed, number)
             except pipeline.Cancelled:
                 with self._cond:  # what this update changed still waits to be applied

@@ -23,7 +23,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cubemap, gpu_textures, probe_file, sh
+from ..formulas import cubemap, gpu_textures, sh
+from . import probe_file
 
 __all__ = ["AXES", "FORMATS", "chain_metadata", "cube_sh", "sh_header", "sh_record", "write_chain",
            "write_text"]

@@ -28,8 +28,8 @@ from collections import OrderedDict
 
 import numpy as np
 
-from . import sh, texture
-from .scene import Light, World
+from ..formulas import sh, texture
+from ..scene import Light, World
 
 __all__ = ["MAX_RADIUS", "Sun", "disc_radiance", "find", "split"]
 

@@ -204,7 +204,7 @@ class Texture:
         (``kernels.textures.halve``, ``halve_bytes`` for 8-bit codes); safe across threads."""
         if not self._fill.pending:
             return
-        from .kernels import textures as kernels
+        from ..kernels import textures as kernels
 
         with self._fill.lock:
             if not self._fill.pending:
@@ -336,7 +336,7 @@ def make_texture(
     returns:       Texture with straight-alpha levels
     """
     _check_sampling(extension, interpolation)
-    from .kernels import textures as kernels
+    from ..kernels import textures as kernels
 
     image = np.asarray(pixels)
     if image.dtype != np.uint8:
@@ -386,7 +386,7 @@ def sample(texture: Texture, uv, lod=None, associate: int = 0) -> np.ndarray:
     returns: (N, C) float32 scene-linear (sRGB level 0 decoded); with CLIP, 0 (all channels,
              alpha too) beyond half a texel outside the unit square
     """
-    from .kernels import textures as kernels
+    from ..kernels import textures as kernels
 
     uv = np.asarray(uv).reshape(-1, 2)
     u, v = (np.require(uv[:, k], np.float64, ["C", "W"]) for k in (0, 1))

@@ -46,7 +46,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import affine, cubemap, env_brdf, sh
+from ..formulas import affine, cubemap, env_brdf, sh
 
 __all__ = [
     "MAX_NORMALIZATION",
@@ -113,7 +113,7 @@ class IrradianceVolume:
     falloff:        the fraction of ``influence`` over which it fades (Blender's Falloff)
     validity:       float32 (X, Y, Z) in [0, 1], or None (all valid): a sample of validity 0 (in
                     geometry, and no valid neighbour to take its light from:
-                    ``core.bake.dilate``) is left out of the blend
+                    ``core.bakes.bake.dilate``) is left out of the blend
     normal_bias, view_bias: the look-up point moves this many sample spacings along the
                     shading normal and towards the eye (EEVEE's Normal and View Bias)
     facing_bias:    samples behind the surface are left out of the blend: each of the eight
@@ -170,7 +170,7 @@ class IrradianceVolume:
         if self._positions is None:
             self._positions = np.ascontiguousarray(volume_sample_positions(
                 self.local_to_world, self.resolution).reshape(-1, 3), np.float32)
-        from .kernels import indirect as kernels
+        from ..kernels import indirect as kernels
 
         out = np.empty((len(pts), 27), np.float32)
         n = np.ascontiguousarray(normals if facing else np.zeros((len(pts), 3)), np.float32)
@@ -334,7 +334,7 @@ def indirect(
                  ``lightmap.as_sh``) rather than looked up in the volumes, or None
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
-    from .kernels import indirect as kernels
+    from ..kernels import indirect as kernels
 
     if prefilter not in PREFILTERS:
         raise ValueError(f"unknown prefilter {prefilter!r}; expected one of: "

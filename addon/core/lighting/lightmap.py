@@ -299,7 +299,7 @@ def size_for(uvs: np.ndarray, positions: np.ndarray, texels_per_metre: float,
 
 def overlaps(uvs: np.ndarray, width: int, height: int) -> int:
     """Texel centres covered by more than one triangle of the layout ``uvs`` (T, 3, 2)."""
-    from .kernels import lightmap as kernels
+    from ..kernels import lightmap as kernels
 
     count = np.zeros(width * height, np.int32)
     kernels.coverage(np.ascontiguousarray(uvs, np.float32), width, height, count)
@@ -314,7 +314,7 @@ def dilate(image: np.ndarray, valid: np.ndarray, passes: int = 16) -> np.ndarray
     """``image`` (H, W, C) with the texels outside ``valid`` (H, W) filled by the mean of
     their valid neighbours (8-connected), ``passes`` times outwards
     (``kernels.lightmap.dilate_pass``); the rest stay 0. (H, W, C) float32."""
-    from .kernels import lightmap as kernels
+    from ..kernels import lightmap as kernels
 
     out = np.ascontiguousarray(np.where(valid[..., None], image, 0.0), np.float32)
     have = np.array(valid, bool)  # a copy: the passes write into it
@@ -361,7 +361,7 @@ def denoise_steps(image: np.ndarray, chart: np.ndarray, position: np.ndarray,
     on ``threads`` threads) and returns the filtered (H, W, C) float32 image."""
     from concurrent.futures import ThreadPoolExecutor
 
-    from .kernels import lightmap as kernels
+    from ..kernels import lightmap as kernels
 
     h, w, c = image.shape
     luma = np.array([0.2126, 0.7152, 0.0722]) if c == 3 else np.eye(c)[0]

@@ -18,11 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import pipeline, shade
-from . import probes as probe_light
-from .capture import face_camera, world_cube
-from .cubemap import FACES, _pad
-from .lightmap import (
+from ..formulas.cubemap import FACES, _pad
+from ..lighting import probes as probe_light
+from ..lighting import shade
+from ..lighting.lightmap import (
     SH_SCALE_C0,
     SH_SCALE_C1,
     Lightmap,
@@ -35,7 +34,10 @@ from .lightmap import (
     stitch,
     uv_islands,
 )
-from .scene import Scene
+from ..lighting.world_probes import world_cube
+from ..render import pipeline
+from ..scene import Scene
+from .capture import face_camera
 
 __all__ = ["bake", "bake_bytes", "geometry_key", "light_key", "ray_offset", "steps"]
 
@@ -71,7 +73,7 @@ def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
 def _texels(target: Target, frame, first, index, scene_positions) -> _Texels:
     """The texels of ``target`` on its surface, in ``frame`` (``_frame_index``'s ``first`` and
     ``index``; ``scene_positions`` (T, 3, 3) every batch's triangles, concatenated)."""
-    from .kernels import lightmap as kernels
+    from ..kernels import lightmap as kernels
 
     w, h = target.width, target.height
     tri = np.full(w * h, -1, np.int32)
@@ -133,7 +135,7 @@ class _Bvh:
 
     @classmethod
     def of(cls, tris: np.ndarray) -> _Bvh:
-        from .kernels import lightmap as kernels
+        from ..kernels import lightmap as kernels
 
         tris = np.ascontiguousarray(tris, np.float32)
         order = np.empty(len(tris), np.int32)
@@ -186,7 +188,7 @@ def _direct(frame, casters: _Bvh, reach: float, p, n, geo, offsets) -> np.ndarra
     shadowed by ray tracing ``casters`` (``SHADOW_RAYS`` per light, rays starting ``offsets``
     (N,) m above the surface): exact at any scale, where a shadow map over the whole scene
     (a far terrain) would blur every shadow away."""
-    from .kernels import lightmap as kernels
+    from ..kernels import lightmap as kernels
 
     out = np.zeros((len(p), 3), np.float32)
     for light in frame.scene.lights:
@@ -297,7 +299,7 @@ def _steps(scene: Scene, targets: list[Target], settings: Settings | None, resul
            should_stop: Callable[[], bool] | None = None,
            warn: Callable[[str], None] | None = None) -> Iterator[float]:
     """``steps``, a fraction after every short piece of work."""
-    from .kernels import lightmap as kernels
+    from ..kernels import lightmap as kernels
 
     settings = settings or Settings()
 

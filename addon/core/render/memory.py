@@ -9,7 +9,9 @@ memory runs out: Blender's own memory and the render's transient buffers come on
 
 from __future__ import annotations
 
-__all__ = ["OutOfMemory", "frame_bytes", "limit_note", "out_of_memory", "physical", "size"]
+from ..kernels.machine import limit_note, size
+
+__all__ = ["OutOfMemory", "frame_bytes", "out_of_memory"]
 
 _PER_TRIANGLE = 36 + 36 + 4 + 4 + 3  # positions, normals, material, instance, flags
 _PER_INSTANCE = 16 * 8 + 6 * 4  # world_to_object float64, texture space float32
@@ -47,43 +49,15 @@ def frame_bytes(scene) -> int:
 
 
 def _dome_maps(scene) -> int:
-    """Shadow maps of the world's dome (``core.sky``): the directions the world sends light
+    """Shadow maps of the world's dome (``core.render.sky``): the directions the world sends light
     from."""
     if not scene.meshes or scene.probes is None:
         return 0
-    from .sh import fibonacci_directions, radiance_luminance
+    from ..formulas.sh import fibonacci_directions, radiance_luminance
 
     count = max(0, int(scene.settings.sky_directions))
     lit = radiance_luminance(scene.probes.world_sh, fibonacci_directions(count)) > 0.0
     return int(lit.sum())
-
-
-def physical() -> int | None:
-    """Bytes of memory this machine has, or None where the system does not say (Windows)."""
-    import os
-
-    try:
-        return int(os.sysconf("SC_PAGE_SIZE")) * int(os.sysconf("SC_PHYS_PAGES"))
-    except (AttributeError, OSError, ValueError):
-        return None
-
-
-def size(count: int) -> str:
-    """Bytes as 'N MiB' under a GiB, else 'N.N GiB'."""
-    return f"{count / 2**20:.0f} MiB" if count < 2**30 else f"{count / 2**30:.1f} GiB"
-
-
-def limit_note() -> str:
-    """' under a limit of N MiB of address space (ulimit -v)' when the process has one."""
-    try:
-        import resource
-
-        soft = resource.getrlimit(resource.RLIMIT_AS)[0]
-    except (ImportError, OSError, ValueError):
-        return ""
-    if soft == resource.RLIM_INFINITY:
-        return ""
-    return f" under a limit of {size(soft)} of address space (ulimit -v)"
 
 
 def out_of_memory(scene, error: MemoryError | None = None) -> str:

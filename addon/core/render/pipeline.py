@@ -31,11 +31,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import affine, material, occlusion, probes, raster, sh, shade, shadows, texture, world_sun
-from . import lightmap as lightmap_light
+from ..formulas import affine, occlusion, sh, texture
+from ..lighting import lightmap as lightmap_light
+from ..lighting import probes, shade, world_sun
+from ..scene import Material, Scene, material
+from . import raster, shadows
 from . import sky as sky_light
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH
-from .scene import Material, Scene
 
 
 class Cancelled(Exception):
@@ -499,7 +501,7 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
              of the tile's triangles, and their indices; a smaller one is projected and culled
              in one pass, ``kernels.raster.project_survivors``)
     """
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     x0, y0, x1, y1 = tile
     tw, th = x1 - x0, y1 - y0
@@ -551,7 +553,7 @@ def _background(scene: Scene, x: np.ndarray, y: np.ndarray) -> np.ndarray:
 def _points(frame: Frame, tri, bary, p, n, geo, v, sx, sy, shifts=True) -> material.Points:
     """What a material program reads at the points (``material.Points``): tri (N,), bary
     (N, 3), p, n, geo, v (N, 3) (``_shade_points``), window positions sx, sy (N,)."""
-    from .kernels import shading
+    from ..kernels import shading
 
     cam = frame.scene.camera
     tri = np.ascontiguousarray(tri, np.int32)
@@ -712,7 +714,7 @@ def _raster(frame: Frame, tile, margin, offset, behind=None, frags=None):
 
 def _alpha(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
     """(N,) the surfaces' alpha at the points on triangles ``tri``."""
-    from .kernels import shading
+    from ..kernels import shading
 
     m = len(tri)
     p, n, geo = (np.empty((m, 3), np.float32) for _ in range(3))
@@ -763,7 +765,7 @@ def _shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> n
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
     """
-    from .kernels import shading
+    from ..kernels import shading
 
     scene, cam = frame.scene, frame.scene.camera
     m = len(tri)
@@ -940,7 +942,7 @@ def _render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     samples are shaded together, in blocks of ``SHADE_BLOCK``.
     ``settings.shade_every_sample`` shades every sample instead.
     """
-    from .kernels import shading
+    from ..kernels import shading
 
     scene = frame.scene
     x0, y0, x1, y1 = tile

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .lightmap import Lightmap
+from ..lighting.lightmap import Lightmap
 from .probe_file import ProbeFileError, _digest, read_parts, replace_all, write_parts
 
 __all__ = ["FORMAT", "read", "write_all"]

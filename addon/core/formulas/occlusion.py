@@ -50,7 +50,7 @@ def ambient(depth: np.ndarray, normals: np.ndarray, rec: np.ndarray, origin: tup
     radius:  metres; scale: pixels per metre at depth 1 (perspective) or anywhere (ortho)
     reach:   the widest search, pixels (the buffer's margin)
     """
-    from .kernels import occlusion as kernels
+    from ..kernels import occlusion as kernels
 
     h, w = normals.shape[0] - 2 * BLUR, normals.shape[1] - 2 * BLUR
     at = REACH - BLUR

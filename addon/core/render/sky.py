@@ -28,8 +28,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import sh, shadows
-from .scene import Light
+from ..formulas import sh
+from ..scene import Light
+from . import shadows
 
 __all__ = ["Sky", "dome", "dome_lights", "radiance_weights", "upsampled", "visibility"]
 

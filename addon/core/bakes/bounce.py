@@ -33,11 +33,11 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ..formulas.texture import Texture
+from ..lighting.probes import IrradianceVolume, sends_light
+from ..render.pipeline import Cancelled
+from ..scene import Scene, World
 from . import bake, capture
-from .pipeline import Cancelled
-from .probes import IrradianceVolume, sends_light
-from .scene import Scene, World
-from .texture import Texture
 
 __all__ = ["FACE_SIZE", "MAX_SAMPLES", "attach", "key", "spec"]
 

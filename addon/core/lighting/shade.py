@@ -23,8 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import env_brdf
-from .scene import Light
+from ..formulas import env_brdf
+from ..scene import Light
 
 
 def light_incidence(light: Light, position: np.ndarray, geo: np.ndarray):
@@ -37,7 +37,7 @@ def light_incidence(light: Light, position: np.ndarray, geo: np.ndarray):
               irradiance (N, 3) float32 W/m^2 on a surface facing the light (0 where not lit),
               lit (N,) bool: the geometric normal faces the light and the light gives light
     """
-    from .kernels import shading
+    from ..kernels import shading
 
     n = len(position)
     l_dir = np.empty((n, 3), np.float32)
@@ -63,7 +63,7 @@ def add_direct(normal, view, l_dir, irradiance, albedo, rf0, gloss, model, diffu
     albedo, rf0: (N, 3) linear;  gloss: (N,);  model: a name of ``brdf.MODELS``
     visibility: (N,) shadow term E is multiplied by (``shadows.shadow_visibility``), or None
     """
-    from .kernels import shading
+    from ..kernels import shading
 
     def f32(a, shape):
         a = np.asarray(a, np.float32)

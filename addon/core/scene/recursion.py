@@ -1,8 +1,8 @@
 """Memoized demand-driven evaluation of graphs of any depth within a bounded Python stack.
 
 Node graphs are compiled and programs evaluated by functions that call themselves for their
-inputs and memoize each result (``blender.materials``, ``core.material``). A chain of thousands
-of nodes (generated assets) would exceed Python's recursion limit. ``Bounded`` keeps their
+inputs and memoize each result (``blender.materials``, ``core.scene.material``). A chain of
+thousands of nodes (generated assets) would exceed Python's recursion limit. ``Bounded`` keeps their
 simple recursive form: past ``limit`` nested calls, the innermost call gives up with
 ``TooDeep(key)``; ``run`` then computes that deeper key first, from an empty stack, and tries
 again. Each retry finds the deeper results memoized, so the graph is evaluated deepest first,

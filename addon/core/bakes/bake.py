@@ -30,18 +30,25 @@ here touches the disk, so a bake that is stopped early leaves the previous files
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from . import capture, cubemap, sh
-from .probes import IrradianceVolume, Probes, ReflectionProbe, grid_spacing, volume_sample_positions
-from .scene import World
+from ..formulas import cubemap, sh
+from ..lighting.probes import (
+    IrradianceVolume,
+    Probes,
+    ReflectionProbe,
+    grid_spacing,
+    volume_sample_positions,
+)
+from ..lighting.world_probes import filtered, world_probes
+from ..scene import World
+from . import capture
 
 __all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate", "escape",
-           "metadata", "world_key", "world_probes"]
+           "metadata"]
 
 KINDS = ("reflection", "irradiance")
 FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
@@ -167,34 +174,6 @@ class BakedProbe:
     face_size: int
     validity: np.ndarray | None = None
     escaped: int = 0
-
-
-def world_key(world: World, size: int) -> tuple:
-    """A key that changes whenever the world's probe would (its texture by content)."""
-    digest = world.texture.digest if world.texture is not None else None
-    return (digest, np.asarray(world.color, np.float32).tobytes(), float(world.strength),
-            np.asarray(world.rotation, np.float64).tobytes(), int(size))
-
-
-_world_cache: dict = {}  # world_key -> (SH, chains), the newest last
-_world_lock = threading.Lock()  # renders, previews and the viewport ask at once
-_WORLDS_KEPT = 4  # the scene's world and a few studio lights switched between
-
-
-def world_probes(world: World, size: int = 64) -> Probes:
-    """Probes of the world alone, the fallback of every probe (SH (9, 3) and both chains of
-    its ``size`` cube), computed once per world (the last few worlds are kept)."""
-    key = world_key(world, size)
-    with _world_lock:
-        value = _world_cache.pop(key, None)
-        if value is None:
-            value = capture.filtered(capture.world_cube(world, size))
-        _world_cache[key] = value
-        while len(_world_cache) > _WORLDS_KEPT:
-            _world_cache.pop(next(iter(_world_cache)))
-    world_sh, world_mips = value
-    color = None if world.texture is not None else np.asarray(world.color, np.float32)[:3]
-    return Probes(world_sh=world_sh, world_mips=world_mips, world_color=color)
 
 
 def check(specs: list[ProbeSpec]) -> tuple[list[ProbeSpec], list[str]]:
@@ -375,7 +354,7 @@ class Bake:
                 for p in pos:
                     cube = self.capture(p, size, *self._clip(spec), seen, spec.kind)
                     if spec.kind == "reflection":
-                        c, chains = capture.filtered(cube)
+                        c, chains = filtered(cube)
                     else:
                         c = _sh_of_cube(cube)
                     coeffs.append(np.asarray(c, np.float32))

@@ -34,7 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import brdf
+from ..formulas import brdf
 from . import node_math as nm
 from .recursion import Bounded
 
@@ -129,7 +129,7 @@ class ProgramBuilder:
     def build(self, surface: int, occlusion: int | None = None) -> Program:
         """The program of the operations ``surface`` and ``occlusion`` read, in dependency
         order, renumbered (the others, such as those of a compile of a node that stopped part
-        way, ``core.recursion``, are dropped)."""
+        way, ``core.scene.recursion``, are dropped)."""
         live = [False] * len(self.ops)
         stack = [r for r in (surface, occlusion) if r is not None]
         while stack:
@@ -372,7 +372,7 @@ def _op_image(ev, op, pts):
     """(N, 4) RGBA of an image at the vector's (u, v); Cycles' magenta for a missing image.
     param: (texture or None, associate: ``texture.sample``'s). args: (vector,) or () for the
     active UV map."""
-    from . import texture
+    from ..formulas import texture
 
     tex, associate = op.param
     if tex is None:
@@ -386,7 +386,7 @@ def _op_image(ev, op, pts):
     if lod is None and pts is ev.centre:  # lod from the vector's screen derivatives
         steps = [ev.step(op.args[0] if op.args else None, axis, pts) for axis in (0, 1)]
         if steps[0] is not None and steps[1] is not None:
-            from .kernels import textures as kernels
+            from ..kernels import textures as kernels
 
             lod = np.empty(pts.n, np.float64)
             w, h = tex.size
@@ -537,7 +537,7 @@ def _op_layer_weight(ev, op, pts):
 
 def _op_normal_map(ev, op, pts):
     """Normal Map: param (space, uv map); args (strength, colour) -> (N, 3) world normal."""
-    from . import texture
+    from ..formulas import texture
 
     space = op.param[0]
     strength = np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1))

@@ -259,7 +259,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
     n_tri = clip.shape[0]
 
     # 1. Reject non-finite and out-of-frustum triangles; clip against near plane and guard band.
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     orig = np.empty(n_tri, np.int64)
     if sample is None:
@@ -459,7 +459,7 @@ def rasterize(
                    and counted, triangles outside the frustum are dropped silently, and
                    fragments beyond the far plane (z/w > 1) are dropped
     """
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     width, height = int(width), int(height)
     if isinstance(clip, Projection):
@@ -527,7 +527,7 @@ def nearest(clip: np.ndarray, width: int, height: int, *, cull=None,
     edge and for triangles of no area once snapped (module docstring), and no keys (no depth
     peeling). Arguments as ``rasterize``; ``depth_plane`` gives the far plane. Returns one
     Fragments per offset."""
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     width, height = int(width), int(height)
     clip = np.ascontiguousarray(clip, np.float32)
@@ -573,7 +573,7 @@ class Projection:
     def survivors(self) -> Projection:
         """This projection of the triangles that may touch the viewport only (``kernels.raster.
         survivors``, a chunk at a time): ``index`` says which."""
-        from .kernels import raster as kernels
+        from ..kernels import raster as kernels
 
         kept = []
         for lo in range(0, len(self), _CHUNK):
@@ -595,7 +595,7 @@ def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
     the chunk (pieces in triangle order), so keys compare (depth, triangle) as in one set-up
     and ``behind`` works across calls. The pixels a chunk wins are resolved with its set-up
     before the next one."""
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     n_tri = len(clip)
     if width <= 0 or height <= 0:
@@ -654,7 +654,7 @@ def project(corners: np.ndarray, matrix: np.ndarray, dtype=np.float32) -> np.nda
     """(T, 3, 4) clip-space corners of (T, 3, 3) world corners through a 4 x 4 matrix, each
     coordinate summed in float64 (``kernels.raster.project``) and stored as ``dtype``
     (float32 or float64)."""
-    from .kernels import raster as kernels
+    from ..kernels import raster as kernels
 
     corners = np.ascontiguousarray(corners, dtype)
     clip = np.empty(corners.shape[:2] + (4,), dtype)

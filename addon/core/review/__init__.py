@@ -1,0 +1,3 @@
+"""Comparisons with Cycles: metrics (``compare``, ``flip``), the pictures (``imaging``) and the
+review page of many scenes (``report``, ``report_page``).
+"""
