@@ -22,7 +22,7 @@ import tracemalloc
 
 import numpy as np
 
-from bo2_lighting.addon.core.render import pipeline, raster
+from bo2_lighting.addon.core.render import raster, visibility
 
 
 def window_to_clip(pts, width, height, z, w):
@@ -113,7 +113,7 @@ def main() -> None:
     tile = (703, 283, 1217, 797)  # a 512x512 tile near the centre and its one-pixel margin
     for name, clip in (("random", random_triangles(100_000, 1920, 1080)), ("grid mesh", grid)):
         cull = np.random.default_rng(1).random(len(clip)) < 0.5
-        in_tile, index = pipeline.tile_clip(clip, 1920, 1080, tile)
+        in_tile, index = visibility.tile_clip(clip, 1920, 1080, tile)
         run_case(
             f"1e5 {name}, 514 px tile, culled",
             in_tile,

@@ -136,7 +136,9 @@ import cProfile, dataclasses, pstats, sys
 import bpy
 import bo2_lighting
 from bo2_lighting.addon.blender import extract
-from bo2_lighting.addon.core import kernels, pipeline
+from bo2_lighting.addon.core import kernels
+from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
 bo2_lighting.register()
 bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
 kernels.load()
@@ -146,7 +148,7 @@ frame, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(),
 frame = dataclasses.replace(frame, settings=dataclasses.replace(frame.settings, threads=1))
 profile = cProfile.Profile()
 profile.enable()
-pipeline.render_frame(frame)
+pipeline.render_frame(RenderJob(frame))
 profile.disable()
 stats = pstats.Stats(profile)
 stats.sort_stats("tottime").print_stats(int(sys.argv[2]))

@@ -17,6 +17,7 @@ import numpy as np
 
 from bo2_lighting.addon.core.formulas import brdf, texture
 from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
 from bo2_lighting.addon.core.review import imaging
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
 
@@ -52,7 +53,7 @@ def model_row(model: str, width=600, height=130) -> np.ndarray:
     scene = Scene(camera=cam, meshes=meshes, materials=materials, lights=[grazing, frontal],
                   settings=RenderSettings(samples=8, specular_model=model))
     scene.world.color = np.full(3, 0.02, np.float32)
-    return pipeline.render_frame(scene)["Combined"][..., :3]
+    return pipeline.render_frame(RenderJob(scene))["Combined"][..., :3]
 
 
 def main() -> int:

@@ -25,6 +25,7 @@ from ..core.files import lightmap_file, probe_file
 from ..core.formulas import cubemap
 from ..core.kernels import machine
 from ..core.lighting import lightmap as core_lightmap
+from ..core.render.job import RenderJob, Warnings
 from . import bake_files, extract, images, interrupt, lightmaps, probes, render_graph, worlds
 from .probes import BakeError
 
@@ -150,7 +151,7 @@ def bake_steps(scene, objs, backend: str = "BO2", report=None):
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))
     # the volumes' surroundings too, with either backend; Ctrl-C of the bo2 command stops it
-    captures = capture.Capture(core_scene, should_stop=interrupt.requested,
+    captures = capture.Capture(RenderJob(core_scene, should_stop=interrupt.requested),
                                focus=bake.capture_region(specs))
     if backend == "BO2":
         grab = captures.cube
@@ -413,8 +414,9 @@ def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
                 interrupt.check()
                 yield (k + 1) / (len(targets) + 1)
         else:
-            yield from lightmap_bake.steps(core_scene, targets, s, results,
-                                           should_stop=interrupt.requested, warn=warn)
+            job = RenderJob(core_scene, should_stop=interrupt.requested,
+                            warnings=Warnings(lambda message: warn(message.text)))
+            yield from lightmap_bake.steps(job, targets, s, results)
     finally:
         bpy.data.batch_remove(list(meshes.values()))
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")

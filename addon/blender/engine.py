@@ -8,10 +8,12 @@ material, light and world previews (``is_preview``) in the talk's model.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import sys
 import time
 import traceback
+from collections.abc import Iterator
 
 import bpy
 import numpy as np
@@ -19,6 +21,7 @@ import numpy as np
 from ..core import kernels
 from ..core.bakes import bounce
 from ..core.render import memory, pipeline
+from ..core.render.job import Cancelled, Message, RenderJob, Warnings
 from ..core.render.passes import PASSES
 from . import extract, interrupt, passes, render_graph, viewport
 
@@ -91,6 +94,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene
         start = time.perf_counter()
         frame = None
+        sink = Warnings(self._forward)
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
@@ -103,19 +107,17 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             frame, warnings = extract.extract_scene(depsgraph, settings,
                                                     indirect=scene.bo2.use_indirect,
                                                     should_stop=should_stop)
-            for message in warnings if not self.is_preview else ():
-                self._warn(message)
+            sink.extend(warnings)
             if not self.is_preview:
                 self.update_stats("BO2 Lighting", "Baking the bounce without probes")
                 frame = bounce.attach(frame, should_stop)
             ntris = sum(len(m.positions) for m in frame.meshes)
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
-            tiles = pipeline.render_tiles(
-                frame, progress=self.update_progress,
-                should_stop=should_stop, warn=self._warn)
-            for tile, layers in tiles:
+            job = RenderJob(frame, progress=self.update_progress, should_stop=should_stop,
+                            warnings=sink)
+            for tile, layers in pipeline.render_tiles(job):
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
-        except pipeline.Cancelled:
+        except Cancelled:
             return
         except (extract.SceneError, kernels.KernelsUnavailable) as exc:
             self._fail(str(exc))
@@ -128,16 +130,18 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             self._fail(f"BO2 Lighting failed: {type(exc).__name__}: {exc}")
             return
         seconds = time.perf_counter() - start
-        if self.is_preview:
-            preview_seconds.append(seconds)
-            del preview_seconds[:-100]
+        for listener in list(_listeners):
+            listener.add(f"{'Preview' if self.is_preview else 'Frame'} rendered in "
+                         f"{seconds:.3f} s", "INFO")
         self.update_stats("BO2 Lighting", f"Done in {seconds:.2f} s")
 
-    def _warn(self, message: str) -> None:
-        """One warning: the operator's report, and ``last_warnings`` for the command line."""
-        last_warnings.append(message)
-        del last_warnings[:-1000]  # the UI never reads them: keep the list bounded
-        self.report({"WARNING"}, message)
+    def _forward(self, message: Message) -> None:
+        """A render's message: the operator's report (not a preview's), and every listener's
+        sink (``listening``)."""
+        if not self.is_preview:
+            self.report({message.kind}, message.text)
+        for listener in list(_listeners):
+            listener.add(message.text, message.kind)
 
     def _fail(self, message: str) -> None:
         """Show one error: in the render window (``error_set``) and as the operator's report."""
@@ -174,11 +178,20 @@ def preview_settings(settings):
                                shadow_resolution=min(settings.shadow_resolution, 512))
 
 
-# How long the last previews took (material, light and world previews), newest last.
-preview_seconds: list[float] = []
+_listeners: list[Warnings] = []  # the sinks ``listening`` holds open
 
-# The warnings of the final renders since ``headless.render_frame`` cleared them, in order, over
-# every view layer (``bo2 render`` prints them: Blender's own report printing is silenced there).
-last_warnings: list[str] = []
+
+@contextlib.contextmanager
+def listening(sink: Warnings | None = None) -> Iterator[Warnings]:
+    """While open, ``sink`` (a new one by default) receives every message of every render
+    (previews too), and an INFO message "Frame (Preview) rendered in S s" after each: how
+    ``bo2 render`` reads a render's warnings (Blender's own report printing is silenced
+    there) and how a test or a script learns what a render said."""
+    sink = Warnings() if sink is None else sink
+    _listeners.append(sink)
+    try:
+        yield sink
+    finally:
+        _listeners.remove(sink)
 
 CLASSES = [BO2RenderEngine]

@@ -19,7 +19,8 @@ import numpy as np
 from ..core import scene as cs
 from ..core.formulas import texture
 from ..core.lighting import world_sun
-from ..core.render import memory, pipeline
+from ..core.render import memory
+from ..core.render.job import Cancelled
 from . import lightmaps as baked_lightmaps
 from . import worlds
 from .materials import convert_material, load_image
@@ -713,7 +714,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: 
     instancers, shown = [], set()  # (read after the walk, when every shown object is known)
     def poll() -> None:
         if should_stop is not None and should_stop():
-            raise pipeline.Cancelled()
+            raise Cancelled()
 
     for inst in depsgraph.object_instances:
         if at_once and inst.is_instance:
@@ -796,7 +797,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     indirect: light the scene with its baked probes and the world (``probes.load_probes``);
               False renders direct light only
     cache:    what an earlier extraction read and is still valid (``SceneCache``), updated
-    should_stop: polled before each object is read; True raises ``pipeline.Cancelled``
+    should_stop: polled before each object is read; True raises ``job.Cancelled``
     lightmaps: with ``indirect``, static objects take their baked lightmaps
               (``lightmaps.attach``)
     returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)

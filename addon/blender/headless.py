@@ -151,14 +151,14 @@ def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:
 
     from . import engine, images, interrupt, worlds
 
-    engine.last_warnings.clear()
     if scene.render.engine == "BO2_LIGHTING":
         worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
     start = time.perf_counter()
-    bpy.ops.render.render(write_still=False)
+    with engine.listening() as said:
+        bpy.ops.render.render(write_still=False)
     seconds = time.perf_counter() - start
     interrupt.check()  # a render stopped by Ctrl-C is not written
-    warnings = list(dict.fromkeys(engine.last_warnings))
+    warnings = [m.text for m in said if m.kind == "WARNING"]
     with interrupt.writing():
         if fmt == "OPEN_EXR":
             images.save_render_result(scene, path.resolve(), "OPEN_EXR_MULTILAYER", "32")

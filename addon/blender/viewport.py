@@ -16,6 +16,7 @@ import numpy as np
 from ..core import kernels
 from ..core.bakes import bounce
 from ..core.render import viewport
+from ..core.render.job import Warnings
 from ..core.scene import Camera
 from . import extract, probes, studio, worlds
 
@@ -174,21 +175,17 @@ class Viewport:
     def __init__(self, on_image=None):
         _live.add(self)
         self.cache = extract.SceneCache()
-        self.session = viewport.Session(on_image=on_image, warn=self._warn)
+        self.warnings = Warnings()  # the extractions' and the renders'
+        self.session = viewport.Session(on_image=on_image, warnings=self.warnings)
         self.scene = None  # the last extraction, with a placeholder camera
         self.camera = None
         self.error: str | None = None  # an extraction's failure, until the next update
-        self.warnings: list[str] = []
         self.hint = ""
         self._state = None  # the settings of the last render
         self._unsent: set[str] = set()  # changes of a failed extraction
         self.shading = studio.SCENE  # the viewport's Scene World and Scene Lights toggles
         self._shading_key: tuple = ()  # ``studio.key`` of the toggles last seen
         self._world_light = False  # the studio light's world alone lights the scene
-
-    def _warn(self, message: str) -> None:
-        if message not in self.warnings:
-            self.warnings.append(message)
 
     def sync(self, depsgraph, updates=None) -> set[str]:
         """Read what ``updates`` changed (None: everything) and render anew; returns the
@@ -224,8 +221,7 @@ class Viewport:
             scene = dataclasses.replace(scene, lights=[])
             warnings = [w for w in warnings if not w.startswith("The scene has no lights")]
         self.error, self._unsent = None, set()
-        for message in warnings:
-            self._warn(message)
+        self.warnings.extend(warnings)
         changed |= _differences(self.scene, scene)
         state = (render, int(settings.viewport_samples), bool(settings.use_indirect))
         if changed == {"settings"} and state == self._state:
@@ -291,7 +287,7 @@ class Viewport:
             parts.append(self.hint)
         if self.warnings:
             count = len(self.warnings)
-            parts.append(f"{count} warning{'s' * (count > 1)}: {self.warnings[-1]}")
+            parts.append(f"{count} warning{'s' * (count > 1)}: {self.warnings.texts()[-1]}")
         return "  |  ".join(parts)
 
     def close(self) -> None:

@@ -16,7 +16,7 @@ def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
     scene = load_blend(Path(args.scene))
     from ..blender import bake, bake_files, lightmaps, probes
-    from ..core.render import pipeline
+    from ..core.render.job import Cancelled
 
     lightmapping = args.lightmaps is not None
     if lightmapping:
@@ -50,7 +50,7 @@ def run(args) -> int:
                                         report=warnings.append)
             try:
                 count = _drive(steps, lambda fraction: progress_bar(terminal, fraction, start))
-            except pipeline.Cancelled:  # a capture stopped by Ctrl-C
+            except Cancelled:  # a capture stopped by Ctrl-C
                 raise KeyboardInterrupt from None
     except probes.BakeError as exc:
         raise CommandError(str(exc)) from None

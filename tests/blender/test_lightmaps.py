@@ -12,6 +12,7 @@ from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import engine, extract, lightmaps
 from bo2_lighting.addon.core.files import lightmap_file
 from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
 
 
 def room(tmp_path):
@@ -91,9 +92,9 @@ def test_bake_and_render_with_lightmaps(addon, tmp_path):
     core, warnings = extract.extract_scene(depsgraph, indirect=True)
     assert all(m.lightmap is not None for m in core.meshes), warnings
     assert not any("stale" in w for w in warnings)
-    with_maps = pipeline.render_frame(core)["DiffInd"]
+    with_maps = pipeline.render_frame(RenderJob(core))["DiffInd"]
     core.settings.lightmaps = False
-    without = pipeline.render_frame(core)["DiffInd"]
+    without = pipeline.render_frame(RenderJob(core))["DiffInd"]
     assert np.isfinite(with_maps).all()
     assert np.abs(with_maps - without).mean() > 0.01 * without.mean()
     # the scene toggle and the object's own

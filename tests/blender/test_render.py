@@ -211,8 +211,8 @@ def test_contact_occlusion_is_searched_without_indirect_light_only_for_its_pass(
 
     scene = lambert_plane_scene("SUN")
     searched = []
-    real = pipeline._tile_ambient
-    monkeypatch.setattr(pipeline, "_tile_ambient",
+    real = pipeline.tile_ambient
+    monkeypatch.setattr(pipeline, "tile_ambient",
                         lambda *args: searched.append(1) or real(*args))
     layer = bpy.context.view_layer
     for wanted in (False, True):

@@ -11,6 +11,7 @@ import numpy as np
 from test_volume_leaks import cube, grey, scene_of
 
 from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
 from bo2_lighting.addon.core.scene import Camera, Light
 
 
@@ -42,8 +43,8 @@ def test_camera_rays_hold_with_a_far_plane_at_infinity():
 
 
 def test_a_long_depth_range_renders_the_ordinary_frame():
-    ordinary = pipeline.render_frame(lit_cube(0.1, 100.0))
-    long = pipeline.render_frame(lit_cube(0.001, 5.0e4))
+    ordinary = pipeline.render_frame(RenderJob(lit_cube(0.1, 100.0)))
+    long = pipeline.render_frame(RenderJob(lit_cube(0.001, 5.0e4)))
     for name, image in long.items():
         assert np.isfinite(image).all(), name
     for name in ("Depth", "Position", "Normal", "GlossDir"):
@@ -62,7 +63,8 @@ def test_a_negative_light_takes_light_away():
 
     def diffuse(power):
         light = dataclasses.replace(spot, color=np.full(3, power, np.float32))
-        return pipeline.render_frame(dataclasses.replace(scene, lights=[sun, light]))["DiffDir"]
+        return pipeline.render_frame(RenderJob(dataclasses.replace(scene, lights=[sun, light]))
+                                     )["DiffDir"]
 
     plus, zero, minus = diffuse(200.0), diffuse(0.0), diffuse(-200.0)
     assert (plus - zero).max() > 0.05  # the spot lights part of the frame
@@ -75,7 +77,8 @@ def test_a_sun_of_180_degrees_is_the_softest_not_the_hardest():
 
     def shade(degrees):  # Blender stores the angle in float32: 180 degrees is a little over pi
         light = dataclasses.replace(sun, radius=float(np.float32(np.radians(degrees))))
-        return pipeline.render_frame(dataclasses.replace(scene, lights=[light]))["DiffDir"]
+        return pipeline.render_frame(RenderJob(dataclasses.replace(scene, lights=[light]))
+                                     )["DiffDir"]
 
     hard, wide, widest = shade(0.0), shade(179.0), shade(180.0)
     assert np.abs(hard - wide).max() > 0.15  # a wide sun's shadow is another
@@ -85,8 +88,8 @@ def test_a_sun_of_180_degrees_is_the_softest_not_the_hardest():
 def test_blenders_smallest_clip_start_keeps_the_nearest_surface():
     """At a clip start of 1 micrometre the float32 z/w of the cube's front and back faces are
     a few ulps apart; the depth test from 1 / w still sees the front ones."""
-    ordinary = pipeline.render_frame(lit_cube(0.1, 100.0))
-    tiny = pipeline.render_frame(lit_cube(1e-6, 1e5))
+    ordinary = pipeline.render_frame(RenderJob(lit_cube(0.1, 100.0)))
+    tiny = pipeline.render_frame(RenderJob(lit_cube(1e-6, 1e5)))
     np.testing.assert_allclose(tiny["Depth"], ordinary["Depth"], rtol=1e-5)
     np.testing.assert_allclose(tiny["Normal"], ordinary["Normal"], atol=1e-6)
     np.testing.assert_allclose(tiny["GlossDir"], ordinary["GlossDir"], atol=1e-5)
@@ -104,7 +107,7 @@ def test_a_huge_ground_keeps_point_and_spot_shadows():
             tris = np.concatenate([cube(), cube((-half, -half, -1.3), (half, half, -1.0))])
             scene = dataclasses.replace(scene_of(tris, grey()), camera=base.camera,
                                         lights=[light])
-            frames.append(pipeline.render_frame(scene))
+            frames.append(pipeline.render_frame(RenderJob(scene)))
         small, huge = frames
         on_small = small["Depth"][..., 0] < 1e9
         dark = small["DiffDir"][..., 0] < 0.3 * small["DiffDir"][..., 0].max()
@@ -129,7 +132,7 @@ def test_a_huge_ground_keeps_the_suns_shadow():
         for half in (4.0, 1e6):
             tris = np.concatenate([cube(), cube((-half, -half, -1.3), (half, half, -1.0))])
             scene = dataclasses.replace(scene_of(tris, grey()), camera=camera, lights=[sun])
-            frames.append(pipeline.render_frame(scene))
+            frames.append(pipeline.render_frame(RenderJob(scene)))
         small, huge = frames
         ground = ((small["Depth"][..., 0] < 1e9) & (small["Normal"][..., 2] > 0.99)
                   & (small["Position"][..., 2] < -0.99))

@@ -414,7 +414,7 @@ def test_a_damaged_bake_file_is_named_once_and_the_library_is_silent(tmp_path):
         broken[at:at + 20] = b"\xff" * 20
         bad = tmp_path / f"bad{k}.exr"
         bad.write_bytes(bytes(broken))
-        code = ("import sys; from bo2_lighting.addon.core import probe_file\n"
+        code = ("import sys; from bo2_lighting.addon.core.files import probe_file\n"
                 "try: probe_file.read(sys.argv[1])\n"
                 "except probe_file.ProbeFileError as e: print('refused:', e, file=sys.stderr)")
         proc = subprocess.run([sys.executable, "-c", code, str(bad)], capture_output=True,

@@ -10,6 +10,7 @@ from bo2_lighting.addon.core.files import lightmap_file, probe_file
 from bo2_lighting.addon.core.kernels import lightmap as kernels
 from bo2_lighting.addon.core.lighting import lightmap
 from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import Cancelled, RenderJob
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, Scene, World
 
 
@@ -156,7 +157,8 @@ def test_gather_matches_a_brute_force_integral():
     scene = open_floor()
     uv, w, h, _ = lightmap.layout(scene.meshes[0].positions, 10.0)
     settings = lightmap.Settings(rays=256, bounces=1, denoise=False)
-    (result,) = lightmap_bake.bake(scene, [lightmap.Target("floor", 0, uv, w, h)], settings)
+    (result,) = lightmap_bake.bake(RenderJob(scene), [lightmap.Target("floor", 0, uv, w, h)],
+                                   settings)
     p = scene.meshes[0].positions.astype(np.float64)
     for x in (1.9, 1.5, 0.5, -1.5):
         point = np.array([x, 0.3, 0.0])
@@ -188,7 +190,7 @@ def test_a_closed_box_converges_to_its_series():
     uv, w, h, _ = lightmap.layout(p, 8.0)
     out = {}
     for bounces in (1, 4, 6):
-        (r,) = lightmap_bake.bake(scene, [lightmap.Target("box", 0, uv, w, h)],
+        (r,) = lightmap_bake.bake(RenderJob(scene), [lightmap.Target("box", 0, uv, w, h)],
                                   lightmap.Settings(rays=128, bounces=bounces))
         out[bounces] = float(np.median(r.image[r.image[..., 0] > 0][:, 0]))
     assert out[1] == pytest.approx(np.pi * e, rel=0.02)  # one gather: the walls' emission
@@ -202,7 +204,7 @@ def test_direct_light_bounces_into_the_lightmap_and_shadows_count():
     sun = Light("SUN", np.full(3, 3.0, np.float32), direction=np.array([0.6, 0.0, -0.8]))
     scene.lights = [sun]
     uv, w, h, _ = lightmap.layout(scene.meshes[0].positions, 10.0)
-    (floor,) = lightmap_bake.bake(scene, [lightmap.Target("floor", 0, uv, w, h)],
+    (floor,) = lightmap_bake.bake(RenderJob(scene), [lightmap.Target("floor", 0, uv, w, h)],
                                   lightmap.Settings(rays=128, bounces=1))
     # the wall, lit by the sun (cos 0.6 of 3 W/m^2), throws light back on the floor: more the
     # nearer the wall
@@ -398,13 +400,14 @@ def test_a_stopped_bake_raises_and_the_renderer_reads_lightmaps():
     scene = open_floor()
     uv, w, h, _ = lightmap.layout(scene.meshes[0].positions, 10.0)
     target = lightmap.Target("floor", 0, uv, w, h)
-    with pytest.raises(pipeline.Cancelled):
-        lightmap_bake.bake(scene, [target], lightmap.Settings(rays=16), should_stop=lambda: True)
-    (lm,) = lightmap_bake.bake(scene, [target], lightmap.Settings(rays=64, bounces=1))
+    with pytest.raises(Cancelled):
+        lightmap_bake.bake(RenderJob(scene, should_stop=lambda: True), [target],
+                           lightmap.Settings(rays=16))
+    (lm,) = lightmap_bake.bake(RenderJob(scene), [target], lightmap.Settings(rays=64, bounces=1))
     scene.probes = core_bake.world_probes(scene.world, 16)
-    plain = pipeline.render_frame(scene)["DiffInd"]
+    plain = pipeline.render_frame(RenderJob(scene))["DiffInd"]
     scene.meshes[0].lightmap = lm
-    lit = pipeline.render_frame(scene)["DiffInd"]
+    lit = pipeline.render_frame(RenderJob(scene))["DiffInd"]
     # the floor by the wall: the world fallback sees the whole sky, the lightmap the wall too
     row = lit.shape[0] // 2  # column c is at x = (c + 0.5) / 48 * 8.2 - 4.1 m
     near = floor_irradiance_by_brute_force(1.62)
@@ -413,13 +416,13 @@ def test_a_stopped_bake_raises_and_the_renderer_reads_lightmaps():
     far = floor_irradiance_by_brute_force(-0.94)
     assert lit[row, 18, 0] == pytest.approx(0.5 * far / np.pi, rel=0.03)
     # the Lightmap pass holds the irradiance, Lightmap Texels a checker of the floor's texels
-    passes = pipeline.render_frame(scene)
+    passes = pipeline.render_frame(RenderJob(scene))
     assert passes["Lightmap"][row, 18, 0] == pytest.approx(far, rel=0.03)
     texels = passes["Lightmap Texels"][row, 14:22, 0]
     assert texels.min() > 0 and len(np.unique(np.round(texels, 2))) >= 2
     assert passes["Lightmap"][row, 40].max() == 0.0  # the wall has no lightmap
     scene.settings.lightmaps = False
-    assert np.array_equal(pipeline.render_frame(scene)["DiffInd"], plain)
+    assert np.array_equal(pipeline.render_frame(RenderJob(scene))["DiffInd"], plain)
 
 
 def test_directional_lightmaps_keep_the_irradiance_at_the_normal():
@@ -427,8 +430,8 @@ def test_directional_lightmaps_keep_the_irradiance_at_the_normal():
     uv, w, h, _ = lightmap.layout(scene.meshes[0].positions, 10.0)
     target = lightmap.Target("floor", 0, uv, w, h)
     settings = lightmap.Settings(rays=128, bounces=1, denoise=False)
-    (flat,) = lightmap_bake.bake(scene, [target], settings)
-    (sh,) = lightmap_bake.bake(scene, [target], lightmap.Settings(
+    (flat,) = lightmap_bake.bake(RenderJob(scene), [target], settings)
+    (sh,) = lightmap_bake.bake(RenderJob(scene), [target], lightmap.Settings(
         rays=128, bounces=1, denoise=False, directional=True))
     assert sh.directional and sh.image.shape == flat.image.shape[:2] + (12,)
     from bo2_lighting.addon.core.formulas import sh as core_sh
@@ -471,6 +474,6 @@ def test_broken_meshes_bake_finite_lightmaps():
     scene = Scene(Camera.look_at([0, -3, 2], [0, 0, 0], 1.0, 8, 8), [mesh], [Material.talk()],
                   [Light("SUN", np.full(3, 2.0, np.float32))],
                   World(color=np.full(3, 0.5, np.float32)))
-    (lm,) = lightmap_bake.bake(scene, [lightmap.Target("broken", 0, uv, w, h)],
+    (lm,) = lightmap_bake.bake(RenderJob(scene), [lightmap.Target("broken", 0, uv, w, h)],
                                lightmap.Settings(rays=16, bounces=2))
     assert np.isfinite(lm.image).all() and lm.image.max() > 0.0

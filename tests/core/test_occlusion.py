@@ -8,6 +8,7 @@ from test_sky import box, brute_force
 from bo2_lighting.addon.core.bakes import bake
 from bo2_lighting.addon.core.formulas import occlusion
 from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
 from bo2_lighting.addon.core.scene import (
     Camera,
     Material,
@@ -47,7 +48,7 @@ WALL = [((-10.0, -10.0, -0.1), (10.0, 10.0, 0.0)), ((-0.2, -3.0, 0.0), (0.0, 3.0
 
 def test_ao_beside_a_wall_is_the_visible_fraction_of_the_hemisphere():
     cam = Camera.look_at((2.2, -0.4, 1.6), (0.3, 0.0, 0.0), np.radians(50), 320, 240)
-    passes = pipeline.render_frame(scene_of(WALL, cam))
+    passes = pipeline.render_frame(RenderJob(scene_of(WALL, cam)))
     for d in (0.03, 0.1, 0.25, 0.45, 0.8):
         point = np.array([d, 0.0, 0.0])
         got, _ = at(passes, point)
@@ -59,8 +60,8 @@ def test_ao_beside_a_wall_is_the_visible_fraction_of_the_hemisphere():
 
 def test_it_darkens_the_indirect_light_and_switches_off():
     cam = Camera.look_at((2.2, -0.4, 1.6), (0.3, 0.0, 0.0), np.radians(50), 160, 120)
-    on = pipeline.render_frame(scene_of(WALL, cam))
-    off = pipeline.render_frame(scene_of(WALL, cam, ambient_occlusion=False))
+    on = pipeline.render_frame(RenderJob(scene_of(WALL, cam)))
+    off = pipeline.render_frame(RenderJob(scene_of(WALL, cam, ambient_occlusion=False)))
     near = np.array([0.05, 0.0, 0.0])
     ao, lit = at(on, near)
     ao_off, lit_off = at(off, near)
@@ -100,9 +101,9 @@ def test_without_indirect_light_it_is_searched_for_its_pass_alone():
     dark.probes = bake.world_probes(dark.world)
     assert not probes.sends_light(dark.probes)
     assert probes.sends_light(scene_of(WALL, cam).probes)
-    wanted = pipeline.render_frame(dark)
-    unwanted = pipeline.render_frame(dataclasses.replace(
-        dark, settings=dataclasses.replace(dark.settings, ao_pass=False)))
+    wanted = pipeline.render_frame(RenderJob(dark))
+    unwanted = pipeline.render_frame(RenderJob(dataclasses.replace(
+        dark, settings=dataclasses.replace(dark.settings, ao_pass=False))))
     np.testing.assert_array_equal(unwanted["Combined"], wanted["Combined"])
     assert (unwanted["AO"] == 1.0).all()
     point = np.array([0.1, 0.0, 0.0])

@@ -10,7 +10,8 @@ import threading
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render import pipeline, raster, visibility
+from bo2_lighting.addon.core.render.job import Cancelled, RenderJob
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
 
 W, H = 40, 30
@@ -55,7 +56,7 @@ def test_point_light_matches_closed_form():
     light_pos = np.array([0.7, -0.4, 1.5])
     power = 80.0
     scene = lambert_scene(Light("POINT", color=np.full(3, power), position=light_pos))
-    image = pipeline.render_frame(scene)["Combined"]
+    image = pipeline.render_frame(RenderJob(scene))["Combined"]
     p = pixel_centres()
     to_light = light_pos - p
     d2 = np.sum(to_light**2, -1)
@@ -72,7 +73,7 @@ def test_sun_and_background_and_samples():
     scene.meshes[0] = floor(size=1.9)  # edges through pixel centres; background at the sides
     scene.world.color = np.array([0.1, 0.2, 0.3], np.float32)
     scene.settings.samples = 16
-    image = pipeline.render_frame(scene)["Combined"]
+    image = pipeline.render_frame(RenderJob(scene))["Combined"]
     inside = np.abs(pixel_centres()[..., :2]).max(-1) < 0.9
     outside = np.abs(pixel_centres()[..., :2]).max(-1) > 1.1
     lit = 0.6 / np.pi * np.array([2.0, 1.0, 0.5])
@@ -91,7 +92,7 @@ def test_film_transparent_alpha():
     scene = lambert_scene(Light("SUN", color=np.ones(3)))
     scene.meshes[0] = floor(size=2.0)
     scene.settings.film_transparent = True
-    image = pipeline.render_frame(scene)["Combined"]
+    image = pipeline.render_frame(RenderJob(scene))["Combined"]
     assert image[0, 0, 3] == 0 and image[H // 2, W // 2, 3] == 1
 
 
@@ -100,8 +101,9 @@ def test_cancel_and_progress():
     scene.settings.samples = 8
     scene.settings.threads = 1
     seen = []
-    with pytest.raises(pipeline.Cancelled):
-        pipeline.render_frame(scene, progress=seen.append, should_stop=lambda: len(seen) >= 3)
+    with pytest.raises(Cancelled):
+        pipeline.render_frame(RenderJob(scene, progress=seen.append,
+                                        should_stop=lambda: len(seen) >= 3))
     assert seen == [1 / 9, 2 / 9, 3 / 9]  # 8 rasters and the shading of one tile
 
 
@@ -114,11 +116,11 @@ def test_views_render_as_frames_of_their_own():
     scene.settings.threads = 2
     cameras = [ortho_camera(h) for h in (5.0, 3.0)]
     cameras.append(Camera.look_at([1.0, -2.0, 3.0], [0, 0, 0], 1.0, W, H))
-    views = pipeline.render_views(scene, cameras)
+    views = pipeline.render_views(RenderJob(scene), cameras)
     assert len(views) == 3
     for camera, view in zip(cameras, views, strict=True):
         scene.camera = camera
-        alone = pipeline.render_frame(scene)
+        alone = pipeline.render_frame(RenderJob(scene))
         assert view.keys() == alone.keys()
         for name in alone:
             np.testing.assert_array_equal(view[name], alone[name])
@@ -130,11 +132,11 @@ def test_threads_render_the_same_image_and_cancel():
     scene.settings.samples = 4
     scene.settings.tile_size = 8  # many tiles, so that several threads share them
     scene.settings.threads = 1
-    one = pipeline.render_frame(scene)
+    one = pipeline.render_frame(RenderJob(scene))
     scene.settings.threads = 3
     calls = []
-    three = pipeline.render_frame(scene, progress=calls.append,
-                                  should_stop=lambda: calls.append(threading.get_ident()))
+    three = pipeline.render_frame(RenderJob(
+        scene, progress=calls.append, should_stop=lambda: calls.append(threading.get_ident())))
     for name in one:
         np.testing.assert_array_equal(one[name], three[name])
     # The host's callbacks run on the calling thread only.
@@ -146,8 +148,9 @@ def test_threads_render_the_same_image_and_cancel():
     # while the calling thread waits to be scheduled).
     scene.settings.samples = 256
     seen = []
-    with pytest.raises(pipeline.Cancelled):
-        pipeline.render_frame(scene, progress=seen.append, should_stop=lambda: len(seen) >= 1)
+    with pytest.raises(Cancelled):
+        pipeline.render_frame(RenderJob(scene, progress=seen.append,
+                                        should_stop=lambda: len(seen) >= 1))
     assert len(seen) == 1 and seen[0] < 1.0
 
 
@@ -157,9 +160,10 @@ def test_broken_triangles_are_skipped_and_reported_once():
     bad.positions[0, 0, 0] = np.nan  # one NaN triangle
     bad.positions[1, :, :] = bad.positions[1, 0]  # one zero-area triangle
     scene.meshes.append(bad)
-    messages = []
-    image = pipeline.render_frame(scene, warn=messages.append)["Combined"]
-    assert messages == ["Skipped 1 triangles with NaN or infinite vertices and 1 with zero area"]
+    job = RenderJob(scene)
+    image = pipeline.render_frame(job)["Combined"]
+    assert job.warnings.texts() == [
+        "Skipped 1 triangles with NaN or infinite vertices and 1 with zero area"]
     assert np.isfinite(image).all()
     np.testing.assert_allclose(image[..., 0], 0.6 / np.pi, rtol=1e-4)
 
@@ -168,7 +172,7 @@ def test_sample_offsets_follow_the_blackman_harris_filter():
     """Filter importance sampling: the offsets are distributed as Cycles' Blackman-Harris
     window of width 1.5 px, which Cycles spreads over twice the width (3 px); its mean and
     variance come from a direct numerical integral of the published window."""
-    offsets = pipeline.sample_offsets(4096, filter_width=1.5)
+    offsets = visibility.sample_offsets(4096, filter_width=1.5)
     assert offsets.shape == (4096, 2)
     assert offsets.min() >= 0.5 - 1.5 and offsets.max() <= 0.5 + 1.5
     x = np.linspace(-1.5, 1.5, 200001)
@@ -177,14 +181,14 @@ def test_sample_offsets_follow_the_blackman_harris_filter():
     variance = np.sum(w * x * x) / np.sum(w)
     np.testing.assert_allclose(offsets.mean(0), 0.5, atol=2e-3)
     np.testing.assert_allclose(offsets.var(0), variance, rtol=0.02)
-    assert (pipeline.sample_offsets(1) == 0.5).all()
+    assert (visibility.sample_offsets(1) == 0.5).all()
 
 
 def test_orthographic_depth_is_the_view_axis_distance():
     """Depth of an orthographic camera 5 m above the floor: 5 m everywhere (clip w is 1 for
     orthographic cameras, so it cannot stand in for the distance)."""
     scene = lambert_scene(Light("SUN", color=np.ones(3)))
-    depth = pipeline.render_frame(scene)["Depth"][..., 0]
+    depth = pipeline.render_frame(RenderJob(scene))["Depth"][..., 0]
     np.testing.assert_allclose(depth, 5.0, rtol=1e-5)
 
 
@@ -204,7 +208,7 @@ def test_hostile_geometry_in_a_corner_of_an_8k_frame_stays_finite():
     scene.settings.border = (3800, 2100, 3864, 2164)
     scene.settings.samples = 2
     seen = 0
-    for (x0, y0, x1, y1), passes in pipeline.render_tiles(scene):
+    for (x0, y0, x1, y1), passes in pipeline.render_tiles(RenderJob(scene)):
         seen += (x1 - x0) * (y1 - y0)
         for name, image in passes.items():
             finite = np.isfinite(image) if name != "Depth" else ~np.isnan(image)
@@ -219,7 +223,7 @@ def test_instanced_batches_and_the_memory_they_need():
     its instance's matrix; a frame with more triangles than a raster keeps at once draws
     from its projection a chunk at a time (the same image as one set-up); ``memory.
     frame_bytes`` is within 10% of what the prepared frame and its shadow maps hold."""
-    from bo2_lighting.addon.core.render import memory, raster
+    from bo2_lighting.addon.core.render import memory
 
     cube = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]],
                     np.float32) * 0.4 - [0.2, 0.2, 0.0]
@@ -236,7 +240,7 @@ def test_instanced_batches_and_the_memory_they_need():
                                 position=np.array([0.0, 0.0, 3.0])))
     scene.settings.shadow_resolution = 256
     scene.meshes.append(batch)
-    frame = pipeline.prepare(scene)
+    frame = pipeline.prepare(RenderJob(scene))
     assert frame.world_to_object.shape == (count + 1, 4, 4)  # the floor's, then each instance
     assert (np.bincount(frame.obj) == [2] + [2] * count).all()
     held = sum(a.nbytes for a in (frame.positions, frame.normals, frame.uvs, frame.material,
@@ -244,12 +248,12 @@ def test_instanced_batches_and_the_memory_they_need():
                                   frame.world_to_object, frame.texspace))
     held += sum(m.depth.nbytes + m.mips.nbytes for m in frame.shadow_maps if m is not None)
     assert memory.frame_bytes(scene) == pytest.approx(held, rel=0.1)
-    whole = pipeline.render_frame(scene, frame=frame)["Combined"]
+    whole = pipeline.render_frame(RenderJob(scene), frame=frame)["Combined"]
     saved = raster.SETUP_TRIANGLES, raster._CHUNK
     try:
         raster.SETUP_TRIANGLES, raster._CHUNK = 100, 150
-        chunked = pipeline.render_frame(scene)["Combined"]
-        assert isinstance(pipeline.prepare(scene).clip, raster.Projection)
+        chunked = pipeline.render_frame(RenderJob(scene))["Combined"]
+        assert isinstance(pipeline.prepare(RenderJob(scene)).clip, raster.Projection)
     finally:
         raster.SETUP_TRIANGLES, raster._CHUNK = saved
     assert np.abs(chunked - whole).mean() < 1e-3
@@ -262,7 +266,7 @@ def test_camera_and_shadow_visibility(monkeypatch, many):
     shadow, it is seen and the floor around it is fully lit. ``many``: the projection path of
     frames with very many triangles."""
     if many:
-        monkeypatch.setattr(pipeline.raster, "SETUP_TRIANGLES", 1)
+        monkeypatch.setattr(raster, "SETUP_TRIANGLES", 1)
     sun = Light("SUN", color=np.ones(3), direction=np.array([0.0, 0.0, -1.0]), shadow=True)
     card = floor(size=1.0)
     card.positions = card.positions + np.float32([0, 0, 1])
@@ -275,7 +279,7 @@ def test_camera_and_shadow_visibility(monkeypatch, many):
         scene.materials.append(bright)
         card.camera, card.shadow = camera, shadow
         scene.meshes.append(card)
-        return pipeline.render_frame(scene)["Combined"][H // 2, W // 2, 0]
+        return pipeline.render_frame(RenderJob(scene))["Combined"][H // 2, W // 2, 0]
 
     lit_floor, lit_card = 0.6 / np.pi, 0.9 / np.pi
     assert render(True, True) == pytest.approx(lit_card, rel=1e-3)

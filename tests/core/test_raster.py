@@ -851,7 +851,7 @@ def test_a_view_drawn_once_is_projected_and_culled_in_one_pass_bit_for_bit():
     """``pipeline.tile_clip`` of a view's ``Projection`` (``with_camera(once=True)``) gives
     the clip coordinates and triangles of the projected view's, bit for bit, unseen triangles
     left out."""
-    from bo2_lighting.addon.core.render import pipeline
+    from bo2_lighting.addon.core.render import visibility
 
     rng = np.random.default_rng(4)
     positions = (rng.uniform(-4, 4, (2000, 1, 3)) + rng.normal(0, 0.5, (2000, 3, 3)))
@@ -861,8 +861,8 @@ def test_a_view_drawn_once_is_projected_and_culled_in_one_pass_bit_for_bit():
     clip = raster.project(positions, matrix)
     clip[~seen] = (0.0, 0.0, 0.0, -1.0)
     for tile in ((0, 0, 64, 48), (-2, -2, 66, 50), (10, 20, 30, 40)):
-        a, ia = pipeline.tile_clip(clip, 64, 48, tile)
-        b, ib = pipeline.tile_clip(raster.Projection(positions, matrix, np.float32,
+        a, ia = visibility.tile_clip(clip, 64, 48, tile)
+        b, ib = visibility.tile_clip(raster.Projection(positions, matrix, np.float32,
                                                      np.flatnonzero(seen)), 64, 48, tile)
         assert 10 < len(ia) < seen.sum()
         np.testing.assert_array_equal(ib, ia)

@@ -9,7 +9,8 @@ from test_volume_leaks import cube as box
 
 from bo2_lighting.addon.core.bakes import bake
 from bo2_lighting.addon.core.formulas import sh
-from bo2_lighting.addon.core.render import pipeline, sky
+from bo2_lighting.addon.core.render import buffers, pipeline, sky
+from bo2_lighting.addon.core.render.job import RenderJob
 from bo2_lighting.addon.core.scene import (
     Camera,
     Material,
@@ -20,7 +21,7 @@ from bo2_lighting.addon.core.scene import (
 )
 
 
-def frame_of(slabs, directions=128, world_sh=None) -> pipeline.Frame:
+def frame_of(slabs, directions=128, world_sh=None) -> buffers.Frame:
     tris = np.concatenate([box(lo, hi) for lo, hi in slabs])
     n = np.cross(tris[:, 1] - tris[:, 0], tris[:, 2] - tris[:, 0])
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
@@ -34,7 +35,7 @@ def frame_of(slabs, directions=128, world_sh=None) -> pipeline.Frame:
                   probes=bake.world_probes(world))
     if world_sh is not None:
         scene.probes.world_sh = np.asarray(world_sh, np.float32)
-    return pipeline.prepare(scene)
+    return pipeline.prepare(RenderJob(scene))
 
 
 def seen(frame, points, normals=((0.0, 0.0, 1.0),)) -> np.ndarray:

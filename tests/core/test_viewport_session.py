@@ -12,7 +12,8 @@ import pytest
 from test_pipeline import HALF_H, HALF_W, H, W, lambert_scene, pixel_centres
 
 from bo2_lighting.addon.core.lighting.probes import Probes, ReflectionProbe
-from bo2_lighting.addon.core.render import pipeline, viewport
+from bo2_lighting.addon.core.render import buffers, pipeline, viewport, visibility
+from bo2_lighting.addon.core.render.job import RenderJob
 from bo2_lighting.addon.core.scene import Light, Material, material
 
 LIGHT = np.array([0.7, -0.4, 1.5])
@@ -23,7 +24,7 @@ def expected(albedo=0.6, samples=4):
     """(H, W) red radiance of the floor under the point light (row 0 at the top), averaged
     over the viewport's sample positions in each pixel (``pipeline.sample_offsets``)."""
     total = 0.0
-    for ox, oy in pipeline.sample_offsets(samples):
+    for ox, oy in visibility.sample_offsets(samples):
         p = pixel_centres() + [(ox - 0.5) * 2 * HALF_W / W, -(oy - 0.5) * 2 * HALF_H / H, 0.0]
         to_light = LIGHT - p
         d2 = np.sum(to_light**2, -1)
@@ -107,7 +108,7 @@ def test_a_world_lit_anew_keeps_the_dome(session):
     session.update(lit(0.0), viewport.CHANGES)
     assert session.wait(60)
     assert session._frame.sky is not None
-    assert pipeline.prepare(lit(0.0)).sky is None
+    assert pipeline.prepare(RenderJob(lit(0.0))).sky is None
     count = session.stats["prepares"]
     for value in (0.5, 0.8, 0.0):
         session.update(lit(value), {"world", "probes"})
@@ -118,7 +119,7 @@ def test_a_world_lit_anew_keeps_the_dome(session):
 def test_new_update_cancels_stale_work_within_a_tile(monkeypatch):
     started, release = threading.Event(), threading.Event()
     tiles_after = []
-    real = pipeline._render_tile
+    real = pipeline.render_tile
 
     def slow_tile(frame, tile, offsets, tick, first_sample=0):
         if not started.is_set():
@@ -128,7 +129,7 @@ def test_new_update_cancels_stale_work_within_a_tile(monkeypatch):
             tiles_after.append(tile)
         return real(frame, tile, offsets, tick, first_sample)
 
-    monkeypatch.setattr(pipeline, "_render_tile", slow_tile)
+    monkeypatch.setattr(pipeline, "render_tile", slow_tile)
     s = viewport.Session(samples=8)
     try:
         stale = scene()
@@ -203,21 +204,21 @@ def test_unknown_change_is_refused(session):
 
 
 def test_with_materials_refuses_transparent_surfaces():
-    frame = pipeline.prepare(scene())
+    frame = pipeline.prepare(RenderJob(scene()))
     b = material.ProgramBuilder()
     surface = b.add("bo2", b.const(0.5, 0.5, 0.5), b.const(0.0, 0.0, 0.0), b.const(0.0), None,
                     b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(0.5))  # alpha 0.5
     s = scene()
     s.materials = [Material(), Material("glass", b.build(surface))]
-    assert pipeline.with_materials(frame, s) is None
+    assert buffers.with_materials(frame, s) is None
     s.materials = [Material(), Material.talk("opaque")]
-    assert pipeline.with_materials(frame, s) is not None
+    assert buffers.with_materials(frame, s) is not None
 
 
 def test_a_cancelled_update_still_applies_its_changes(monkeypatch):
     """A camera move cancelled by a material tweak: the tweak's render has the new camera."""
     started, release = threading.Event(), threading.Event()
-    real = pipeline._render_tile
+    real = pipeline.render_tile
     calls = []
 
     def gate(frame, tile, offsets, tick, first_sample=0):
@@ -233,7 +234,7 @@ def test_a_cancelled_update_still_applies_its_changes(monkeypatch):
         first.settings.threads = 1
         s.update(first, viewport.CHANGES)
         assert s.wait(60)
-        monkeypatch.setattr(pipeline, "_render_tile", gate)
+        monkeypatch.setattr(pipeline, "render_tile", gate)
         calls.clear()
         calls.append(0)
         moved = dataclasses.replace(first, camera=dataclasses.replace(first.camera))

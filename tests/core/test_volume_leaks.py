@@ -19,6 +19,7 @@ import numpy as np
 
 from bo2_lighting.addon.core.bakes import bake, capture
 from bo2_lighting.addon.core.lighting import probes as cp
+from bo2_lighting.addon.core.render.job import RenderJob
 from bo2_lighting.addon.core.scene import (
     Camera,
     Light,
@@ -64,7 +65,7 @@ def grey() -> Material:
 
 
 def test_surfaces_of_a_solid_cube():
-    grab = capture.Capture(scene_of(cube(), grey()))
+    grab = capture.Capture(RenderJob(scene_of(cube(), grey())))
     inside = grab.surfaces(np.array([0.0, 0.0, 0.0]), 16, 0.01, 100.0)
     assert inside.front_ratio == 0.0
     centre = 1.0 / 16  # the texel centres nearest an axis are at a = b = 1/16
@@ -96,13 +97,13 @@ def test_escape_moves_samples_just_inside_geometry_out():
     # 0.1 spacings (0.2 m)
     m = np.diag([4.0, 1.0, 1.0, 1.0])
     spec = bake.ProbeSpec("V", "irradiance", m, 0.0, resolution=(4, 1, 1))
-    grab = capture.Capture(scene_of(cube((-2.0, -1.0, -1.0), (2.0, 1.0, 1.0)), grey()))
+    grab = capture.Capture(RenderJob(scene_of(cube((-2.0, -1.0, -1.0), (2.0, 1.0, 1.0)), grey())))
     points, ratios, moved = run_escape(spec, grab)
     np.testing.assert_array_equal(ratios, [1.0, 0.0, 0.0, 1.0])
     assert moved == 0
     # a box x in [-1.1, 1.1], y and z in [-1.5, 1.5]: the middle samples are 0.1 m inside the x
     # faces (within 0.1 spacings) and escape through them
-    grab = capture.Capture(scene_of(cube((-1.1, -1.5, -1.5), (1.1, 1.5, 1.5)), grey()))
+    grab = capture.Capture(RenderJob(scene_of(cube((-1.1, -1.5, -1.5), (1.1, 1.5, 1.5)), grey())))
     points, ratios, moved = run_escape(spec, grab)
     assert (ratios >= 0.5).all() and moved == 2
     assert points[1, 0] < -1.1 and points[2, 0] > 1.1  # through the faces nearest to them
@@ -178,7 +179,7 @@ def test_bounces_in_a_closed_white_box_converge_to_the_geometric_series():
     emission, rho = 1.0, 0.5
     box = Material.talk(albedo=(rho,) * 3, rf0=(0.0, 0.0, 0.0), gloss=0.0,
                         emission=(emission,) * 3)
-    grab = capture.Capture(scene_of(cube(inward=True), box))
+    grab = capture.Capture(RenderJob(scene_of(cube(inward=True), box)))
     spec = bake.ProbeSpec("Box", "irradiance", np.eye(4), 0.0, resolution=(1, 1, 1),
                           clip_start=0.01, clip_end=10.0)
     values = []
@@ -208,12 +209,12 @@ def test_surfaces_build_no_shadow_maps():
     light = Light(kind="POINT", color=np.full(3, 50.0, np.float32),
                   position=np.array([0.2, 0.1, 1.0]), shadow=True, radius=0.05)
     scene = dataclasses.replace(scene_of(tris, grey()), lights=[light])
-    grab = capture.Capture(scene)
+    grab = capture.Capture(RenderJob(scene))
     grab.surfaces(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
     assert not any(grab._frame.shadow_maps)  # the light's and the sky's: none built
     later = grab.cube(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
     assert grab._frame.shadow_maps[0] is not None
-    fresh = capture.Capture(scene).cube(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
+    fresh = capture.Capture(RenderJob(scene)).cube(np.array([1.5, 0.0, -0.5]), 16, 0.01, 100.0)
     np.testing.assert_array_equal(later, fresh)
 
 
@@ -222,9 +223,9 @@ def test_captures_see_objects_the_camera_does_not():
     as Cycles' indirect light does: the capture inside a camera-invisible box sees its walls."""
     scene = scene_of(cube(inward=True), grey())
     scene.world.color = np.full(3, 1.0, np.float32)
-    seen = capture.Capture(scene).cube(np.zeros(3), 8, 0.01, 100.0)
+    seen = capture.Capture(RenderJob(scene)).cube(np.zeros(3), 8, 0.01, 100.0)
     scene.meshes[0].camera = False
-    hidden = capture.Capture(scene).cube(np.zeros(3), 8, 0.01, 100.0)
+    hidden = capture.Capture(RenderJob(scene)).cube(np.zeros(3), 8, 0.01, 100.0)
     np.testing.assert_array_equal(hidden, seen)
     assert seen.max() < 0.5  # the walls, not the bright world
 
@@ -244,7 +245,7 @@ def test_objects_hidden_from_a_kind_of_probe():
                   direction=np.array([0.0, 0.0, -1.0]), shadow=True)
     scene = dataclasses.replace(scene_of(floor, grey()), meshes=meshes, lights=[light])
     scene.world.color = np.zeros(3, np.float32)
-    grab = capture.Capture(scene)
+    grab = capture.Capture(RenderJob(scene))
     above = np.array([0.0, 0.0, 1.0])
     down = 5  # the face looking along -Z (``cubemap.FACES``)
     sphere = grab.cube(above, 16, 0.01, 100.0)[down]

@@ -35,7 +35,7 @@ import numpy as np
 
 from ..formulas.texture import Texture
 from ..lighting.probes import IrradianceVolume, sends_light
-from ..render.pipeline import Cancelled
+from ..render.job import Cancelled, RenderJob
 from ..scene import Scene, World
 from . import bake, capture
 
@@ -123,7 +123,8 @@ def key(scene: Scene) -> str:
 def _bake(scene: Scene, where: bake.ProbeSpec,
           should_stop: Callable[[], bool] | None) -> IrradianceVolume:
     black = dataclasses.replace(scene, world=World(color=np.zeros(3, np.float32)))
-    cap = capture.Capture(black, should_stop=should_stop, focus=bake.capture_region([where]))
+    cap = capture.Capture(RenderJob(black, should_stop=should_stop),
+                          focus=bake.capture_region([where]))
     job = bake.Bake([where], scene.world, cap.cube, bounces=1, volume_face_size=FACE_SIZE,
                     surfaces=cap.surfaces)
     for _ in job.steps():

@@ -10,7 +10,6 @@ coordinates in [-1, 1]).
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -18,7 +17,11 @@ import numpy as np
 from ..formulas import cubemap
 from ..lighting.probes import Probes
 from ..render import pipeline
-from ..scene import Camera, Scene
+from ..render.buffers import mesh_flags, with_camera
+from ..render.job import RenderJob
+from ..render.shadow_maps import build_shadow_maps, dome_lit, shadow_map_count
+from ..render.visibility import nearest_faces
+from ..scene import Camera
 
 __all__ = ["Capture", "Surfaces", "face_camera"]
 
@@ -38,24 +41,24 @@ def face_camera(position, face: int, size: int, near: float, far: float) -> Came
 class Capture:
     """Renders cube maps of one scene at many points, its geometry and shadow maps prepared
     once for every view (the shadow maps when a cube map is first rendered, and again when
-    the world's lit directions change, ``pipeline.dome_lit``).
+    the world's lit directions change, ``shadow_maps.dome_lit``).
 
-    scene: the scene (its camera and probes are ignored); its settings' samples and filter
-           apply, the film is opaque and the border off
+    job:   the job of the scene (its camera and probes are ignored; its settings' samples and
+           filter apply, the film is opaque and the border off), its stop and warning sink
     focus: the world box (lo (3,), hi (3,)) the captures see (``bake.capture_region``): the
            suns' shadow maps cover it, or every caster when None
     """
 
-    def __init__(self, scene: Scene, warn: Callable[[str], None] | None = None,
-                 should_stop: Callable[[], bool] | None = None, focus: tuple | None = None):
+    def __init__(self, job: RenderJob, *, focus: tuple | None = None):
         # no contact occlusion: a few texels per face cannot hold it, and the probes' light is
         # occluded at the look-up (``occlusion``)
+        scene = job.scene
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None,
                                        ambient_occlusion=False)
         self.scene = dataclasses.replace(scene, settings=settings, probes=None)
-        self.warn, self.should_stop, self.focus = warn, should_stop, focus
+        self.job, self.focus = job, focus
         self._frame = None  # the geometry, prepared once for every view
-        # the dome directions its shadow maps were built for (``pipeline.dome_lit``; None:
+        # the dome directions its shadow maps were built for (``shadow_maps.dome_lit``; None:
         # no dome, for views without indirect light), or False before any: ``cube`` needs
         # them, ``surfaces`` not
         self._shadowed: tuple | None | bool = False
@@ -70,19 +73,17 @@ class Capture:
         cams = self._cameras(position, size, near, far)
         dome = None
         if probes is not None:  # the world's light is occluded by the dome's maps
-            count = pipeline.shadow_map_count(self._frame.scene, sky=True)
-            dome = tuple(pipeline.dome_lit(self._frame.scene, count - len(self.scene.lights),
-                                           probes.world_sh))
+            count = shadow_map_count(self._frame.scene, sky=True)
+            dome = tuple(dome_lit(self._frame.scene, count - len(self.scene.lights),
+                                  probes.world_sh))
         if self._shadowed is False or self._shadowed != dome:
-            self._frame.shadow_maps = pipeline.build_shadow_maps(
-                self._frame, self.should_stop, fit_shadows=False, focus=self.focus,
-                sky=dome is not None,
-                world_sh=None if probes is None else probes.world_sh)
+            self._frame.shadow_maps = build_shadow_maps(
+                self.job, self._frame, fit_shadows=False, focus=self.focus,
+                sky=dome is not None, world_sh=None if probes is None else probes.world_sh)
             self._shadowed = dome
         frame = dataclasses.replace(self._frame, seen=self._seen[kind], scene=dataclasses.replace(
             self._frame.scene, camera=cams[0], probes=probes))  # each view projects its own
-        faces = pipeline.render_views(frame.scene, cams, should_stop=self.should_stop,
-                                      frame=frame)
+        faces = pipeline.render_views(self.job.on(frame.scene), cams, frame=frame)
         return np.stack([face["Combined"][..., :3] for face in faces])
 
     def surfaces(self, position, size: int, near: float, far: float) -> Surfaces:
@@ -97,8 +98,7 @@ class Capture:
         front = back = 0.0
         nearest = (np.inf, None)
         for face, cam in enumerate(cams):
-            tri, depth, normals = pipeline.nearest_faces(pipeline.with_camera(frame, cam,
-                                                                               once=True))
+            tri, depth, normals = nearest_faces(with_camera(frame, cam, once=True))
             hit = np.flatnonzero(tri >= 0)
             d = directions[face, hit]
             behind = np.einsum("nk,nk->n", normals, d) > 0.0  # the ray meets a back face
@@ -120,14 +120,14 @@ class Capture:
         cams = [face_camera(position, face, size, near, far) for face in range(6)]
         if self._frame is None:
             scene = dataclasses.replace(self.scene, camera=cams[0])
-            maps = [None] * pipeline.shadow_map_count(scene, sky=True)
-            frame = pipeline.prepare(scene, self.warn, self.should_stop, shadow_maps=maps)
+            maps = [None] * shadow_map_count(scene, sky=True)
+            frame = pipeline.prepare(self.job.on(scene), shadow_maps=maps)
             # objects hidden from the camera are still in the light a probe gathers, as in
             # Cycles' indirect light: the captures see them, unless hidden from that kind
             meshes = scene.meshes
             self._seen = {
-                "reflection": pipeline.mesh_flags(frame, [m.sphere_probes for m in meshes]),
-                "irradiance": pipeline.mesh_flags(frame, [m.volume_probes for m in meshes])}
+                "reflection": mesh_flags(frame, [m.sphere_probes for m in meshes]),
+                "irradiance": mesh_flags(frame, [m.volume_probes for m in meshes])}
             self._frame = dataclasses.replace(frame, seen=None)
         return cams
 

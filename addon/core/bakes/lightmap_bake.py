@@ -1,7 +1,7 @@
 """Lightmap baking: texels, direct light, gathers through a BVH, clean-up (``lightmap``).
 
 The method and its references are in ``lightmap``'s docstring; this module renders: it reads
-the scene through a prepared frame (``pipeline.prepare``: materials, shadow maps) and writes
+the scene through a prepared frame (``pipeline.prepare``: buffers, materials) and writes
 nothing to disk (the host writes the results with ``lightmap_file``), so a bake that is
 stopped leaves the previous files as they were.
 """
@@ -13,12 +13,12 @@ import hashlib
 import threading
 import time
 import weakref
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..formulas.cubemap import FACES, _pad
+from ..formulas.cubemap import FACES, with_border
 from ..lighting import probes as probe_light
 from ..lighting import shade
 from ..lighting.lightmap import (
@@ -36,6 +36,10 @@ from ..lighting.lightmap import (
 )
 from ..lighting.world_probes import world_cube
 from ..render import pipeline
+from ..render.buffers import broken_triangles
+from ..render.job import Cancelled, RenderJob
+from ..render.shadow_maps import shadow_map_count
+from ..render.surfaces import surface_params
 from ..scene import Scene
 from .capture import face_camera
 
@@ -65,7 +69,7 @@ def _frame_index(scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
     if not scene.meshes:
         return first, np.zeros(0, np.int64)
-    keep, _, _ = pipeline._broken(np.concatenate([m.positions for m in scene.meshes]))
+    keep, _, _ = broken_triangles(np.concatenate([m.positions for m in scene.meshes]))
     index = np.where(keep, np.cumsum(keep) - 1, -1)
     return first, index
 
@@ -225,7 +229,7 @@ def _surface(frame, tri, p, n, geo, bary=None):
         w = (d00 * d21 - d01 * d20) / den
         bary = np.stack([1 - v - w, v, w], 1).astype(np.float32)
     zero = np.zeros(len(tri), np.float32)
-    s = pipeline._materials(frame, np.asarray(tri, np.int64), bary, p, n, geo, n, zero, zero,
+    s = surface_params(frame, np.asarray(tri, np.int64), bary, p, n, geo, n, zero, zero,
                             shifts=False)
     # what the surface reflects of the light it gets, diffusely and specularly (a gather reads
     # its radiance as a diffuse surface's, so a metal reflects its colour): the specular layer
@@ -263,56 +267,48 @@ def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Bvh,
     return out
 
 
-def bake(scene: Scene, targets: list[Target], settings: Settings | None = None,
-         progress: Callable[[float], None] | None = None,
-         should_stop: Callable[[], bool] | None = None,
-         warn: Callable[[str], None] | None = None) -> list[Lightmap]:
-    """Bake the lightmaps of ``targets`` (``Target``) in ``scene``: one ``Lightmap`` each,
-    in order (``steps`` run to the end). ``progress`` gets the finished fraction; raises
-    ``pipeline.Cancelled`` when ``should_stop`` says so."""
+def bake(job: RenderJob, targets: list[Target], settings: Settings | None = None
+         ) -> list[Lightmap]:
+    """Bake the lightmaps of ``targets`` (``Target``) in the job's scene: one ``Lightmap``
+    each, in order (``steps`` run to the end). The job's progress gets the finished fraction;
+    raises ``Cancelled`` when the job is stopped."""
     results: list[Lightmap] = []
-    for fraction in steps(scene, targets, settings, results, should_stop, warn):
-        if progress is not None:
-            progress(fraction)
+    for fraction in steps(job, targets, settings, results):
+        if job.progress is not None:
+            job.progress(fraction)
     return results
 
 
 STEP_SECONDS = 0.1  # ``steps`` yields at most this often: a modal bake redraws at each step
 
 
-def steps(scene: Scene, targets: list[Target], settings: Settings | None, results: list,
-          should_stop: Callable[[], bool] | None = None,
-          warn: Callable[[str], None] | None = None) -> Iterator[float]:
+def steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list
+          ) -> Iterator[float]:
     """``bake`` as a generator of progress fractions in [0, 1], one every ``STEP_SECONDS``
-    or so; the lightmaps are appended to ``results`` at the end. ``scene.probes`` lights the
+    or so; the lightmaps are appended to ``results`` at the end. The scene's probes light the
     objects without a lightmap that the rays meet. Closing it early stops the work; nothing
     is written here."""
     last = time.monotonic()
-    for fraction in _steps(scene, targets, settings, results, should_stop, warn):
+    for fraction in _steps(job, targets, settings, results):
         now = time.monotonic()
         if fraction >= 1.0 or now - last >= STEP_SECONDS:
             last = now
             yield fraction
 
 
-def _steps(scene: Scene, targets: list[Target], settings: Settings | None, results: list,
-           should_stop: Callable[[], bool] | None = None,
-           warn: Callable[[str], None] | None = None) -> Iterator[float]:
+def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list
+           ) -> Iterator[float]:
     """``steps``, a fraction after every short piece of work."""
     from ..kernels import lightmap as kernels
 
     settings = settings or Settings()
-
-    def poll():
-        if should_stop is not None and should_stop():
-            raise pipeline.Cancelled()
+    scene, poll = job.scene, job.poll
 
     base = dataclasses.replace(scene, camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0),
                                settings=dataclasses.replace(scene.settings, border=None))
     base = dataclasses.replace(base, probes=None)
     # no shadow maps: the direct light of the texels is ray traced (``_direct``)
-    frame = pipeline.prepare(base, warn, should_stop,
-                             shadow_maps=[None] * pipeline.shadow_map_count(base))
+    frame = pipeline.prepare(job.on(base), shadow_maps=[None] * shadow_map_count(base))
     frame.scene = dataclasses.replace(frame.scene, probes=scene.probes)
     first, index = _frame_index(scene)
     positions = (np.concatenate([m.positions for m in scene.meshes]) if scene.meshes
@@ -365,7 +361,7 @@ def _steps(scene: Scene, targets: list[Target], settings: Settings | None, resul
         cube_size = 0
     else:
         cube_size = 32
-        cube = _pad(world_cube(world, cube_size)).reshape(-1).astype(np.float32)
+        cube = with_border(world_cube(world, cube_size)).reshape(-1).astype(np.float32)
     color = np.asarray(world.color, np.float32).reshape(-1)[:3].copy()
     indirect = [np.zeros((len(tx.at), 3), np.float32) for tx in texels]
     sh = [np.zeros((len(tx.at), 4, 3), np.float32) for tx in texels]
@@ -379,7 +375,7 @@ def _steps(scene: Scene, targets: list[Target], settings: Settings | None, resul
     total_work = max(texel_count * (sum(counts) + filtering), 1)
     done = [0]
     lock = threading.Lock()
-    threads = pipeline.thread_count(scene.settings)
+    threads = job.threads
 
     def at(work: float) -> float:
         poll()
@@ -423,11 +419,11 @@ def _steps(scene: Scene, targets: list[Target], settings: Settings | None, resul
         new_var = [np.zeros_like(a) for a in variance]
         stop = threading.Event()
 
-        def job(k, lo, hi, rays=rays, radiance=radiance, new_e=new_e, new_sh=new_sh,
+        def work(k, lo, hi, rays=rays, radiance=radiance, new_e=new_e, new_sh=new_sh,
                 new_var=new_var, stop=stop):
             def run():
                 if stop.is_set():
-                    raise pipeline.Cancelled()
+                    raise Cancelled()
                 tx = texels[k]
                 e = np.empty((hi - lo, 3), np.float32)
                 s = np.empty((hi - lo, 4, 3), np.float32)
@@ -442,7 +438,7 @@ def _steps(scene: Scene, targets: list[Target], settings: Settings | None, resul
                     done[0] += (hi - lo) * rays
             return run
 
-        for _ in pipeline._ordered([job(*j) for j in jobs], threads, poll, stop):
+        for _ in job.ordered([work(*j) for j in jobs], stop):
             yield at(done[0])
         indirect, sh, variance = new_e, new_sh, new_var
     out = []

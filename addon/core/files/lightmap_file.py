@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..lighting.lightmap import Lightmap
-from .probe_file import ProbeFileError, _digest, read_parts, replace_all, write_parts
+from .probe_file import ProbeFileError, content_digest, read_parts, replace_all, write_parts
 
 __all__ = ["FORMAT", "read", "write_all"]
 
@@ -51,7 +51,7 @@ def read(path: str | os.PathLike) -> tuple[dict, Lightmap]:
     if meta.get("format") != FORMAT:
         raise ProbeFileError(f"{path.name}: lightmap format {meta.get('format')!r}, expected "
                              f"{FORMAT} (re-bake)")
-    if meta.get("checksum") != _digest(images):
+    if meta.get("checksum") != content_digest(images):
         raise ProbeFileError(f"{path.name}: damaged file (its pixels do not match their "
                              "checksum; re-bake)")
     named = dict(images)

@@ -119,14 +119,14 @@ def _encode(path: Path, meta: dict, sh: np.ndarray, mips) -> None:
 
 def write_parts(path: Path, meta: dict, images: list[tuple[str, np.ndarray]]) -> None:
     """A multi-part OpenEXR file of float32 RGB ``images`` ((name, (H, W, 3)) each, ZIP
-    compressed), the first part carrying ``meta`` and a checksum of the pixels (``_digest``)
+    compressed), the first part carrying ``meta`` and a checksum of the pixels (``content_digest``)
     as the JSON attribute ``bo2.meta``."""
     import OpenEXR
 
     width = max(img.shape[1] for _, img in images)
     height = max(img.shape[0] for _, img in images)
     window = (np.array([0, 0], np.int32), np.array([width - 1, height - 1], np.int32))
-    text = json.dumps({**meta, "checksum": _digest(images)})
+    text = json.dumps({**meta, "checksum": content_digest(images)})
     parts = [_part(name, img, {"bo2.meta": text} if i == 0 else {}, window)
              for i, (name, img) in enumerate(images)]
     OpenEXR.File(parts).write(str(path))
@@ -140,7 +140,7 @@ def size_bound(points: int, face_size: int | None) -> int:
     return 12 * (points * 9 + texels) + 65536
 
 
-def _digest(images) -> str:
+def content_digest(images) -> str:
     h = hashlib.sha256()
     for name, img in images:
         h.update(name.encode())
@@ -200,7 +200,7 @@ def read(path: str | os.PathLike) -> tuple[dict, np.ndarray, dict[str, list[np.n
         raise ProbeFileError(f"{path.name}: probe file format {meta.get('format')!r}, "
                              f"expected {FORMAT} (re-bake)")
     order = ["sh"] + [n for n, _ in parts if n != "sh"]
-    if meta.get("checksum") != _digest([(n, images[n]) for n in order if n in images]):
+    if meta.get("checksum") != content_digest([(n, images[n]) for n in order if n in images]):
         raise ProbeFileError(f"{path.name}: damaged file (its pixels do not match their "
                              "checksum; re-bake)")
     if "sh" not in images or images["sh"].shape[1:] != (9, 3):

@@ -97,7 +97,7 @@ def face_coordinates(size: int) -> np.ndarray:
 
 
 @functools.lru_cache(maxsize=16)
-def _texel_directions64(size: int) -> np.ndarray:
+def texel_directions64(size: int) -> np.ndarray:
     """(6, S, S, 3) float64 unit texel directions (read-only, cached)."""
     t = face_coordinates(size)
     a = t[None, :]  # columns
@@ -115,7 +115,7 @@ def _texel_directions64(size: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=16)
 def _texel_directions32(size: int) -> np.ndarray:
-    d = _texel_directions64(size).astype(np.float32)
+    d = texel_directions64(size).astype(np.float32)
     d.setflags(write=False)
     return d
 
@@ -237,7 +237,7 @@ def _pad_tables(size: int):
     return src, corner_pos, corner_src
 
 
-def _pad(level: np.ndarray) -> np.ndarray:
+def with_border(level: np.ndarray) -> np.ndarray:
     """(6, S, S, C) -> (6, S+2, S+2, C) float32 with the seamless one-texel border."""
     s = level.shape[1]
     c = level.shape[-1]
@@ -252,7 +252,7 @@ def _pad(level: np.ndarray) -> np.ndarray:
 def _bilinear_padded(padded: np.ndarray, face, x, y) -> np.ndarray:
     """Bilinear taps of padded faces at continuous texel coordinates.
 
-    padded: (6, S+2, S+2, C) float32 from ``_pad``
+    padded: (6, S+2, S+2, C) float32 from ``with_border``
     face:   (N,) int64; x, y: (N,) float64 in [0, S]
     returns (N, C) float32
     """
@@ -310,7 +310,7 @@ def sample(mips, directions, lod=None) -> np.ndarray:
         if idx.size == 0:
             continue
         s = mips[k].shape[1]
-        taps = _bilinear_padded(_pad(mips[k]), face[idx], u[idx] * s, v[idx] * s)
+        taps = _bilinear_padded(with_border(mips[k]), face[idx], u[idx] * s, v[idx] * s)
         out[idx] += weight[idx, None].astype(np.float32) * taps
     return out
 

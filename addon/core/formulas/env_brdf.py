@@ -248,7 +248,7 @@ def ground_truth_sampled(gloss, n_dot_v, visibility: str = "reference", samples:
 
 
 @lru_cache(maxsize=1)
-def _table() -> dict[str, np.ndarray]:
+def table_arrays() -> dict[str, np.ndarray]:
     with np.load(TABLE_PATH) as data:
         return {name: data[name] for name in data.files}
 
@@ -258,7 +258,7 @@ def table_parts(gloss, n_dot_v, visibility: str = "reference"):
 
     gloss, n_dot_v: broadcast together, shape S (clamped);  returns: float32 (a0, a1) of S
     """
-    t = _table()
+    t = table_arrays()
     if visibility not in ("reference", "bo2"):
         raise ValueError(f"unknown visibility {visibility!r}; expected 'reference' or 'bo2'")
     g, nv = _clamped(gloss, n_dot_v)

@@ -325,7 +325,7 @@ def _source_tables(size: int):
     returns dirs (N, 3) float64 and dirs32 (N, 3) float32 unit texel directions (N = 6 S^2,
     face-major) and omega (N,) float32 solid angles.
     """
-    dirs = cubemap._texel_directions64(size).reshape(-1, 3)
+    dirs = cubemap.texel_directions64(size).reshape(-1, 3)
     omega = np.broadcast_to(cubemap.texel_solid_angles(size), (6, size, size)).reshape(-1)
     return dirs, dirs.astype(np.float32), omega.astype(np.float32)
 
@@ -338,7 +338,7 @@ def _output_directions(size: int, warp: bool) -> np.ndarray:
     reading it scales the direction's two minor components by 1 - 1 / S_lod (S_lod the face
     size of the mip it reads) before a lookup that does not filter across faces."""
     if not warp or size < 2:
-        return cubemap._texel_directions64(size)
+        return cubemap.texel_directions64(size)
     t = cubemap.face_coordinates(size) * (size / (size - 1.0))
     a, b = t[None, :], -t[:, None]
     f, r, u = cubemap.FACES[:, 0], cubemap.FACES[:, 1], cubemap.FACES[:, 2]

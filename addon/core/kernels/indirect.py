@@ -10,8 +10,8 @@ normalization algorithm" and "Improved normalization algorithm"), written out in
 per point and is for tools and tests only).
 
 Cube-map chains come packed (``probes._packed_chains``): every level of every chain padded with
-its one-texel seamless border (``cubemap._pad``) in one flat float32 array, chain c's level m at
-``level_offset[c, m]`` with side ``level_size[c, m]`` (padded side minus 2).
+its one-texel seamless border (``cubemap.with_border``) in one flat float32 array, chain c's
+level m at ``level_offset[c, m]`` with side ``level_size[c, m]`` (padded side minus 2).
 """
 
 from __future__ import annotations
@@ -73,7 +73,7 @@ def _bilinear(chains, base, size, face, x, y, c):
 
 
 @nb.njit(**_OPTIONS)
-def _sample(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, gloss, out):
+def sample_chain(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, gloss, out):
     """``cubemap.sample`` of ``chain`` along (dx, dy, dz) (float32) at lod = top - g top,
     g = gloss clamped to [0, 1] (slide "Black Ops: environment map pre-filtering", in
     float32): RGB into ``out`` (3,) float32; 0 for a chain without levels."""
@@ -311,11 +311,11 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
                     t = _parallax(proxy, proxy_kind[chain], chain, points[i, 0], points[i, 1],
                                   points[i, 2], rx, ry, rz)
                 if t > 0.0:  # towards where the reflection leaves the proxy
-                    _sample(chains, level_offset, level_size, levels, chain, faces,
-                            px + t * rx, py + t * ry, pz + t * rz, gloss[i], s)
+                    sample_chain(chains, level_offset, level_size, levels, chain, faces,
+                                 px + t * rx, py + t * ry, pz + t * rz, gloss[i], s)
                 else:
-                    _sample(chains, level_offset, level_size, levels, chain, faces, rx, ry,
-                            rz, gloss[i], s)
+                    sample_chain(chains, level_offset, level_size, levels, chain, faces, rx, ry,
+                                 rz, gloss[i], s)
             if normalization != NONE:
                 if normalization == BO2:
                     probe_e = np.float32(0.0)

@@ -23,7 +23,7 @@ import math
 import numba as nb
 import numpy as np
 
-from .indirect import _sample
+from .indirect import sample_chain
 
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
@@ -413,8 +413,8 @@ def gather(points, normals, geo, offsets, rays, reach, tris, order, bounds, link
                         s[c] = (w0 * corner_radiance[t, 0, c] + hu * corner_radiance[t, 1, c]
                                 + hv * corner_radiance[t, 2, c])
             elif world_size > 0:
-                _sample(world, chain_off, chain_size, levels, np.int64(0), faces, np.float32(dx),
-                        np.float32(dy), np.float32(dz), np.float32(1.0), s)
+                sample_chain(world, chain_off, chain_size, levels, np.int64(0), faces,
+                             np.float32(dx), np.float32(dy), np.float32(dz), np.float32(1.0), s)
             else:
                 for c in range(3):
                     s[c] = world_color[c]

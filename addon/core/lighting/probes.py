@@ -296,7 +296,8 @@ def _packed_chains(probes: Probes, prefilter: str) -> tuple:
     parts, at = [], 0
     for i, chain in enumerate(chains):
         for m, level in enumerate(chain):
-            padded = cubemap._pad(np.ascontiguousarray(level[..., :3], np.float32)).reshape(-1)
+            padded = cubemap.with_border(
+                np.ascontiguousarray(level[..., :3], np.float32)).reshape(-1)
             offsets[i, m], sides[i, m] = at, level.shape[1]
             parts.append(padded)
             at += padded.size
@@ -404,6 +405,6 @@ def indirect(
 def _env_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The environment BRDF's table for the kernel: parts (2, G, N), gloss (G,), n.v (N,),
     float64 (the reference visibility, as ``env_brdf.table_parts``)."""
-    t = env_brdf._table()
+    t = env_brdf.table_arrays()
     return tuple(np.ascontiguousarray(t[name], np.float64)
                  for name in ("reference", "gloss", "n_dot_v"))

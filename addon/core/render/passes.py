@@ -19,6 +19,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 __all__ = ["EMPTY_DEPTH", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass"]
 
 EMPTY_DEPTH = 1e10
@@ -78,3 +80,43 @@ def _sampled_columns() -> tuple[dict[str, slice], int]:
 
 # The averaged passes side by side in one (N, SAMPLED_WIDTH) array: name -> column slice.
 SAMPLED, SAMPLED_WIDTH = _sampled_columns()
+
+
+def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray) -> dict:
+    """The passes stage of one tile (x0, y0, x1, y1): the averaged passes side by side
+    ``acc`` (npx, SAMPLED_WIDTH), Depth and IndexMA (npx,) as {pass name: (h, w, C) float32}."""
+    x0, y0, x1, y1 = tile
+    shape = (y1 - y0, x1 - x0)
+    image = acc.reshape(*shape, SAMPLED_WIDTH)
+    out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
+    out["Depth"], out["IndexMA"] = depth.reshape(*shape, 1), index.reshape(*shape, 1)
+    return out
+
+
+class Film:
+    """The passes stage of whole views: ``count`` films of ``height`` x ``width`` pixels that
+    tiles are written into; outside them the passes are 0 (Depth: ``EMPTY_DEPTH``)."""
+
+    def __init__(self, count: int, height: int, width: int) -> None:
+        self.film = np.zeros((count, height, width, SAMPLED_WIDTH), np.float32)
+        self.depth = np.full((count, height, width, 1), EMPTY_DEPTH, np.float32)
+        self.index = np.zeros((count, height, width, 1), np.float32)
+
+    def add(self, view: int, tile, acc: np.ndarray, depth: np.ndarray,
+            index: np.ndarray) -> None:
+        """One tile of view ``view``: arrays as ``tile_passes``."""
+        x0, y0, x1, y1 = tile
+        shape = (y1 - y0, x1 - x0)
+        self.film[view, y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
+        self.depth[view, y0:y1, x0:x1, 0] = depth.reshape(shape)
+        self.index[view, y0:y1, x0:x1, 0] = index.reshape(shape)
+
+    def passes(self) -> list[dict]:
+        """[{pass name: (H, W, C) float32}] per view; the averaged passes are views of one
+        (H, W, SAMPLED_WIDTH) film."""
+        out = []
+        for k in range(len(self.film)):
+            passes = {name: self.film[k, ..., SAMPLED[name]] for name in SAMPLED}
+            passes["Depth"], passes["IndexMA"] = self.depth[k], self.index[k]
+            out.append(passes)
+        return out

@@ -24,7 +24,11 @@ import numpy as np
 from ..lighting import world_probes
 from ..scene import Camera, Scene
 from . import pipeline
+from .buffers import Frame, with_camera, with_materials
+from .job import Cancelled, RenderJob, Warnings
 from .passes import EMPTY_DEPTH
+from .shadow_maps import build_shadow_maps, shadow_map_count
+from .visibility import sample_offsets
 
 # What ``Session.update`` may be told changed.
 CHANGES = frozenset({"geometry", "materials", "lights", "camera", "settings", "world", "probes"})
@@ -146,14 +150,14 @@ class Session:
 
     samples:  samples per pixel of the finished image (the scene's settings give the threads)
     on_image: called on the worker thread after each new image (e.g. to ask for a redraw)
-    warn:     called on the worker thread with each distinct warning of the renders
+    warnings: the sink of the renders' warnings (``job.Warnings``; a new one by default)
     """
 
     def __init__(self, samples: int = 8, on_image: Callable[[], None] | None = None,
-                 warn: Callable[[str], None] | None = None):
+                 warnings: Warnings | None = None):
         self.samples = max(1, int(samples))
         self.on_image = on_image
-        self.warn = warn
+        self.warnings = Warnings() if warnings is None else warnings
         self.view = "COMBINED"
         self.stats = {"prepares": 0, "material_tables": 0, "projections": 0, "renders": 0}
         self._cond = threading.Condition()
@@ -165,8 +169,8 @@ class Session:
         self._image: Image | None = None
         self._passes: tuple | None = None  # (passes, scene, samples, final, update)
         self._error: str | None = None
-        self._frame: pipeline.Frame | None = None
-        self._preview: pipeline.Frame | None = None
+        self._frame: Frame | None = None
+        self._preview: Frame | None = None
         self._thread = threading.Thread(target=self._run, name="bo2-viewport", daemon=True)
         self._thread.start()
 
@@ -266,7 +270,7 @@ class Session:
                     lit = world_probes.world_probes(scene.world)
                     scene = dataclasses.replace(scene, probes=lit)
                 self._render(scene, changed, number)
-            except pipeline.Cancelled:
+            except Cancelled:
                 with self._cond:  # what this update changed still waits to be applied
                     if self._pending is not None:
                         self._pending = (self._pending[0], self._pending[1] | changed,
@@ -288,7 +292,7 @@ class Session:
         return self._closed or self._updates != number
 
     def _prepared(self, scene: Scene, changed: frozenset, should_stop,
-                  preview: Callable[[pipeline.Frame], None]) -> pipeline.Frame:
+                  preview: Callable[[Frame], None]) -> Frame:
         """The frame of ``scene``, keeping what ``changed`` leaves valid. When the shadow maps
         must be built again, ``preview`` is first called with a frame that has the previous
         ones (the first image after a change comes before the slow part)."""
@@ -301,36 +305,40 @@ class Session:
                 rebuild = True
         frame = None
         if not rebuild and "materials" in changed:
-            frame = pipeline.with_materials(old, scene)
+            frame = with_materials(old, scene)
             if frame is None:
                 rebuild = True
             else:
                 self.stats["material_tables"] += 1
         if rebuild:
             self._frame = None
-            maps = [None] * pipeline.shadow_map_count(scene)
+            maps = [None] * shadow_map_count(scene)
             if old is not None and len(old.shadow_maps) == len(maps):
                 maps = old.shadow_maps
-            quick = pipeline.prepare(scene, self.warn, should_stop, shadow_maps=maps,
-                                     fit_shadows=False)
+            job = self._job(scene, should_stop)
+            quick = pipeline.prepare(job, shadow_maps=maps)
             quick.tiles = {}  # the raster set-ups of each tile, kept for the next renders
             preview(quick)  # with the previous shadow maps (none at first): the slow part next
             # the dome towards every direction: a world turned or lit anew keeps it
-            frame = dataclasses.replace(quick, shadow_maps=pipeline.build_shadow_maps(
-                quick, should_stop, fit_shadows=False, every_direction=True))
+            frame = dataclasses.replace(quick, shadow_maps=build_shadow_maps(
+                job, quick, fit_shadows=False, every_direction=True))
             self.stats["prepares"] += 1
         else:
             if frame is None:
                 frame = dataclasses.replace(old, scene=dataclasses.replace(
                     scene, camera=old.scene.camera))
             if "camera" in changed:
-                frame = pipeline.with_camera(frame, scene.camera)
+                frame = with_camera(frame, scene.camera)
                 self.stats["projections"] += 1
             preview(frame)
         self._frame = frame
         return frame
 
-    def _preview_of(self, frame: pipeline.Frame) -> pipeline.Frame:
+    def _job(self, scene: Scene, should_stop: Callable[[], bool]) -> RenderJob:
+        """A render job of ``scene`` for the session's worker, into its warnings."""
+        return RenderJob(scene, should_stop=should_stop, warnings=self.warnings)
+
+    def _preview_of(self, frame: Frame) -> Frame:
         """``frame`` through its camera at ``1 / PREVIEW_DIVIDER`` of the resolution; the last
         preview's projection and raster set-ups are kept while the geometry, the camera and
         the culled faces are the same."""
@@ -344,7 +352,7 @@ class Session:
                                                                            camera=small),
                                           clip=old.clip, tiles=old.tiles)
         else:
-            preview = pipeline.with_camera(frame, small)
+            preview = with_camera(frame, small)
         self._preview = preview
         return preview
 
@@ -353,24 +361,23 @@ class Session:
             return self._stale(number)
 
         samples = self.samples
-        offsets = pipeline.sample_offsets(samples, scene.settings.filter_width)
+        offsets = sample_offsets(samples, scene.settings.filter_width)
 
-        def preview(frame: pipeline.Frame) -> None:
+        def preview(frame: Frame) -> None:
             cam = frame.scene.camera
             if min(cam.width, cam.height) < 2 * PREVIEW_DIVIDER:
                 return
             small = self._preview_of(frame)
-            passes = pipeline.render_frame(small.scene, should_stop=should_stop,
-                                           warn=self.warn, frame=small, offsets=offsets[:1])
+            passes = pipeline.render_frame(self._job(small.scene, should_stop), frame=small,
+                                           offsets=offsets[:1])
             self.stats["renders"] += 1
             self._publish(passes, small.scene, 0, False, number)
 
         frame = self._prepared(scene, changed, should_stop, preview)
         total = None
         for k in range(samples):
-            passes = pipeline.render_frame(scene, should_stop=should_stop, warn=self.warn,
-                                           frame=frame, offsets=offsets[k:k + 1],
-                                           first_sample=k)
+            passes = pipeline.render_frame(self._job(scene, should_stop), frame=frame,
+                                           offsets=offsets[k:k + 1], first_sample=k)
             self.stats["renders"] += 1
             if total is None:
                 total = mean = passes

@@ -298,10 +298,10 @@ class Points:
     def object_direction(self, d) -> np.ndarray:
         """Normals to object space (by the inverse transpose of object-to-world), unit."""
         m = self.world_to_object[:, :3, :3]
-        return _unit(np.einsum("nji,nj->ni", np.linalg.inv(m), d))
+        return unit_vectors(np.einsum("nji,nj->ni", np.linalg.inv(m), d))
 
 
-def _unit(v) -> np.ndarray:
+def unit_vectors(v) -> np.ndarray:
     v = np.asarray(v, np.float32)
     length = np.linalg.norm(v, axis=-1, keepdims=True)
     return np.where(length > 0.0, v / np.where(length > 0.0, length, 1.0), 0.0).astype(
@@ -556,10 +556,10 @@ def _op_normal_map(ev, op, pts):
         c = c * np.array([1.0, -1.0, -1.0], np.float32)  # Blender's own axes convention
     if space in ("OBJECT", "BLENDER_OBJECT"):  # normals go by the inverse transpose
         c = np.einsum("nji,nj->ni", pts.world_to_object[:, :3, :3], c)
-    m = _unit(c)
+    m = unit_vectors(c)
     m = np.where(pts.backfacing > 0.5, -m, m)  # Cycles turns the mapped normal of back faces
     s = np.maximum(strength, 0.0)
-    return _unit(n + (m - n) * s)
+    return unit_vectors(n + (m - n) * s)
 
 
 def _op_bump(ev, op, pts):
@@ -584,9 +584,9 @@ def _op_bump(ev, op, pts):
     ry = np.cross(n, dpdx)
     det = np.einsum("nc,nc->n", dpdx, rx)[:, None]
     grad = (hx - h) * rx + (hy - h) * ry
-    out = _unit(np.abs(det) * n - distance * np.sign(det) * grad)
+    out = unit_vectors(np.abs(det) * n - distance * np.sign(det) * grad)
     out = np.where(np.isfinite(out) & (np.abs(out).sum(1, keepdims=True) > 0.0), out, n)
-    out = _unit(strength * out + (1.0 - strength) * n)
+    out = unit_vectors(strength * out + (1.0 - strength) * n)
     return np.where(np.abs(out).sum(1, keepdims=True) > 0.0, out, n)
 
 
@@ -713,7 +713,7 @@ class _Evaluation:
         """A normal input: its value, unit, or the point's shading normal when unlinked."""
         if k >= len(op.args) or op.args[k] is None:
             return pts.normal
-        return _unit(np.broadcast_to(self.value(op.args[k], pts)[:, :3], (pts.n, 3)))
+        return unit_vectors(np.broadcast_to(self.value(op.args[k], pts)[:, :3], (pts.n, 3)))
 
     def step(self, reg: int | None, axis: int, pts: Points):
         """How ``reg`` (None: the active UV map) changes over one pixel along ``axis``, (N, k)
@@ -824,7 +824,7 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
         # closures without a normal input contribute the geometry's
         rest = np.maximum(c.weight - c.nweight, 0.0)
         mixed = c.normal + rest * points.normal if np.any(rest > 0.0) else c.normal
-        normal = np.broadcast_to(_unit(mixed), (n, 3))
+        normal = np.broadcast_to(unit_vectors(mixed), (n, 3))
         normal = np.where(np.einsum("nc,nc->n", normal, normal)[:, None] > 0.25, normal,
                           points.normal)
     occlusion = None

@@ -1,0 +1,121 @@
+"""The shadow-map stage: every light's shadow map (``shadows``) and the world's dome of them
+(``sky``), built on the job's threads; the dome's maps kept while the casters and the view stay
+the same.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+
+import numpy as np
+
+from ..scene import Scene
+from . import shadows
+from . import sky as sky_light
+from .buffers import Frame
+from .job import RenderJob
+from .surfaces import caster_alpha
+
+
+def shadow_map_count(scene: Scene, sky: bool | None = None) -> int:
+    """Shadow maps a frame of ``scene`` holds: one per light, then the sky's dome
+    (``settings.sky_directions``) when ``sky`` (None: when the scene has indirect light) and
+    there is geometry."""
+    sky = scene.probes is not None if sky is None else sky
+    dome = scene.settings.sky_directions if sky and scene.meshes else 0
+    return len(scene.lights) + max(0, int(dome))
+
+
+def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np.ndarray:
+    """(count,) bool: the dome directions whose shadow maps are built, those the world sends
+    light from (``sky.radiance_weights`` of ``world_sh``, by default the scene's probes'; every
+    direction when neither is known)."""
+    if world_sh is None and scene.probes is not None:
+        world_sh = scene.probes.world_sh
+    if world_sh is None:
+        return np.ones(count, bool)
+    return sky_light.radiance_weights(world_sh, count) > 0.0
+
+
+def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
+                      sky: bool | None = None, world_sh: np.ndarray | None = None,
+                      every_direction: bool = False, focus: tuple | None = None) -> list:
+    """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
+    then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
+    fitted as the lights' are; None towards directions the world sends no light from,
+    ``dome_lit``, unless ``every_direction``: for a world that may change, as a viewport's):
+    ``shadow_map_count`` maps, every face and cascade rendered at once on the job's threads.
+
+    fit_shadows: fit sun cascades to the frame's camera; False covers every caster with one
+                 cascade (for views in every direction, e.g. a probe's six faces)
+    focus:       without ``fit_shadows``, the world box whose shadows matter
+                 (``shadows.shadow_map_jobs``)
+    sky, world_sh: as ``shadow_map_count`` and ``dome_lit``
+    """
+    scene = frame.scene
+    count = shadow_map_count(scene, sky)
+    if not len(frame.positions):
+        return [None] * count
+
+    positions, fades, index = frame.positions, frame.fades, None
+    if frame.casts is not None:  # objects that cast no shadow are not in the maps
+        index = np.flatnonzero(frame.casts)
+        positions, fades = positions[index], fades[index]
+        if not len(positions):
+            return [None] * count
+    cutout = ((fades, lambda t, b: caster_alpha(frame, t if index is None else index[t], b))
+              if fades.any() else None)
+    s = scene.settings
+    view = scene.camera if fit_shadows else None
+    plans = []
+    for light in scene.lights:
+        job.poll()
+        plans.append(shadows.shadow_map_jobs(light, positions, view, focus=focus,
+                                             resolution=s.shadow_resolution, cutout=cutout))
+    dome = count - len(scene.lights)
+    lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
+    key = None if cutout is not None or not lit.any() else _dome_key(
+        positions, view, focus, s.sky_resolution, lit)
+    with _domes_lock:
+        kept = _domes.get(key) if key is not None else None
+    if kept is None:
+        view_range = (shadows.camera_depth_range(view, positions)
+                      if view is not None and lit.any() else None)  # the same for every sun
+        for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):
+            job.poll()
+            plans.append(shadows.shadow_map_jobs(
+                light, positions, view, resolution=s.sky_resolution, cutout=cutout,
+                max_filter=sky_light.MAX_FILTER, view_range=view_range, focus=focus)
+                if on else ([], lambda done: None))
+    done = iter(list(job.ordered([work for works, _ in plans for work in works],
+                                 threading.Event())))
+    maps = [finish([next(done) for _ in works]) for works, finish in plans]
+    if kept is not None:
+        return maps + kept
+    if key is not None:
+        with _domes_lock:
+            _domes[key] = maps[len(scene.lights):]
+            while len(_domes) > DOMES_KEPT:
+                _domes.pop(next(iter(_domes)))
+    return maps
+
+
+DOMES_KEPT = 2  # the dome's maps of the last geometries and views, reused while they stay
+
+
+_domes: dict = {}
+
+
+_domes_lock = threading.Lock()
+
+
+def _dome_key(positions: np.ndarray, view, focus, resolution: int, lit: np.ndarray) -> tuple:
+    """What the dome's maps depend on: the casters' triangles, the view they are fitted to
+    (None: all casters, or ``focus``), their resolution and the lit directions."""
+    digest = hashlib.blake2b(np.ascontiguousarray(positions).view(np.uint8), digest_size=16)
+    camera = None if view is None else (
+        np.asarray(view.world_to_camera, np.float64).tobytes(),
+        np.asarray(view.projection, np.float64).tobytes(), view.width, view.height)
+    where = None if focus is None else np.asarray(focus, np.float64).tobytes()
+    return (digest.hexdigest(), camera, where, int(resolution), lit.tobytes())
