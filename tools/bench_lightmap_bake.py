@@ -77,16 +77,17 @@ def child(args) -> None:
 
     from bo2_lighting.addon.blender import bake
     from bo2_lighting.addon.core.bakes import lightmap_bake
+    from bo2_lighting.addon.core.render.job import Warnings
 
     folder = Path(tempfile.mkdtemp())
     scene, ground = build(folder, args.resolution, args.rays, args.bounces,
                           args.cycles_samples)
-    notes: list[str] = []
+    notes = Warnings()
     base = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
     start = last = time.perf_counter()
     longest, where = 0.0, 0.0
     fraction = 0.0
-    steps = bake.lightmap_steps(scene, [ground], report=notes.append,
+    steps = bake.lightmap_steps(scene, [ground], warnings=notes,
                                 backend=args.child.upper())
     for fraction_now in steps:
         now = time.perf_counter()
@@ -100,7 +101,7 @@ def child(args) -> None:
     meta, lm = lightmap_file.read(bake.bake_files.path(ground))
     texels = meta["width"] * meta["height"]
     print(json.dumps({"seconds": seconds, "peak": peak, "above": peak - base,
-                      "texels": texels, "longest": longest, "at": where, "notes": notes,
+                      "texels": texels, "longest": longest, "at": where, "notes": notes.texts(),
                       "announced": lightmap_bake.BAKE_BYTES * texels}))
 
 

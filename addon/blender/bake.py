@@ -97,22 +97,18 @@ def enclosing_objects(scene, depsgraph, position) -> list[str]:
     return sorted(names)
 
 
-def _warn(report, message: str) -> None:
-    if report is not None:
-        report(message)
-
-
-def bake_steps(scene, objs, backend: str = "BO2", report=None):
+def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1] that
     returns the number of probes written.
 
     backend: "BO2" (the engine's pipeline, ``scene.bo2.bake_bounces`` bounces) or "CYCLES"
              (one Cycles render per face, full global illumination: one bounce)
-    report:  ``report(message)`` receives warnings
+    warnings: the sink of the bake's warnings (``core.render.job.Warnings``)
     The scene is read as a final render evaluates it (``render_graph``). Closing the
     generator early (cancel) writes nothing.
     """
     settings = scene.bo2
+    warnings = Warnings() if warnings is None else warnings
     if not objs:
         raise BakeError("No Sphere or Volume light probes to bake")
     folder = probes.writable_folder(scene)
@@ -122,8 +118,8 @@ def bake_steps(scene, objs, backend: str = "BO2", report=None):
     worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
 
     def read(depsgraph):
-        core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False,
-                                                     should_stop=interrupt.requested)
+        core_scene, _ = extract.extract_scene(depsgraph, rs, camera=False,
+                                              should_stop=interrupt.requested, warnings=warnings)
         for obj in objs:
             if obj.data.type != "SPHERE":
                 continue
@@ -135,18 +131,18 @@ def bake_steps(scene, objs, backend: str = "BO2", report=None):
                       if scene.objects[name].dimensions.length < reach
                       and not scene.objects[name].hide_probe_sphere]  # not in its captures
             if inside:
-                warnings.append(f"Light probe '{obj.name}' seems to be inside object "
-                                f"{', '.join(repr(n) for n in inside)}: its captures see the "
-                                "inside; move the probe out, or raise its Clip Start past the "
-                                "surface")
-        return core_scene, warnings
+                warnings.add(f"Light probe '{obj.name}' seems to be inside object "
+                             f"{', '.join(repr(n) for n in inside)}: its captures see the "
+                             "inside; move the probe out, or raise its Clip Start past the "
+                             "surface")
+        return core_scene
 
-    core_scene, warnings = _read_for_render(scene, read)
-    specs, odd = bake.check([probes.spec(o) for o in objs])
+    core_scene = _read_for_render(scene, read)
+    odd = Warnings()
+    specs = bake.check([probes.spec(o) for o in objs], odd)
     if not specs:  # every probe was refused: the refusals are the error
-        raise BakeError(f"No light probe can be baked: {'; '.join(odd)}")
-    for w in warnings + odd:
-        _warn(report, w)
+        raise BakeError(f"No light probe can be baked: {'; '.join(odd.texts())}")
+    warnings.extend(odd.texts())
     face_size = int(settings.bake_face_size)
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))
@@ -167,9 +163,9 @@ def bake_steps(scene, objs, backend: str = "BO2", report=None):
     for baked in job.results:
         if baked.validity is not None and not baked.validity.all():
             count = int((baked.validity == 0).sum())
-            _warn(report, f"Light probe '{baked.spec.name}': {count} of {len(baked.validity)} "
-                  "samples are inside geometry with no valid neighbour; they are left out "
-                  "(raise Dilation Radius or Escape Bias, or move the volume)")
+            warnings.add(f"Light probe '{baked.spec.name}': {count} of {len(baked.validity)} "
+                         "samples are inside geometry with no valid neighbour; they are left "
+                         "out (raise Dilation Radius or Escape Bias, or move the volume)")
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")
     interrupt.check()  # Ctrl-C during the last capture: nothing is written
     targets = [(scene.objects[b.spec.name], bake_files.target(scene, scene.objects[b.spec.name]))
@@ -201,9 +197,10 @@ def _read_for_render(scene, read):
 # lightmaps
 
 
-def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[dict]]:
+def lightmap_plan(scene, depsgraph, core_scene, objs, warnings: Warnings
+                  ) -> tuple[list, list[dict]]:
     """The bake's ``core_lightmap.Target`` per object of ``objs`` that can have one, and per target
-    what its file records (UV map, density); ``warn(message)`` for each object left out or
+    what its file records (UV map, density); into ``warnings``, one for each object left out or
     laid out anew. Raises BakeError when none can, or when they would take more memory than
     the cap."""
     s = lightmaps.settings(scene)
@@ -211,7 +208,7 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
     for obj in objs:
         k = lightmaps.batch_index(core_scene, obj.name)
         if k is None:
-            warn(f"Object '{obj.name}' has no faces that render: no lightmap")
+            warnings.add(f"Object '{obj.name}' has no faces that render: no lightmap")
             continue
         positions = core_scene.meshes[k].positions
         finite = np.isfinite(positions).all(axis=(1, 2))
@@ -219,21 +216,21 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
                                              positions[finite, 2] - positions[finite, 0]),
                                     axis=1).sum()
         if not area > 1e-10:
-            warn(f"Object '{obj.name}' has no surface area: no lightmap")
+            warnings.add(f"Object '{obj.name}' has no surface area: no lightmap")
             continue
         if not finite.all():
-            warn(f"Object '{obj.name}': {int((~finite).sum())} triangles with NaN or infinite "
-                 "vertices are left out of its lightmap")
+            warnings.add(f"Object '{obj.name}': {int((~finite).sum())} triangles with NaN or "
+                         "infinite vertices are left out of its lightmap")
         d = lightmaps.density(obj, scene)
         name = lightmaps.uv_map(obj)
         chosen = obj.bo2.lightmap_uv
         if chosen and name is None:
-            warn(f"Object '{obj.name}': its Lightmap UV map '{chosen}' is not one of its UV "
-                 "maps; a layout is made for its lightmap instead")
+            warnings.add(f"Object '{obj.name}': its Lightmap UV map '{chosen}' is not one of "
+                         "its UV maps; a layout is made for its lightmap instead")
         uvs = None if name is None else lightmaps.artist_uvs(obj, depsgraph, name, len(positions))
         if name is not None and uvs is None:
-            warn(f"Object '{obj.name}': its modifiers leave no UV map '{name}'; a layout is "
-                 "made for its lightmap instead")
+            warnings.add(f"Object '{obj.name}': its modifiers leave no UV map '{name}'; a "
+                         "layout is made for its lightmap instead")
         if uvs is not None:
             width, height = core_lightmap.size_for(uvs[finite], positions[finite], d,
                                               s.max_resolution)
@@ -242,8 +239,8 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
             if bad or outside or not np.isfinite(uvs).all():
                 why = (f"{bad} texels where charts overlap" if bad else
                        "coordinates outside 0..1")
-                warn(f"Object '{obj.name}': UV map '{name}' has {why}; a layout is made "
-                     "for its lightmap instead")
+                warnings.add(f"Object '{obj.name}': UV map '{name}' has {why}; a layout is "
+                             "made for its lightmap instead")
                 uvs = None
         if uvs is None:
             safe = np.where(finite[:, None, None], positions, 0.0)
@@ -265,8 +262,8 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warn) -> tuple[list, list[
                         f"{machine.size(baking)} of memory, more than this machine's "
                         f"{machine.size(have)} allow: lower Texels per Metre or Max Resolution")
     if baking > BAKE_NOTE:
-        warn(f"Baking these lightmaps ({texels:.1f} M texels) takes about "
-             f"{machine.size(baking)} of memory")
+        warnings.add(f"Baking these lightmaps ({texels:.1f} M texels) takes about "
+                     f"{machine.size(baking)} of memory")
     return targets, notes
 
 
@@ -356,10 +353,10 @@ def cycles_lightmap(scene, obj, mesh, target, uv_map: str | None) -> np.ndarray:
         scene.render.engine, scene.cycles.samples, obj.hide_render = saved[2:]
 
 
-def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
+def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str = "BO2"):
     """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1] that
     returns the number of lightmaps written; the files are written at the end, all or
-    nothing (closing it early writes nothing). ``report(message)`` receives warnings.
+    nothing (closing it early writes nothing); ``warnings``: the sink of its warnings.
     backend: "BO2" (``core.bakes.lightmap_bake``) or "CYCLES" (``cycles_lightmap``, one object at
     a time; irradiance only).
 
@@ -367,10 +364,7 @@ def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
     render-only modifiers), which is what F12 draws. Where the viewport's mesh of an object
     differs, its files also record the viewport's triangles and keys, so that the viewport
     says why it lights that object with the probes rather than calling it stale."""
-    def warn(message: str) -> None:
-        if report is not None:
-            report(message)
-
+    warnings = Warnings() if warnings is None else warnings
     if not objs:
         raise BakeError("No static mesh objects to bake lightmaps for")
     probes.writable_folder(scene)
@@ -382,12 +376,10 @@ def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
 
     def read(depsgraph):
         # the probes light the dynamic objects that the texels see
-        core_scene, warnings = extract.extract_scene(depsgraph, rs, camera=False,
-                                                     indirect=True, lightmaps=False,
-                                                     should_stop=interrupt.requested)
-        for w in warnings:
-            warn(w)
-        targets, notes = lightmap_plan(scene, depsgraph, core_scene, objs, warn)
+        core_scene, _ = extract.extract_scene(depsgraph, rs, camera=False, indirect=True,
+                                              lightmaps=False, should_stop=interrupt.requested,
+                                              warnings=warnings)
+        targets, notes = lightmap_plan(scene, depsgraph, core_scene, objs, warnings)
         meshes = {}
         try:
             for t in targets if cycles else ():
@@ -404,8 +396,8 @@ def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
         results: list = []
         if cycles:
             if s.directional:
-                warn("The Cycles backend bakes irradiance only: these lightmaps are not "
-                     "directional")
+                warnings.add("The Cycles backend bakes irradiance only: these lightmaps are "
+                             "not directional")
                 s = dataclasses.replace(s, directional=False)
             for k, (target, note) in enumerate(zip(targets, notes, strict=True)):
                 image = cycles_lightmap(scene, scene.objects[target.name], meshes[target.name],
@@ -414,8 +406,7 @@ def lightmap_steps(scene, objs, report=None, backend: str = "BO2"):
                 interrupt.check()
                 yield (k + 1) / (len(targets) + 1)
         else:
-            job = RenderJob(core_scene, should_stop=interrupt.requested,
-                            warnings=Warnings(lambda message: warn(message.text)))
+            job = RenderJob(core_scene, should_stop=interrupt.requested, warnings=warnings)
             yield from lightmap_bake.steps(job, targets, s, results)
     finally:
         bpy.data.batch_remove(list(meshes.values()))

@@ -104,10 +104,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             if self.is_preview:
                 settings = preview_settings(settings)
             should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731
-            frame, warnings = extract.extract_scene(depsgraph, settings,
-                                                    indirect=scene.bo2.use_indirect,
-                                                    should_stop=should_stop)
-            sink.extend(warnings)
+            frame, _ = extract.extract_scene(depsgraph, settings, indirect=scene.bo2.use_indirect,
+                                             should_stop=should_stop, warnings=sink)
             if not self.is_preview:
                 self.update_stats("BO2 Lighting", "Baking the bounce without probes")
                 frame = bounce.attach(frame, should_stop)

@@ -20,7 +20,7 @@ from ..core import scene as cs
 from ..core.formulas import texture
 from ..core.lighting import world_sun
 from ..core.render import memory
-from ..core.render.job import Cancelled
+from ..core.render.job import Cancelled, Warnings
 from . import lightmaps as baked_lightmaps
 from . import worlds
 from .materials import convert_material, load_image
@@ -293,11 +293,11 @@ def euler_xyz(rx: float, ry: float, rz: float) -> np.ndarray:
     return rot_z @ rot_y @ rot_x
 
 
-def _environment(node, world_name: str, warnings: list[str]):
+def _environment(node, world_name: str, warnings: Warnings):
     """(texture, rotation) of an Environment Texture node, or (None, None) with a warning."""
     where = f"World '{world_name}', node '{node.name}'"
     if node.projection != "EQUIRECTANGULAR":
-        warnings.append(f"{where}: only the equirectangular projection is supported")
+        warnings.add(f"{where}: only the equirectangular projection is supported")
         return None, None
     rotation = np.eye(3)
     vec = node.inputs["Vector"].links
@@ -307,12 +307,12 @@ def _environment(node, world_name: str, warnings: list[str]):
             rotation = euler_xyz(*mapping.inputs["Rotation"].default_value)
             # The Mapping node rotates the lookup vector: texture = image(R d).
         elif mapping.type != "TEX_COORD":
-            warnings.append(f"{where}: node '{mapping.name}' on its vector is not supported")
+            warnings.add(f"{where}: node '{mapping.name}' on its vector is not supported")
     tex = load_image(node.image, "REPEAT", node.interpolation, warnings, where)
     return tex, rotation
 
 
-def _world(scene, warnings: list[str]) -> cs.World:
+def _world(scene, warnings: Warnings) -> cs.World:
     """The background: the Background node's colour or equirectangular texture, times strength;
     any other tree, its equirect rendered by Cycles (``worlds``), or its viewport colour with a
     warning when it is not rendered."""
@@ -326,7 +326,7 @@ def _world(scene, warnings: list[str]) -> cs.World:
             return cs.World(color=np.asarray(tex.mips[-1][0, 0, :3], np.float32), texture=tex,
                             sun=rendered.sun)
         reason = worlds.problem(world)
-        warnings.append(f"World '{world.name}' cannot be evaluated ({reason}); its viewport "
+        warnings.add(f"World '{world.name}' cannot be evaluated ({reason}); its viewport "
                         "colour is used" if reason else
                         f"World '{world.name}' has not been evaluated since it changed (its "
                         "nodes are rendered by Cycles before a bake or a render of the bo2 "
@@ -341,13 +341,13 @@ def _world(scene, warnings: list[str]) -> cs.World:
     node = links[0].from_node if links else None
     if node is None or node.type != "BACKGROUND":
         if node is not None:
-            warnings.append(f"World '{world.name}': node '{node.name}' is not supported; "
+            warnings.add(f"World '{world.name}': node '{node.name}' is not supported; "
                             "the world colour is used")
         return cs.World(color=np.array(world.color[:3], np.float32))
     color_in, strength_in = node.inputs["Color"], node.inputs["Strength"]
     strength = float(strength_in.default_value)
     if strength_in.is_linked:
-        warnings.append(f"World '{world.name}': a node on Strength is not supported")
+        warnings.add(f"World '{world.name}': a node on Strength is not supported")
     color = np.array(color_in.default_value[:3], np.float32)
     if color_in.is_linked:
         src = color_in.links[0].from_node
@@ -357,12 +357,12 @@ def _world(scene, warnings: list[str]) -> cs.World:
                 return cs.World(color=color * strength, texture=tex, strength=strength,
                                 rotation=rotation)
         else:
-            warnings.append(f"World '{world.name}': node '{src.name}' on the background colour "
+            warnings.add(f"World '{world.name}': node '{src.name}' on the background colour "
                             "is not supported; the Background node's own colour is used")
     return cs.World(color=color * strength)
 
 
-def extract_world(scene, warnings: list[str]) -> cs.World:
+def extract_world(scene, warnings: Warnings) -> cs.World:
     """The background (``_world``) with its sun taken out as a light (``core.lighting.world_sun``):
     EEVEE's World > Sun settings (Threshold, Angle, Shadow) are the world's for both."""
     world = _world(scene, warnings)
@@ -413,11 +413,11 @@ def _mesh_data(mesh, slots, owner: str, cache: SceneCache, warnings):
         kind, name = key
         what = {"uv": "UV map", "attribute": "attribute", "tangent": "UV map"}[kind]
         label = f"'{name}'" if name else "(the active one)"
-        warnings.append(f"Material '{readers[key][0]}' reads {what} {label}, which object "
+        warnings.add(f"Material '{readers[key][0]}' reads {what} {label}, which object "
                         f"'{owner}' does not have; it reads 0")
 
     def ngons():
-        warnings.append(f"Object '{owner}' has n-gons: Blender's tangents need triangles "
+        warnings.add(f"Object '{owner}' has n-gons: Blender's tangents need triangles "
                         "and quads, so its normal maps use one tangent per triangle")
 
     pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing, ngons)
@@ -662,7 +662,7 @@ class SceneCache:
         """Compile every material again (an image or node group they may use changed)."""
         self.mat_ids.clear()
 
-    def refresh(self, warnings: list[str]) -> None:
+    def refresh(self, warnings: Warnings) -> None:
         """Compile again the forgotten materials that objects in the cache use; an object whose
         material now reads other mesh attributes is read again."""
         stale = {key for key in self.keys[1:] if key not in self.mat_ids}
@@ -678,7 +678,7 @@ class SceneCache:
                     if data is not None and (data[3] == index).any():
                         self.forget_object(okey[0])
 
-    def material(self, mat, warnings: list[str], key: int | None = None) -> int:
+    def material(self, mat, warnings: Warnings, key: int | None = None) -> int:
         """The index of ``mat`` (a Blender material or None) in ``materials``, compiled when
         not valid; ``key`` names a material that may have been deleted (``mat`` None)."""
         if key is None:
@@ -697,7 +697,7 @@ class SceneCache:
         return self.mat_ids[key]
 
 
-def _read_objects(depsgraph, cache: SceneCache, warnings: list[str], triangles: list[int],
+def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: list[int],
                   should_stop: Callable[[], bool] | None = None):
     """``extract_scene``'s walk over the depsgraph's instances: (meshes, lights, object-space
     data and batches by key, for ``cache``); ``triangles[0]`` counts the triangles read, those
@@ -788,7 +788,8 @@ def _lit_by(world: cs.World) -> bool:
 
 def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: bool = True,
                   indirect: bool = False, cache: SceneCache | None = None,
-                  should_stop: Callable[[], bool] | None = None, lightmaps: bool = True):
+                  should_stop: Callable[[], bool] | None = None, lightmaps: bool = True,
+                  warnings: Warnings | None = None) -> tuple[cs.Scene, Warnings]:
     """Translate the evaluated depsgraph into plain data.
 
     settings: the engine's settings (``render_settings(scene)`` when None)
@@ -800,9 +801,10 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     should_stop: polled before each object is read; True raises ``job.Cancelled``
     lightmaps: with ``indirect``, static objects take their baked lightmaps
               (``lightmaps.attach``)
-    returns:  (core.scene.Scene, warnings: list[str] of messages to report once each)
+    warnings: the sink of what the user should read (a new one when None)
+    returns:  (core.scene.Scene, the sink)
     """
-    warnings: list[str] = []
+    warnings = Warnings() if warnings is None else warnings
     scene = depsgraph.scene
     viewer = scene.camera if camera else None
     camera = (extract_camera(depsgraph) if camera else
@@ -818,14 +820,14 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     cache.objects, cache.batches = objects, batches  # what is gone from the scene is dropped
     if viewer is not None and viewer.type == "CAMERA" \
             and viewer.data.clip_end <= viewer.data.clip_start:
-        warnings.append(f"Camera '{viewer.name}': Clip End is not beyond Clip Start, so it "
+        warnings.add(f"Camera '{viewer.name}': Clip End is not beyond Clip Start, so it "
                         "sees no geometry (as in Cycles)")
         meshes = []
     world = extract_world(scene, warnings)
     if world.sun is not None:
         lights.append(world.sun)
     if not lights and not _lit_by(world):
-        warnings.append("The scene has no lights and its world is black: only emission is "
+        warnings.add("The scene has no lights and its world is black: only emission is "
                         "visible")
     core = cs.Scene(
         camera=camera,

@@ -158,7 +158,7 @@ def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:
         bpy.ops.render.render(write_still=False)
     seconds = time.perf_counter() - start
     interrupt.check()  # a render stopped by Ctrl-C is not written
-    warnings = [m.text for m in said if m.kind == "WARNING"]
+    warnings = [m.text for m in said.messages if m.kind == "WARNING"]
     with interrupt.writing():
         if fmt == "OPEN_EXR":
             images.save_render_result(scene, path.resolve(), "OPEN_EXR_MULTILAYER", "32")

@@ -23,6 +23,7 @@ from ..core import scene as cs
 from ..core.bakes import lightmap_bake
 from ..core.files import lightmap_file, probe_file
 from ..core.lighting import lightmap
+from ..core.render.job import Warnings
 from . import bake_files, probes
 
 UV_NAME = "LightmapUV"
@@ -161,7 +162,7 @@ def state(obj, scene) -> tuple[str, str]:
     return "BAKED", f"{w} x {h}, {kind}{lm.image.nbytes / 2**20:.1f} MiB"
 
 
-def attach(scene, core_scene: cs.Scene, warnings: list[str], viewport: bool = False
+def attach(scene, core_scene: cs.Scene, warnings: Warnings, viewport: bool = False
            ) -> list[str]:
     """Give each static object of ``core_scene`` (its own batch) its baked lightmap, in place;
     one warning for stale ones (used), one per lightmap that does not fit its mesh or cannot be
@@ -183,19 +184,19 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str], viewport: bool = Fa
         try:
             p = bake_files.readable(obj) if bake_files.path(obj) is not None else None
         except OSError as exc:
-            warnings.append(f"Lightmap of '{obj.name}': its packed lightmap cannot be read "
+            warnings.add(f"Lightmap of '{obj.name}': its packed lightmap cannot be read "
                             f"({exc.strerror}); the probes light it instead")
             continue
         if p is None:
             continue
         if not p.exists():
-            warnings.append(f"Lightmap of '{obj.name}': {p} is missing; the probes light it "
+            warnings.add(f"Lightmap of '{obj.name}': {p} is missing; the probes light it "
                             "instead (bake the lightmaps again)")
             continue
         try:
             meta, lm = read(p)
         except probe_file.ProbeFileError as exc:
-            warnings.append(f"Lightmap of '{obj.name}': {bake_files.failure(obj, p, exc)}; the "
+            warnings.add(f"Lightmap of '{obj.name}': {bake_files.failure(obj, p, exc)}; the "
                             "probes light it instead")
             continue
         prefix = "viewport_" if viewport and "viewport_light_key" in meta else ""
@@ -204,7 +205,7 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str], viewport: bool = Fa
             if prefix and meta.get("viewport_triangles") == count:
                 render_only.append(obj.name)
             else:
-                warnings.append(f"Lightmap of '{obj.name}' was baked for {len(lm.uvs)} "
+                warnings.add(f"Lightmap of '{obj.name}' was baked for {len(lm.uvs)} "
                                 f"triangles, the object has {count}: re-bake the lightmaps; "
                                 "the probes light it until then")
             continue
@@ -216,10 +217,10 @@ def attach(scene, core_scene: cs.Scene, warnings: list[str], viewport: bool = Fa
             stale.append(obj.name)
         core_scene.meshes[k] = dataclasses.replace(batch, lightmap=lm)
     if stale:
-        warnings.append(f"Lightmaps of {_names(stale)} are stale (the scene changed since they "
+        warnings.add(f"Lightmaps of {_names(stale)} are stale (the scene changed since they "
                         "were baked); re-bake the lightmaps")
     if render_only:
-        warnings.append(f"Lightmaps of {_names(render_only)} are baked for the render's "
+        warnings.add(f"Lightmaps of {_names(render_only)} are baked for the render's "
                         "meshes (their modifiers' Render settings): renders use them, the "
                         "viewport, whose meshes differ, lights these objects with the probes")
     return stale

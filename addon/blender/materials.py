@@ -22,6 +22,7 @@ import bpy
 import numpy as np
 
 from ..core.formulas import texture
+from ..core.render.job import Warnings
 from ..core.scene import Material
 from ..core.scene import node_math as nm
 from ..core.scene.material import ProgramBuilder
@@ -70,7 +71,7 @@ def _keep(key: tuple, tex, digest: str | None) -> None:
         total -= old.nbytes
 
 
-def load_image(image, extension: str, interpolation: str, warnings: list[str], where: str):
+def load_image(image, extension: str, interpolation: str, warnings: Warnings, where: str):
     """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
     images stay 8-bit (``images.image_codes``), float images float32. Prepared once per image
     (its nodes' extensions and interpolations share its levels) and reused across renders
@@ -78,7 +79,7 @@ def load_image(image, extension: str, interpolation: str, warnings: list[str], w
     of its pixels). An image file that was not in memory before is released again once read
     (on Blender's main thread)."""
     if image is None:
-        warnings.append(f"{where}: the Image Texture node has no image")
+        warnings.add(f"{where}: the Image Texture node has no image")
         return None
     with _lock:
         return _load(image, extension, interpolation, warnings, where)
@@ -95,7 +96,7 @@ def _load(image, extension, interpolation, warnings, where):
         return cached[0].sampled_as(extension, interpolation)
     width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
-        warnings.append(f"{where}: image '{image.name}' could not be loaded "
+        warnings.add(f"{where}: image '{image.name}' could not be loaded "
                         f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
         return None
     is_float = image.is_float
@@ -134,7 +135,7 @@ def _kind(socket) -> str:
 class _Compiler:
     """Translates one material's tree; ``socket`` returns a register for an input socket."""
 
-    def __init__(self, material, warnings: list[str]) -> None:
+    def __init__(self, material, warnings: Warnings) -> None:
         self.material = material
         self.name = material.name
         self.warnings = warnings
@@ -150,7 +151,7 @@ class _Compiler:
         message = f"Material '{self.name}': {text}"
         if message not in self.said:
             self.said.add(message)
-            self.warnings.append(message)
+            self.warnings.add(message)
 
     def constant(self, value, kind: str) -> int:
         if kind == "shader":
@@ -723,7 +724,7 @@ SUPPORTED_NODES = frozenset(_NODES) | {"NodeReroute", "NodeFrame", "NodeGroupInp
                                        "NodeGroupOutput", "ShaderNodeGroup",
                                        "ShaderNodeOutputMaterial"}
 
-def convert_material(material, warnings: list[str]) -> Material:
+def convert_material(material, warnings: Warnings) -> Material:
     """One Blender material (or None for an empty slot) -> ``core.scene.Material``."""
     if material is None:
         return Material(name="(empty slot)")

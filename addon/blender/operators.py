@@ -14,6 +14,7 @@ import time
 
 import bpy
 
+from ..core.render.job import Warnings
 from ..core.review import compare as core_compare
 from ..core.review import report as core_report
 from . import bake, bake_files, compare, convert, lightmaps, node_groups, probes, report, worlds
@@ -173,7 +174,7 @@ class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
         probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
         self.what = f"light probe{'s' * (len(objs) != 1)}"
         steps = bake.bake_steps(scene, objs, probes.capture_backend(scene),
-                                report=lambda m: self.report({"WARNING"}, m))
+                                Warnings(lambda m: self.report({m.kind}, m.text)))
         return steps, len(objs)
 
 
@@ -206,7 +207,7 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
         objs = _lightmap_objects(context, self.mode)
         probes.writable_folder(scene)
         self.what = f"lightmap{'s' * (len(objs) != 1)}"
-        steps = bake.lightmap_steps(scene, objs, report=lambda m: self.report({"WARNING"}, m),
+        steps = bake.lightmap_steps(scene, objs, Warnings(lambda m: self.report({m.kind}, m.text)),
                                     backend=probes.capture_backend(scene))
         return steps, len(objs)
 

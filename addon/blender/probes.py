@@ -21,6 +21,7 @@ from ..core.bakes import bake
 from ..core.files import probe_file
 from ..core.lighting import probes as cp
 from ..core.lighting.world_probes import world_probes
+from ..core.render.job import Warnings
 from ..core.scene import World
 from . import bake_files, props
 from .bake_files import BakeError, bake_folder, writable_folder  # noqa: F401 (re-exported)
@@ -148,17 +149,17 @@ def bake_state(obj) -> BakeState:
     return BakeState("BAKED", path, meta)
 
 
-def _probe_from_file(obj, state: BakeState, warnings: list[str]):
+def _probe_from_file(obj, state: BakeState, warnings: Warnings):
     """The core probe of ``obj`` from its bake, or None with one warning. A stale bake is used
     where and as it was baked (its own matrix and resolution), with a warning."""
     where = f"Light probe '{obj.name}'"
     if state.state in ("MISSING", "DAMAGED"):
-        warnings.append(f"{where}: {state.message}; the world lights it instead")
+        warnings.add(f"{where}: {state.message}; the world lights it instead")
         return None
     _, coeffs, chains = _read(state.path)
     current = spec(obj)
     if state.state == "STALE":
-        warnings.append(f"{where}: {state.message}. Until then the old bake is used where it "
+        warnings.add(f"{where}: {state.message}. Until then the old bake is used where it "
                         "was baked")
         resolution = state.meta.get("resolution")
         current = dataclasses.replace(
@@ -171,7 +172,7 @@ def _probe_from_file(obj, state: BakeState, warnings: list[str]):
     return current.probe(coeffs, chains if current.kind == "reflection" else None, validity)
 
 
-def load_probes(scene, world: World, warnings: list[str]) -> cp.Probes:
+def load_probes(scene, world: World, warnings: Warnings) -> cp.Probes:
     """The world fallback and every baked probe of ``scene`` (missing, stale or corrupt
     bakes: one warning each, and the world instead)."""
     result = world_probes(world)

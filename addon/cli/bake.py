@@ -16,7 +16,7 @@ def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
     scene = load_blend(Path(args.scene))
     from ..blender import bake, bake_files, lightmaps, probes
-    from ..core.render.job import Cancelled
+    from ..core.render.job import Cancelled, Warnings
 
     lightmapping = args.lightmaps is not None
     if lightmapping:
@@ -36,18 +36,16 @@ def run(args) -> int:
     if args.pack is not None:
         scene.bo2.bake_pack = args.pack
     start = time.perf_counter()
-    warnings: list[str] = []
+    warnings = Warnings()
     terminal = stderr_copy()  # the progress bar passes Blender's silencing
     try:
         folder = bake_files.file_folder(scene)
         with quiet_blender():
             if lightmapping:
                 folder = folder / bake_files.LIGHTMAPS
-                steps = bake.lightmap_steps(scene, objs, report=warnings.append,
-                                            backend=args.backend.upper())
+                steps = bake.lightmap_steps(scene, objs, warnings, backend=args.backend.upper())
             else:
-                steps = bake.bake_steps(scene, objs, args.backend.upper(),
-                                        report=warnings.append)
+                steps = bake.bake_steps(scene, objs, args.backend.upper(), warnings)
             try:
                 count = _drive(steps, lambda fraction: progress_bar(terminal, fraction, start))
             except Cancelled:  # a capture stopped by Ctrl-C

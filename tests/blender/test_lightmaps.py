@@ -12,7 +12,7 @@ from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import engine, extract, lightmaps
 from bo2_lighting.addon.core.files import lightmap_file
 from bo2_lighting.addon.core.render import pipeline
-from bo2_lighting.addon.core.render.job import RenderJob
+from bo2_lighting.addon.core.render.job import RenderJob, Warnings
 
 
 def room(tmp_path):
@@ -148,9 +148,9 @@ def test_bad_input_is_one_message(addon, tmp_path):
     mesh.from_pydata([(0, 0, 0), (1, 0, 0), (2, 0, 0)], [], [(0, 1, 2)])
     flat = bpy.data.objects.new("Flat", mesh)
     scene.collection.objects.link(flat)
-    warnings = []
+    warnings = Warnings()
     steps = blender_bake.lightmap_steps(scene, [flat, scene.objects["Floor"]],
-                                        report=warnings.append)
+                                        warnings=warnings)
     for _ in steps:
         pass
     assert any("'Flat'" in w and ("no surface area" in w or "no faces" in w) for w in warnings)
@@ -159,9 +159,9 @@ def test_bad_input_is_one_message(addon, tmp_path):
     uv = floor.data.uv_layers.new(name="LightmapUV")
     for loop, corner in zip(uv.uv, [(0, 0), (1, 0), (1, 1), (0.8, 0.2)], strict=True):
         loop.vector = corner  # the second triangle folds back over the first
-    warnings = []
+    warnings = Warnings()
     for _ in blender_bake.lightmap_steps(scene, [floor],
-                                         report=warnings.append):
+                                         warnings=warnings):
         pass
     assert any("UV map 'LightmapUV'" in w and "a layout is made" in w for w in warnings)
     meta, _ = lightmap_file.read(baked(scene, "Floor"))
@@ -169,8 +169,8 @@ def test_bad_input_is_one_message(addon, tmp_path):
     # a Lightmap UV map the object does not have: said, and a layout is made
     floor.data.uv_layers.remove(floor.data.uv_layers["LightmapUV"])
     floor.bo2.lightmap_uv = "Nope"
-    warnings = []
-    for _ in blender_bake.lightmap_steps(scene, [floor], report=warnings.append):
+    warnings = Warnings()
+    for _ in blender_bake.lightmap_steps(scene, [floor], warnings=warnings):
         pass
     assert any("Lightmap UV map 'Nope' is not one of its UV maps" in w for w in warnings)
     floor.bo2.lightmap_uv = ""
@@ -251,9 +251,9 @@ def test_subdivided_objects_are_baked_as_they_render(addon, tmp_path):
     block = scene.objects["Block"]
     sub = block.modifiers.new("Subdivision", "SUBSURF")
     assert (sub.levels, sub.render_levels) == (1, 2)
-    warnings = []
+    warnings = Warnings()
     steps = blender_bake.lightmap_steps(scene, lightmaps.lightmap_objects(scene),
-                                        report=warnings.append)
+                                        warnings=warnings)
     for _ in steps:
         pass
     meta, lm = lightmap_file.read(baked(scene, "Block"))
@@ -262,9 +262,11 @@ def test_subdivided_objects_are_baked_as_they_render(addon, tmp_path):
     assert all(m.lightmap is not None for m in core.meshes), warnings
     assert not any("stale" in w or "was baked for" in w for w in warnings), warnings
     # F12 says nothing either
-    engine.last_warnings.clear()
-    assert bpy.ops.render.render() == {"FINISHED"}
-    assert not any("stale" in w or "was baked for" in w for w in engine.last_warnings)
+    with engine.listening() as said:
+        assert bpy.ops.render.render() == {"FINISHED"}
+    assert not any("stale" in w or "was baked for" in w for w in said.texts())
+    assert any(m.kind == "INFO" and m.text.startswith("Frame rendered in")
+               for m in said.messages)
     # the viewport: the block by the probes, the rest by their lightmaps, nothing stale
     core, warnings = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
     lit = {m.name: m.lightmap is not None for m in core.meshes}
@@ -336,8 +338,8 @@ def test_the_memory_a_bake_takes_is_said_up_front(addon, tmp_path, monkeypatch):
     scene = room(tmp_path)
     objs = lightmaps.lightmap_objects(scene)
     monkeypatch.setattr(blender_bake, "BAKE_NOTE", 0)
-    warnings = []
-    for _ in blender_bake.lightmap_steps(scene, objs, report=warnings.append):
+    warnings = Warnings()
+    for _ in blender_bake.lightmap_steps(scene, objs, warnings=warnings):
         pass
     [said] = [w for w in warnings if "takes about" in w]
     assert "M texels" in said and "of memory" in said

@@ -13,16 +13,17 @@ from util import baked, render_pixels
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
 from bo2_lighting.addon.core.files import probe_file
+from bo2_lighting.addon.core.render.job import Warnings
 
 SAMPLE = (5.0 / 3.0, -5.0 / 3.0, 1.5)  # the 3 x 3 x 2 volume's sample (2, 0, 1)
 
 
 def run_bake(scene, objs=None) -> list[str]:
-    warnings = []
+    warnings = Warnings()
     bpy.context.view_layer.update()
     objs = objs or probes.probe_objects(scene)
     for _ in blender_bake.bake_steps(scene, objs,
-                                     report=warnings.append):
+                                     warnings=warnings):
         pass
     return warnings
 

@@ -12,6 +12,7 @@ from util import add_far_ground, baked, principled, render_pixels, set_world_col
 from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
 from bo2_lighting.addon.core.files import probe_file
+from bo2_lighting.addon.core.render.job import Warnings
 
 RES = 48
 
@@ -237,11 +238,11 @@ def test_a_probe_inside_an_object_is_named(addon, tmp_path):
     scene = room(tmp_path)
     bpy.ops.mesh.primitive_cube_add(size=0.6, location=scene.objects["Reflection"].location)
     bpy.context.object.name = "Crate"
-    warnings = []
+    warnings = Warnings()
     bpy.context.view_layer.update()
     depsgraph = bpy.context.evaluated_depsgraph_get()
     steps = blender_bake.bake_steps(scene, [scene.objects["Reflection"]],
-                                    report=warnings.append)
+                                    warnings=warnings)
     next(steps)
     steps.close()
     # the room's probe sits inside the chrome sphere too
@@ -253,8 +254,8 @@ def test_a_probe_inside_an_object_is_named(addon, tmp_path):
         bpy.data.objects.remove(bpy.data.objects[name])
     bpy.ops.mesh.primitive_cube_add(size=12.0, location=(0.0, 0.0, 1.0))
     bpy.context.view_layer.update()
-    warnings.clear()
-    steps = blender_bake.bake_steps(scene, [scene.objects["Reflection"]], report=warnings.append)
+    warnings = Warnings()
+    steps = blender_bake.bake_steps(scene, [scene.objects["Reflection"]], warnings=warnings)
     next(steps)
     steps.close()
     assert not any("inside object" in w for w in warnings)

@@ -11,6 +11,7 @@ from mathutils import Vector
 from util import render_pixels
 
 from bo2_lighting.addon.blender import extract, worlds
+from bo2_lighting.addon.core.render.job import Warnings
 
 
 def gradient_world(name="Gradient"):
@@ -64,12 +65,12 @@ def test_a_world_of_nodes_is_seen_as_cycles_sees_it(addon, empty_scene, tmp_path
     scene.world = gradient_world()
     scene.bo2.bake_folder = str(tmp_path)
     assert not worlds.direct(scene.world)
-    warnings = []
+    warnings = Warnings()
     assert extract.extract_world(scene, warnings).texture is None
-    assert "has not been evaluated" in warnings[0]  # before: the viewport colour, and why
+    assert "has not been evaluated" in warnings.texts()[0]  # before: the viewport colour, and why
     assert worlds.ensure(scene)
     assert list(tmp_path.glob("world_*.exr"))  # beside the bakes, for renders elsewhere
-    world = extract.extract_world(scene, warnings := [])
+    world = extract.extract_world(scene, warnings := Warnings())
     assert world.texture is not None and not warnings
     for direction in ((math.radians(80), 0, math.radians(30)),  # the horizon, warm
                       (math.radians(150), 0, math.radians(-100)),  # overhead, blue
@@ -130,11 +131,12 @@ def test_the_digest_follows_the_content_and_bad_trees_fall_back(addon, empty_sce
     world.node_tree.links.new(env.outputs["Color"],
                               world.node_tree.nodes["Background"].inputs["Color"])
     assert not worlds.ensure(scene)
-    warnings = []
+    warnings = Warnings()
     got = extract.extract_world(scene, warnings)
     assert got.texture is None
     np.testing.assert_allclose(got.color, world.color[:3], rtol=1e-6)
-    assert len(warnings) == 1 and "gone.hdr" in warnings[0] and "viewport colour" in warnings[0]
+    assert len(warnings) == 1 and "gone.hdr" in warnings.texts()[0]
+    assert "viewport colour" in warnings.texts()[0]
 
 
 def hdri_world(name, pixels):
@@ -220,7 +222,7 @@ def test_a_sky_texture_sun_disc_is_the_worlds_sun(addon, empty_scene, tmp_path):
                math.cos(math.radians(30)) * math.cos(math.radians(40)), math.sin(math.radians(40)))
     lit_card(scene, towards)
     assert worlds.ensure(scene)
-    warnings = []
+    warnings = Warnings()
     world = extract.extract_world(scene, warnings)
     assert not warnings and world.sun is not None and world.sun.shadow
     np.testing.assert_allclose(-world.sun.direction, towards, atol=1e-6)
@@ -240,7 +242,7 @@ def test_a_sky_texture_sun_disc_is_the_worlds_sun(addon, empty_scene, tmp_path):
     # Threshold 0: no sun, the disc stays in the image
     scene.world.sun_threshold = 0.0
     assert worlds.ensure(scene)
-    assert extract.extract_world(scene, []).sun is None
+    assert extract.extract_world(scene, Warnings()).sun is None
 
 
 def test_a_sun_below_the_horizon_gives_no_sun(addon, empty_scene, tmp_path):
@@ -248,7 +250,7 @@ def test_a_sun_below_the_horizon_gives_no_sun(addon, empty_scene, tmp_path):
     scene.world = sky_world(-10.0)
     scene.bo2.bake_folder = str(tmp_path)
     assert worlds.ensure(scene)
-    warnings = []
+    warnings = Warnings()
     world = extract.extract_world(scene, warnings)
     assert world.sun is None and np.isfinite(world.texture.linear(0)).all()
 
@@ -263,7 +265,7 @@ def test_an_hdri_sun_is_taken_out_with_the_worlds_settings(addon, empty_scene, t
     world.sun_angle = math.radians(1.0)
     world.use_sun_shadow = False
     assert worlds.direct(world)
-    got = extract.extract_world(scene, warnings := [])
+    got = extract.extract_world(scene, warnings := Warnings())
     assert not warnings and got.sun is not None and not got.sun.shadow
     assert got.sun.radius == pytest.approx(math.radians(1.0))
     assert -got.sun.direction[2] > 0.0  # above the horizon
@@ -271,8 +273,8 @@ def test_an_hdri_sun_is_taken_out_with_the_worlds_settings(addon, empty_scene, t
     bpy.ops.mesh.primitive_plane_add(size=2.0)
     look(scene, (math.radians(60), 0, 0), size=(16, 12)).location = (0, -4, 3)
     from bo2_lighting.addon.blender import engine
-    engine.last_warnings.clear()
-    render_pixels(scene, "BO2_LIGHTING", samples=1)
-    assert not any("no lights" in w for w in engine.last_warnings)
+    with engine.listening() as said:
+        render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert not any("no lights" in w for w in said.texts())
     world.sun_threshold = 0.0
-    assert extract.extract_world(scene, []).sun is None
+    assert extract.extract_world(scene, Warnings()).sun is None

@@ -44,6 +44,7 @@ from ..lighting.probes import (
     volume_sample_positions,
 )
 from ..lighting.world_probes import filtered, world_probes
+from ..render.job import Warnings
 from ..scene import World
 from . import capture
 
@@ -176,33 +177,33 @@ class BakedProbe:
     escaped: int = 0
 
 
-def check(specs: list[ProbeSpec]) -> tuple[list[ProbeSpec], list[str]]:
-    """The probes a bake can use, and one warning for each that is odd: a volume with one
-    sample along an axis (constant along it), a probe of no size (skipped), a reflection probe
-    of no influence (it lights nothing), two probes of the same kind in exactly the same place
-    (their light is averaged)."""
-    kept, warnings, seen = [], [], {}
+def check(specs: list[ProbeSpec], warnings: Warnings) -> list[ProbeSpec]:
+    """The probes a bake can use; into ``warnings``, one message for each that is odd: a
+    volume with one sample along an axis (constant along it), a probe of no size (skipped), a
+    reflection probe of no influence (it lights nothing), two probes of the same kind in
+    exactly the same place (their light is averaged)."""
+    kept, seen = [], {}
     for spec in specs:
         m = np.asarray(spec.local_to_world, np.float64)
         where = f"Light probe '{spec.name}'"
         if not np.isfinite(m).all() or abs(np.linalg.det(m[:3, :3])) < 1e-12:
-            warnings.append(f"{where} has no size (a zero or non-finite scale); it is skipped")
+            warnings.add(f"{where} has no size (a zero or non-finite scale); it is skipped")
             continue
         if spec.kind == "irradiance":
             flat = [axis for axis, r in zip("xyz", spec.resolution, strict=True) if r < 2]
             if flat:
-                warnings.append(f"{where} has one sample along {', '.join(flat)}: its light is "
+                warnings.add(f"{where} has one sample along {', '.join(flat)}: its light is "
                                 "the same all along that axis")
         elif spec.influence <= 0.0:
-            warnings.append(f"{where} has no influence (Influence Distance 0): it lights "
+            warnings.add(f"{where} has no influence (Influence Distance 0): it lights "
                             "nothing")
         key = (spec.kind, np.round(m, 6).tobytes(), spec.resolution)
         if key in seen:
-            warnings.append(f"{where} is exactly where '{seen[key]}' is: their light is "
+            warnings.add(f"{where} is exactly where '{seen[key]}' is: their light is "
                             "averaged; delete one")
         seen.setdefault(key, spec.name)
         kept.append(spec)
-    return kept, warnings
+    return kept
 
 
 def capture_region(specs: list[ProbeSpec]) -> tuple[np.ndarray, np.ndarray]:

@@ -36,9 +36,9 @@ class Message:
 
 
 class Warnings:
-    """The one sink of a job's messages: each distinct text once, in order; ``forward`` (e.g.
-    the engine's ``report``) is called with each new one as it comes, from the calling
-    thread of whoever adds it."""
+    """The one sink of a job's messages: each distinct text once, in order (``messages``;
+    iterating gives their texts); ``forward`` (e.g. the engine's ``report``) is called with
+    each new ``Message`` as it comes, on the thread of whoever adds it."""
 
     def __init__(self, forward: Callable[[Message], None] | None = None) -> None:
         self.messages: list[Message] = []
@@ -66,8 +66,11 @@ class Warnings:
         """The messages' texts, in order."""
         return [m.text for m in self.messages]
 
-    def __iter__(self) -> Iterator[Message]:
-        return iter(list(self.messages))
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.texts())
+
+    def __contains__(self, text: object) -> bool:
+        return text in self._texts
 
     def __len__(self) -> int:
         return len(self.messages)
