@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import hashlib
 import re
-import uuid
 from pathlib import Path
 
 import bpy
 import numpy as np
 
+from ..core.files import atomic
 from . import bake_files, lightmaps, probes
 
 
@@ -31,7 +31,7 @@ def adopt(scene) -> list[str]:
         return []
     try:
         base = bake_files.bake_folder(scene)
-        folder = bake_files.file_folder(scene)
+        bake_files.file_folder(scene)  # no folder of its own (unsaved, unwritable): nothing
     except bake_files.BakeError:
         return []
     candidates = [(o, "") for o in probes.probe_objects(scene)]
@@ -41,9 +41,9 @@ def adopt(scene) -> list[str]:
         old = _legacy_path(base / sub, obj.name)
         if bake_files.image(obj) is not None or not old.is_file() or not _baked_for(obj, old, sub):
             continue
-        new = folder / sub / f"{bake_files._safe(obj.name)}-{uuid.uuid4().hex[:8]}.exr"
+        new = bake_files.target(scene, obj, sub)  # it holds no bake: a new name
         try:
-            bake_files._write_atomically(new, old.read_bytes())
+            atomic.write_bytes(new, old.read_bytes())
             bake_files.declare(obj, new, pack=False)
         except (OSError, RuntimeError, ValueError, AttributeError) as exc:
             messages.append(f"Could not copy the bake of '{obj.name}' from {old} ({exc})")
@@ -56,13 +56,13 @@ def adopt(scene) -> list[str]:
 
 def _baked_for(obj, file: Path, sub: str) -> bool:
     """Whether the earlier version's ``file`` was baked for ``obj`` as it stands."""
-    from ..core.files import lightmap_file, probe_file
+    from ..core.files import bake_file, lightmap_file, probe_file
 
     try:
         if sub:
             return lightmap_file.read(file)[0].get("object") == obj.name
         meta = probe_file.read(file)[0]
-    except probe_file.ProbeFileError:
+    except bake_file.BakeFileError:
         return False
     described = probes.spec(obj).describe()
     return (meta.get("kind") == described["kind"]

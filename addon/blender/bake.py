@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import version
 from ..core.bakes import bake, capture, lightmap_bake
-from ..core.files import lightmap_file, probe_file
+from ..core.files import bake_file, lightmap_file, probe_file
 from ..core.formulas import cubemap
 from ..core.kernels import machine
 from ..core.lighting import lightmap as core_lightmap
@@ -176,7 +176,7 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
                 (path, bake.metadata(b, backend, job.bounces, stamp,
                                      time.perf_counter() - start, version()), b.coeffs, b.chains)
                 for b, (_, path) in zip(job.results, targets, strict=True)])
-    except (OSError, probe_file.ProbeFileError) as exc:
+    except (OSError, bake_file.BakeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise BakeError(f"Could not write the bake into {bake_files.file_folder(scene)} "
                         f"({reason}); the previous bake files are as they were") from None
@@ -427,7 +427,7 @@ def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str =
     try:
         with interrupt.writing():
             lightmap_file.write_all([f[:3] for f in files])
-    except (OSError, probe_file.ProbeFileError) as exc:
+    except (OSError, bake_file.BakeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         where = bake_files.file_folder(scene) / bake_files.LIGHTMAPS
         raise BakeError(f"Could not write the lightmaps into {where} ({reason}); the previous "

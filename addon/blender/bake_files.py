@@ -33,6 +33,7 @@ from pathlib import Path
 
 import bpy
 
+from ..core.files import atomic
 from . import interrupt, props
 
 LIGHTMAPS = "lightmaps"  # sub-folder of the lightmaps
@@ -167,7 +168,7 @@ def readable(obj) -> Path | None:
             data = packed.data
             copy = _copies() / f"{hashlib.sha256(data).hexdigest()[:40]}.exr"
             if not copy.exists():
-                _write_atomically(copy, data)
+                atomic.write_bytes(copy, data)
             _copied[key] = copy
         return copy
     return path(obj)
@@ -184,18 +185,6 @@ def packed(obj) -> bool:
     """Whether ``obj``'s bake is packed into the .blend."""
     img = image(obj)
     return img is not None and img.packed_file is not None
-
-
-def _write_atomically(target: Path, data: bytes) -> None:
-    target.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.stem}.", suffix=".tmp", dir=target.parent)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(data)
-        os.replace(tmp, target)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def target(scene, obj, sub: str = "") -> Path:
@@ -268,7 +257,7 @@ def unpack(scene, objs) -> int:
         if not _own(scene, file):
             file = target(scene, obj, LIGHTMAPS if obj.type == "MESH" else "")
         try:
-            _write_atomically(file, img.packed_file.data)
+            atomic.write_bytes(file, img.packed_file.data)
         except OSError as exc:
             raise BakeError(f"Could not write {file} ({exc.strerror}); the bakes stay "
                                    "packed") from None

@@ -27,6 +27,7 @@ from pathlib import Path
 
 import bpy
 
+from ..core.files import atomic
 from ..core.render.passes import PASSES
 from ..core.review import compare as core
 from ..core.review import imaging
@@ -138,9 +139,7 @@ def analyse(scene, folder: Path, layer: str, info: dict) -> dict:
     imaging.write_png(folder / "difference.png", imaging.heat_map(
         diff, scale_max, "|Y BO2 - Y Cycles|, scene-linear", core.metrics_line(result["image"])))
 
-    tmp = folder / ".metrics.json.partial"
-    tmp.write_text(json.dumps(result, indent=2, allow_nan=False) + "\n")
-    os.replace(tmp, folder / "metrics.json")
+    atomic.write_text(folder / "metrics.json", json.dumps(result, indent=2, allow_nan=False) + "\n")
     return result
 
 

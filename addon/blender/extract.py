@@ -327,10 +327,10 @@ def _world(scene, warnings: Warnings) -> cs.World:
                             sun=rendered.sun)
         reason = worlds.problem(world)
         warnings.add(f"World '{world.name}' cannot be evaluated ({reason}); its viewport "
-                        "colour is used" if reason else
-                        f"World '{world.name}' has not been evaluated since it changed (its "
-                        "nodes are rendered by Cycles before a bake or a render of the bo2 "
-                        "command, or with World > Evaluate); its viewport colour is used")
+                     "colour is used" if reason else
+                     f"World '{world.name}' has not been evaluated since it changed (its "
+                     "nodes are rendered by Cycles before a bake or a render of the bo2 "
+                     "command, or with World > Evaluate); its viewport colour is used")
         return cs.World(color=np.array(world.color[:3], np.float32))
     tree = world.node_tree
     # World.use_nodes is deprecated (always on) from Blender 5.0.
@@ -342,7 +342,7 @@ def _world(scene, warnings: Warnings) -> cs.World:
     if node is None or node.type != "BACKGROUND":
         if node is not None:
             warnings.add(f"World '{world.name}': node '{node.name}' is not supported; "
-                            "the world colour is used")
+                         "the world colour is used")
         return cs.World(color=np.array(world.color[:3], np.float32))
     color_in, strength_in = node.inputs["Color"], node.inputs["Strength"]
     strength = float(strength_in.default_value)
@@ -358,7 +358,7 @@ def _world(scene, warnings: Warnings) -> cs.World:
                                 rotation=rotation)
         else:
             warnings.add(f"World '{world.name}': node '{src.name}' on the background colour "
-                            "is not supported; the Background node's own colour is used")
+                         "is not supported; the Background node's own colour is used")
     return cs.World(color=color * strength)
 
 
@@ -414,11 +414,11 @@ def _mesh_data(mesh, slots, owner: str, cache: SceneCache, warnings):
         what = {"uv": "UV map", "attribute": "attribute", "tangent": "UV map"}[kind]
         label = f"'{name}'" if name else "(the active one)"
         warnings.add(f"Material '{readers[key][0]}' reads {what} {label}, which object "
-                        f"'{owner}' does not have; it reads 0")
+                     f"'{owner}' does not have; it reads 0")
 
     def ngons():
         warnings.add(f"Object '{owner}' has n-gons: Blender's tangents need triangles "
-                        "and quads, so its normal maps use one tangent per triangle")
+                     "and quads, so its normal maps use one tangent per triangle")
 
     pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing, ngons)
     texspace = np.array([np.asarray(mesh.texspace_location) - np.asarray(mesh.texspace_size),
@@ -821,14 +821,14 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     if viewer is not None and viewer.type == "CAMERA" \
             and viewer.data.clip_end <= viewer.data.clip_start:
         warnings.add(f"Camera '{viewer.name}': Clip End is not beyond Clip Start, so it "
-                        "sees no geometry (as in Cycles)")
+                     "sees no geometry (as in Cycles)")
         meshes = []
     world = extract_world(scene, warnings)
     if world.sun is not None:
         lights.append(world.sun)
     if not lights and not _lit_by(world):
         warnings.add("The scene has no lights and its world is black: only emission is "
-                        "visible")
+                     "visible")
     core = cs.Scene(
         camera=camera,
         meshes=meshes,

@@ -16,6 +16,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ..core.files import atomic, exr
 from ..core.formulas import texture
 from .passes import blender_name, channel_ids
 
@@ -166,15 +167,14 @@ def kept_settings(scene):
 
 def _save(image, scene, path: Path) -> None:
     """``image.save_render`` to ``path`` through a temporary file beside it, swapped in whole."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.stem}.partial{path.suffix}")
     try:
-        image.save_render(filepath=str(tmp), scene=scene)
+        atomic.write_atomically(path, lambda tmp: image.save_render(filepath=str(tmp),
+                                                                   scene=scene))
     except RuntimeError as exc:
         raise ImageError(f"cannot write {path}: {str(exc).strip().splitlines()[-1]}") from None
-    if not tmp.is_file():
-        raise ImageError(f"cannot write {path}")
-    os.replace(tmp, path)
+    except OSError as exc:
+        raise ImageError(f"cannot write {path}" + (f" ({exc.strerror})" if exc.strerror
+                                                   else "")) from None
 
 
 def save_render_result(scene, path: str | os.PathLike, fmt: str, depth: str | None = None,
@@ -237,22 +237,20 @@ def read_exr_passes(path: str | os.PathLike, layer: str, names) -> dict[str, np.
 
     returns: {pipeline pass name: (H, W, C) float32, row 0 at the top}, for the passes present
     """
-    import OpenEXR
-
     by_blender = {blender_name(n): n for n in names}
     components: dict[str, dict[str, np.ndarray]] = {}
     grouped: dict[str, np.ndarray] = {}
-    for part in OpenEXR.File(str(path)).parts:  # 5.0: one part per pass; 4.5: one part
-        for key, channel in part.channels.items():
+    for part in exr.read(path):  # 5.0: one part per pass; 4.5: one part
+        for key, pixels in part.channels.items():
             if not key.startswith(f"{layer}."):
                 continue
             rest = key[len(layer) + 1:]
             if rest in by_blender:  # RGB(A) channels come grouped in one array
-                grouped[by_blender[rest]] = np.asarray(channel.pixels, np.float32)
+                grouped[by_blender[rest]] = pixels
             else:
                 name, _, comp = rest.rpartition(".")
                 if name in by_blender:
-                    components.setdefault(by_blender[name], {})[comp] = channel.pixels
+                    components.setdefault(by_blender[name], {})[comp] = pixels
     out = {n: (a if a.ndim == 3 else a[..., None]) for n, a in grouped.items()}
     for name, comps in components.items():
         order = [c for c in channel_ids(name) if c in comps]

@@ -16,6 +16,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
+from ..core.files import atomic
 from ..core.formulas import texture
 from . import images, node_groups
 
@@ -163,10 +164,8 @@ def build(path: Path = LIBRARY_FILE) -> list[str]:
         tree.asset_data.tags.new("BO2 Lighting")
         tree.asset_data.author = "BO2 Lighting developers"
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    part = path.with_name(path.name + ".part.blend")
-    bpy.ops.wm.save_as_mainfile(filepath=str(part), compress=True, copy=True)
-    os.replace(part, path)
+    atomic.write_atomically(path, lambda tmp: bpy.ops.wm.save_as_mainfile(
+        filepath=str(tmp), compress=True, copy=True))
     catalog = path.parent / CATALOG_FILE.name
     catalog.write_text("# Asset catalogs of BO2 Lighting (Blender's catalog definition "
                        "format).\nVERSION 1\n\n"

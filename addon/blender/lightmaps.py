@@ -21,7 +21,7 @@ import numpy as np
 
 from ..core import scene as cs
 from ..core.bakes import lightmap_bake
-from ..core.files import lightmap_file, probe_file
+from ..core.files import bake_file, lightmap_file
 from ..core.lighting import lightmap
 from ..core.render.job import Warnings
 from . import bake_files, probes
@@ -155,7 +155,7 @@ def state(obj, scene) -> tuple[str, str]:
         return "MISSING", f"{p}: the file is missing"
     try:
         meta, lm = read(p)
-    except probe_file.ProbeFileError as exc:
+    except bake_file.BakeFileError as exc:
         return "DAMAGED", bake_files.failure(obj, p, exc)
     h, w = lm.image.shape[:2]
     kind = "directional, " if lm.directional else ""
@@ -185,19 +185,19 @@ def attach(scene, core_scene: cs.Scene, warnings: Warnings, viewport: bool = Fal
             p = bake_files.readable(obj) if bake_files.path(obj) is not None else None
         except OSError as exc:
             warnings.add(f"Lightmap of '{obj.name}': its packed lightmap cannot be read "
-                            f"({exc.strerror}); the probes light it instead")
+                         f"({exc.strerror}); the probes light it instead")
             continue
         if p is None:
             continue
         if not p.exists():
             warnings.add(f"Lightmap of '{obj.name}': {p} is missing; the probes light it "
-                            "instead (bake the lightmaps again)")
+                         "instead (bake the lightmaps again)")
             continue
         try:
             meta, lm = read(p)
-        except probe_file.ProbeFileError as exc:
+        except bake_file.BakeFileError as exc:
             warnings.add(f"Lightmap of '{obj.name}': {bake_files.failure(obj, p, exc)}; the "
-                            "probes light it instead")
+                         "probes light it instead")
             continue
         prefix = "viewport_" if viewport and "viewport_light_key" in meta else ""
         count = len(batch.positions)
@@ -206,8 +206,8 @@ def attach(scene, core_scene: cs.Scene, warnings: Warnings, viewport: bool = Fal
                 render_only.append(obj.name)
             else:
                 warnings.add(f"Lightmap of '{obj.name}' was baked for {len(lm.uvs)} "
-                                f"triangles, the object has {count}: re-bake the lightmaps; "
-                                "the probes light it until then")
+                             f"triangles, the object has {count}: re-bake the lightmaps; "
+                             "the probes light it until then")
             continue
         if light is None:
             light = lightmap_bake.light_key(core_scene)
@@ -218,11 +218,11 @@ def attach(scene, core_scene: cs.Scene, warnings: Warnings, viewport: bool = Fal
         core_scene.meshes[k] = dataclasses.replace(batch, lightmap=lm)
     if stale:
         warnings.add(f"Lightmaps of {_names(stale)} are stale (the scene changed since they "
-                        "were baked); re-bake the lightmaps")
+                     "were baked); re-bake the lightmaps")
     if render_only:
         warnings.add(f"Lightmaps of {_names(render_only)} are baked for the render's "
-                        "meshes (their modifiers' Render settings): renders use them, the "
-                        "viewport, whose meshes differ, lights these objects with the probes")
+                     "meshes (their modifiers' Render settings): renders use them, the "
+                     "viewport, whose meshes differ, lights these objects with the probes")
     return stale
 
 

@@ -97,7 +97,7 @@ def _load(image, extension, interpolation, warnings, where):
     width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
         warnings.add(f"{where}: image '{image.name}' could not be loaded "
-                        f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
+                     f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
         return None
     is_float = image.is_float
     # Byte images hold encoded values; float images are already scene-linear in memory.

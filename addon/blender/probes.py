@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 
 from ..core.bakes import bake
-from ..core.files import probe_file
+from ..core.files import bake_file, probe_file
 from ..core.lighting import probes as cp
 from ..core.lighting.world_probes import world_probes
 from ..core.render.job import Warnings
@@ -73,7 +73,7 @@ _files: dict[Path, tuple] = {}  # path -> ((mtime_ns, size), the reader's result
 
 def cached_read(path: Path, reader):
     """``reader(path)`` (``probe_file.read``, ``lightmap_file.read``), cached while the file's
-    modification time and size stay (its ``ProbeFileError`` too: a damaged file is read
+    modification time and size stay (its ``BakeFileError`` too: a damaged file is read
     once, not at every redraw)."""
     try:
         st = path.stat()
@@ -85,10 +85,10 @@ def cached_read(path: Path, reader):
     if cached is None or cached[0] != stamp:
         try:
             result = reader(path)
-        except probe_file.ProbeFileError as exc:
+        except bake_file.BakeFileError as exc:
             result = exc
         _files[path] = cached = (stamp, result)
-    if isinstance(cached[1], probe_file.ProbeFileError):
+    if isinstance(cached[1], bake_file.BakeFileError):
         raise cached[1]
     return cached[1]
 
@@ -129,7 +129,7 @@ def bake_state(obj) -> BakeState:
                          "probes, or File > External Data > Find Missing Files)")
     try:
         meta = _read(path)[0]
-    except probe_file.ProbeFileError as exc:
+    except bake_file.BakeFileError as exc:
         return BakeState("DAMAGED", path, {}, bake_files.failure(obj, path, exc))
     described = spec(obj).describe()
     if meta.get("kind") != described["kind"]:
@@ -160,7 +160,7 @@ def _probe_from_file(obj, state: BakeState, warnings: Warnings):
     current = spec(obj)
     if state.state == "STALE":
         warnings.add(f"{where}: {state.message}. Until then the old bake is used where it "
-                        "was baked")
+                     "was baked")
         resolution = state.meta.get("resolution")
         current = dataclasses.replace(
             current, local_to_world=np.array(state.meta["matrix"], np.float64),

@@ -10,13 +10,13 @@ also rendered with the talk's old methods, and the page's pictures.
 from __future__ import annotations
 
 import json
-import os
 import shutil
 import time
 from pathlib import Path
 
 import bpy
 
+from ..core.files import atomic
 from ..core.review import compare as core_compare
 from ..core.review import flip
 from ..core.review import report as core
@@ -181,10 +181,7 @@ def render_scene(scene, view_layer, folder: Path, old_methods: bool, on_stage=No
             job.restore()
             for k, v in saved.items():
                 setattr(scene.bo2, k, v)
-        path = folder / "old" / "render.json"
-        tmp = path.with_name(".render.json.partial")
-        tmp.write_text(json.dumps(job.info["bo2"], indent=1))
-        os.replace(tmp, path)
+        atomic.write_text(folder / "old" / "render.json", json.dumps(job.info["bo2"], indent=1))
     compare.run(scene, view_layer, folder, on_stage=on_stage)
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core import scene as cs
+from ..core.files import exr
 from ..core.formulas import texture
 from . import extract, images
 
@@ -39,17 +40,6 @@ class Shading:
 SCENE = Shading()
 
 
-def _read_exr(path: str) -> np.ndarray:
-    """(H, W, 3) float32 radiance of an OpenEXR file's first part, row 0 at the top."""
-    import OpenEXR
-
-    channels = OpenEXR.File(path).parts[0].channels
-    for name in ("RGBA", "RGB"):
-        if name in channels:
-            return np.asarray(channels[name].pixels, np.float32)[..., :3]
-    return np.stack([np.asarray(channels[c].pixels, np.float32) for c in "RGB"], -1)
-
-
 def studio_texture(path: str) -> texture.Texture:
     """The studio HDRI at ``path`` as an equirectangular texture, read once per file version.
     Raises ``OSError`` or the reader's error for a missing or unreadable file."""
@@ -59,7 +49,7 @@ def studio_texture(path: str) -> texture.Texture:
     if cached is not None and cached[0] == stamp:
         return cached[1]
     if path.lower().endswith(".exr"):
-        pixels = _read_exr(path)
+        pixels = exr.rgb(path)
     else:  # a user's own studio light (.hdr, ...): read by Blender
         pixels = images.read_file(path, linear=True)[..., :3]
     tex = texture.make_texture(pixels, srgb=False, extension="REPEAT", interpolation="Linear",

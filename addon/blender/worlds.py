@@ -29,7 +29,6 @@ import contextlib
 import hashlib
 import json
 import math
-import os
 import tempfile
 from collections import OrderedDict
 from pathlib import Path
@@ -39,6 +38,7 @@ import bpy
 import numpy as np
 from mathutils import Vector
 
+from ..core.files import exr
 from ..core.formulas import texture
 from ..core.scene import Light
 from . import images, probes
@@ -244,12 +244,10 @@ def lookup(scene, world) -> Rendered | None:
     if path is None or not path.is_file():
         return None
     try:
-        import OpenEXR
-
-        part = OpenEXR.File(str(path)).parts[0]
-        pixels = np.asarray(part.channels["RGB"].pixels, np.float32)
+        part = exr.read(path)[0]
+        pixels = part.channels["RGB"]
         sun = json.loads(part.header.get("bo2.sun", "null"))
-    except Exception:  # noqa: BLE001 - a damaged file is rendered again by ``ensure``
+    except (exr.ExrError, KeyError, ValueError):  # a damaged file: rendered again by ``ensure``
         return None
     if pixels.ndim != 3 or pixels.shape[2] != 3:
         return None
@@ -257,19 +255,8 @@ def lookup(scene, world) -> Rendered | None:
 
 
 def _write(path: Path, pixels: np.ndarray, key: str, sun: dict | None) -> None:
-    import OpenEXR
-
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=".exr", dir=path.parent)
-    os.close(fd)
-    try:
-        header = {"compression": OpenEXR.ZIP_COMPRESSION, "bo2.world": key,
-                  "bo2.sun": json.dumps(sun)}
-        OpenEXR.File(header, {"RGB": np.ascontiguousarray(pixels, np.float32)}).write(tmp)
-        os.replace(tmp, path)
-    finally:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
+    exr.write(path, [exr.Part("", {"RGB": pixels}, {"bo2.world": key,
+                                                   "bo2.sun": json.dumps(sun)})])
 
 
 @contextlib.contextmanager

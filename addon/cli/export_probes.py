@@ -18,7 +18,7 @@ from . import BadInput, CommandError, load_blend
 def _to_y_up(matrix) -> list:
     """A (4, 4) local-to-world transform whose world is the engine's (Y up): C M. The local
     axes stay the probe's own, so a volume's samples keep their (x, y, z) indices."""
-    from ..core.formulas import gpu_textures
+    from ..core.files import gpu_textures
 
     c = np.eye(4)
     c[:3, :3] = gpu_textures.Y_UP
@@ -26,7 +26,8 @@ def _to_y_up(matrix) -> list:
 
 
 def _sh(coefficients) -> list:
-    from ..core.formulas import gpu_textures, sh
+    from ..core.files import gpu_textures
+    from ..core.formulas import sh
 
     return sh.rotate(np.asarray(coefficients, np.float64), gpu_textures.Y_UP).tolist()
 
@@ -65,7 +66,7 @@ def run(args) -> int:
         raise BadInput(f"{out}: is a file, not a folder")
     scene = load_blend(Path(args.scene))
     from ..blender import extract, probes
-    from ..core.formulas import gpu_textures
+    from ..core.files import gpu_textures
 
     start = time.perf_counter()
     warnings: list[str] = []
@@ -118,9 +119,9 @@ def run(args) -> int:
                             "probes' own local axes to it",
                     "units": "metres; radiance SH of sh.basis (docs/sh.md)",
                     "format": args.format, "world": world_entry, "probes": entries}
-        from ..core.files import engine_export
+        from ..core.files import atomic
 
-        engine_export.write_text(out / "probes.json", json.dumps(manifest, indent=1) + "\n")
+        atomic.write_text(out / "probes.json", json.dumps(manifest, indent=1) + "\n")
     except OSError as exc:
         raise BadInput(f"{out}: cannot write ({exc.strerror})") from None
     print(f"exported {len(entries)} probe{'s' * (len(entries) != 1)} and the world into {out} "

@@ -10,6 +10,7 @@ import time
 from pathlib import Path
 
 from ..blender import headless, interrupt
+from ..core.files import atomic
 from . import CommandError, load_blend, patterns, too_many_samples, usage_error
 from .terminal import BatchProgress, quiet_blender
 
@@ -60,13 +61,10 @@ def _write_summary(path: Path, args, images: list[dict], seconds: float,
     summary = {"engine": args.engine, "output": args.output, "total": len(images), "ok": ok,
                "failed": len(images) - ok, "seconds": round(seconds, 3),
                "interrupted": interrupted, "warnings": warnings, "images": images}
-    temporary = path.with_name(path.name + ".part")
     try:
-        with interrupt.writing():
-            temporary.write_text(json.dumps(summary, indent=2, allow_nan=False) + "\n")
-            os.replace(temporary, path)  # a farm polling the file never reads half of it
+        with interrupt.writing():  # a farm polling the file never reads half of it
+            atomic.write_text(path, json.dumps(summary, indent=2, allow_nan=False) + "\n")
     except OSError as exc:
-        temporary.unlink(missing_ok=True)
         raise CommandError(f"{path}: cannot write the summary ({exc.strerror})") from None
 
 

@@ -55,8 +55,8 @@ def _read(path: Path) -> np.ndarray:
 def run(args) -> int:
     """Print the 9 RGB SH coefficients of the radiance of a lat-long (equirectangular) image;
     with ``-o`` / ``--header`` write them, and the tinted scalar SH, for an engine."""
-    from ..core.files import engine_export, probe_file
-    from ..core.formulas import gpu_textures, sh
+    from ..core.files import atomic, engine_export, gpu_textures
+    from ..core.formulas import sh
 
     path = Path(args.image)
     if why := overwrites_input([path], [o for o in (args.output, args.header) if o]):
@@ -73,13 +73,11 @@ def run(args) -> int:
         writes.append((Path(args.header), engine_export.sh_header(path.stem, coefficients,
                                                                   path.name, args.axes)))
     try:  # all of them or none
-        probe_file.replace_all([(out, lambda tmp, text=text: Path(tmp).write_text(
-            text, encoding="utf-8")) for out, text in writes])
+        atomic.replace_all([(out, lambda tmp, text=text: tmp.write_text(text, encoding="utf-8"))
+                            for out, text in writes])
     except OSError as exc:
         where = exc.filename or "output"
         raise BadInput(f"{where}: cannot write ({exc.strerror}); nothing was written") from None
-    except probe_file.ProbeFileError as exc:
-        raise BadInput(f"{exc}; nothing was written") from None
     if args.json:
         print(json.dumps(record))
     else:

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 from rgbe import read_rgbe
 
-from bo2_lighting.addon.core.files import engine_export, environment_files
-from bo2_lighting.addon.core.formulas import cubemap, gpu_textures, prefilter, sh
+from bo2_lighting.addon.core.files import engine_export, environment_files, gpu_textures
+from bo2_lighting.addon.core.formulas import cubemap, prefilter, sh
 
 ROOT = Path(__file__).resolve().parents[2]
 ENVMAPS = ROOT.parent / "shared" / "reference" / "envmaps"
@@ -414,9 +414,9 @@ def test_a_damaged_bake_file_is_named_once_and_the_library_is_silent(tmp_path):
         broken[at:at + 20] = b"\xff" * 20
         bad = tmp_path / f"bad{k}.exr"
         bad.write_bytes(bytes(broken))
-        code = ("import sys; from bo2_lighting.addon.core.files import probe_file\n"
+        code = ("import sys; from bo2_lighting.addon.core.files import bake_file, probe_file\n"
                 "try: probe_file.read(sys.argv[1])\n"
-                "except probe_file.ProbeFileError as e: print('refused:', e, file=sys.stderr)")
+                "except bake_file.BakeFileError as e: print('refused:', e, file=sys.stderr)")
         proc = subprocess.run([sys.executable, "-c", code, str(bad)], capture_output=True,
                               text=True, timeout=120)
         assert proc.stdout == "", proc.stdout

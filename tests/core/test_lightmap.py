@@ -6,7 +6,7 @@ import pytest
 
 from bo2_lighting.addon.core.bakes import bake as core_bake
 from bo2_lighting.addon.core.bakes import lightmap_bake
-from bo2_lighting.addon.core.files import lightmap_file, probe_file
+from bo2_lighting.addon.core.files import bake_file, lightmap_file
 from bo2_lighting.addon.core.kernels import lightmap as kernels
 from bo2_lighting.addon.core.lighting import lightmap
 from bo2_lighting.addon.core.render import pipeline
@@ -383,9 +383,9 @@ def test_files_round_trip_and_refuse_damage(tmp_path):
     assert meta["object"] == "A" and back.directional
     assert np.array_equal(back.image, lm.image) and np.array_equal(back.uvs, lm.uvs)
     path.write_bytes(path.read_bytes()[: path.stat().st_size // 2])  # truncated
-    with pytest.raises(probe_file.ProbeFileError):
+    with pytest.raises(bake_file.BakeFileError):
         lightmap_file.read(path)
-    with pytest.raises(probe_file.ProbeFileError, match="no baked lightmap"):
+    with pytest.raises(bake_file.BakeFileError, match="no baked lightmap"):
         lightmap_file.read(tmp_path / "missing.exr")
     # all or nothing: a failure in the second file leaves the first one's old content
     good = tmp_path / "B.exr"

@@ -5,7 +5,7 @@ import os
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.files import probe_file
+from bo2_lighting.addon.core.files import bake_file, probe_file
 
 
 def chains(size=8):
@@ -55,7 +55,7 @@ def test_unusable_files_give_one_clear_error(tmp_path, content):
     path = tmp_path / "Probe.exr"
     if content is not None:
         path.write_bytes(content)
-    with pytest.raises(probe_file.ProbeFileError) as err:
+    with pytest.raises(bake_file.BakeFileError) as err:
         probe_file.read(path)
     assert "Probe.exr" in str(err.value) and "\n" not in str(err.value)
 
@@ -65,7 +65,7 @@ def test_truncated_file_is_an_error(tmp_path):
     probe_file.write(path, {"probe": "p"}, np.zeros((1, 9, 3)), chains())
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
-    with pytest.raises(probe_file.ProbeFileError):
+    with pytest.raises(bake_file.BakeFileError):
         probe_file.read(path)
 
 
@@ -81,7 +81,7 @@ def test_non_finite_light_is_refused_though_the_checksum_holds(tmp_path, where, 
         mips["bo1"][2][3, 0, 1, 2] = value
     path = tmp_path / "Bad name.exr"
     probe_file.write(path, {"kind": "reflection"}, sh, mips)
-    with pytest.raises(probe_file.ProbeFileError,
+    with pytest.raises(bake_file.BakeFileError,
                        match=r"^Bad name\.exr: part (sh|bo1\.mip2) holds NaN or infinite"):
         probe_file.read(path)
 
@@ -139,7 +139,7 @@ def test_a_folder_at_a_probes_path_changes_nothing(tmp_path):
     (tmp_path / "P1.exr").unlink()
     (tmp_path / "P1.exr").mkdir()
     before = {p.name: p.is_dir() or p.read_bytes() for p in tmp_path.iterdir()}
-    with pytest.raises(probe_file.ProbeFileError, match="a folder stands where"):
+    with pytest.raises(IsADirectoryError, match="a folder stands where"):
         probe_file.write_all(three_probes(tmp_path, 2.0))
     assert {p.name: p.is_dir() or p.read_bytes() for p in tmp_path.iterdir()} == before
     probe_file.write_all(three_probes(tmp_path, 2.0)[::2])  # the others alone are fine

@@ -1,3 +1,5 @@
-"""What the bakes and exports write to disk and read back: probe and lightmap files (multi-part
-OpenEXR), environment images, and the probes exported for game engines.
+"""What the project writes to disk and reads back: every file written whole (``atomic``),
+OpenEXR files (``exr``), bake files (``bake_file``: probes in ``probe_file``, lightmaps in
+``lightmap_file``), environment images (``environment_files``), cube maps as GPUs store them
+(``gpu_textures``: DDS, KTX2) and the probes exported for game engines (``engine_export``).
 """

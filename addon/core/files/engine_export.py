@@ -5,7 +5,7 @@ A chain (``write_chain``) is written in the GPU face layout (``gpu_textures``, Y
 - ``.ktx2``: KTX2 RGBA16F with the metadata under the key ``bo2.meta``;
 - ``.dds``:  DDS RGBA16F, the metadata beside it as ``<name>.json``;
 - ``.exr``:  one OpenEXR file, float32 RGB, a part per mip (``mip0``, ``mip1``, ...) holding its
-  six faces top to bottom, the metadata in the attribute ``bo2.meta`` (``probe_file``).
+  six faces top to bottom, the metadata in the attribute ``bo2.meta`` (``bake_file``).
 
 The metadata (``chain_metadata``) says how to read it as the talk does: each mip's gloss and
 Phong power, the shader's lod = nMips - gloss nMips (slide "Black Ops: environment map
@@ -23,11 +23,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..formulas import cubemap, gpu_textures, sh
-from . import probe_file
+from ..formulas import cubemap, sh
+from . import bake_file, gpu_textures
+from .atomic import write_atomically, write_text
 
-__all__ = ["AXES", "FORMATS", "chain_metadata", "cube_sh", "sh_header", "sh_record", "write_chain",
-           "write_text"]
+__all__ = ["AXES", "FORMATS", "chain_metadata", "cube_sh", "sh_header", "sh_record", "write_chain"]
 
 FORMATS = ("ktx2", "dds", "exr")
 
@@ -100,18 +100,8 @@ def write_chain(path: str | os.PathLike, mips: list[np.ndarray], meta: dict) -> 
         write_text(side, json.dumps(meta, indent=2) + "\n")
         return [path, side]
     images = [(f"mip{m}", level.reshape(-1, level.shape[2], 3)) for m, level in enumerate(gpu)]
-    probe_file.replace_all([(path, lambda tmp: probe_file.write_parts(tmp, meta, images))])
+    write_atomically(path, lambda tmp: bake_file.write_parts(tmp, meta, images))
     return [path]
-
-
-def write_text(path: Path, text: str) -> None:
-    """Write UTF-8 ``text`` to ``path``, replaced atomically."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def sh_header(name: str, coefficients, source: str = "", axes: str = "y-up") -> str:

@@ -36,7 +36,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..formulas import cubemap, gpu_textures
+from ..formulas import cubemap
+from . import exr, gpu_textures
 
 __all__ = ["ImageError", "read_image", "to_cube"]
 
@@ -129,25 +130,10 @@ def _decode_scanlines(buf, w: int, h: int, path: Path) -> np.ndarray:
 
 
 def _read_exr(path: Path) -> np.ndarray:
-    import OpenEXR
-
     try:
-        channels = OpenEXR.File(str(path)).parts[0].channels
-        if "RGB" in channels or "RGBA" in channels:
-            pixels = np.asarray(channels.get("RGB", channels.get("RGBA")).pixels)[..., :3]
-        elif all(c in channels for c in "RGB"):
-            pixels = np.stack([np.asarray(channels[c].pixels) for c in "RGB"], -1)
-        elif "Y" in channels:
-            pixels = np.repeat(np.asarray(channels["Y"].pixels)[..., None], 3, -1)
-        else:
-            raise ImageError(f"{path}: no R, G, B (or Y) channels "
-                                    f"(has {', '.join(sorted(channels)) or 'none'})")
-    except ImageError:
-        raise
-    except Exception as exc:  # noqa: BLE001 - OpenEXR raises bare exceptions for damage
+        return exr.rgb(path)
+    except exr.ExrError as exc:
         raise ImageError(f"{path}: unreadable OpenEXR file ({exc})") from None
-    return np.ascontiguousarray(pixels, np.float32)
-
 
 def layout_of_or_none(shape: tuple) -> str | None:
     """``layout_of``, or None for other proportions."""

@@ -7,7 +7,7 @@ three corners. The first part carries the metadata as the JSON attribute ``bo2.m
 object's name and identity, the UV map (its name, or "" for a layout made by the bake), the
 density, the bake settings, the keys that tell a stale lightmap (``lightmap_bake.geometry_key``,
 ``lightmap_bake.light_key``) and a SHA-256 of the pixels. Writes go through
-``probe_file.replace_all``: a failed or cancelled bake leaves every previous file as it was.
+``atomic.replace_all``: a failed or cancelled bake leaves every previous file as it was.
 """
 
 from __future__ import annotations
@@ -18,7 +18,8 @@ from pathlib import Path
 import numpy as np
 
 from ..lighting.lightmap import Lightmap
-from .probe_file import ProbeFileError, content_digest, read_parts, replace_all, write_parts
+from .atomic import replace_all
+from .bake_file import BakeFileError, content_digest, read_parts, write_parts
 
 __all__ = ["FORMAT", "read", "write_all"]
 
@@ -43,27 +44,27 @@ def write_all(files: list[tuple[str | os.PathLike, dict, Lightmap]]) -> None:
 
 def read(path: str | os.PathLike) -> tuple[dict, Lightmap]:
     """Read a lightmap written by ``write_all``: (metadata, ``Lightmap``); raises
-    ``probe_file.ProbeFileError`` with a one-line reason."""
+    ``bake_file.BakeFileError`` with a one-line reason."""
     path = Path(path)
     if not path.is_file():
-        raise ProbeFileError(f"{path.name}: no baked lightmap (bake the lightmaps)")
+        raise BakeFileError(f"{path.name}: no baked lightmap (bake the lightmaps)")
     meta, images = read_parts(path, "lightmap")
     if meta.get("format") != FORMAT:
-        raise ProbeFileError(f"{path.name}: lightmap format {meta.get('format')!r}, expected "
+        raise BakeFileError(f"{path.name}: lightmap format {meta.get('format')!r}, expected "
                              f"{FORMAT} (re-bake)")
     if meta.get("checksum") != content_digest(images):
-        raise ProbeFileError(f"{path.name}: damaged file (its pixels do not match their "
+        raise BakeFileError(f"{path.name}: damaged file (its pixels do not match their "
                              "checksum; re-bake)")
     named = dict(images)
     if not all(np.isfinite(img).all() for _, img in images):
-        raise ProbeFileError(f"{path.name}: NaN or infinite values (re-bake)")
+        raise BakeFileError(f"{path.name}: NaN or infinite values (re-bake)")
     if "lightmap" in named:
         image = named["lightmap"]
     elif all(f"sh{k}" in named for k in range(4)):
         image = np.concatenate([named[f"sh{k}"] for k in range(4)], axis=2)
     else:
-        raise ProbeFileError(f"{path.name}: no lightmap part")
+        raise BakeFileError(f"{path.name}: no lightmap part")
     if "uv" not in named:
-        raise ProbeFileError(f"{path.name}: no lightmap UVs")
+        raise BakeFileError(f"{path.name}: no lightmap UVs")
     uvs = named["uv"].reshape(-1, 3, 2)
     return meta, Lightmap(np.ascontiguousarray(image), np.ascontiguousarray(uvs))

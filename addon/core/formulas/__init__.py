@@ -3,6 +3,5 @@
 Each module cites the slides (or papers) it implements: the BRDF terms (``brdf``), the
 environment BRDF (``env_brdf``), spherical harmonics (``sh``), cube maps (``cubemap``) and their
 prefiltering (``prefilter``), textures and their colour spaces (``texture``), ambient and
-specular occlusion (``occlusion``), affine transforms (``affine``) and the GPU's cube-face
-conventions (``gpu_textures``).
+specular occlusion (``occlusion``) and affine transforms (``affine``).
 """

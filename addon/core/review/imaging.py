@@ -18,10 +18,10 @@ from __future__ import annotations
 import os
 import struct
 import zlib
-from pathlib import Path
 
 import numpy as np
 
+from ..files.atomic import write_bytes
 from ..formulas.texture import linear_to_srgb
 
 # ---------------------------------------------------------------------------------------------
@@ -390,8 +390,4 @@ def write_png(path: str | os.PathLike, image: np.ndarray) -> None:
     path:  destination
     image: (H, W, >=3) uint8, or float display values in [0, 1]; row 0 at the top
     """
-    data = png_bytes(image[..., :3])
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.partial")
-    tmp.write_bytes(data)
-    os.replace(tmp, path)
+    write_bytes(path, png_bytes(image[..., :3]))

@@ -30,6 +30,7 @@ from urllib.parse import quote
 
 import numpy as np
 
+from ..files.atomic import write_text
 from . import compare, flip, imaging, report_page
 
 VARIANTS = {"bo2": "BO2 Lighting", "bo2_old": "BO2 Lighting, the talk's old methods"}
@@ -178,7 +179,7 @@ def _write_hdr(folder: Path, images: dict) -> str:
     data = {k: "data:image/png;base64," + base64.b64encode(imaging.png_bytes(rgbe_stack(v)))
             .decode() for k, v in images.items()}
     text = f"BO2Report.hdrLoaded({json.dumps(folder.name)}, {json.dumps(data)});\n"
-    _atomic_text(folder / "hdr.js", text)
+    write_text(folder / "hdr.js", text)
     return "hdr.js"
 
 
@@ -234,8 +235,8 @@ def write_page(folder: Path, entries: list[dict], meta: dict) -> Path:
     title = html.escape(meta.get("title", "Look-dev review"))
     # inside <script>, no "<" at all: neither "</script" nor "<!--" can end or bend it
     page = head + title + middle + text.replace("<", "\\u003c") + tail
-    _atomic_text(folder / "report.json", text + "\n")
-    _atomic_text(folder / "index.html", page)
+    write_text(folder / "report.json", text + "\n")
+    write_text(folder / "index.html", page)
     return folder / "index.html"
 
 
@@ -248,7 +249,3 @@ DEFINITIONS = {
 }
 
 
-def _atomic_text(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.partial")
-    tmp.write_text(text, encoding="utf-8")
-    os.replace(tmp, path)

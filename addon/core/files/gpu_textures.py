@@ -40,7 +40,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import cubemap
+from ..formulas import cubemap
+from .atomic import write_atomically
 
 __all__ = ["Y_UP", "from_gpu_faces", "gpu_face_directions", "to_gpu_faces", "write_dds",
            "write_ktx2"]
@@ -104,18 +105,6 @@ def _check_chain(mips: list[np.ndarray]) -> None:
                              f"{size >> m}, C)")
 
 
-def _write_atomically(path: Path, chunks: list[bytes]) -> None:
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        with open(tmp, "wb") as f:
-            for chunk in chunks:
-                f.write(chunk)
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def write_dds(path: str | os.PathLike, mips: list[np.ndarray]) -> None:
     """A DDS cube map (RGBA16F, DX10 header) of the GPU-layout mip chain ``mips``
     ((6, S >> m, S >> m, C) each), replaced atomically."""
@@ -130,7 +119,7 @@ def write_dds(path: str | os.PathLike, mips: list[np.ndarray]) -> None:
     dx10 = struct.pack("<5I", 10, 3, 0x4, 1, 0)  # R16G16B16A16_FLOAT, TEXTURE2D, cube, 1
     levels = [_rgba16f(level) for level in mips]
     data = [levels[m][f].tobytes() for f in range(6) for m in range(len(levels))]
-    _write_atomically(Path(path), [b"DDS ", header, dx10, *data])
+    write_atomically(path, lambda tmp: _write_chunks(tmp, [b"DDS ", header, dx10, *data]))
 
 
 _KTX2_ID = b"\xabKTX 20\xbb\r\n\x1a\n"
@@ -189,4 +178,10 @@ def write_ktx2(path: str | os.PathLike, mips: list[np.ndarray], meta: dict | Non
     header += struct.pack("<4I2Q", dfd_offset, len(dfd), kvd_offset, len(kvd), 0, 0)
     index = b"".join(struct.pack("<3Q", placed[m][0], placed[m][1], placed[m][1])
                      for m in range(count))
-    _write_atomically(Path(path), [header, index, dfd, kvd, *chunks])
+    write_atomically(path, lambda tmp: _write_chunks(tmp, [header, index, dfd, kvd, *chunks]))
+
+
+def _write_chunks(path: Path, chunks: list[bytes]) -> None:
+    with open(path, "wb") as f:
+        for chunk in chunks:
+            f.write(chunk)
