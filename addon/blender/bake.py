@@ -117,9 +117,11 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
                              film_transparent=False, samples=int(settings.bake_samples))
     worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
 
+    said = Warnings()  # the scene's, said once the probes are known to bake
+
     def read(depsgraph):
         core_scene, _ = extract.extract_scene(depsgraph, rs, camera=False,
-                                              should_stop=interrupt.requested, warnings=warnings)
+                                              should_stop=interrupt.requested, warnings=said)
         for obj in objs:
             if obj.data.type != "SPHERE":
                 continue
@@ -131,10 +133,10 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
                       if scene.objects[name].dimensions.length < reach
                       and not scene.objects[name].hide_probe_sphere]  # not in its captures
             if inside:
-                warnings.add(f"Light probe '{obj.name}' seems to be inside object "
-                             f"{', '.join(repr(n) for n in inside)}: its captures see the "
-                             "inside; move the probe out, or raise its Clip Start past the "
-                             "surface")
+                said.add(f"Light probe '{obj.name}' seems to be inside object "
+                         f"{', '.join(repr(n) for n in inside)}: its captures see the "
+                         "inside; move the probe out, or raise its Clip Start past the "
+                         "surface")
         return core_scene
 
     core_scene = _read_for_render(scene, read)
@@ -142,7 +144,8 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     specs = bake.check([probes.spec(o) for o in objs], odd)
     if not specs:  # every probe was refused: the refusals are the error
         raise BakeError(f"No light probe can be baked: {'; '.join(odd.texts())}")
-    warnings.extend(odd.texts())
+    warnings.extend(said)
+    warnings.extend(odd)
     face_size = int(settings.bake_face_size)
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))

@@ -67,9 +67,10 @@ def run(args) -> int:
     scene = load_blend(Path(args.scene))
     from ..blender import extract, probes
     from ..core.files import gpu_textures
+    from ..core.render.job import Warnings
 
     start = time.perf_counter()
-    warnings: list[str] = []
+    warnings = Warnings()
     world = extract.extract_world(scene, warnings)
     objs = probes.probe_objects(scene)
     states = {o.name: probes.bake_state(o) for o in objs}
