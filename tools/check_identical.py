@@ -7,10 +7,13 @@ Into ``OUT``: each demo scene (``demo_blends/``), the render bench's scene
 (``tools/bench_render.py``) and two world scenes (``tools/build_world_scenes.py``: a Sky Texture
 with its sun, a look-dev set without probes) are copied, their light probes baked (and the
 room's lightmaps), and a frame rendered with every pass (``bo2 render --all-passes``, EXR).
-``OUT/digests.json`` holds the SHA-256 of every channel of every EXR written. With
-``--against`` the two folders' digests are compared: per file either "identical" or the
-channels that differ with their largest absolute difference. Exits 1 on any difference.
-Run it on two revisions (a worktree of the old one, ``PYTHONPATH`` pointing at its package).
+The scenes as built are kept in ``OUT/scenes``; with ``--against`` they are taken from the
+other run's (a scene built twice may differ in its last bits). ``OUT/digests.json`` holds the
+SHA-256 of every channel of every EXR written, bake files named by their object (without the
+random suffix of their file name). With ``--against`` the two folders' digests are compared:
+per file either "identical" or the channels that differ with their largest absolute
+difference. Exits 1 on any difference. Run it on two revisions (a worktree of the old one,
+``PYTHONPATH`` pointing at its package).
 """
 
 from __future__ import annotations
@@ -18,6 +21,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -40,12 +44,15 @@ def _run(cmd: list[str], unless: str | None = None) -> None:
         raise SystemExit(f"check_identical: failed: {' '.join(cmd)}")
 
 
-def _scenes(out: Path, names: list[str]) -> list[Path]:
-    """The .blend files of ``names``, built or copied into ``out``."""
+def _scenes(out: Path, names: list[str], built: Path | None) -> list[Path]:
+    """The .blend files of ``names``, built or copied into ``out`` (from ``built`` when it
+    holds them), each kept as built in ``out/scenes``."""
     blends = []
     for name in names:
         blend = out / f"{name}.blend"
-        if name in DEMO:
+        if built is not None and (built / f"{name}.blend").is_file():
+            shutil.copyfile(built / f"{name}.blend", blend)
+        elif name in DEMO:
             source = ROOT / "demo_blends" / f"{name}.blend"
             if not source.exists():
                 _run([sys.executable, str(ROOT / "demo_blends" / f"build_{name}.py"), str(source)])
@@ -58,6 +65,8 @@ def _scenes(out: Path, names: list[str]) -> list[Path]:
             _run([sys.executable, "-c", bench_render.BUILD, str(blend), "textured"])
         else:
             raise SystemExit(f"check_identical: no scene named {name!r}")
+        (out / "scenes").mkdir(exist_ok=True)
+        shutil.copyfile(blend, out / "scenes" / blend.name)
         blends.append(blend)
     return blends
 
@@ -82,9 +91,18 @@ def _channels(path: Path) -> dict[str, np.ndarray]:
 
 
 def _digests(out: Path) -> dict[str, dict[str, str]]:
-    return {str(path.relative_to(out)): {name: hashlib.sha256(pixels.tobytes()).hexdigest()
-                                         for name, pixels in _channels(path).items()}
-            for path in sorted(out.rglob("*.exr"))}
+    """{file: {channel: SHA-256}}; a bake file by its object's name, its suffix dropped."""
+    return {_named(path.relative_to(out)): {
+        name: hashlib.sha256(pixels.tobytes()).hexdigest()
+        for name, pixels in _channels(path).items()} for path in sorted(out.rglob("*.exr"))}
+
+
+def _named(path: Path) -> str:
+    return re.sub(r"-[0-9a-f]{8}(\.exr)$", r"\1", str(path))
+
+
+def _files(out: Path) -> dict[str, Path]:
+    return {_named(p.relative_to(out)): p for p in out.rglob("*.exr")}
 
 
 def _compare(out: Path, other: Path) -> int:
@@ -100,7 +118,7 @@ def _compare(out: Path, other: Path) -> int:
             print(f"{name}: identical ({len(mine[name])} channels)")
             continue
         differing += 1
-        a, b = _channels(out / name), _channels(other / name)
+        a, b = _channels(_files(out)[name]), _channels(_files(other)[name])
         for channel in sorted(set(a) | set(b)):
             if channel not in a or channel not in b:
                 print(f"{name} {channel}: only in one")
@@ -123,7 +141,8 @@ def main() -> int:
             if (args.out / f"{name}.exr").exists():  # done by an earlier run that stopped
                 continue
             print(f"baking and rendering {name}", flush=True)
-            _bake_and_render(_scenes(args.out, [name])[0])
+            built = None if args.against is None else args.against / "scenes"
+            _bake_and_render(_scenes(args.out, [name], built)[0])
         (args.out / "digests.json").write_text(json.dumps(_digests(args.out), indent=1))
     return _compare(args.out, args.against) if args.against else 0
 

@@ -138,3 +138,16 @@ def test_no_module_imports_another_modules_private_name():
                     and not node.attr.startswith("__")):
                 private.append(f"{a} reads {node.value.id}.{node.attr}")
     assert not private, private
+
+
+def test_every_package_is_in_the_distribution():
+    """pyproject.toml lists every package of the add-on (a wheel built from it has them all)."""
+    import tomllib
+
+    config = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    packages = {"bo2_lighting." + module_name(p.parent / "__init__.py")
+                for p in ADDON.rglob("__init__.py")} | {"bo2_lighting"}
+    assert packages == set(config["packages"])
+    data = [ROOT / pkg.removeprefix("bo2_lighting.").replace(".", "/") / pattern
+            for pkg, patterns in config["package-data"].items() for pattern in patterns]
+    assert all(list(path.parent.glob(path.name)) for path in data), data

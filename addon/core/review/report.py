@@ -230,7 +230,7 @@ def write_page(folder: Path, entries: list[dict], meta: dict) -> Path:
     data = {**meta, "definitions": {**compare.DEFINITIONS, **DEFINITIONS},
             "heat_gradient": f"linear-gradient(90deg,{heat})", "scenes": entries}
     text = json.dumps(data, indent=1, allow_nan=False)
-    head, rest = report_page.PAGE.split("__TITLE__")
+    head, rest = report_page.page().split("__TITLE__")
     middle, tail = rest.split("__DATA__")
     title = html.escape(meta.get("title", "Look-dev review"))
     # inside <script>, no "<" at all: neither "</script" nor "<!--" can end or bend it
