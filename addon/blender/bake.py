@@ -23,9 +23,9 @@ from .. import version
 from ..core.bakes import bake, capture, lightmap_bake
 from ..core.files import bake_file, lightmap_file, probe_file
 from ..core.formulas import cubemap
-from ..core.kernels import machine
 from ..core.lighting import lightmap as core_lightmap
 from ..core.render.job import RenderJob, Warnings
+from ..core.system import machine
 from . import bake_files, extract, images, interrupt, lightmaps, probes, render_graph, worlds
 from .probes import BakeError
 

@@ -16,7 +16,6 @@ from __future__ import annotations
 import hashlib
 import os
 import threading
-from collections import OrderedDict
 
 import bpy
 import numpy as np
@@ -27,12 +26,15 @@ from ..core.scene import Material
 from ..core.scene import node_math as nm
 from ..core.scene.material import ProgramBuilder
 from ..core.scene.recursion import Bounded
+from ..core.system.cache import Cache
 from . import images
 from .node_groups import is_bo2_material_node
 
-_cache: OrderedDict[tuple, tuple] = OrderedDict()  # image key -> (texture, digest), oldest first
+# image key -> (texture, digest): kept for later renders, the least recently used dropped
+# beyond 2 GiB (a texture a material still holds lives on with it)
+_textures = Cache("image textures", kept=1 << 16, size=lambda value: value[0].nbytes,
+                  budget=2 << 30)
 _lock = threading.Lock()  # the viewport and a final render may load images at once
-CACHE_BYTES = 2 << 30  # textures kept for later renders, least recently used dropped beyond it
 RAMP_TABLE_SIZE = 257  # Cycles' RAMP_TABLE_SIZE + 1 entries, at i / 256
 _GLTF_GROUPS = ("glTF Material Output", "glTF Settings")
 
@@ -59,18 +61,6 @@ def _image_key(image) -> tuple:
     return (*common, "memory", tuple(image.size), bool(image.is_float), *generator)
 
 
-def _keep(key: tuple, tex, digest: str | None) -> None:
-    """Cache ``tex`` (and the digest of an edited image's pixels) under ``key``, dropping the
-    least recently used textures beyond ``CACHE_BYTES`` (a texture a material still holds
-    lives on with it)."""
-    _cache[key] = (tex, digest)
-    _cache.move_to_end(key)
-    total = sum(t.nbytes for t, _ in _cache.values())
-    while total > CACHE_BYTES and len(_cache) > 1:
-        _, (old, _) = _cache.popitem(last=False)
-        total -= old.nbytes
-
-
 def load_image(image, extension: str, interpolation: str, warnings: Warnings, where: str):
     """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
     images stay 8-bit (``images.image_codes``), float images float32. Prepared once per image
@@ -89,10 +79,9 @@ def _load(image, extension, interpolation, warnings, where):
     main = threading.current_thread() is threading.main_thread()
     release = main and _on_disk(image) and not image.has_data
     key = _image_key(image)
-    cached = _cache.get(key)
+    cached = _textures.get(key)
     dirty = image.is_dirty
     if cached is not None and not dirty:
-        _cache.move_to_end(key)
         return cached[0].sampled_as(extension, interpolation)
     width, height = image.size
     if width == 0 or height == 0 or not image.has_data:
@@ -116,11 +105,10 @@ def _load(image, extension, interpolation, warnings, where):
         rows = pixels[::-1] if pixels[::-1].flags.c_contiguous else np.ascontiguousarray(pixels)
         digest = hashlib.blake2b(memoryview(rows).cast("B"), digest_size=16).hexdigest()
         if cached is not None and cached[1] == digest:
-            _cache.move_to_end(key)
             return cached[0].sampled_as(extension, interpolation)
     tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
                                interpolation=interpolation, name=image.name)
-    _keep(key, tex, digest)
+    _textures.put(key, (tex, digest))  # with the digest of an edited image's pixels
     return tex
 
 

@@ -23,6 +23,7 @@ from ..core.lighting import probes as cp
 from ..core.lighting.world_probes import world_probes
 from ..core.render.job import Warnings
 from ..core.scene import World
+from ..core.system.cache import Cache, stamp
 from . import bake_files, props
 from .bake_files import BakeError, bake_folder, writable_folder  # noqa: F401 (re-exported)
 
@@ -68,7 +69,7 @@ def spec(obj) -> bake.ProbeSpec:
 # --------------------------------------------------------------------------------------------
 # loading baked probes for a render
 
-_files: dict[Path, tuple] = {}  # path -> ((mtime_ns, size), the reader's result or error)
+_files = Cache("bake file reads", kept=4096)  # path -> (file stamp, result or error)
 
 
 def cached_read(path: Path, reader):
@@ -76,18 +77,17 @@ def cached_read(path: Path, reader):
     modification time and size stay (its ``BakeFileError`` too: a damaged file is read
     once, not at every redraw)."""
     try:
-        st = path.stat()
+        now = stamp(path)
     except OSError:
-        _files.pop(path, None)
+        _files.pop(path)
         return reader(path)  # raises the reader's own error
-    stamp = (st.st_mtime_ns, st.st_size)
     cached = _files.get(path)
-    if cached is None or cached[0] != stamp:
+    if cached is None or cached[0] != now:
         try:
-            result = reader(path)
+            cached = (now, reader(path))
         except bake_file.BakeFileError as exc:
-            result = exc
-        _files[path] = cached = (stamp, result)
+            cached = (now, exc)
+        _files.put(path, cached)
     if isinstance(cached[1], bake_file.BakeFileError):
         raise cached[1]
     return cached[1]

@@ -2,7 +2,7 @@
 
 With Scene World off, the scene is lit by the viewport's studio HDRI instead of its world and
 probes, as Cycles does: the HDRI's rotation and strength light it, its blur and opacity show in
-the background. The HDRI's texture is read once per file (``_textures``); its SH and
+the background. The HDRI's texture is read once per file version (``_textures``); its SH and
 prefiltered chain are computed once per HDRI and rotation (``core.lighting.world_probes``).
 """
 
@@ -17,10 +17,10 @@ import numpy as np
 from ..core import scene as cs
 from ..core.files import exr
 from ..core.formulas import texture
+from ..core.system.cache import Cache, stamp
 from . import extract, images
 
-_textures: dict[str, tuple] = {}  # path -> ((mtime_ns, size), Texture); a few HDRIs at most
-_KEEP = 4
+_textures = Cache("studio lights", kept=4)  # (path, file stamp) -> Texture
 
 
 @dataclass(frozen=True)
@@ -43,21 +43,15 @@ SCENE = Shading()
 def studio_texture(path: str) -> texture.Texture:
     """The studio HDRI at ``path`` as an equirectangular texture, read once per file version.
     Raises ``OSError`` or the reader's error for a missing or unreadable file."""
-    st = os.stat(path)
-    stamp = (st.st_mtime_ns, st.st_size)
-    cached = _textures.get(path)
-    if cached is not None and cached[0] == stamp:
-        return cached[1]
-    if path.lower().endswith(".exr"):
-        pixels = exr.rgb(path)
-    else:  # a user's own studio light (.hdr, ...): read by Blender
-        pixels = images.read_file(path, linear=True)[..., :3]
-    tex = texture.make_texture(pixels, srgb=False, extension="REPEAT", interpolation="Linear",
-                               name=os.path.basename(path))
-    _textures[path] = (stamp, tex)
-    while len(_textures) > _KEEP:
-        _textures.pop(next(iter(_textures)))
-    return tex
+    def read() -> texture.Texture:
+        if path.lower().endswith(".exr"):
+            pixels = exr.rgb(path)
+        else:  # a user's own studio light (.hdr, ...): read by Blender
+            pixels = images.read_file(path, linear=True)[..., :3]
+        return texture.make_texture(pixels, srgb=False, extension="REPEAT",
+                                    interpolation="Linear", name=os.path.basename(path))
+
+    return _textures.get_or_make((path, stamp(path)), read)
 
 
 def key(space) -> tuple:

@@ -30,7 +30,6 @@ import hashlib
 import json
 import math
 import tempfile
-from collections import OrderedDict
 from pathlib import Path
 from typing import NamedTuple
 
@@ -41,6 +40,7 @@ from mathutils import Vector
 from ..core.files import exr
 from ..core.formulas import texture
 from ..core.scene import Light
+from ..core.system.cache import Cache
 from . import images, probes
 
 __all__ = ["WIDTH", "Rendered", "WorldError", "digest", "direct", "ensure", "lookup",
@@ -48,7 +48,6 @@ __all__ = ["WIDTH", "Rendered", "WorldError", "digest", "direct", "ensure", "loo
 
 WIDTH = 1024  # of the equirect; its height is half
 SAMPLES = 16
-KEPT = 4  # worlds kept in memory
 DISC_SKIES = {"NISHITA", "SINGLE_SCATTERING", "MULTIPLE_SCATTERING"}  # Sky Textures with a sun
 PATCH = 64  # pixels across the view of a sun disc
 PATCH_WIDTH = 4.0  # the view's angle, in the disc's diameters
@@ -61,7 +60,7 @@ class Rendered(NamedTuple):
     sun: Light | None
 
 
-_memory: OrderedDict[str, Rendered] = OrderedDict()
+_memory = Cache("rendered worlds", kept=4)  # digest -> Rendered
 
 
 class WorldError(Exception):
@@ -212,10 +211,7 @@ def _path(scene, key: str) -> Path | None:
 
 
 def _keep(key: str, rendered: Rendered) -> Rendered:
-    _memory[key] = rendered
-    _memory.move_to_end(key)
-    while len(_memory) > KEPT:
-        _memory.popitem(last=False)
+    _memory.put(key, rendered)
     return rendered
 
 
@@ -238,8 +234,7 @@ def lookup(scene, world) -> Rendered | None:
     the bake folder; None when it was not rendered (``ensure``)."""
     key = digest(world)
     if key in _memory:
-        _memory.move_to_end(key)
-        return _memory[key]
+        return _memory.get(key)
     path = _path(scene, key)
     if path is None or not path.is_file():
         return None

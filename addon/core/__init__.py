@@ -6,7 +6,8 @@ of Lazarov 2013, "Getting More Physical in Call of Duty: Black Ops II", usable o
 Its rooms, bottom floor first (a module imports from its own floor or those below; the
 import-graph test keeps it so):
 
-- ``kernels``: the compiled loops (numba) and the machine they run on.
+- ``system``: the machine: its memory, and the bounded caches that keep work between renders.
+- ``kernels``: the compiled loops (numba).
 - ``formulas``: the talk's formulas and the published ones beside them (BRDF, environment
   BRDF, SH, cube maps and their prefiltering, textures, occlusion), functions of arrays.
 - ``scene``: what a scene is (meshes, lights, camera, world, settings) and the materials'

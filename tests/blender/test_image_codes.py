@@ -129,20 +129,20 @@ def test_reading_an_image_allocates_about_its_eight_bit_size(addon, tmp_path):
 
 
 def test_cache_drops_the_least_recently_used_beyond_its_size(addon, monkeypatch):
-    monkeypatch.setattr(materials, "_cache", type(materials._cache)())
+    materials._textures.clear()
     made = []
     for k in range(3):
         image = bpy.data.images.new(f"cache {k}", 64, 64, alpha=True)
         image.pixels.foreach_set(np.full(64 * 64 * 4, k / 4, np.float32))
         made.append(image)
     one = materials.load_image(made[0], "REPEAT", "Linear", Warnings(), "t")
-    monkeypatch.setattr(materials, "CACHE_BYTES", int(2.5 * one.nbytes))
+    monkeypatch.setattr(materials._textures, "budget", int(2.5 * one.nbytes))
     materials.load_image(made[1], "REPEAT", "Linear", Warnings(), "t")
     materials.load_image(made[0], "REPEAT", "Linear", Warnings(), "t")  # used again: now the newest
     materials.load_image(made[2], "REPEAT", "Linear", Warnings(), "t")
-    kept = {key[0] for key in materials._cache}
+    kept = {key[0] for key in materials._textures.keys()}
     assert kept == {"cache 0", "cache 2"}
-    assert sum(t.nbytes for t, _ in materials._cache.values()) <= materials.CACHE_BYTES
+    assert sum(t.nbytes for t, _ in materials._textures.values()) <= materials._textures.budget
 
 
 def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monkeypatch):
@@ -189,6 +189,6 @@ def test_settings_of_one_image_share_its_levels(addon, tmp_path):
     b = materials.load_image(image, "CLIP", "Closest", Warnings(), "t")
     assert (b.extension, b.interpolation) == ("CLIP", "Closest")
     assert np.shares_memory(a.image, b.image) and a.pending and b.pending
-    assert len([k for k in materials._cache if k[0] == image.name_full]) == 1
+    assert len([k for k in materials._textures.keys() if k[0] == image.name_full]) == 1
     texture.sample(b.sampled_as("REPEAT", "Linear"), np.full((4, 2), 0.5), np.full(4, 2.0))
     assert not a.pending and not b.pending

@@ -333,7 +333,7 @@ def test_a_deleted_lightmap_file_is_said(addon, tmp_path):
 def test_the_memory_a_bake_takes_is_said_up_front(addon, tmp_path, monkeypatch):
     """A big bake says how much memory it takes before it starts; one that the machine cannot
     hold is refused with that figure, the previous lightmaps kept."""
-    from bo2_lighting.addon.core.kernels import machine
+    from bo2_lighting.addon.core.system import machine
 
     scene = room(tmp_path)
     objs = lightmaps.lightmap_objects(scene)

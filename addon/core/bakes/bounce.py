@@ -13,7 +13,7 @@ volumes hold the bounce already and replace both.
 The grid spans the objects' bounding boxes, but those of objects over ``WIDE`` times the
 median object's size (a ground reaching to the horizon would spread it thin), grown by
 ``MARGIN`` of its size, with at most ``MAX_SAMPLES`` samples at equal spacing. It is kept
-per content (``key``: geometry, materials, lights, world) for the last ``KEPT`` scenes: a
+per content (``key``: geometry, materials, lights, world) for the last two scenes: a
 frame of the same scene reuses it.
 
 Chosen over two others (docs/probes.md): reflective dome maps miss what is nearer than a map's
@@ -27,8 +27,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import threading
-from collections import OrderedDict
 from collections.abc import Callable
 
 import numpy as np
@@ -37,6 +35,7 @@ from ..formulas.texture import Texture
 from ..lighting.probes import IrradianceVolume, sends_light
 from ..render.job import Cancelled, RenderJob
 from ..scene import Scene, World
+from ..system.cache import Cache
 from . import bake, capture
 
 __all__ = ["FACE_SIZE", "MAX_SAMPLES", "attach", "key", "spec"]
@@ -49,9 +48,7 @@ MIN_EXTENT = 0.5  # metres: the grid's smallest side
 FACE_SIZE = 16  # texels of each capture's cube face (as a volume bake's)
 FADE = 0.25  # local units outside the box over which its weight fades
 FACING = 1.0  # the look-up's facing bias: samples behind a surface weigh less, none is cut
-KEPT = 2
-_cache: OrderedDict[str, IrradianceVolume | None] = OrderedDict()
-_lock = threading.Lock()
+_volumes = Cache("bounce without probes", kept=2)  # key -> the baked volume
 
 
 def spec(scene: Scene) -> bake.ProbeSpec | None:
@@ -149,17 +146,10 @@ def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
     if where is None:
         return scene
     k = key(scene)
-    with _lock:
-        found = k in _cache
-        volume = _cache.get(k)
-        if found:
-            _cache.move_to_end(k)
-    if not found:
+    volume = _volumes.get(k)
+    if volume is None:
         if not bake_missing:
             return scene
         volume = _bake(scene, where, should_stop)
-        with _lock:
-            _cache[k] = volume
-            while len(_cache) > KEPT:
-                _cache.popitem(last=False)
+        _volumes.put(k, volume)
     return dataclasses.replace(scene, probes=dataclasses.replace(probes, bounce=volume))

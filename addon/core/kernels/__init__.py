@@ -37,7 +37,7 @@ import threading
 import time
 from pathlib import Path
 
-from .machine import limit_note
+from ..system.machine import limit_note
 
 
 def bundled_numba(system: str = sys.platform, machine: str = platform.machine()) -> str:

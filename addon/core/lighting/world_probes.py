@@ -4,12 +4,11 @@ kept per world. Every probe falls back on them, and a scene without probes is li
 
 from __future__ import annotations
 
-import threading
-
 import numpy as np
 
 from ..formulas import cubemap, prefilter, sh
 from ..scene import World
+from ..system.cache import Cache
 from .probes import Probes
 
 __all__ = ["filtered", "world_cube", "world_key", "world_probes"]
@@ -46,22 +45,14 @@ def world_key(world: World, size: int) -> tuple:
             np.asarray(world.rotation, np.float64).tobytes(), int(size))
 
 
-_world_cache: dict = {}  # world_key -> (SH, chains), the newest last
-_world_lock = threading.Lock()  # renders, previews and the viewport ask at once
-_WORLDS_KEPT = 4  # the scene's world and a few studio lights switched between
+# world_key -> (SH, chains): the scene's world and a few studio lights switched between
+_worlds = Cache("world probes", kept=4)
 
 
 def world_probes(world: World, size: int = 64) -> Probes:
     """Probes of the world alone, the fallback of every probe (SH (9, 3) and both chains of
     its ``size`` cube), computed once per world (the last few worlds are kept)."""
-    key = world_key(world, size)
-    with _world_lock:
-        value = _world_cache.pop(key, None)
-        if value is None:
-            value = filtered(world_cube(world, size))
-        _world_cache[key] = value
-        while len(_world_cache) > _WORLDS_KEPT:
-            _world_cache.pop(next(iter(_world_cache)))
-    world_sh, world_mips = value
+    world_sh, world_mips = _worlds.get_or_make(world_key(world, size),
+                                               lambda: filtered(world_cube(world, size)))
     color = None if world.texture is not None else np.asarray(world.color, np.float32)[:3]
     return Probes(world_sh=world_sh, world_mips=world_mips, world_color=color)

@@ -23,13 +23,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
-from collections import OrderedDict
 
 import numpy as np
 
 from ..formulas import sh, texture
 from ..scene import Light, World
+from ..system.cache import Cache
 
 __all__ = ["MAX_RADIUS", "Sun", "disc_radiance", "find", "split"]
 
@@ -124,26 +123,17 @@ def disc_radiance(world: World, directions: np.ndarray) -> np.ndarray:
     return out
 
 
-_cache: OrderedDict = OrderedDict()  # (texture digest, threshold) -> (Sun | None, Texture)
-_lock = threading.Lock()
-_KEPT = 4
+_suns = Cache("world suns", kept=4)  # (texture digest, threshold) -> (Sun | None, Texture)
 
 
 def _found(tex: texture.Texture, threshold: float) -> tuple[Sun | None, texture.Texture]:
-    key = (tex.digest, float(threshold))
-    with _lock:
-        if key in _cache:
-            _cache.move_to_end(key)
-            return _cache[key]
-    sun, clamped = find(tex.linear(0)[..., :3], threshold)
-    value = (sun, tex if sun is None else texture.make_texture(
-        clamped, srgb=False, extension="REPEAT", interpolation="Linear",
-        name=f"{tex.name} (sun taken out)"))
-    with _lock:
-        _cache[key] = value
-        while len(_cache) > _KEPT:
-            _cache.popitem(last=False)
-    return value
+    def make():
+        sun, clamped = find(tex.linear(0)[..., :3], threshold)
+        return (sun, tex if sun is None else texture.make_texture(
+            clamped, srgb=False, extension="REPEAT", interpolation="Linear",
+            name=f"{tex.name} (sun taken out)"))
+
+    return _suns.get_or_make((tex.digest, float(threshold)), make)
 
 
 def split(world: World, threshold: float, angle: float, shadow: bool = True) -> World:

@@ -9,7 +9,7 @@ memory runs out: Blender's own memory and the render's transient buffers come on
 
 from __future__ import annotations
 
-from ..kernels.machine import limit_note, size
+from ..system.machine import limit_note, size
 
 __all__ = ["OutOfMemory", "frame_bytes", "out_of_memory"]
 

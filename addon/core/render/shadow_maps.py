@@ -11,6 +11,7 @@ import threading
 import numpy as np
 
 from ..scene import Scene
+from ..system.cache import Cache
 from . import shadows
 from . import sky as sky_light
 from .buffers import Frame
@@ -77,8 +78,7 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
     key = None if cutout is not None or not lit.any() else _dome_key(
         positions, view, focus, s.sky_resolution, lit)
-    with _domes_lock:
-        kept = _domes.get(key) if key is not None else None
+    kept = _domes.get(key) if key is not None else None
     if kept is None:
         view_range = (shadows.camera_depth_range(view, positions)
                       if view is not None and lit.any() else None)  # the same for every sun
@@ -94,20 +94,12 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     if kept is not None:
         return maps + kept
     if key is not None:
-        with _domes_lock:
-            _domes[key] = maps[len(scene.lights):]
-            while len(_domes) > DOMES_KEPT:
-                _domes.pop(next(iter(_domes)))
+        _domes.put(key, maps[len(scene.lights):])
     return maps
 
 
-DOMES_KEPT = 2  # the dome's maps of the last geometries and views, reused while they stay
-
-
-_domes: dict = {}
-
-
-_domes_lock = threading.Lock()
+# The dome's maps of the last geometries and views (``_dome_key``), reused while they stay
+_domes = Cache("dome shadow maps", kept=2)
 
 
 def _dome_key(positions: np.ndarray, view, focus, resolution: int, lit: np.ndarray) -> tuple:
