@@ -27,6 +27,7 @@ from ..core.lighting import lightmap as core_lightmap
 from ..core.render.job import RenderJob, Warnings
 from ..core.system import machine
 from . import bake_files, extract, images, interrupt, lightmaps, probes, render_graph, worlds
+from . import settings as settings_of
 from .probes import BakeError
 
 
@@ -55,7 +56,7 @@ def cycles_cube(scene, position, size: int, near: float, far: float,
         scene.camera, r.engine = cam, "CYCLES"
         for obj in hidden:
             obj.visible_camera = False
-        scene.cycles.samples = int(scene.bo2.bake_cycles_samples)
+        scene.cycles.samples = settings_of.bake_settings(scene, "CYCLES").cycles_samples
         r.resolution_x = r.resolution_y = size
         r.resolution_percentage, r.use_border, r.film_transparent = 100, False, False
         with tempfile.TemporaryDirectory() as tmp:
@@ -107,14 +108,12 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     The scene is read as a final render evaluates it (``render_graph``). Closing the
     generator early (cancel) writes nothing.
     """
-    settings = scene.bo2
     warnings = Warnings() if warnings is None else warnings
     if not objs:
         raise BakeError("No Sphere or Volume light probes to bake")
     folder = probes.writable_folder(scene)
     start = time.perf_counter()
-    rs = dataclasses.replace(extract.render_settings(scene), border=None,
-                             film_transparent=False, samples=int(settings.bake_samples))
+    rs = settings_of.render_settings(scene, "PROBE_BAKE")
     worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
 
     said = Warnings()  # the scene's, said once the probes are known to bake
@@ -146,7 +145,8 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
         raise BakeError(f"No light probe can be baked: {'; '.join(odd.texts())}")
     warnings.extend(said)
     warnings.extend(odd)
-    face_size = int(settings.bake_face_size)
+    b = settings_of.bake_settings(scene, backend)
+    face_size = b.face_size
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))
     # the volumes' surroundings too, with either backend; Ctrl-C of the bo2 command stops it
@@ -158,9 +158,9 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
         def grab(position, size, near, far, _probes, kind):
             return cycles_cube(scene, position, size, near, far, kind)
     job = bake.Bake(specs, core_scene.world, grab,
-                    bounces=1 if backend == "CYCLES" else max(1, int(settings.bake_bounces)),
+                    bounces=b.bounces,
                     face_size=face_size,
-                    volume_face_size=int(settings.bake_volume_face_size),
+                    volume_face_size=b.volume_face_size,
                     surfaces=captures.surfaces)
     yield from job.steps()
     for baked in job.results:
@@ -206,7 +206,7 @@ def lightmap_plan(scene, depsgraph, core_scene, objs, warnings: Warnings
     what its file records (UV map, density); into ``warnings``, one for each object left out or
     laid out anew. Raises BakeError when none can, or when they would take more memory than
     the cap."""
-    s = lightmaps.settings(scene)
+    s = settings_of.lightmap_settings(scene)
     targets, notes = [], []
     for obj in objs:
         k = lightmaps.batch_index(core_scene, obj.name)
@@ -329,13 +329,14 @@ def cycles_lightmap(scene, obj, mesh, target, uv_map: str | None) -> np.ndarray:
         stand_in.select_set(True)
         layer.objects.active = stand_in
         scene.render.engine = "CYCLES"
-        scene.cycles.samples = int(scene.bo2.bake_cycles_samples)
+        scene.cycles.samples = settings_of.bake_settings(scene, "CYCLES").cycles_samples
         total = np.zeros((target.height, target.width, 3), np.float32)
         for passes in ({"INDIRECT"}, {"DIRECT"}):
             for lamp in lamps:
                 lamp.hide_render = passes == {"DIRECT"}
             bpy.ops.object.bake(type="DIFFUSE", pass_filter=passes, uv_layer=uv_map,
-                                margin=int(scene.bo2.lightmap_padding), use_clear=True)
+                                margin=settings_of.lightmap_settings(scene).padding,
+                                use_clear=True)
             pixels = np.empty(target.width * target.height * 4, np.float32)
             image.pixels.foreach_get(pixels)
             total += pixels.reshape(target.height, target.width, 4)[::-1, :, :3]
@@ -372,8 +373,7 @@ def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str =
         raise BakeError("No static mesh objects to bake lightmaps for")
     probes.writable_folder(scene)
     start = time.perf_counter()
-    rs = dataclasses.replace(extract.render_settings(scene), border=None,
-                             film_transparent=False)
+    rs = settings_of.render_settings(scene, "LIGHTMAP_BAKE")
     worlds.ensure(scene)
     cycles = backend == "CYCLES"
 
@@ -395,7 +395,7 @@ def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str =
     core_scene, targets, notes, meshes = _read_for_render(scene, read)
     try:
         viewport = _viewport_keys(scene, [t.name for t in targets])
-        s = lightmaps.settings(scene)
+        s = settings_of.lightmap_settings(scene)
         results: list = []
         if cycles:
             if s.directional:
@@ -445,7 +445,7 @@ def _viewport_keys(scene, names: list[str]) -> dict[str, dict]:
     modifiers' viewport settings; ``lightmaps.attach`` reads it in the viewport):
     ``viewport_triangles``, ``viewport_geometry_key`` and ``viewport_light_key``."""
     depsgraph = bpy.context.evaluated_depsgraph_get()
-    core_scene, _ = extract.extract_scene(depsgraph, extract.render_settings(scene),
+    core_scene, _ = extract.extract_scene(depsgraph, settings_of.render_settings(scene),
                                           camera=False, should_stop=interrupt.requested)
     light = lightmap_bake.light_key(core_scene)
     out = {}

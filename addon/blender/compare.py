@@ -32,6 +32,7 @@ from ..core.render.passes import PASSES
 from ..core.review import compare as core
 from ..core.review import imaging
 from . import images, interrupt, passes, worlds
+from . import settings as settings_of
 
 # key -> (engine identifier, label, EXR file name)
 ENGINES = {"bo2": ("BO2_LIGHTING", "BO2 Lighting", "bo2.exr"),
@@ -215,7 +216,8 @@ class Comparison:
         info = {"engine": ENGINES[key][0], "render_seconds": seconds,
                 "resolution": [combined.shape[1], combined.shape[0]], "file": str(path)}
         if key == "bo2":
-            info.update(samples=scene.bo2.samples, specular_model=scene.bo2.specular_model,
+            used = settings_of.render_settings(scene)
+            info.update(samples=used.samples, specular_model=used.specular_model,
                         indirect=scene.bo2.use_indirect)
         else:
             c = scene.cycles

@@ -9,7 +9,6 @@ material, light and world previews (``is_preview``) in the talk's model.
 from __future__ import annotations
 
 import contextlib
-import dataclasses
 import sys
 import time
 import traceback
@@ -24,6 +23,7 @@ from ..core.render import memory, pipeline
 from ..core.render.job import Cancelled, Message, RenderJob, Warnings
 from ..core.render.passes import PASSES
 from . import extract, interrupt, passes, render_graph, viewport
+from . import settings as settings_of
 
 
 class BO2RenderEngine(bpy.types.RenderEngine):
@@ -98,11 +98,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         try:
             kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
             self.update_stats("BO2 Lighting", "Reading scene")
-            # contact occlusion is searched where no indirect light reaches only for its pass
-            settings = dataclasses.replace(extract.render_settings(scene), ao_pass=passes.enabled(
-                depsgraph.view_layer, "AO"))
-            if self.is_preview:
-                settings = preview_settings(settings)
+            settings = settings_of.render_settings(
+                scene, "PREVIEW" if self.is_preview else "FINAL", depsgraph.view_layer)
             should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731
             frame, _ = extract.extract_scene(depsgraph, settings, indirect=scene.bo2.use_indirect,
                                              should_stop=should_stop, warnings=sink)
@@ -166,14 +163,6 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             if name != "Combined" and passes.enabled(renderlayer, name):
                 self.register_pass(scene, renderlayer, passes.blender_name(name), p.channels,
                                    p.ids, p.kind)
-
-
-def preview_settings(settings):
-    """A material, light or world preview's settings: Blender's preview scene at a quick
-    quality (four samples, 512 px shadow maps), so a 128 px preview takes a fraction of a
-    second."""
-    return dataclasses.replace(settings, samples=min(settings.samples, 4),
-                               shadow_resolution=min(settings.shadow_resolution, 512))
 
 
 _listeners: list[Warnings] = []  # the sinks ``listening`` holds open

@@ -22,6 +22,7 @@ from ..core.lighting import world_sun
 from ..core.render import memory
 from ..core.render.job import Cancelled, Warnings
 from . import lightmaps as baked_lightmaps
+from . import settings as settings_of
 from . import worlds
 from .materials import convert_material, load_image
 from .probes import load_probes
@@ -37,13 +38,6 @@ def _matrix(m) -> np.ndarray:
     return np.array([list(row) for row in m], np.float64)
 
 
-def resolution(scene) -> tuple[int, int]:
-    """Output (width, height) in pixels after the resolution percentage."""
-    r = scene.render
-    scale = r.resolution_percentage / 100.0
-    return max(1, int(r.resolution_x * scale)), max(1, int(r.resolution_y * scale))
-
-
 def extract_camera(depsgraph) -> cs.Camera:
     """The scene camera with Blender's sensor fit, shift and clipping."""
     scene = depsgraph.scene
@@ -55,7 +49,7 @@ def extract_camera(depsgraph) -> cs.Camera:
     if cam.data.type == "PANO":
         raise SceneError(f"Camera '{cam.name}' is panoramic: BO2 Lighting renders "
                          "perspective and orthographic cameras only")
-    w, h = resolution(scene)
+    w, h = settings_of.resolution(scene)
     r = scene.render
     proj = cam.calc_matrix_camera(depsgraph, x=w, y=h,
                                   scale_x=r.pixel_aspect_x, scale_y=r.pixel_aspect_y)
@@ -593,43 +587,6 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
                         texspace=texspace)
 
 
-def render_border(scene, width: int, height: int) -> tuple[int, int, int, int] | None:
-    """Blender's render border as a pixel rectangle (x0, y0, x1, y1), top-left origin."""
-    r = scene.render
-    if not r.use_border:
-        return None
-    x0, x1 = int(r.border_min_x * width), int(np.ceil(r.border_max_x * width))
-    y0, y1 = int((1.0 - r.border_max_y) * height), int(np.ceil((1.0 - r.border_min_y) * height))
-    x0, y0 = max(0, min(x0, width - 1)), max(0, min(y0, height - 1))
-    x1, y1 = max(x0 + 1, min(x1, width)), max(y0 + 1, min(y1, height))
-    return x0, y0, x1, y1
-
-
-def render_settings(scene) -> cs.RenderSettings:
-    """The engine's settings of a Blender scene as ``core.scene.RenderSettings``."""
-    s = scene.bo2
-    width, height = resolution(scene)
-    return cs.RenderSettings(
-        samples=int(s.samples),
-        shade_every_sample=bool(s.shade_every_sample),
-        filter_width=float(scene.render.filter_size),
-        specular_model=str(s.specular_model),
-        env_brdf=str(s.env_brdf),
-        normalization=str(s.normalization),
-        prefilter=str(s.prefilter),
-        film_transparent=bool(scene.render.film_transparent),
-        shadow_resolution=int(s.shadow_resolution),
-        ambient_occlusion=bool(s.use_ambient_occlusion),
-        ao_distance=float(s.ao_distance),
-        specular_occlusion=bool(s.use_specular_occlusion),
-        sky_directions=int(s.sky_directions),
-        sky_resolution=int(s.sky_resolution),
-        implicit_bounce=bool(s.use_implicit_bounce),
-        threads=int(scene.render.threads),  # Blender's Threads setting (Auto: one per core)
-        border=render_border(scene, width, height),
-    )
-
-
 class SceneCache:
     """What an extraction read from Blender, kept for the next one (the viewport): each
     object's object-space data, each instance's world-space batch (by matrix), each compiled
@@ -792,7 +749,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
                   warnings: Warnings | None = None) -> tuple[cs.Scene, Warnings]:
     """Translate the evaluated depsgraph into plain data.
 
-    settings: the engine's settings (``render_settings(scene)`` when None)
+    settings: the engine's settings (``settings.render_settings(scene)`` when None)
     camera:   False for work that brings its own cameras (probe captures, the viewport): the
               scene camera is neither read nor required, and a 1 x 1 placeholder stands in
     indirect: light the scene with its baked probes and the world (``probes.load_probes``);
@@ -835,7 +792,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
         materials=list(cache.materials),
         lights=lights,
         world=world,
-        settings=settings or render_settings(scene),
+        settings=settings or settings_of.render_settings(scene),
         probes=load_probes(scene, world, warnings) if indirect else None,
     )
     if indirect and lightmaps:

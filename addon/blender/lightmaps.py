@@ -25,6 +25,7 @@ from ..core.files import bake_file, lightmap_file
 from ..core.lighting import lightmap
 from ..core.render.job import Warnings
 from . import bake_files, probes
+from . import settings as settings_of
 
 UV_NAME = "LightmapUV"
 
@@ -62,16 +63,6 @@ def lightmap_objects(scene, selected_only: bool = False) -> list:
     return sorted(objs, key=lambda o: o.name)
 
 
-def settings(scene) -> lightmap.Settings:
-    """The scene's bake settings (``scene.bo2``)."""
-    s = scene.bo2
-    return lightmap.Settings(
-        texels_per_metre=float(s.lightmap_density),
-        max_resolution=int(s.lightmap_max_resolution), padding=int(s.lightmap_padding),
-        rays=int(s.lightmap_rays), bounces=int(s.lightmap_bounces),
-        directional=bool(s.lightmap_directional), denoise=bool(s.lightmap_denoise))
-
-
 def density(obj, scene) -> float:
     """Texels per metre of ``obj``'s lightmap: its own, else the scene's."""
     return float(obj.bo2.lightmap_density or scene.bo2.lightmap_density)
@@ -96,7 +87,7 @@ def _surface_area(obj) -> float:
 def estimate(scene, objs) -> tuple[int, int]:
     """(texels, bytes) that the lightmaps of ``objs`` will take in a frame, estimated from
     their surface area, density and padding, before any layout is made."""
-    s = settings(scene)
+    s = settings_of.lightmap_settings(scene)
     texels = 0
     for obj in objs:
         side = min(np.sqrt(_surface_area(obj) * 1.4) * density(obj, scene) + 2 * s.padding,

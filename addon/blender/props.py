@@ -3,22 +3,13 @@
 
 import bpy
 
-from ..core.formulas import brdf
 from ..core.render import viewport
+from ..core.scene import CHOICES
 
-_SPECULAR_DESCRIPTIONS = {
-    "reference": ("Reference", "The talk's terms (slides 'Black Ops: normal distribution "
-                  "function', 'reflectance function', 'visibility function'): Blinn-Phong NDF, "
-                  "Schlick Fresnel, Schlick-Smith"),
-    "bo2": ("BO2 optimized", "Bonus slides 'Black Ops II: new Fresnel approximation' and 'new "
-            "visibility function approximation': 2^(-10 l.h) Fresnel, fast visibility"),
-    "none": ("No visibility", "Visibility term V = 1 (slide 'Black Ops: visibility function', "
-             "its comparison)"),
-    "cook_torrance": ("Cook-Torrance", "Cook-Torrance geometry term (slide 'Black Ops: "
-                      "visibility function', its comparison)"),
-    "kelemen": ("Kelemen/Szirmay-Kalos", "Kelemen and Szirmay-Kalos visibility approximation "
-                "(slide 'Black Ops: visibility function', its comparison)"),
-}
+
+def _items(setting: str) -> list[tuple[str, str, str]]:
+    """An EnumProperty's items: the core's ``CHOICES`` of ``setting``."""
+    return [(c.id, c.label, c.description) for c in CHOICES[setting]]
 
 
 # Renderers of the probes' captures (``scene.bo2.bake_backend``, the preferences' default)
@@ -98,7 +89,7 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         name="Direct Specular",
         description="Terms of the direct specular BRDF (slide 'Black Ops: Microfacet BRDF' and "
         "the bonus slides)",
-        items=[(m, *_SPECULAR_DESCRIPTIONS[m]) for m in brdf.MODELS],
+        items=_items("specular_model"),
         default="reference",
     )
 
@@ -106,17 +97,7 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         name="Environment BRDF",
         description="Environment BRDF that scales indirect specular (reflections); slides "
         "'Environment BRDF: old method' and 'new method'",
-        items=[
-            ("bo1", "BO1", "Slide 'Black Ops: environment map \u201cFresnel\u201d': "
-             "rf0 + (1 - rf0)(1 - n.v)^5 / (4 - 3 gloss)"),
-            ("bo2", "BO2", "Slide 'Final approximation': the analytic EnvironmentBRDF of the "
-             "talk"),
-            ("fit", "Fit", "Our fit to the ground truth: BO2's curve refitted, two operations "
-             "more, lower maximum, mean and relative error than BO2 for dielectrics and metals "
-             "(docs/env_brdf.md)"),
-            ("table", "Ground Truth (Table)",
-             "The numerically integrated environment BRDF, looked up in a 64 x 64 table"),
-        ],
+        items=_items("env_brdf"),
         default="bo2",
     )
     use_indirect: bpy.props.BoolProperty(
@@ -131,27 +112,13 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         description="Environment map normalization: how a reflection probe's cube map is "
         "fitted to the lighting at each pixel (slides 'Black Ops: environment map "
         "normalization', 'Improved normalization algorithm')",
-        items=[
-            ("none", "None", "The cube map as captured"),
-            ("bo1", "BO1 Average Irradiance",
-             "Slide 'Black Ops: normalization algorithm': divide by the probe's average "
-             "irradiance (SH constant term), multiply by the pixel's"),
-            ("bo2", "BO2 Directional Irradiance",
-             "Slide 'Improved normalization algorithm': divide by the probe's irradiance at "
-             "the normal (tinted scalar SH), multiply by the pixel's irradiance"),
-        ],
+        items=_items("normalization"),
         default="bo2",
     )
     prefilter: bpy.props.EnumProperty(
         name="Prefilter",
         description="Filter of the reflection probes' mip chains (both are baked)",
-        items=[
-            ("bo1", "BO1 Angular Gaussian", "Slide 'Black Ops: environment map pre-filtering': "
-             "CubeMapGen's angular Gaussian filter"),
-            ("bo2", "BO2 Cosine Power",
-             "Slide 'Improved environment map pre-filtering': each mip filtered with the Phong "
-             "power of the gloss that reads it"),
-        ],
+        items=_items("prefilter"),
         default="bo2",
     )
     bake_folder: bpy.props.StringProperty(

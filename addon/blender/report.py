@@ -21,6 +21,7 @@ from ..core.review import compare as core_compare
 from ..core.review import flip
 from ..core.review import report as core
 from . import compare, images, passes
+from . import settings as settings_of
 
 # The talk's old (Black Ops) methods, each a scene setting of BO2 Lighting: the environment BRDF
 # (slide 'Black Ops: environment map "Fresnel"'), the normalization ('Black Ops: normalization
@@ -169,18 +170,14 @@ def render_scene(scene, view_layer, folder: Path, old_methods: bool, on_stage=No
     """Render ``scene`` into ``folder`` as ``compare.run`` does, and first, when
     ``old_methods``, BO2 Lighting with the talk's old methods into ``folder/old/``."""
     if old_methods:
-        saved = {k: getattr(scene.bo2, k) for k in OLD_METHODS}
         job = compare.Comparison(scene, view_layer, folder / "old")
         try:
-            for k, v in OLD_METHODS.items():
-                setattr(scene.bo2, k, v)
             if on_stage:
                 on_stage("BO2 Lighting render, old methods")
-            job.finish("bo2", compare.render_sync(job, "bo2"))
+            with settings_of.methods(scene, **OLD_METHODS):
+                job.finish("bo2", compare.render_sync(job, "bo2"))
         finally:
             job.restore()
-            for k, v in saved.items():
-                setattr(scene.bo2, k, v)
         atomic.write_text(folder / "old" / "render.json", json.dumps(job.info["bo2"], indent=1))
     compare.run(scene, view_layer, folder, on_stage=on_stage)
 

@@ -19,6 +19,7 @@ from ..core.render import viewport
 from ..core.render.job import Warnings
 from ..core.scene import Camera
 from . import extract, probes, studio, worlds
+from . import settings as settings_of
 
 
 def changes(updates, cache: extract.SceneCache) -> set[str]:
@@ -200,8 +201,7 @@ class Viewport:
         settings = blender_scene.bo2
         if not changed:
             return set()
-        render = dataclasses.replace(extract.render_settings(blender_scene), border=None,
-                                     tile_size=viewport.TILE_SIZE)
+        render = settings_of.render_settings(blender_scene, "VIEWPORT")
         studio_world = self.shading.world
         try:
             scene, warnings = extract.extract_scene(

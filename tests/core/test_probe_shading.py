@@ -39,7 +39,7 @@ def test_specular_is_environment_times_environment_brdf():
     gloss = np.array([0.7], np.float32)
     for model in ("bo1", "bo2", "fit", "table"):
         _, spec = cp.indirect(probes, np.zeros((1, 3), np.float32), n, v, rf0 * 0, rf0, gloss,
-                              normalization="none", env_model=model)
+                              normalization="none", env_brdf=model)
         expected = env_brdf.environment_brdf(0.7, 0.8, rf0[0], model)
         np.testing.assert_allclose(spec[0], expected, rtol=2e-3)
 
@@ -105,7 +105,7 @@ def test_normalizations_follow_the_slides():
     spec = {}
     for norm in cp.NORMALIZATIONS:
         _, spec[norm] = cp.indirect(probes, pts, normals, normals, *args, normalization=norm,
-                                    env_model="table")
+                                    env_brdf="table")
     e = env_brdf.environment_brdf(0.5, 1.0, 1.0, "table")
     np.testing.assert_allclose(spec["none"], e, rtol=1e-5)  # the cube map is 1 everywhere
     # BO1: pixel DC / probe DC, for both normals
@@ -129,7 +129,7 @@ def test_normalization_is_bounded_and_names_are_checked():
                                                     bright.reshape(1, 1, 1, 9, 3))])
     n = np.array([[0, 0, 1]], np.float32)
     _, spec = cp.indirect(probes, np.zeros((1, 3), np.float32), n, n, n * 0, n * 0 + 1,
-                          np.array([1.0], np.float32), normalization="bo2", env_model="table")
+                          np.array([1.0], np.float32), normalization="bo2", env_brdf="table")
     e = env_brdf.environment_brdf(1.0, 1.0, 1.0, "table")
     np.testing.assert_allclose(spec[0], e * cp.MAX_NORMALIZATION, rtol=1e-5)
     with pytest.raises(ValueError, match="unknown normalization"):
@@ -199,7 +199,7 @@ def test_parallax_proxy_reads_where_the_reflection_leaves_the_room(proxy):
     p = np.array([[0.5, -0.6, 0.3], [-1.2, 0.4, -0.5], [1.0, 0.9, 0.0]], np.float32)
     rf0, gloss = np.ones((3, 3), np.float32), np.ones(3, np.float32)
     _, spec = cp.indirect(probes, p, n, v, rf0 * 0, rf0, gloss, normalization="none",
-                          env_model="table")
+                          env_brdf="table")
     nv = np.sum(n * v, axis=1)
     r = 2 * nv[:, None] * n - v
     e = env_brdf.environment_brdf(1.0, nv, 1.0, "table")
@@ -213,11 +213,11 @@ def test_parallax_proxy_reads_where_the_reflection_leaves_the_room(proxy):
     if proxy == "sphere":
         floor = np.array([[0.0, 0.0, -1.0]], np.float32)
     _, spec = cp.indirect(probes, floor, n[:1], v[:1], rf0[:1] * 0, rf0[:1], gloss[:1],
-                          normalization="none", env_model="table")
+                          normalization="none", env_brdf="table")
     hit = _march(floor[0] + 1e-4 * r[0], r[0], inside)
     np.testing.assert_allclose(spec[0] / e[0], 0.5 * hit / np.linalg.norm(hit) + 0.5, atol=4e-3)
     # a point outside its proxy, the reflection leaving it behind, reads along the reflection
     far = np.array([[0.0, 0.0, 3.0]], np.float32)
     _, spec = cp.indirect(probes, far, n[:1], v[:1], rf0[:1] * 0, rf0[:1], gloss[:1],
-                          normalization="none", env_model="table")
+                          normalization="none", env_brdf="table")
     np.testing.assert_allclose(spec[0] / e[0], 0.5 * r[0] + 0.5, atol=4e-3)

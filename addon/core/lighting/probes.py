@@ -46,7 +46,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..formulas import affine, cubemap, env_brdf, sh
+from ..formulas import affine, cubemap, sh
+from ..formulas import env_brdf as formulas_env_brdf
+from ..scene import CHOICES
 
 __all__ = [
     "MAX_NORMALIZATION",
@@ -60,8 +62,8 @@ __all__ = [
     "volume_sample_positions",
 ]
 
-NORMALIZATIONS = ("none", "bo1", "bo2")
-PREFILTERS = ("bo1", "bo2")
+NORMALIZATIONS = tuple(c.id for c in CHOICES["normalization"])
+PREFILTERS = tuple(c.id for c in CHOICES["prefilter"])
 MAX_NORMALIZATION = 16.0
 _EPS = 1e-6
 # the fraction of the world's light that reaches the points of these indices: (k,) -> (k,)
@@ -317,7 +319,7 @@ def indirect(
     gloss: np.ndarray,
     normalization: str = "bo2",
     prefilter: str = "bo2",
-    env_model: str = "bo2",
+    env_brdf: str = "bo2",
     sky: SkyFn | None = None,
     baked: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -327,7 +329,7 @@ def indirect(
                  directions to the eye
     albedo, rf0: (N, 3) float32;  gloss: (N,) float32
     normalization: one of ``NORMALIZATIONS``; prefilter: one of ``PREFILTERS``;
-    env_model:   one of ``env_brdf.MODELS`` but "truth" (a quadrature per point: tools and
+    env_brdf:    one of ``env_brdf.MODELS`` but "truth" (a quadrature per point: tools and
                  tests call ``env_brdf`` for it; "table" is its look-up)
     sky:         the fraction of the world's light that reaches the points of given indices
                  (k,) -> (k,) in [0, 1] (``sky.visibility``), or None: all of it
@@ -343,8 +345,8 @@ def indirect(
     if normalization not in NORMALIZATIONS:
         raise ValueError(f"unknown normalization {normalization!r}; expected one of: "
                          f"{', '.join(NORMALIZATIONS)}")
-    if env_model not in kernels.ENV_MODELS:
-        raise ValueError(f"unknown environment BRDF {env_model!r} for shading; expected one of: "
+    if env_brdf not in kernels.ENV_MODELS:
+        raise ValueError(f"unknown environment BRDF {env_brdf!r} for shading; expected one of: "
                          f"{', '.join(kernels.ENV_MODELS)}")
     n = len(points)
     normals3 = np.broadcast_to(np.asarray(normals, np.float32), (n, 3))
@@ -395,8 +397,9 @@ def indirect(
         np.asarray(probes.world_color if probes.world_color is not None else np.zeros(3),
                    np.float32).reshape(-1)[:3].copy(),
         kernels.NORMALIZATIONS[normalization],
-        np.array([_EPS, MAX_NORMALIZATION, env_brdf.N_DOT_V_MIN]), kernels.ENV_MODELS[env_model],
-        table, table_gloss, table_nv, np.array(env_brdf.FIT_A0 + env_brdf.FIT_A1, np.float64),
+        np.array([_EPS, MAX_NORMALIZATION, formulas_env_brdf.N_DOT_V_MIN]),
+        kernels.ENV_MODELS[env_brdf], table, table_gloss, table_nv,
+        np.array(formulas_env_brdf.FIT_A0 + formulas_env_brdf.FIT_A1, np.float64),
         diffuse, specular)
     return diffuse, specular
 
@@ -405,6 +408,6 @@ def indirect(
 def _env_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The environment BRDF's table for the kernel: parts (2, G, N), gloss (G,), n.v (N,),
     float64 (the reference visibility, as ``env_brdf.table_parts``)."""
-    t = env_brdf.table_arrays()
+    t = formulas_env_brdf.table_arrays()
     return tuple(np.ascontiguousarray(t[name], np.float64)
                  for name in ("reference", "gloss", "n_dot_v"))

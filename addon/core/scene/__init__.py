@@ -225,6 +225,62 @@ class World:
     sun: Light | None = None
 
 
+@dataclass(frozen=True)
+class Choice:
+    """One value of a setting that takes a few named values: its identifier, and the label and
+    description a UI shows (citing the slide it implements)."""
+
+    id: str
+    label: str
+    description: str
+
+
+# The values of ``RenderSettings``' named settings, declared once (the UI's lists derive from
+# them; a test holds them to the formulas' and kernels' own names).
+CHOICES: dict[str, tuple[Choice, ...]] = {
+    "specular_model": (
+        Choice("reference", "Reference", "The talk's terms (slides 'Black Ops: normal "
+               "distribution function', 'reflectance function', 'visibility function'): "
+               "Blinn-Phong NDF, Schlick Fresnel, Schlick-Smith"),
+        Choice("bo2", "BO2 optimized", "Bonus slides 'Black Ops II: new Fresnel "
+               "approximation' and 'new visibility function approximation': 2^(-10 l.h) "
+               "Fresnel, fast visibility"),
+        Choice("none", "No visibility", "Visibility term V = 1 (slide 'Black Ops: visibility "
+               "function', its comparison)"),
+        Choice("cook_torrance", "Cook-Torrance", "Cook-Torrance geometry term (slide 'Black "
+               "Ops: visibility function', its comparison)"),
+        Choice("kelemen", "Kelemen/Szirmay-Kalos", "Kelemen and Szirmay-Kalos visibility "
+               "approximation (slide 'Black Ops: visibility function', its comparison)"),
+    ),
+    "env_brdf": (
+        Choice("bo1", "BO1", "Slide 'Black Ops: environment map \u201cFresnel\u201d': "
+               "rf0 + (1 - rf0)(1 - n.v)^5 / (4 - 3 gloss)"),
+        Choice("bo2", "BO2", "Slide 'Final approximation': the analytic EnvironmentBRDF of "
+               "the talk"),
+        Choice("fit", "Fit", "Our fit to the ground truth: BO2's curve refitted, two "
+               "operations more, lower maximum, mean and relative error than BO2 for "
+               "dielectrics and metals (docs/env_brdf.md)"),
+        Choice("table", "Ground Truth (Table)", "The numerically integrated environment BRDF, "
+               "looked up in a 64 x 64 table"),
+    ),
+    "normalization": (
+        Choice("none", "None", "The cube map as captured"),
+        Choice("bo1", "BO1 Average Irradiance", "Slide 'Black Ops: normalization algorithm': "
+               "divide by the probe's average irradiance (SH constant term), multiply by the "
+               "pixel's"),
+        Choice("bo2", "BO2 Directional Irradiance", "Slide 'Improved normalization "
+               "algorithm': divide by the probe's irradiance at the normal (tinted scalar SH), "
+               "multiply by the pixel's irradiance"),
+    ),
+    "prefilter": (
+        Choice("bo1", "BO1 Angular Gaussian", "Slide 'Black Ops: environment map "
+               "pre-filtering': CubeMapGen's angular Gaussian filter"),
+        Choice("bo2", "BO2 Cosine Power", "Slide 'Improved environment map pre-filtering': "
+               "each mip filtered with the Phong power of the gloss that reads it"),
+    ),
+}
+
+
 @dataclass
 class RenderSettings:
     """Engine settings that change the image.
@@ -233,10 +289,10 @@ class RenderSettings:
     shade_every_sample: shade each sample on its own instead of once per pixel and triangle
                     (supersamples textures, highlights and shadow edges; slower)
     filter_width:   Blackman-Harris pixel filter width in pixels (Cycles' default 1.5)
-    specular_model: one of ``brdf.MODELS``
-    env_brdf:       environment BRDF of indirect specular, one of ``env_brdf.MODELS``
-    normalization:  environment map normalization, one of ``probes.NORMALIZATIONS``
-    prefilter:      prefiltered chain of the reflections, one of ``probes.PREFILTERS``
+    specular_model: the direct specular terms, an id of ``CHOICES["specular_model"]``
+    env_brdf:       environment BRDF of indirect specular, of ``CHOICES["env_brdf"]``
+    normalization:  environment map normalization, of ``CHOICES["normalization"]``
+    prefilter:      prefiltered chain of the reflections, of ``CHOICES["prefilter"]``
     film_transparent: background alpha 0 instead of the world colour
     shadow_resolution: shadow map size in texels (per cube face or cascade)
     ambient_occlusion: contact occlusion of probe and world light (``occlusion``)

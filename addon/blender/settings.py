@@ -1,0 +1,145 @@
+"""The engine's settings, built from the Blender properties in one place per consumer: the
+renders' ``RenderSettings`` (``render_settings``, per purpose), the probe bakes'
+(``bake_settings``) and the lightmap bakes' (``lightmap_settings``). Nothing patches them
+afterwards; a review that renders with other methods says so through ``methods``, never by
+writing into the scene.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+
+from ..core import scene as cs
+from ..core.lighting import lightmap
+from ..core.render import viewport
+from . import passes
+
+__all__ = ["PURPOSES", "BakeSettings", "bake_settings", "lightmap_settings", "methods",
+           "render_border", "render_settings", "resolution"]
+
+# What a render is for: an F12 frame, a material/light/world preview, the viewport's image,
+# a probe bake's captures, a lightmap bake's scene
+PURPOSES = ("FINAL", "PREVIEW", "VIEWPORT", "PROBE_BAKE", "LIGHTMAP_BAKE")
+
+_methods: dict[str, dict] = {}  # scene name -> the RenderSettings fields ``methods`` sets
+
+
+@contextlib.contextmanager
+def methods(scene, **fields) -> Iterator[None]:
+    """While open, the renders of ``scene`` use these ``RenderSettings`` fields (e.g. the
+    talk's old methods: ``env_brdf="bo1"``), whatever its properties say; its properties stay
+    as they are."""
+    unknown = set(fields) - set(cs.RenderSettings.__dataclass_fields__)
+    if unknown:
+        raise ValueError(f"not render settings: {', '.join(sorted(unknown))}")
+    _methods[scene.name_full] = fields
+    try:
+        yield
+    finally:
+        _methods.pop(scene.name_full, None)
+
+
+def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.RenderSettings:
+    """The ``RenderSettings`` of a Blender scene for ``purpose`` (one of ``PURPOSES``).
+
+    FINAL and PREVIEW search contact occlusion for the AO pass when ``view_layer`` has it on;
+    a PREVIEW renders at a quick quality (four samples, 512 px shadow maps: a 128 px preview
+    takes a fraction of a second); the VIEWPORT and the bakes render the whole view (no
+    border) in the viewport's tiles or as captures; the bakes' captures see the world (an
+    opaque film), a probe bake's at its Bake Samples.
+    """
+    if purpose not in PURPOSES:
+        raise ValueError(f"purpose is one of {PURPOSES}, not {purpose!r}")
+    s, r = scene.bo2, scene.render
+    width, height = resolution(scene)
+    samples, shadow_resolution = int(s.samples), int(s.shadow_resolution)
+    if purpose == "PREVIEW":
+        samples, shadow_resolution = min(samples, 4), min(shadow_resolution, 512)
+    elif purpose == "PROBE_BAKE":
+        samples = int(s.bake_samples)
+    whole = purpose in ("VIEWPORT", "PROBE_BAKE", "LIGHTMAP_BAKE")
+    bake = purpose in ("PROBE_BAKE", "LIGHTMAP_BAKE")
+    fields = dict(
+        samples=samples,
+        shade_every_sample=bool(s.shade_every_sample),
+        filter_width=float(r.filter_size),
+        specular_model=str(s.specular_model),
+        env_brdf=str(s.env_brdf),
+        normalization=str(s.normalization),
+        prefilter=str(s.prefilter),
+        film_transparent=bool(r.film_transparent) and not bake,
+        shadow_resolution=shadow_resolution,
+        ambient_occlusion=bool(s.use_ambient_occlusion),
+        ao_distance=float(s.ao_distance),
+        specular_occlusion=bool(s.use_specular_occlusion),
+        sky_directions=int(s.sky_directions),
+        sky_resolution=int(s.sky_resolution),
+        implicit_bounce=bool(s.use_implicit_bounce),
+        threads=int(r.threads),  # Blender's Threads setting (Auto: one per core)
+        border=None if whole else render_border(scene, width, height),
+    )
+    if purpose in ("FINAL", "PREVIEW") and view_layer is not None:
+        fields["ao_pass"] = passes.enabled(view_layer, "AO")
+    if purpose == "VIEWPORT":
+        fields["tile_size"] = viewport.TILE_SIZE
+    fields.update(_methods.get(scene.name_full, {}))
+    return cs.RenderSettings(**fields)
+
+
+@dataclass(frozen=True)
+class BakeSettings:
+    """A probe bake's settings (Render > Light Probes).
+
+    backend:          "BO2" or "CYCLES": who renders the captures
+    face_size:        texels of a reflection probe's cube face
+    volume_face_size: texels of a volume sample's capture face
+    bounces:          bounces of the BO2 backend (Cycles' captures hold them all: 1)
+    cycles_samples:   samples of the Cycles backend's captures
+    """
+
+    backend: str
+    face_size: int
+    volume_face_size: int
+    bounces: int
+    cycles_samples: int
+
+
+def bake_settings(scene, backend: str) -> BakeSettings:
+    """The probe bake settings of a Blender scene, for ``backend`` ("BO2" or "CYCLES")."""
+    s = scene.bo2
+    return BakeSettings(backend=backend, face_size=int(s.bake_face_size),
+                        volume_face_size=int(s.bake_volume_face_size),
+                        bounces=1 if backend == "CYCLES" else max(1, int(s.bake_bounces)),
+                        cycles_samples=int(s.bake_cycles_samples))
+
+
+def lightmap_settings(scene) -> lightmap.Settings:
+    """The lightmap bake settings of a Blender scene (Render > Lightmaps)."""
+    s = scene.bo2
+    return lightmap.Settings(
+        texels_per_metre=float(s.lightmap_density),
+        max_resolution=int(s.lightmap_max_resolution), padding=int(s.lightmap_padding),
+        rays=int(s.lightmap_rays), bounces=int(s.lightmap_bounces),
+        directional=bool(s.lightmap_directional), denoise=bool(s.lightmap_denoise))
+
+
+def resolution(scene) -> tuple[int, int]:
+    """Output (width, height) in pixels after the resolution percentage."""
+    r = scene.render
+    scale = r.resolution_percentage / 100.0
+    return max(1, int(r.resolution_x * scale)), max(1, int(r.resolution_y * scale))
+
+
+def render_border(scene, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """Blender's render border as a pixel rectangle (x0, y0, x1, y1), top-left origin."""
+    r = scene.render
+    if not r.use_border:
+        return None
+    x0, x1 = int(r.border_min_x * width), math.ceil(r.border_max_x * width)
+    y0, y1 = int((1.0 - r.border_max_y) * height), math.ceil((1.0 - r.border_min_y) * height)
+    x0, y0 = max(0, min(x0, width - 1)), max(0, min(y0, height - 1))
+    x1, y1 = max(x0 + 1, min(x1, width)), max(y0 + 1, min(y1, height))
+    return x0, y0, x1, y1
