@@ -17,14 +17,16 @@ import bpy
 import numpy as np
 
 from ..core import scene as cs
-from ..core.formulas import texture
 from ..core.lighting import world_sun
 from ..core.render import memory
 from ..core.render.job import Cancelled, Warnings
 from . import lightmaps as baked_lightmaps
 from . import settings as settings_of
 from . import worlds
-from .materials import convert_material, load_image
+from .images import load_image
+from .lights import blender_light, euler_xyz
+from .materials import convert_material
+from .meshes import read_mesh, to_world
 from .probes import load_probes
 
 _GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -60,231 +62,6 @@ def extract_camera(depsgraph) -> cs.Camera:
         height=h,
         orthographic=cam.data.type == "ORTHO",
     )
-
-
-def _read_mesh(mesh, requires=frozenset(), warn=None, warn_ngons=None):
-    """Object-space triangles of an evaluated mesh.
-
-    requires: corner attributes the materials read (``core.scene.material.Program.requires``)
-    warn:     called with the key of each attribute the mesh cannot give
-    warn_ngons: called when n-gons leave a normal map with per-triangle tangents
-    returns:  positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render
-              UV map (T, 3, 2) or None, material slot (T,), attributes {key: (T, 3, k)}
-    """
-    mesh.calc_loop_triangles()
-    tris = mesh.loop_triangles
-    nt = len(tris)
-    vert_idx = np.empty(nt * 3, np.int32)
-    loop_idx = np.empty(nt * 3, np.int32)
-    slot = np.empty(nt, np.int32)
-    tris.foreach_get("vertices", vert_idx)
-    tris.foreach_get("loops", loop_idx)
-    tris.foreach_get("material_index", slot)
-    co = np.empty(len(mesh.vertices) * 3, np.float32)
-    mesh.vertices.foreach_get("co", co)
-    corner = np.empty(len(mesh.corner_normals) * 3, np.float32)
-    mesh.corner_normals.foreach_get("vector", corner)
-    pos = co.reshape(-1, 3)[vert_idx].reshape(nt, 3, 3)
-    nrm = corner.reshape(-1, 3)[loop_idx].reshape(nt, 3, 3)
-    active = next((uv for uv in mesh.uv_layers if uv.active_render), None)
-    uvs = _uv_layer(mesh, active, loop_idx, nt)
-    attributes = {}
-    for key in sorted(requires):
-        kind, name = key
-        if kind == "uv":
-            layer = active if name == "" else mesh.uv_layers.get(name)
-            value = _uv_layer(mesh, layer, loop_idx, nt)
-        elif kind == "attribute":
-            value = _attribute(mesh, name, vert_idx, loop_idx, tris, nt)
-        else:
-            value = _tangents(mesh, active if name == "" else mesh.uv_layers.get(name),
-                              loop_idx, nt, pos, warn_ngons)
-        if value is None:
-            if warn is not None:
-                warn(key)
-            continue
-        attributes[key] = value
-    return pos, nrm, uvs, slot, attributes
-
-
-def _uv_layer(mesh, layer, loop_idx, nt):
-    if layer is None or len(layer.uv) != len(mesh.loops):
-        return None
-    flat = np.empty(len(mesh.loops) * 2, np.float32)
-    layer.uv.foreach_get("vector", flat)
-    return flat.reshape(-1, 2)[loop_idx].reshape(nt, 3, 2)
-
-
-# data type -> (the property foreach_get reads, components)
-_ATTRIBUTE_WIDTH = {"FLOAT": ("value", 1), "INT": ("value", 1), "INT8": ("value", 1),
-                    "BOOLEAN": ("value", 1), "FLOAT2": ("vector", 2), "INT32_2D": ("value", 2),
-                    "FLOAT_VECTOR": ("vector", 3), "FLOAT_COLOR": ("color", 4),
-                    "BYTE_COLOR": ("color", 4)}
-
-
-def _attribute(mesh, name, vert_idx, loop_idx, tris, nt):
-    """(T, 3, 4) RGBA corner values of a mesh attribute (a value f as (f, f, f, 1), a vector as
-    (x, y, z, 1), colours linear), as Cycles' Attribute node reads them; None if absent."""
-    if name == "":
-        attrs = mesh.color_attributes
-        index = getattr(attrs, "render_color_index", -1)
-        attr = attrs[index] if 0 <= index < len(attrs) else None
-    else:
-        attr = mesh.attributes.get(name)
-    if attr is None or attr.data_type not in _ATTRIBUTE_WIDTH or attr.domain == "EDGE":
-        return None
-    kind, width = _ATTRIBUTE_WIDTH[attr.data_type]
-    raw = np.empty(len(attr.data) * width, np.float32)
-    if attr.data_type in ("INT", "INT8", "BOOLEAN", "INT32_2D"):
-        ints = np.empty(len(attr.data) * width, bool if attr.data_type == "BOOLEAN" else np.int32)
-        attr.data.foreach_get("value", ints)
-        raw = ints.astype(np.float32)
-    else:
-        attr.data.foreach_get(kind, raw)
-    raw = raw.reshape(-1, width)
-    if attr.domain == "POINT":
-        index = vert_idx
-    elif attr.domain == "CORNER":
-        index = loop_idx
-    else:  # FACE
-        poly = np.empty(nt, np.int32)
-        tris.foreach_get("polygon_index", poly)
-        index = np.repeat(poly, 3)
-    values = raw[index]
-    out = np.ones((nt * 3, 4), np.float32)
-    if width == 1:
-        out[:, :3] = values
-    else:
-        out[:, :width] = values
-        if width == 2:
-            out[:, 2] = 0.0
-    return out.reshape(nt, 3, 4)
-
-
-def _tangents(mesh, layer, loop_idx, nt, pos, warn_ngons=None):
-    """(T, 3, 4) MikkTSpace tangents (object space) and bitangent signs of a UV map, as
-    Blender computes them (``Mesh.calc_tangents``); None without that map. Blender computes
-    them for triangles and quads only: a mesh with n-gons gets one tangent per triangle
-    (``texture.tangent_frame``) and ``warn_ngons`` is called."""
-    if layer is None:
-        return None
-    try:
-        mesh.calc_tangents(uvmap=layer.name)
-    except RuntimeError:
-        uvs = _uv_layer(mesh, layer, loop_idx, nt)
-        if uvs is None:
-            return None
-        if warn_ngons is not None:
-            warn_ngons()
-        normal = np.cross(pos[:, 1] - pos[:, 0], pos[:, 2] - pos[:, 0])
-        normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-30)
-        tangent, sign = texture.tangent_frame(pos, uvs, normal)
-        out = np.concatenate([tangent, sign[:, None]], 1)
-        return np.repeat(out[:, None], 3, axis=1).astype(np.float32)
-    t = np.empty(len(mesh.loops) * 3, np.float32)
-    sign = np.empty(len(mesh.loops), np.float32)
-    mesh.loops.foreach_get("tangent", t)
-    mesh.loops.foreach_get("bitangent_sign", sign)
-    out = np.concatenate([t.reshape(-1, 3), sign[:, None]], 1)[loop_idx]
-    return out.reshape(nt, 3, 4)
-
-
-def _to_world(pos, nrm, uvs, attributes: dict, matrix: np.ndarray):
-    """Object-space triangles -> world space; mirrored matrices keep counter-clockwise fronts
-    (the corners of every attribute reversed alike, bitangent signs turned)."""
-    lin = matrix[:3, :3]
-    det = np.linalg.det(lin)
-    wpos = pos @ lin.T.astype(np.float32) + matrix[:3, 3].astype(np.float32)
-    normal_matrix = np.linalg.inv(lin).T if abs(det) > 1e-20 else lin
-    wn = nrm @ normal_matrix.T.astype(np.float32)
-    wn /= np.maximum(np.linalg.norm(wn, axis=-1, keepdims=True), 1e-20)
-    attributes = dict(attributes)
-    for key, a in attributes.items():
-        if key[0] == "tangent":
-            t = a.copy()
-            t[..., :3] = a[..., :3] @ lin.T.astype(np.float32)
-            t[..., :3] /= np.maximum(np.linalg.norm(t[..., :3], axis=-1, keepdims=True), 1e-20)
-            if det < 0:
-                t[..., 3] = -t[..., 3]
-            attributes[key] = t
-    if det < 0:
-        wpos, wn = wpos[:, ::-1], wn[:, ::-1]
-        uvs = uvs[:, ::-1] if uvs is not None else None
-        attributes = {k: a[:, ::-1] for k, a in attributes.items()}
-    contiguous = (np.ascontiguousarray(a, np.float32) if a is not None else None
-                  for a in (wpos, wn, uvs))
-    return (*contiguous, {k: np.ascontiguousarray(a, np.float32) for k, a in attributes.items()})
-
-
-def area_light_size(data, matrix: np.ndarray) -> np.ndarray:
-    """(2,) metres: an area light's Size (X) and Size Y (Size for squares and discs), times
-    its object's scale along X and Y, as Cycles sizes it."""
-    square = data.shape in {"SQUARE", "DISK"}
-    scale = np.linalg.norm(np.asarray(matrix, np.float64)[:3, :2], axis=0)
-    return np.array([data.size, data.size if square else data.size_y]) * scale
-
-
-def _emitter_area(data, matrix: np.ndarray) -> float:
-    """The area Cycles divides a light's power by when Normalize is on: a sphere's surface
-    (point, spot), the disc of the sun's cone on the unit sphere, an area light's surface
-    (m^2). Measured against Cycles (``test_lights``): a light of no size has 1, but a point or
-    spot of radius 0 has 4."""
-    if data.type in {"POINT", "SPOT"}:
-        radius = float(data.shadow_soft_size)
-        return 4.0 * np.pi * radius ** 2 if radius > 0.0 else 4.0
-    if data.type == "SUN":
-        area = np.pi * np.sin(float(data.angle) / 2.0) ** 2
-    else:
-        area = float(np.prod(area_light_size(data, matrix)))
-        area *= np.pi / 4.0 if data.shape in {"DISK", "ELLIPSE"} else 1.0
-    return area if area > 0.0 else 1.0
-
-
-def light_color(data, matrix: np.ndarray) -> np.ndarray:
-    """(3,) float32 colour times power of a Blender light placed by ``matrix`` (4, 4), as
-    Cycles reads it: Color (times the blackbody colour of Temperature when it is on) x Power x
-    2^Exposure; with Normalize off, times the light's area as well (its power then grows with
-    its size)."""
-    color = np.array(data.color[:3], np.float64)
-    if getattr(data, "use_temperature", False):
-        color *= np.array(data.temperature_color[:3], np.float64)
-    power = float(data.energy) * 2.0 ** float(getattr(data, "exposure", 0.0))
-    if not getattr(data, "normalize", True):
-        power *= _emitter_area(data, matrix)
-    return (color * power).astype(np.float32)
-
-
-def _light(obj, matrix: np.ndarray) -> cs.Light:
-    data = obj.data
-    axis = -matrix[:3, 2]
-    axis = axis / max(np.linalg.norm(axis), 1e-20)
-    light = cs.Light(
-        kind=data.type,
-        color=light_color(data, matrix),
-        position=matrix[:3, 3].copy(),
-        direction=axis,
-        shadow=bool(data.use_shadow),
-        name=obj.name,
-    )
-    if data.type in {"POINT", "SPOT"}:
-        light.radius = float(data.shadow_soft_size)
-    if data.type == "SPOT":
-        light.spot_size = float(data.spot_size)
-        light.spot_blend = float(data.spot_blend)
-    elif data.type == "SUN":
-        light.radius = float(data.angle)
-    elif data.type == "AREA":
-        light.size = area_light_size(data, matrix)
-    return light
-
-
-def euler_xyz(rx: float, ry: float, rz: float) -> np.ndarray:
-    """(3, 3) rotation of Blender's XYZ Euler angles (radians): Rz Ry Rx."""
-    cx, sx, cy, sy, cz, sz = np.cos(rx), np.sin(rx), np.cos(ry), np.sin(ry), np.cos(rz), np.sin(rz)
-    rot_x = np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])
-    rot_y = np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]])
-    rot_z = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]])
-    return rot_z @ rot_y @ rot_x
 
 
 def _environment(node, world_name: str, warnings: Warnings):
@@ -414,7 +191,7 @@ def _mesh_data(mesh, slots, owner: str, cache: SceneCache, warnings):
         warnings.add(f"Object '{owner}' has n-gons: Blender's tangents need triangles "
                      "and quads, so its normal maps use one tangent per triangle")
 
-    pos, nrm, uvs, slot, attributes = _read_mesh(mesh, frozenset(readers), missing, ngons)
+    pos, nrm, uvs, slot, attributes = read_mesh(mesh, frozenset(readers), missing, ngons)
     texspace = np.array([np.asarray(mesh.texspace_location) - np.asarray(mesh.texspace_size),
                          2.0 * np.asarray(mesh.texspace_size)], np.float32)
     lut = np.array(slot_ids or [0], np.int32)
@@ -685,7 +462,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
             continue
         if obj.type == "LIGHT":
-            lights.append(_light(obj, _matrix(inst.matrix_world)))
+            lights.append(blender_light(obj, _matrix(inst.matrix_world)))
             continue
         if obj.type not in _GEOMETRY_TYPES:
             continue
@@ -707,7 +484,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         batch = batches.get(bkey) or cache.batches.get(bkey)
         if batch is None:
             pos, nrm, uvs, mat_index, attributes, texspace = data
-            wpos, wn, wuv, wattr = _to_world(pos, nrm, uvs, attributes, matrix)
+            wpos, wn, wuv, wattr = to_world(pos, nrm, uvs, attributes, matrix)
             inverse = np.linalg.inv(matrix) if abs(np.linalg.det(matrix)) > 1e-30 else np.eye(4)
             batch = cs.MeshBatch(wpos, wn, mat_index, uvs=wuv, name=obj.name,
                                  holdout=visibility[0], camera=visibility[1],

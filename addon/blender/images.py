@@ -9,8 +9,10 @@ chooses single-layer or multilayer EXR by the output's ``media_type``, 4.5 by th
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import os
 import tempfile
+import threading
 from pathlib import Path
 
 import bpy
@@ -18,6 +20,8 @@ import numpy as np
 
 from ..core.files import atomic, exr
 from ..core.formulas import texture
+from ..core.render.job import Warnings
+from ..core.system.cache import Cache
 from .passes import blender_name, channel_ids
 
 SETTINGS = ("media_type", "file_format", "color_mode", "color_depth", "exr_codec",
@@ -256,3 +260,83 @@ def read_exr_passes(path: str | os.PathLike, layer: str, names) -> dict[str, np.
         order = [c for c in channel_ids(name) if c in comps]
         out[name] = np.stack([np.asarray(comps[c], np.float32) for c in order], -1)
     return out
+
+
+# image key -> (texture, digest): kept for later renders, the least recently used dropped
+# beyond 2 GiB (a texture a material still holds lives on with it)
+_textures = Cache("image textures", kept=1 << 16, size=lambda value: value[0].nbytes,
+                  budget=2 << 30)
+_lock = threading.Lock()  # the viewport and a final render may load images at once
+
+
+def _on_disk(image) -> bool:
+    return image.source == "FILE" and image.packed_file is None
+
+
+def _image_key(image) -> tuple:
+    """What identifies an image's pixels. An image file on disk that is not in memory: its
+    path, size and modification time (read without loading it); an image in memory (edited,
+    packed, generated, or loaded by Blender before): its size, type and generator, which load
+    it. The two never match, so pixels read from memory are not taken for the file's."""
+    common = (image.name_full, image.filepath_raw, image.colorspace_settings.name,
+              image.alpha_mode, image.source)
+    if _on_disk(image) and not image.has_data:
+        try:
+            stat = os.stat(bpy.path.abspath(image.filepath, library=image.library))
+            return (*common, "file", stat.st_size, stat.st_mtime_ns)
+        except (OSError, ValueError):
+            pass
+    generator = ((image.generated_type, tuple(image.generated_color),
+                  image.use_generated_float) if image.source == "GENERATED" else ())
+    return (*common, "memory", tuple(image.size), bool(image.is_float), *generator)
+
+
+def load_image(image, extension: str, interpolation: str, warnings: Warnings, where: str):
+    """A Blender image as a mipmapped ``Texture``, or None (with a warning) if unusable. 8-bit
+    images stay 8-bit (``image_codes``), float images float32. Prepared once per image
+    (its nodes' extensions and interpolations share its levels) and reused across renders
+    while it is unchanged (an image edited in Blender and not saved is compared by a digest
+    of its pixels). An image file that was not in memory before is released again once read
+    (on Blender's main thread)."""
+    if image is None:
+        warnings.add(f"{where}: the Image Texture node has no image")
+        return None
+    with _lock:
+        return _load(image, extension, interpolation, warnings, where)
+
+
+def _load(image, extension, interpolation, warnings, where):
+    main = threading.current_thread() is threading.main_thread()
+    release = main and _on_disk(image) and not image.has_data
+    key = _image_key(image)
+    cached = _textures.get(key)
+    dirty = image.is_dirty
+    if cached is not None and not dirty:
+        return cached[0].sampled_as(extension, interpolation)
+    width, height = image.size
+    if width == 0 or height == 0 or not image.has_data:
+        warnings.add(f"{where}: image '{image.name}' could not be loaded "
+                     f"({image.filepath or 'no file'}); it renders magenta, as in Cycles")
+        return None
+    is_float = image.is_float
+    # Byte images hold encoded values; float images are already scene-linear in memory.
+    srgb = not is_float and image.colorspace_settings.name == "sRGB"
+    # Blender writes the codes of an image only on its main thread (a final render in the UI
+    # runs on another)
+    pixels = image_codes(image, release=release) if main else None
+    if pixels is None:
+        pixels = image_pixels(image)
+        if not is_float:  # byte images hold codes / 255
+            pixels = np.rint(pixels * np.float32(255.0)).astype(np.uint8)
+    if release and image.has_data:
+        image.buffers_free()  # (reading the image's properties would load it again)
+    digest = None
+    if dirty:  # an edited image is compared by its pixels
+        rows = pixels[::-1] if pixels[::-1].flags.c_contiguous else np.ascontiguousarray(pixels)
+        digest = hashlib.blake2b(memoryview(rows).cast("B"), digest_size=16).hexdigest()
+        if cached is not None and cached[1] == digest:
+            return cached[0].sampled_as(extension, interpolation)
+    tex = texture.make_texture(pixels, srgb=srgb, extension=extension,
+                               interpolation=interpolation, name=image.name)
+    _textures.put(key, (tex, digest))  # with the digest of an edited image's pixels
+    return tex

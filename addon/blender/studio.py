@@ -19,6 +19,7 @@ from ..core.files import exr
 from ..core.formulas import texture
 from ..core.system.cache import Cache, stamp
 from . import extract, images
+from .lights import euler_xyz
 
 _textures = Cache("studio lights", kept=4)  # (path, file stamp) -> Texture
 
@@ -86,6 +87,6 @@ def shading(space) -> Shading:
                                  f"({type(exc).__name__}: {exc})") from None
     levels = max(1.0, math.log2(max(tex.size[0], 1)) - 1.0)
     world = cs.World(color=np.ones(3, np.float32) * strength, texture=tex, strength=strength,
-                     rotation=extract.euler_xyz(0.0, 0.0, rotate),
+                     rotation=euler_xyz(0.0, 0.0, rotate),
                      background_lod=blur * levels, background_alpha=alpha)
     return Shading(world=world, lights=lights, key=wanted)

@@ -12,7 +12,7 @@ import bpy
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.blender import images, materials
+from bo2_lighting.addon.blender import images
 from bo2_lighting.addon.core.render.job import Warnings
 
 RNG = np.random.default_rng(11)
@@ -93,20 +93,20 @@ def test_load_image_keeps_eight_bits_and_releases_what_it_loaded(addon, tmp_path
     image = bpy.data.images.load(str(path), check_existing=False)
     assert not image.has_data
     warnings = Warnings()
-    tex = materials.load_image(image, "REPEAT", "Linear", warnings, "test")
+    tex = images.load_image(image, "REPEAT", "Linear", warnings, "test")
     assert not warnings and tex.codes and tex.encoded == 3
     np.testing.assert_array_equal(tex.image, codes)
     assert not image.has_data  # loaded for the texture, released again
     # a linear 8-bit image: codes as well, its colour not decoded
     other = bpy.data.images.load(str(path), check_existing=False)
     other.colorspace_settings.name = "Linear Rec.709"
-    tex = materials.load_image(other, "REPEAT", "Linear", warnings, "test")
+    tex = images.load_image(other, "REPEAT", "Linear", warnings, "test")
     assert tex.codes and tex.encoded == 0
     np.testing.assert_array_equal(tex.image, codes)
     # a float image stays float
     hdr = bpy.data.images.new("float", 8, 4, float_buffer=True)
     hdr.pixels.foreach_set(np.full(8 * 4 * 4, 2.5, np.float32))
-    tex = materials.load_image(hdr, "REPEAT", "Linear", warnings, "test")
+    tex = images.load_image(hdr, "REPEAT", "Linear", warnings, "test")
     assert not tex.codes and tex.image.dtype == np.float32 and (tex.image == 2.5).all()
 
 
@@ -119,7 +119,7 @@ def test_reading_an_image_allocates_about_its_eight_bit_size(addon, tmp_path):
     image.size[0]  # noqa: B018 (Blender's own load is not NumPy's)
     tracemalloc.start()
     try:
-        tex = materials.load_image(image, "REPEAT", "Linear", Warnings(), "test")
+        tex = images.load_image(image, "REPEAT", "Linear", Warnings(), "test")
         peak = tracemalloc.get_traced_memory()[1]
     finally:
         tracemalloc.stop()
@@ -129,20 +129,20 @@ def test_reading_an_image_allocates_about_its_eight_bit_size(addon, tmp_path):
 
 
 def test_cache_drops_the_least_recently_used_beyond_its_size(addon, monkeypatch):
-    materials._textures.clear()
+    images._textures.clear()
     made = []
     for k in range(3):
         image = bpy.data.images.new(f"cache {k}", 64, 64, alpha=True)
         image.pixels.foreach_set(np.full(64 * 64 * 4, k / 4, np.float32))
         made.append(image)
-    one = materials.load_image(made[0], "REPEAT", "Linear", Warnings(), "t")
-    monkeypatch.setattr(materials._textures, "budget", int(2.5 * one.nbytes))
-    materials.load_image(made[1], "REPEAT", "Linear", Warnings(), "t")
-    materials.load_image(made[0], "REPEAT", "Linear", Warnings(), "t")  # used again: now the newest
-    materials.load_image(made[2], "REPEAT", "Linear", Warnings(), "t")
-    kept = {key[0] for key in materials._textures.keys()}
+    one = images.load_image(made[0], "REPEAT", "Linear", Warnings(), "t")
+    monkeypatch.setattr(images._textures, "budget", int(2.5 * one.nbytes))
+    images.load_image(made[1], "REPEAT", "Linear", Warnings(), "t")
+    images.load_image(made[0], "REPEAT", "Linear", Warnings(), "t")  # used again: now the newest
+    images.load_image(made[2], "REPEAT", "Linear", Warnings(), "t")
+    kept = {key[0] for key in images._textures.keys()}
     assert kept == {"cache 0", "cache 2"}
-    assert sum(t.nbytes for t, _ in materials._textures.values()) <= materials._textures.budget
+    assert sum(t.nbytes for t, _ in images._textures.values()) <= images._textures.budget
 
 
 def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monkeypatch):
@@ -155,14 +155,14 @@ def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monke
     monkeypatch.setattr(texture, "make_texture", lambda *a, **k: made.append(1) or real(*a, **k))
     path, codes = png(tmp_path, name="file.png")
     image = bpy.data.images.load(str(path), check_existing=False)
-    first = materials.load_image(image, "REPEAT", "Linear", Warnings(), "t")
-    assert materials.load_image(image, "REPEAT", "Linear", Warnings(), "t") is first
+    first = images.load_image(image, "REPEAT", "Linear", Warnings(), "t")
+    assert images.load_image(image, "REPEAT", "Linear", Warnings(), "t") is first
     assert len(made) == 1 and not image.has_data
     png(tmp_path, name="file.png")
     stat = path.stat()
     os.utime(path, ns=(stat.st_atime_ns, stat.st_mtime_ns + 10**9))
     image.reload()
-    second = materials.load_image(image, "REPEAT", "Linear", Warnings(), "t")
+    second = images.load_image(image, "REPEAT", "Linear", Warnings(), "t")
     assert len(made) == 2 and not np.array_equal(second.image, codes)
     # an edit, rendered, then taken back by Reload: the file's pixels again
     image.size[0]  # noqa: B018 (loads it)
@@ -170,11 +170,11 @@ def test_an_image_file_is_read_again_only_when_it_changes(addon, tmp_path, monke
     image.pixels.foreach_get(px)
     image.pixels.foreach_set(np.zeros_like(px))
     assert image.is_dirty
-    edited = materials.load_image(image, "REPEAT", "Linear", Warnings(), "t")
+    edited = images.load_image(image, "REPEAT", "Linear", Warnings(), "t")
     assert not edited.image[..., :3].any()
     image.reload()
     assert not image.is_dirty
-    again = materials.load_image(image, "REPEAT", "Linear", Warnings(), "t")
+    again = images.load_image(image, "REPEAT", "Linear", Warnings(), "t")
     np.testing.assert_array_equal(again.image, second.image)
 
 
@@ -185,10 +185,10 @@ def test_settings_of_one_image_share_its_levels(addon, tmp_path):
 
     path, _ = png(tmp_path, 64, 32, name="shared.png")
     image = bpy.data.images.load(str(path), check_existing=False)
-    a = materials.load_image(image, "REPEAT", "Linear", Warnings(), "t")
-    b = materials.load_image(image, "CLIP", "Closest", Warnings(), "t")
+    a = images.load_image(image, "REPEAT", "Linear", Warnings(), "t")
+    b = images.load_image(image, "CLIP", "Closest", Warnings(), "t")
     assert (b.extension, b.interpolation) == ("CLIP", "Closest")
     assert np.shares_memory(a.image, b.image) and a.pending and b.pending
-    assert len([k for k in materials._textures.keys() if k[0] == image.name_full]) == 1
+    assert len([k for k in images._textures.keys() if k[0] == image.name_full]) == 1
     texture.sample(b.sampled_as("REPEAT", "Linear"), np.full((4, 2), 0.5), np.full(4, 2.0))
     assert not a.pending and not b.pending

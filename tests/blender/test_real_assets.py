@@ -133,12 +133,12 @@ def stage(scene):
 
 def unsupported_warnings(scene) -> list[str]:
     """The engine's warnings about nodes it does not read, for nodes of the supported list."""
-    from bo2_lighting.addon.blender import extract, materials
+    from bo2_lighting.addon.blender import extract, material_nodes
 
     depsgraph = bpy.context.evaluated_depsgraph_get()
     _, warnings = extract.extract_scene(depsgraph)
     named = [w for w in warnings if "is not supported" in w or "could not be read" in w]
-    return [w for w in named if any(f"({kind})" in w for kind in materials.SUPPORTED_NODES)
+    return [w for w in named if any(f"({kind})" in w for kind in material_nodes.SUPPORTED_NODES)
             or "could not be read" in w]
 
 

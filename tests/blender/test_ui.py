@@ -280,16 +280,16 @@ def test_bake_bad_input_is_one_clear_message(scene_with_everything, tmp_path, ca
         scene.bo2.bake_folder = str(tmp_path / "file" / "bake")
         expected = "is a file, not a folder"
     else:
-        from bo2_lighting.addon.blender import operators
-        operators._ModalBake.running = True
+        from bo2_lighting.addon.blender import bake_operators
+        bake_operators._ModalBake.running = True
         expected = "A bake is running"
     files = sorted(p.name for p in tmp_path.iterdir())
     try:
         with pytest.raises(RuntimeError, match=expected):
             bpy.ops.bo2.bake_probes(**kwargs)
     finally:
-        from bo2_lighting.addon.blender import operators
-        operators._ModalBake.running = False
+        from bo2_lighting.addon.blender import bake_operators
+        bake_operators._ModalBake.running = False
     assert sorted(p.name for p in tmp_path.iterdir()) == files  # nothing changed
 
 

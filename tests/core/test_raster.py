@@ -848,7 +848,7 @@ def test_nearest_draws_what_the_set_up_draws():
 
 
 def test_a_view_drawn_once_is_projected_and_culled_in_one_pass_bit_for_bit():
-    """``pipeline.tile_clip`` of a view's ``Projection`` (``with_camera(once=True)``) gives
+    """``visibility.tile_clip`` of a view's ``Projection`` (``with_camera(once=True)``) gives
     the clip coordinates and triangles of the projected view's, bit for bit, unseen triangles
     left out."""
     from bo2_lighting.addon.core.render import visibility

@@ -22,7 +22,7 @@ POWER = 80.0
 
 def expected(albedo=0.6, samples=4):
     """(H, W) red radiance of the floor under the point light (row 0 at the top), averaged
-    over the viewport's sample positions in each pixel (``pipeline.sample_offsets``)."""
+    over the viewport's sample positions in each pixel (``visibility.sample_offsets``)."""
     total = 0.0
     for ox, oy in visibility.sample_offsets(samples):
         p = pixel_centres() + [(ox - 0.5) * 2 * HALF_W / W, -(oy - 0.5) * 2 * HALF_H / H, 0.0]

@@ -272,7 +272,7 @@ def walk():
     # 5. Bake the probes from the Render tab's button, as an artist does
     # relative to the .blend, as an artist's (the panel's screenshot shows no machine's path)
     scene.bo2.bake_folder = "//" + os.path.relpath(OUT / "bake", ROOM.parent) + "/"
-    operators = module("addon.blender.operators")
+    operators = module("addon.blender.bake_operators")
     started, seconds = yield from bake_all(bpy.ops.bo2.bake_probes,
                                            lambda: operators.BO2_OT_bake_probes.running)
     probes = module("addon.blender.probes")

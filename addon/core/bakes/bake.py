@@ -5,7 +5,7 @@ centre; an irradiance volume: each grid sample, ``probes.volume_sample_positions
 capture callback that the host supplies (the engine's pipeline, ``capture.Capture.cube``, or
 another renderer), and turns them into what the renderer reads: SH (``sh.project``) for every
 point and, for reflection probes, the BO2 cosine-power and BO1 angular Gaussian prefiltered
-chains (``capture.filtered``; slides "Black Ops: environment map pre-filtering").
+chains (``world_probes.filtered``; slides "Black Ops: environment map pre-filtering").
 
 Bounces: the first bounce's captures see direct light, emission and the world, whose light
 reaches each captured surface in proportion to the sky it sees (``sky``: an open scene's ground

@@ -1,0 +1,25 @@
+"""What every panel of the engine shares: the engine's id and the base class that shows a
+panel only when BO2 Lighting renders."""
+
+ENGINE_ID = "BO2_LIGHTING"
+
+
+class BO2Panel:
+    """Properties-editor panel shown when BO2 Lighting is the render engine."""
+
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    COMPAT_ENGINES = {ENGINE_ID}
+    needs = ""  # the context member the panel draws ("object", "light", ...), if any
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES and (
+            not cls.needs or getattr(context, cls.needs, None) is not None)
+
+    def split_layout(self):
+        """The panel's layout with labels beside the values, as Blender's own panels."""
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        return layout
