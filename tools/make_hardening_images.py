@@ -78,7 +78,7 @@ def shifted_thresholds(px, py, layer):
 
 def stacked_alpha_shadows(out: Path) -> None:
     import bo2_lighting
-    from bo2_lighting.addon.core.render import raster
+    from bo2_lighting.addon.core.render import transparency
     from bo2_lighting.addon.core.review import imaging
 
     bo2_lighting.register()
@@ -86,12 +86,12 @@ def stacked_alpha_shadows(out: Path) -> None:
     bo2_lighting.register()
     lit = scene.objects["Lamp"]
     now = render(scene)
-    permuted = raster.ordered_thresholds
-    raster.ordered_thresholds = shifted_thresholds
+    permuted = transparency.ordered_thresholds
+    transparency.ordered_thresholds = shifted_thresholds
     try:
         before = render(scene)
     finally:
-        raster.ordered_thresholds = permuted
+        transparency.ordered_thresholds = permuted
     lit.data.use_shadow = False
     open_light = render(scene)
     pictures, labels = [], []

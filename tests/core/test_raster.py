@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.render import raster
+from bo2_lighting.addon.core.render import raster, transparency
 
 # --------------------------------------------------------------------------------------------
 # helpers
@@ -690,13 +690,14 @@ def test_layers_of_shadow_dither_are_independent():
     a map, k layers of alpha a let (1 - a)^k through (independent thresholds, the product of
     the probabilities), and one layer is stratified in 4 x 4 blocks."""
     py, px = np.divmod(np.arange(256 * 256), 256)
-    t = [raster.ordered_thresholds(px, py, layer) for layer in range(raster.DITHER_LAYERS)]
+    t = [transparency.ordered_thresholds(px, py, layer)
+         for layer in range(transparency.DITHER_LAYERS)]
     for a in (0.25, 0.5, 0.75):
         passed = np.ones(len(px), bool)
-        for k in range(min(4, raster.DITHER_LAYERS)):
+        for k in range(min(4, transparency.DITHER_LAYERS)):
             passed &= t[k] >= a
             assert passed.mean() == pytest.approx((1 - a) ** (k + 1), abs=0.015), (a, k)
-        for i in range(raster.DITHER_LAYERS):
+        for i in range(transparency.DITHER_LAYERS):
             for j in range(i):
                 both = ((t[i] >= a) & (t[j] >= a)).mean()
                 assert both == pytest.approx((1 - a) ** 2, abs=0.012), (a, i, j)

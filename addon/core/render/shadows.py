@@ -68,7 +68,7 @@ import numpy as np
 
 from ..formulas import affine
 from ..scene import Camera, Light
-from . import raster
+from . import raster, transparency
 
 __all__ = ["ShadowMap", "build_shadow_map", "camera_depth_range", "shadow_map_jobs",
            "shadow_visibility"]
@@ -511,8 +511,8 @@ def shadow_map_jobs(
 
 def _rasterize_casters(clip, res: int, cutout, face: int, weights: bool):
     """The nearest caster of every texel; with ``cutout``, transparent casters let the texels
-    through stochastically (``raster.dither`` with ``raster.ordered_thresholds``), so that the
-    filtered shadow of a surface of alpha a is a dark."""
+    through stochastically (``transparency.dither`` with ``transparency.ordered_thresholds``),
+    so that the filtered shadow of a surface of alpha a is a dark."""
     frags = raster.rasterize(clip, res, res, weights=weights or cutout is not None)
     if cutout is None or frags.keys is None:  # (no keys: nothing drawn, a face with no caster)
         return frags
@@ -525,9 +525,9 @@ def _rasterize_casters(clip, res: int, cutout, face: int, weights: bool):
         f = raster.rasterize(clip, res, res, behind=floor)
         return f.tri.reshape(-1), f.bary.reshape(-1, 3), f.depth.reshape(-1), f.keys
 
-    raster.dither((tri, bary, depth, frags.keys.copy()), np.arange(res * res), fades,
+    transparency.dither((tri, bary, depth, frags.keys.copy()), np.arange(res * res), fades,
                   lambda pixels, t, b: alpha(t, b),
-                  lambda pixels, layer: raster.ordered_thresholds(px[pixels] + face * res,
+                  lambda pixels, layer: transparency.ordered_thresholds(px[pixels] + face * res,
                                                                   py[pixels], layer),
                   next_layer)
     return raster.Fragments(tri.reshape(res, res), bary.reshape(res, res, 3),

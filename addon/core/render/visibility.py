@@ -17,7 +17,7 @@ import numpy as np
 
 from ..formulas import affine
 from ..scene import Scene
-from . import raster
+from . import raster, transparency
 from .buffers import Frame
 from .surfaces import face_normals, surface_alpha
 
@@ -177,7 +177,7 @@ def sample_raster(frame: Frame, tile, margin, offset, behind=None, frags=None):
 
 def dither_sample(frame: Frame, tile, margin, offset, sample: int, layer0):
     """Stochastic transparency of one sample (Blender's "Dithered" render method,
-    ``raster.dither``): over the samples a pixel is covered by a fraction alpha of each
+    ``transparency.dither``): over the samples a pixel is covered by a fraction alpha of each
     surface. layer0: ``sample_raster``'s result, updated."""
     tri, bary, depth, sx, sy, keys = layer0
     x0, y0, x1, y1 = tile
@@ -193,8 +193,8 @@ def dither_sample(frame: Frame, tile, margin, offset, sample: int, layer0):
         return t, b, d, k
 
     def thresholds(pixels, layer):
-        return raster.dither_thresholds(x0 + cols[pixels], y0 + rows[pixels], sample, layer)
+        return transparency.dither_thresholds(x0 + cols[pixels], y0 + rows[pixels], sample, layer)
 
-    raster.dither((tri, bary, depth, keys), (rows + m) * (tw + 2 * m) + cols + m,
+    transparency.dither((tri, bary, depth, keys), (rows + m) * (tw + 2 * m) + cols + m,
                   frame.fades, alpha, thresholds, next_layer)
     return tri, bary, depth, sx, sy

@@ -1,0 +1,89 @@
+"""Stochastic transparency (Blender's "Dithered" render method): per sample and surface a
+threshold against the surface's alpha, and the depth-peeled layers a sample sees through
+until one is kept (Enderton et al., "Stochastic Transparency", 2010).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+DITHER_LAYERS = 8  # surfaces a sample may see through; the last one is kept whatever its alpha
+_GOLDEN = 0.6180339887498949
+
+
+def _hash(px, py, layer: int) -> np.ndarray:
+    """(N,) uint64 in [0, 2^32): an integer hash of (px, py, layer) (after Jarzynski and
+    Olano, "Hash functions for GPU rendering", JCGT 2020)."""
+    h = (np.asarray(px, np.uint64) * np.uint64(0x9E3779B1)
+         ^ np.asarray(py, np.uint64) * np.uint64(0x85EBCA77)
+         ^ np.uint64(layer) * np.uint64(0xC2B2AE3D)) & np.uint64(0xFFFFFFFF)
+    for shift, mult in ((15, 0x2C1B3C6D), (12, 0x297A2D39)):
+        h ^= h >> np.uint64(shift)
+        h = (h * np.uint64(mult)) & np.uint64(0xFFFFFFFF)
+    return h ^ (h >> np.uint64(15))
+
+
+def dither_thresholds(px, py, sample: int, layer: int) -> np.ndarray:
+    """(N,) float64 in [0, 1): per pixel (px, py) a hashed rotation of the golden-ratio
+    sequence over the samples (so each pixel's samples are stratified), hashed anew per
+    layer (``_hash``)."""
+    h = _hash(px, py, layer)
+    return np.mod(h.astype(np.float64) / 4294967296.0 + sample * _GOLDEN, 1.0)
+
+
+def _ign(x, y) -> np.ndarray:
+    """Interleaved gradient noise (Jimenez, "Next generation post processing in Call of Duty:
+    Advanced Warfare", SIGGRAPH 2014) of integer positions, float64 in [0, 1)."""
+    return np.mod(52.9829189 * np.mod(0.06711056 * x + 0.00583715 * y, 1.0), 1.0)
+
+
+def ordered_thresholds(px, py, layer: int) -> np.ndarray:
+    """(N,) float64 in [0, 1): the thresholds of texels (px, py) (non-negative integers) for
+    depth-peeling layer ``layer``: interleaved gradient noise (``_ign``), so every small block
+    of texels holds well spread thresholds and a filter over a few texels sees a fraction
+    close to alpha. Layers after the first take the same 16 values of each 4 x 4 block in
+    another order, a permutation i -> a i + b (mod 16), a odd, hashed per block and layer:
+    each layer stays as well spread, and two layers of alpha a let about (1 - a)^2 through
+    (shifting one pattern per layer instead keeps them correlated: two layers of 0.5 let
+    0.10 through)."""
+    px, py = np.asarray(px, np.int64), np.asarray(py, np.int64)
+    if layer == 0:
+        return _ign(px, py)
+    bx, by = px >> 2, py >> 2
+    h = _hash(bx, by, layer).astype(np.int64)
+    i = ((px & 3) + 4 * (py & 3)) * ((h & 7) * 2 + 1) + ((h >> 3) & 15)
+    return _ign(4 * bx + (i & 3), 4 * by + ((i >> 2) & 3))
+
+
+def dither(layer0, at, fades, alpha, thresholds, next_layer):
+    """Stochastic transparency of one sample position by depth peeling: where the surface's
+    alpha does not exceed the pixel's threshold (``dither_thresholds``, say), the pixel
+    takes the next surface behind it, up to ``DITHER_LAYERS`` surfaces.
+
+    layer0:     (tri (N,), bary (N, 3) or None, depth (N,)) of the pixels and ``keys`` (K,)
+                of the raster they come from; tri, bary and depth are updated in place
+    at:         (N,) each pixel's index in ``keys``
+    fades:      (T,) bool: triangles whose surface may be transparent
+    alpha:      alpha(pixels (M,) int64, tri (M,), bary (M, 3)) -> (M,) alpha at those pixels
+    thresholds: thresholds(pixels (M,) int64, layer) -> (M,) in [0, 1)
+    next_layer: next_layer(floor (K,) uint64) -> (tri, bary, depth, keys) of the raster again
+                with ``behind=floor``
+    """
+    (tri, bary, depth), keys = layer0[:3], layer0[3]
+    pending = np.arange(len(tri))
+    for layer in range(DITHER_LAYERS):
+        t = tri[pending]
+        cand = pending[(t >= 0) & fades[np.maximum(t, 0)]]
+        if not len(cand):
+            break
+        a = alpha(cand, tri[cand], None if bary is None else bary[cand])
+        pending = cand[~(a > thresholds(cand, layer))]
+        if not len(pending):
+            break
+        floor = np.full(len(keys), np.iinfo(np.uint64).max, np.uint64)
+        floor[at[pending]] = keys[at[pending]]
+        tri2, bary2, depth2, keys2 = next_layer(floor)
+        tri[pending], depth[pending] = tri2[pending], depth2[pending]
+        if bary is not None:
+            bary[pending] = bary2[pending]
+        keys[at[pending]] = keys2[at[pending]]
