@@ -25,7 +25,7 @@ import tracemalloc
 
 import numpy as np
 
-from bo2_lighting.addon.core.render import shadows
+from bo2_lighting.addon.core.render import shadow_filter, shadows
 from bo2_lighting.addon.core.scene import Camera, Light
 
 
@@ -100,7 +100,7 @@ def run_case(name, light, tris, cam, points, normals, res) -> None:
     sm = shadows.build_shadow_map(light, tris, cam, resolution=res)
     t_build = time.perf_counter() - start
     start = time.perf_counter()
-    vis = shadows.shadow_visibility(sm, points, normals)
+    vis = shadow_filter.shadow_visibility(sm, points, normals)
     t_query = time.perf_counter() - start
     lit = float(vis.mean())
     maps, faces = sm.nbytes, sm.depth.shape[0]
@@ -109,7 +109,7 @@ def run_case(name, light, tris, cam, points, normals, res) -> None:
     sm = shadows.build_shadow_map(light, tris, cam, resolution=res)
     peak_build = tracemalloc.get_traced_memory()[1]
     tracemalloc.reset_peak()
-    vis = shadows.shadow_visibility(sm, points, normals)
+    vis = shadow_filter.shadow_visibility(sm, points, normals)
     peak_query = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
     del vis, sm

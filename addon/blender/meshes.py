@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.formulas import texture
+from ..core.formulas import tangents
 
 
 def read_mesh(mesh, requires=frozenset(), warn=None, warn_ngons=None):
@@ -113,7 +113,7 @@ def _tangents(mesh, layer, loop_idx, nt, pos, warn_ngons=None):
     """(T, 3, 4) MikkTSpace tangents (object space) and bitangent signs of a UV map, as
     Blender computes them (``Mesh.calc_tangents``); None without that map. Blender computes
     them for triangles and quads only: a mesh with n-gons gets one tangent per triangle
-    (``texture.tangent_frame``) and ``warn_ngons`` is called."""
+    (``tangents.tangent_frame``) and ``warn_ngons`` is called."""
     if layer is None:
         return None
     try:
@@ -126,7 +126,7 @@ def _tangents(mesh, layer, loop_idx, nt, pos, warn_ngons=None):
             warn_ngons()
         normal = np.cross(pos[:, 1] - pos[:, 0], pos[:, 2] - pos[:, 0])
         normal /= np.maximum(np.linalg.norm(normal, axis=-1, keepdims=True), 1e-30)
-        tangent, sign = texture.tangent_frame(pos, uvs, normal)
+        tangent, sign = tangents.tangent_frame(pos, uvs, normal)
         out = np.concatenate([tangent, sign[:, None]], 1)
         return np.repeat(out[:, None], 3, axis=1).astype(np.float32)
     t = np.empty(len(mesh.loops) * 3, np.float32)

@@ -10,7 +10,7 @@ import threading
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.render import pipeline, raster, visibility
+from bo2_lighting.addon.core.render import pipeline, projection, raster, visibility
 from bo2_lighting.addon.core.render.job import Cancelled, RenderJob
 from bo2_lighting.addon.core.scene import Camera, Light, Material, MeshBatch, RenderSettings, Scene
 
@@ -249,13 +249,13 @@ def test_instanced_batches_and_the_memory_they_need():
     held += sum(m.depth.nbytes + m.mips.nbytes for m in frame.shadow_maps if m is not None)
     assert memory.frame_bytes(scene) == pytest.approx(held, rel=0.1)
     whole = pipeline.render_frame(RenderJob(scene), frame=frame)["Combined"]
-    saved = raster.SETUP_TRIANGLES, raster._CHUNK
+    saved = raster.SETUP_TRIANGLES, projection.CHUNK
     try:
-        raster.SETUP_TRIANGLES, raster._CHUNK = 100, 150
+        raster.SETUP_TRIANGLES, projection.CHUNK = 100, 150
         chunked = pipeline.render_frame(RenderJob(scene))["Combined"]
-        assert isinstance(pipeline.prepare(RenderJob(scene)).clip, raster.Projection)
+        assert isinstance(pipeline.prepare(RenderJob(scene)).clip, projection.Projection)
     finally:
-        raster.SETUP_TRIANGLES, raster._CHUNK = saved
+        raster.SETUP_TRIANGLES, projection.CHUNK = saved
     assert np.abs(chunked - whole).mean() < 1e-3
 
 

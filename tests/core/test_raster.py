@@ -14,7 +14,7 @@ import warnings
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.render import raster, transparency
+from bo2_lighting.addon.core.render import projection, raster, transparency
 
 # --------------------------------------------------------------------------------------------
 # helpers
@@ -740,9 +740,9 @@ def test_large_inputs_in_chunks_give_the_same_fragments(monkeypatch, offset):
     world = rng.uniform(-1.0, 1.0, (8000, 3, 3)).astype(np.float32) * [3, 3, 1] + [0, 0, -6]
     proj = perspective(np.radians(50.0), w / h, 0.5, 20.0)
     monkeypatch.setattr(raster, "SETUP_TRIANGLES", 10**9)
-    direct = raster.rasterize(raster.project(world, proj, np.float64), w, h)
+    direct = raster.rasterize(projection.project(world, proj, np.float64), w, h)
     monkeypatch.setattr(raster, "SETUP_TRIANGLES", 1000)
-    lazy = raster.rasterize(raster.Projection(world, proj), w, h)
+    lazy = raster.rasterize(projection.Projection(world, proj), w, h)
     assert raster.coverage(direct).mean() > 0.5
     assert (direct.tri == lazy.tri).mean() > 0.999
 
@@ -827,7 +827,7 @@ def test_nearest_draws_what_the_set_up_draws():
                      [0, 0, -1, 0]])
     centres = rng.uniform([-3, -3, -12], [3, 3, -0.5], (1500, 1, 3))
     tris = centres + rng.normal(0, 0.5, (1500, 3, 3))
-    clip = raster.project(tris.astype(np.float32), proj)
+    clip = projection.project(tris.astype(np.float32), proj)
     cull = rng.uniform(size=len(clip)) < 0.5
     crossing = ((clip[..., 2] < -clip[..., 3]).any(1) & (clip[..., 2] > -clip[..., 3]).any(1))
     beyond = (clip[..., 2] > clip[..., 3]).any(1)
@@ -859,11 +859,11 @@ def test_a_view_drawn_once_is_projected_and_culled_in_one_pass_bit_for_bit():
     positions = positions.astype(np.float32)
     matrix = np.array([[1.2, 0, 0, 0.1], [0, 1.6, 0, -0.2], [0, 0, -1.02, -0.2], [0, 0, -1, 0]])
     seen = rng.uniform(size=2000) < 0.7
-    clip = raster.project(positions, matrix)
+    clip = projection.project(positions, matrix)
     clip[~seen] = (0.0, 0.0, 0.0, -1.0)
     for tile in ((0, 0, 64, 48), (-2, -2, 66, 50), (10, 20, 30, 40)):
         a, ia = visibility.tile_clip(clip, 64, 48, tile)
-        b, ib = visibility.tile_clip(raster.Projection(positions, matrix, np.float32,
+        b, ib = visibility.tile_clip(projection.Projection(positions, matrix, np.float32,
                                                      np.flatnonzero(seen)), 64, 48, tile)
         assert 10 < len(ia) < seen.sum()
         np.testing.assert_array_equal(ib, ia)

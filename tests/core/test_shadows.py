@@ -11,7 +11,7 @@ Independent references used here (computed in this file, never with the module's
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.render import shadows
+from bo2_lighting.addon.core.render import shadow_filter, shadows
 from bo2_lighting.addon.core.scene import Camera, Light
 
 # --------------------------------------------------------------------------------------------
@@ -181,7 +181,7 @@ def test_point_and_area_hard_shadow(kind):
     light = Light(kind, np.ones(3), position=LIGHT_POS, radius=0.0, size=np.array([0.0, 0.0]))
     sm = shadows.build_shadow_map(light, occluder_scene(), CAMERA, resolution=res)
     p, n = ground_points((-4.0, -4.0), (4.0, 4.0), 161)
-    vis = shadows.shadow_visibility(sm, p, n)
+    vis = shadow_filter.shadow_visibility(sm, p, n)
     cheb, dist = square_crossing(p, LIGHT_POS, OCC_H, OCC_HALF)
     texel = 2.0 * dist / res  # a 90-degree face: at most 2/res radians per texel
     check_hard(vis, cheb, 3.0 * texel)
@@ -197,7 +197,7 @@ def test_spot_hard_shadow():
     to_p = p - LIGHT_POS
     in_cone = to_p @ axis > np.cos(size / 2 - np.radians(3.0)) * np.linalg.norm(to_p, axis=1)
     p, n = p[in_cone], n[in_cone]
-    vis = shadows.shadow_visibility(sm, p, n)
+    vis = shadow_filter.shadow_visibility(sm, p, n)
     cheb, dist = square_crossing(p, LIGHT_POS, OCC_H, OCC_HALF)
     texel = 2.0 * np.tan(0.6 * size) * dist / res  # a map a little wider than the cone
     check_hard(vis, cheb, 3.0 * texel)
@@ -211,7 +211,7 @@ def test_sun_hard_shadow_with_cascades():
     p, n = ground_points((-4.0, -4.0), (4.0, 4.0), 161)
     seen = in_view(CAMERA, p)
     p, n = p[seen], n[seen]
-    vis = shadows.shadow_visibility(sm, p, n)
+    vis = shadow_filter.shadow_visibility(sm, p, n)
     cheb, _ = square_crossing(p, p - 50.0 * direction, OCC_H, OCC_HALF)
     texel = 15.0 / res  # every cascade is at most the scene's diagonal wide
     check_hard(vis, cheb, 3.0 * texel)
@@ -231,7 +231,7 @@ def soft_profile(light, xs, height, jitter=True, res=512):
     sm = shadows.build_shadow_map(light, scene, camera, resolution=res)
     p = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], 1).astype(np.float32)
     n = np.tile(np.float32([0.0, 0.0, 1.0]), (len(p), 1))
-    return shadows.shadow_visibility(sm, p, n, jitter=jitter), p
+    return shadow_filter.shadow_visibility(sm, p, n, jitter=jitter), p
 
 
 def smooth(v, k=7):
@@ -333,7 +333,7 @@ def test_no_acne_at_grazing_angles(kind):
             p, n = p[cos_a > np.cos(np.radians(38.0))], n[cos_a > np.cos(np.radians(38.0))]
     assert len(p) > 1000
     sm = shadows.build_shadow_map(light, scene, look_at([0, -8, 4], [0, 0, 0]), resolution=512)
-    vis = shadows.shadow_visibility(sm, p, n)
+    vis = shadow_filter.shadow_visibility(sm, p, n)
     assert vis.min() >= 0.99, (vis.min(), np.mean(vis < 0.99))
 
 
@@ -361,7 +361,7 @@ def test_no_acne_on_a_smooth_sphere():
     geo /= np.linalg.norm(geo, axis=1, keepdims=True)
     geo *= np.sign(np.einsum("tc,tc->t", geo, unit_tris.mean(1)))[:, None]  # outwards
     lit = geo @ -direction > 0.2  # the facet faces the sun: a convex body cannot shadow it
-    vis = shadows.shadow_visibility(sm, pts, nrm.astype(np.float32))
+    vis = shadow_filter.shadow_visibility(sm, pts, nrm.astype(np.float32))
     assert lit.sum() > 150
     assert vis[lit].min() >= 0.99, vis[lit].min()
     assert vis[(geo @ -direction < -0.2)].max() <= 0.01  # facing away: behind the sphere
@@ -387,7 +387,7 @@ def test_no_peter_panning_behind_a_box(kind):
         target = pos if far is None else p + far
         assert segment_hits_box(p, target, lo, hi).all()  # really in the box's shadow
         n = np.tile(np.float32([0.0, 0.0, 1.0]), (len(p), 1))
-        vis = shadows.shadow_visibility(sm, p, n)
+        vis = shadow_filter.shadow_visibility(sm, p, n)
         assert vis.max() < 0.5, (gap, vis.max())
 
 
@@ -407,7 +407,7 @@ def test_no_peter_panning_under_a_thin_plate(kind):
     p, n = ground_points((-0.7, -0.7), (0.7, 0.7), 71)
     target = p - 50.0 * direction if kind == "SUN" else pos
     cheb, _ = square_crossing(p, target, height, half)
-    vis = shadows.shadow_visibility(sm, p, n)
+    vis = shadow_filter.shadow_visibility(sm, p, n)
     assert vis[cheb < -0.05].max() <= 0.01  # 5 cm inside the plate's shadow: dark
     assert vis[cheb > 0.05].min() >= 0.99
 
@@ -430,8 +430,8 @@ def test_points_outside_the_sun_cascades_are_lit():
     sm = shadows.build_shadow_map(light, scene, CAMERA, resolution=256)
     p = np.array([[30.0, 0.0, 0.0], [29.5, 0.5, 0.0], [0.0, 80.0, 0.0], [-60.0, 0.0, -5.0]])
     n = np.tile([0.0, 0.0, 1.0], (4, 1))
-    assert np.all(shadows.shadow_visibility(sm, p, n) == 1.0)
-    seen = shadows.shadow_visibility(sm, np.array([[0.0, 0.0, 0.0]]), n[:1])
+    assert np.all(shadow_filter.shadow_visibility(sm, p, n) == 1.0)
+    seen = shadow_filter.shadow_visibility(sm, np.array([[0.0, 0.0, 0.0]]), n[:1])
     assert seen[0] == 0.0  # under the visible occluder
 
 
@@ -454,12 +454,12 @@ def test_outputs_are_finite_float32_and_deterministic():
         sm = shadows.build_shadow_map(light, scene, CAMERA, resolution=256)
         assert sm.depth.dtype == np.float32
         q = p if i == 0 else p[:20000]  # one 1e6-point query
-        vis = shadows.shadow_visibility(sm, q, n[: len(q)])
+        vis = shadow_filter.shadow_visibility(sm, q, n[: len(q)])
         assert vis.dtype == np.float32 and vis.shape == (len(q),)
         assert np.all(np.isfinite(vis)) and vis.min() >= 0.0 and vis.max() <= 1.0
         assert vis[0] == 1.0 and vis[2] == 1.0  # non-finite points are lit
         assert 0.0 < vis.mean() < 1.0
-        again = shadows.shadow_visibility(sm, q[:20000], n[:20000])
+        again = shadow_filter.shadow_visibility(sm, q[:20000], n[:20000])
         np.testing.assert_array_equal(again, vis[:20000])
 
 
@@ -470,7 +470,7 @@ def test_wide_spot_uses_a_cube_and_empty_scene_is_lit():
     empty = np.zeros((0, 3, 3), np.float32)
     for kind in ("POINT", "SUN"):
         sm = shadows.build_shadow_map(Light(kind, np.ones(3)), empty, CAMERA, resolution=64)
-        vis = shadows.shadow_visibility(sm, np.zeros((3, 3)), np.tile([0, 0, 1.0], (3, 1)))
+        vis = shadow_filter.shadow_visibility(sm, np.zeros((3, 3)), np.tile([0, 0, 1.0], (3, 1)))
         assert np.all(vis == 1.0)
 
 
@@ -480,7 +480,7 @@ def test_sun_without_camera_covers_every_caster():
     assert sm.depth.shape == (1, 256, 256)
     p = np.array([[-0.4, -0.25, 0.0], [4.0, 4.0, 0.0], [-4.5, -4.5, 0.0]])  # shadow centre
     n = np.tile([0.0, 0.0, 1.0], (3, 1))
-    np.testing.assert_array_equal(shadows.shadow_visibility(sm, p, n), [0.0, 1.0, 1.0])
+    np.testing.assert_array_equal(shadow_filter.shadow_visibility(sm, p, n), [0.0, 1.0, 1.0])
 
 
 def test_a_point_does_not_depend_on_the_rest_of_its_query():
@@ -498,16 +498,16 @@ def test_a_point_does_not_depend_on_the_rest_of_its_query():
     order = rng.permutation(len(p))
     for light in lights:
         sm = shadows.build_shadow_map(light, scene, CAMERA, resolution=256)
-        whole = shadows.shadow_visibility(sm, p, n)
+        whole = shadow_filter.shadow_visibility(sm, p, n)
         assert 0.0 < whole.mean() < 1.0
         shuffled = np.empty_like(whole)
-        shuffled[order] = shadows.shadow_visibility(sm, p[order], n[order])
+        shuffled[order] = shadow_filter.shadow_visibility(sm, p[order], n[order])
         np.testing.assert_array_equal(shuffled, whole)
-        pieces = np.concatenate([shadows.shadow_visibility(sm, p[i : i + 7], n[i : i + 7])
+        pieces = np.concatenate([shadow_filter.shadow_visibility(sm, p[i : i + 7], n[i : i + 7])
                                  for i in range(0, 700, 7)])
         np.testing.assert_array_equal(pieces, whole[:700])
         some = rng.random(len(p)) < 0.3  # a query of some points: the others are lit
-        np.testing.assert_array_equal(shadows.shadow_visibility(sm, p, n, where=some),
+        np.testing.assert_array_equal(shadow_filter.shadow_visibility(sm, p, n, where=some),
                                       np.where(some, whole, 1.0))
 
 

@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.formulas import texture
+from bo2_lighting.addon.core.formulas import tangents, texture
 from bo2_lighting.addon.core.scene import Camera
 
 RNG = np.random.default_rng(7)
@@ -334,20 +334,20 @@ UP = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
 
 
 def test_tangent_frame_of_an_axis_aligned_quad():
-    t, sign = texture.tangent_frame(QUAD, QUAD[..., :2], UP)
+    t, sign = tangents.tangent_frame(QUAD, QUAD[..., :2], UP)
     np.testing.assert_allclose(t, [[1, 0, 0], [1, 0, 0]], atol=1e-6)
     np.testing.assert_array_equal(sign, [1.0, 1.0])
     # Mirrored in u: u = 1 - x, v = y -> tangent -x, bitangent sign -1.
     mirrored = np.stack([1.0 - QUAD[..., 0], QUAD[..., 1]], -1)
-    t, sign = texture.tangent_frame(QUAD, mirrored, UP)
+    t, sign = tangents.tangent_frame(QUAD, mirrored, UP)
     np.testing.assert_allclose(t, [[-1, 0, 0], [-1, 0, 0]], atol=1e-6)
     np.testing.assert_array_equal(sign, [-1.0, -1.0])
     # Mirrored in v: u = x, v = -y -> tangent +x, sign -1.
-    t, sign = texture.tangent_frame(QUAD, QUAD[..., :2] * [1, -1], UP)
+    t, sign = tangents.tangent_frame(QUAD, QUAD[..., :2] * [1, -1], UP)
     np.testing.assert_allclose(t, [[1, 0, 0], [1, 0, 0]], atol=1e-6)
     np.testing.assert_array_equal(sign, [-1.0, -1.0])
     # Rotated UV: u = y, v = -x -> tangent +y; dP/dv = -x = cross(z, y), sign +1.
-    t, sign = texture.tangent_frame(QUAD, np.stack([QUAD[..., 1], -QUAD[..., 0]], -1), UP)
+    t, sign = tangents.tangent_frame(QUAD, np.stack([QUAD[..., 1], -QUAD[..., 0]], -1), UP)
     np.testing.assert_allclose(t, [[0, 1, 0], [0, 1, 0]], atol=1e-6)
     np.testing.assert_array_equal(sign, [1.0, 1.0])
 
@@ -355,12 +355,12 @@ def test_tangent_frame_of_an_axis_aligned_quad():
 def test_tangent_is_orthogonal_to_a_tilted_normal():
     n = np.array([[0.3, 0.0, 1.0], [0.0, 0.4, 1.0]])
     n /= np.linalg.norm(n, axis=-1, keepdims=True)
-    t, sign = texture.tangent_frame(QUAD, QUAD[..., :2], n)
+    t, sign = tangents.tangent_frame(QUAD, QUAD[..., :2], n)
     np.testing.assert_allclose(np.sum(t * n, -1), 0.0, atol=1e-6)
     np.testing.assert_allclose(np.linalg.norm(t, axis=-1), 1.0, atol=1e-6)
     assert (t[:, 0] > 0.9).all() and (sign == 1).all()
     # Zero-area UVs: still a unit tangent perpendicular to n.
-    t, sign = texture.tangent_frame(QUAD, np.zeros((2, 3, 2)), n)
+    t, sign = tangents.tangent_frame(QUAD, np.zeros((2, 3, 2)), n)
     np.testing.assert_allclose(np.sum(t * n, -1), 0.0, atol=1e-6)
     np.testing.assert_allclose(np.linalg.norm(t, axis=-1), 1.0, atol=1e-6)
 
@@ -369,20 +369,20 @@ def test_normal_map_node_tangent_space():
     n = np.array([[0.0, 0.0, 1.0]] * 4)
     t = np.array([[1.0, 0.0, 0.0]] * 4)
     sign = np.ones(4)
-    flat = texture.apply_normal_map(n, t, sign, [[0.5, 0.5, 1.0]] * 4)
+    flat = tangents.apply_normal_map(n, t, sign, [[0.5, 0.5, 1.0]] * 4)
     np.testing.assert_allclose(flat, n, atol=1e-6)
     # (1, 0.5, 0.5) -> c = (1, 0, 0): the tangent; (0.5, 1, 0.5): the bitangent cross(n, t) = +y.
-    out = texture.apply_normal_map(n, t, sign, [[1.0, 0.5, 0.5], [0.5, 1.0, 0.5],
+    out = tangents.apply_normal_map(n, t, sign, [[1.0, 0.5, 0.5], [0.5, 1.0, 0.5],
                                                 [0.5, 0.0, 0.5], [1.0, 0.5, 1.0]])
     s = math.sqrt(0.5)
     np.testing.assert_allclose(out, [[1, 0, 0], [0, 1, 0], [0, -1, 0], [s, 0, s]], atol=1e-6)
-    out = texture.apply_normal_map(n, t, -sign, [[0.5, 1.0, 0.5]] * 4)
+    out = tangents.apply_normal_map(n, t, -sign, [[0.5, 1.0, 0.5]] * 4)
     np.testing.assert_allclose(out, [[0, -1, 0]] * 4, atol=1e-6)
     # Strength (Cycles, Blender 4.x/5.x): c_xy *= s, c_z = mix(1, c_z, clamp(s, 0, 1)).
     # s = 0 -> n; s = 0.5 with c = (1, 0, 0) -> normalize(0.5 t + 0.5 n); s = 2 with
     # c = (0.6, 0, 0.8) -> normalize(1.2 t + 0.8 n).
     rgb = [[1.0, 0.5, 0.5], [1.0, 0.5, 0.5], [0.8, 0.5, 0.9], [0.2, 0.7, 0.6]]
-    out = texture.apply_normal_map(n, t, sign, rgb, strength=[0.0, 0.5, 2.0, 0.0])
+    out = tangents.apply_normal_map(n, t, sign, rgb, strength=[0.0, 0.5, 2.0, 0.0])
     c = math.hypot(1.2, 0.8)
     np.testing.assert_allclose(out, [[0, 0, 1], [s, 0, s], [1.2 / c, 0, 0.8 / c], [0, 0, 1]],
                                atol=1e-6)

@@ -10,8 +10,8 @@ float32, in the order the formulas are written in ``shadows``; the independent c
 lights, penumbra widths, acne and peter-panning).
 
 Per-point set-up values live in a small scratch vector (``F_*`` slots) reused point after
-point; the map's constants and the filter's (``shadows.MAX_SLOPE`` ...) come packed by
-``shadows._packed`` (``P_*`` and ``I_*`` slots).
+point; the map's constants and the filter's (``shadow_filter.MAX_SLOPE`` ...) come packed by
+``shadow_filter._packed`` (``P_*`` and ``I_*`` slots).
 """
 
 from __future__ import annotations
@@ -105,7 +105,7 @@ def _to_face(fx, fy, fz, sign, x, y, z):
 @nb.njit(**_OPTIONS)
 def _find_cascade(rects, x, y):
     """Finest cascade whose square holds the light-plane point (x, y), or -1; ``rects`` rows
-    (cx, cy, half side, z_min) (``shadows._cascades``)."""
+    (cx, cy, half side, z_min) (``shadow_filter._cascades``)."""
     for c in range(rects.shape[0]):
         if abs(x - rects[c, 0]) <= rects[c, 2] and abs(y - rects[c, 1]) <= rects[c, 2]:
             return c
@@ -517,7 +517,7 @@ _VIS = nb.void(
 @nb.njit(_VIS, **_OPTIONS)
 def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker_disc,
                pcf_disc, hard_disc, reaches, rot_cos, rot_sin, points, normals, active, out):
-    """Fraction of the light that reaches each point (``shadows.shadow_visibility``):
+    """Fraction of the light that reaches each point (``shadow_filter.shadow_visibility``):
     ``out`` (N,) for points (N, 3) and normals (N, 3) where ``active`` (N,) (elsewhere 1);
     points outside every map, and points with non-finite coordinates, are lit (1)."""
     fr = np.zeros(F_SIZE, np.float32)

@@ -61,7 +61,7 @@ def add_direct(normal, view, l_dir, irradiance, albedo, rf0, gloss, model, diffu
 
     normal, view, l_dir: (N, 3) unit vectors; irradiance: (N, 3) W/m^2, unshadowed
     albedo, rf0: (N, 3) linear;  gloss: (N,);  model: a name of ``brdf.MODELS``
-    visibility: (N,) shadow term E is multiplied by (``shadows.shadow_visibility``), or None
+    visibility: (N,) shadow term E is multiplied by (``shadow_filter.shadow_visibility``), or None
     """
     from ..kernels import shading
 

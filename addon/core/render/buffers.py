@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import Material, Scene, material
-from . import raster
+from . import projection, raster
 from . import sky as sky_light
 from .job import RenderJob
 
@@ -29,7 +29,7 @@ class Frame:
     holdout: np.ndarray     # (T,) bool
     material: np.ndarray    # (T,) int32
     clip: np.ndarray        # (T, 3, 4) float32 clip-space corners of the whole frame (or
-    #                         their raster.Projection: for very many triangles, or for a view
+    #                         their projection.Projection: for very many triangles, or for a view
     #                         drawn as one tile, ``with_camera``'s ``once``)
     cull: np.ndarray | None
     shadow_maps: list
@@ -223,16 +223,16 @@ def mesh_flags(frame: Frame, values) -> np.ndarray | None:
 
 
 def clip_coordinates(positions: np.ndarray, camera, seen: np.ndarray | None = None
-          ) -> np.ndarray | raster.Projection:
+          ) -> np.ndarray | projection.Projection:
     """(T, 3, 4) float32 clip coordinates of the triangles through ``camera``; for more
-    triangles than a raster keeps at once, their ``raster.Projection`` (computed a chunk at a
+    triangles than a raster keeps at once, their ``projection.Projection`` (computed a chunk at a
     time when drawn: a million instances never hold them all). Triangles the camera does not
     see (``seen`` False) are left out: behind the camera, or out of the projection's index."""
     matrix = camera.projection @ camera.world_to_camera
     if len(positions) > raster.SETUP_TRIANGLES:
         index = None if seen is None else np.flatnonzero(seen)
-        return raster.Projection(positions, matrix, np.float32, index)
-    clip = raster.project(positions, matrix)
+        return projection.Projection(positions, matrix, np.float32, index)
+    clip = projection.project(positions, matrix)
     if seen is not None:
         clip[~seen] = (0.0, 0.0, 0.0, -1.0)
     return clip
@@ -243,7 +243,7 @@ def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
     materials and shadow maps). ``once``: the view is drawn as one tile (a probe's face), so
     its projection is left to the tile (``tile_clip``: projected and culled in one pass)."""
     if once:
-        clip = raster.Projection(frame.positions, camera.projection @ camera.world_to_camera,
+        clip = projection.Projection(frame.positions, camera.projection @ camera.world_to_camera,
                                  np.float32, None if frame.seen is None else
                                  np.flatnonzero(frame.seen))
     else:

@@ -67,8 +67,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Fragments", "Projection", "coverage", "interpolate", "nearest", "project",
-           "rasterize"]
+from .clipping import clip_triangles
+from .projection import CHUNK, Projection
+
+__all__ = ["Fragments", "coverage", "interpolate", "nearest", "rasterize"]
 
 # Fixed point: window coordinates in units of 2^-S pixel, |x| <= 2^G pixels (guard band), with
 # G + S = 29 so that the edge functions A x + B y + C and the doubled areas fit in int64.
@@ -118,62 +120,6 @@ def _empty_fragments(height: int, width: int, degenerate: int = 0, nan: int = 0,
         skipped_degenerate=degenerate,
         skipped_nan=nan,
     )
-
-
-def _rotate(a: np.ndarray, first: np.ndarray) -> np.ndarray:
-    """Rotate the corners of (N, 3, K) ``a`` cyclically so that corner ``first`` (N,) is first."""
-    idx = (first[:, None] + np.arange(3)) % 3
-    return np.take_along_axis(a, idx[:, :, None], axis=1)
-
-
-def _lerp(inside: np.ndarray, outside: np.ndarray, d_in: np.ndarray, d_out: np.ndarray):
-    """Point where the segment inside -> outside (N, K) crosses d = 0 (d_in >= 0 > d_out)."""
-    t = d_in / (d_in - d_out)
-    return inside + t[:, None] * (outside - inside)
-
-
-def _clip(verts: np.ndarray, orig: np.ndarray, planes) -> tuple[np.ndarray, np.ndarray]:
-    """Clip triangles against half-spaces s * v[axis] + k * w >= 0 of homogeneous clip space.
-
-    verts:   (N, 3, 7) float64 corners: clip x, y, z, w, then barycentrics in the original triangle
-    orig:    (N,) int64 original triangle index
-    planes:  sequence of (axis, s, k)
-    returns: (M, 3, 7) corners and (M,) original indices, sorted by original index
-    """
-    clipped = False
-    for axis, s, k in planes:
-        d = s * verts[:, :, axis] + k * verts[:, :, 3]
-        inside = d >= 0.0
-        n_in = inside.sum(axis=1)
-        if np.all(n_in == 3):
-            continue
-        clipped = True
-        parts_v = [verts[n_in == 3]]
-        parts_o = [orig[n_in == 3]]
-        one = n_in == 1  # (a, b, c), a inside: keep (a, a->b, a->c), same winding
-        if one.any():
-            v = _rotate(verts[one], np.argmax(inside[one], axis=1))
-            dd = _rotate(d[one][:, :, None], np.argmax(inside[one], axis=1))[:, :, 0]
-            a, b, c = v[:, 0], v[:, 1], v[:, 2]
-            ab = _lerp(a, b, dd[:, 0], dd[:, 1])
-            ac = _lerp(a, c, dd[:, 0], dd[:, 2])
-            parts_v.append(np.stack([a, ab, ac], axis=1))
-            parts_o.append(orig[one])
-        two = n_in == 2  # (o, a, b), o outside: quad (a, b, b->o, a->o) as two triangles
-        if two.any():
-            v = _rotate(verts[two], np.argmin(inside[two], axis=1))
-            dd = _rotate(d[two][:, :, None], np.argmin(inside[two], axis=1))[:, :, 0]
-            o, a, b = v[:, 0], v[:, 1], v[:, 2]
-            bo = _lerp(b, o, dd[:, 2], dd[:, 0])
-            ao = _lerp(a, o, dd[:, 1], dd[:, 0])
-            parts_v += [np.stack([a, b, bo], axis=1), np.stack([a, bo, ao], axis=1)]
-            parts_o += [orig[two], orig[two]]
-        verts = np.concatenate(parts_v)
-        orig = np.concatenate(parts_o)
-    if clipped:
-        order = np.argsort(orig, kind="stable")
-        verts, orig = verts[order], orig[order]
-    return verts, orig
 
 
 def _bin_size(n: np.ndarray) -> np.ndarray:
@@ -283,7 +229,7 @@ def _setup(clip: np.ndarray, width: int, height: int, cull, guard_bits: int,
         verts = np.empty((cut.size, 3, 7))
         verts[:, :, :4] = v[:, cut].T.reshape(-1, 3, 4)
         verts[:, :, 4:] = np.eye(3)
-        cv, co = _clip(verts, orig[cut], planes)
+        cv, co = clip_triangles(verts, orig[cut], planes)
         whole = np.ones(orig.size, bool)
         whole[cut] = False
         v = np.concatenate([v[:, whole], cv[:, :, :4].reshape(-1, 12).T], axis=1)
@@ -547,48 +493,11 @@ def nearest(clip: np.ndarray, width: int, height: int, *, cull=None,
 # Inputs of more triangles than this (whose set-up, some 350 bytes a triangle, could not be
 # kept for the next sample) are set up a chunk at a time, for one sample offset each
 SETUP_TRIANGLES = _KEEP_BYTES // 350
-_CHUNK = 1 << 17
 _MAX_PIECES = 32  # pieces of one triangle clipped by the five planes, one split each at most
 
 
-@dataclass
-class Projection:
-    """Triangles ``positions`` (T, 3, 3) through the 4 x 4 ``matrix`` into clip space as
-    ``dtype`` (``project``), a part at a time: ``rasterize`` takes it in place of the clip
-    array, so that the clip coordinates of a large input never exist all at once."""
-
-    positions: np.ndarray
-    matrix: np.ndarray
-    dtype: type = np.float64
-    index: np.ndarray | None = None  # (K,) int64 the triangles of ``positions`` (None: all)
-
-    def __len__(self) -> int:
-        return len(self.positions) if self.index is None else len(self.index)
-
-    def part(self, lo: int, hi: int) -> np.ndarray:
-        """(hi - lo, 3, 4) clip coordinates of triangles lo to hi (of ``index``)."""
-        rows = self.positions[lo:hi] if self.index is None else self.positions[self.index[lo:hi]]
-        return project(rows, self.matrix, self.dtype)
-
-    def survivors(self) -> Projection:
-        """This projection of the triangles that may touch the viewport only (``kernels.raster.
-        survivors``, a chunk at a time): ``index`` says which."""
-        from ..kernels import raster as kernels
-
-        kept = []
-        for lo in range(0, len(self), _CHUNK):
-            part = self.part(lo, min(lo + _CHUNK, len(self)))
-            orig = np.empty(len(part), np.int64)
-            count, _ = kernels.survivors(part, orig)
-            kept.append(orig[:count] + lo)
-        index = np.concatenate(kept) if kept else np.zeros(0, np.int64)
-        if self.index is not None:
-            index = self.index[index]
-        return Projection(self.positions, self.matrix, self.dtype, index)
-
-
 def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind, depth_plane):
-    """``rasterize`` of a large input (an array or a ``Projection``) in chunks of ``_CHUNK``
+    """``rasterize`` of a large input (an array or a ``Projection``) in chunks of ``CHUNK``
     triangles, each set up for this sample offset only (triangles whose box holds no sample
     are left out before the costly steps) and scanned into the same keys: the key index of a
     piece of the chunk starting at triangle t0 is ``_MAX_PIECES`` t0 + the piece's rank in
@@ -620,8 +529,8 @@ def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
     part_tri, part_depth = np.empty(npx, np.int32), np.empty(npx, np.float32)
     part_bary = np.empty((npx, 3) if weights else (1, 3), np.float32)
     degenerate = nan = 0
-    for lo in range(0, n_tri, _CHUNK):
-        hi = min(lo + _CHUNK, n_tri)
+    for lo in range(0, n_tri, CHUNK):
+        hi = min(lo + CHUNK, n_tri)
         part = clip.part(lo, hi) if isinstance(clip, Projection) else clip[lo:hi]
         part = np.ascontiguousarray(part, np.float32 if part.dtype == np.float32 else np.float64)
         base = _MAX_PIECES * lo
@@ -648,18 +557,6 @@ def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
     return Fragments(tri.reshape(height, width),
                      bary.reshape(height, width, 3) if weights else None,
                      depth.reshape(height, width), degenerate, nan, keybuf)
-
-
-def project(corners: np.ndarray, matrix: np.ndarray, dtype=np.float32) -> np.ndarray:
-    """(T, 3, 4) clip-space corners of (T, 3, 3) world corners through a 4 x 4 matrix, each
-    coordinate summed in float64 (``kernels.raster.project``) and stored as ``dtype``
-    (float32 or float64)."""
-    from ..kernels import raster as kernels
-
-    corners = np.ascontiguousarray(corners, dtype)
-    clip = np.empty(corners.shape[:2] + (4,), dtype)
-    kernels.project(corners, np.ascontiguousarray(matrix, np.float64), clip)
-    return clip
 
 
 def interpolate(frags: Fragments, attr, *, block: int = 1 << 20) -> np.ndarray:

@@ -11,7 +11,7 @@ from ..formulas import affine, occlusion, sh, texture
 from ..lighting import lightmap as lightmap_light
 from ..lighting import probes, shade, world_sun
 from ..scene import Scene
-from . import shadows
+from . import shadow_filter
 from .buffers import Frame
 from .passes import SAMPLED, SAMPLED_WIDTH
 from .surfaces import surface_params
@@ -72,7 +72,7 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> np
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
         if not lit.any():
             continue
-        vis = None if smap is None else shadows.shadow_visibility(smap, p, geo, where=lit)
+        vis = None if smap is None else shadow_filter.shadow_visibility(smap, p, geo, where=lit)
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
                          diffuse, specular, visibility=vis)
     ao = np.ones(len(tri), np.float32)

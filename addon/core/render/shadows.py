@@ -24,39 +24,7 @@ Maps without transparent casters take their depths straight from the triangles
 (``kernels.raster.ortho_depths`` and ``perspective_depths``: no raster set-up); maps with them
 are rasterized and dithered (``_rasterize_casters``).
 
-Filtering: percentage-closer filtering (Reeves, Salesin & Cook 1987, "Rendering antialiased
-shadows with depth maps") with a fixed Vogel-spiral disc of taps rotated per point (one of 1024
-angles picked by a white-noise hash of the position's bits, so results are deterministic and do
-not depend on the other points of a query), and percentage-closer soft shadows
-(Fernando 2005, "Percentage-closer soft shadows"): a blocker search in the region where
-blockers can hide part of the light, then a disc kernel whose radius at the receiver is the
-penumbra half-width of a disc light,
-
-- point, spot, area:  r = R (d_r - d_b) / d_b, R the light radius (area: half its diagonal);
-- sun:                r = tan(angle / 2) (d_r - d_b), angle the sun's angular diameter;
-
-never below ``MIN_FILTER_TEXELS`` texels, so hard shadows stay anti-aliased (points whose
-search region is under 1.5 texels, and lights of zero size, get that one-texel kernel). Taps
-are placed in the plane through the receiver perpendicular to the light ray, so the filtered
-result of a disc kernel over a straight shadow edge is the visible fraction of a disc light.
-
-Evaluation (the same result as comparing every tap, faster; ``kernels.shadows``, one point at
-a time): the taps of a kernel land in a texel rectangle known from its radius whatever the
-rotation. When it is at most 4 x 4 texels, each of its texels is compared first (all blocked
--> 0, none -> 1, without taps). Wider rectangles are first tested against the least and
-greatest depth of the pyramid blocks over them (``ShadowMap.mips``) and the receiver-plane
-depths at their corners: provably unblocked or blocked points skip their taps, and so does the
-blocker search of points whose search region is blocked everywhere.
-
-Bias (no acne, no peter-panning): every tap compares the stored depth with the depth of the
-receiver's tangent plane along the ray through the centre of the texel it reads (receiver-plane
-depth, exact for planar receivers whatever the slope), after moving the receiver along its
-normal by ``NORMAL_OFFSET_TEXELS`` texels (normal offset: Holbert 2011, "Saying goodbye to
-shadow acne"), which buys a depth margin of that offset divided by cos(theta) along the ray,
-i.e. a slope-scaled bias that absorbs curvature, tessellation and shading normals. A small
-constant bias (``DEPTH_BIAS_TEXELS`` texels plus ``DEPTH_BIAS_RELATIVE`` of the depth) covers
-rounding. The tangent-plane depth is clamped to +-``MAX_SLOPE`` times the tap distance so that
-grazing receivers stay bounded.
+The maps are queried per point by ``shadow_filter``.
 """
 
 from __future__ import annotations
@@ -68,38 +36,16 @@ import numpy as np
 
 from ..formulas import affine
 from ..scene import Camera, Light
-from . import raster, transparency
+from . import projection, raster, transparency
 
-__all__ = ["ShadowMap", "build_shadow_map", "camera_depth_range", "shadow_map_jobs",
-           "shadow_visibility"]
+__all__ = ["ShadowMap", "build_shadow_map", "camera_depth_range", "mip_layout",
+           "shadow_map_jobs"]
 
-NORMAL_OFFSET_TEXELS = 1.0  # receiver moved along its normal by this many texels (world size)
-DEPTH_BIAS_TEXELS = 0.05  # constant depth bias, texels (world size at the receiver)
-DEPTH_BIAS_RELATIVE = 2e-5  # constant depth bias, fraction of the receiver's depth (rounding)
-MAX_SLOPE = 10.0  # receiver-plane depth clamped to +-MAX_SLOPE * tap distance (about 84 deg)
-MIN_FILTER_TEXELS = 1.0  # smallest PCF kernel radius, texels
-BLOCKER_TAPS = 16  # taps of the PCSS blocker search (the point's own ray and a disc of 15)
-SEARCH_REFINEMENTS = 3  # min-depth pyramid look-ups that shrink the blocker search region
 MIP_FIRST_LEVEL = 3  # finest level of the pyramid kept (8 x 8 texel blocks)
-PCF_TAPS = 32  # taps of the PCF kernel of soft shadows (PCSS)
-PCF_TAPS_HARD = 16  # taps of the one-texel kernel (lights of zero size, contact shadows)
 SPOT_MAX_FOV = np.radians(170.0)  # wider spot cones use a cube map
 CASCADE_RATIO = 4.0  # far / near depth ratio one sun cascade may cover
 MAX_CASCADES = 4
 SPLIT_LAMBDA = 0.75  # practical split scheme: weight of the logarithmic split (Zhang 2006)
-
-
-def _vogel(n: int) -> np.ndarray:
-    """(n, 2) float32 Vogel (golden-angle spiral) points, uniform over the unit disc."""
-    k = np.arange(n) + 0.5
-    r = np.sqrt(k / n)
-    th = k * np.pi * (3.0 - np.sqrt(5.0))
-    return np.stack([r * np.cos(th), r * np.sin(th)], axis=1).astype(np.float32)
-
-
-_BLOCKER_DISC = np.concatenate([np.zeros((1, 2), np.float32), _vogel(BLOCKER_TAPS - 1)])
-_PCF_DISC = _vogel(PCF_TAPS)
-_PCF_DISC_HARD = _vogel(PCF_TAPS_HARD)
 
 
 def _frame(forward: np.ndarray) -> np.ndarray:
@@ -169,7 +115,7 @@ class ShadowMap:
         if not self.min_mips and len(self.mips):
             self.min_mips = [
                 self.mips[lo : lo + side * side * len(self.depth), 0].reshape(-1, side, side)
-                for lo, side in zip(*_mip_layout(self.resolution, len(self.depth)), strict=True)
+                for lo, side in zip(*mip_layout(self.resolution, len(self.depth)), strict=True)
             ]
 
     @property
@@ -209,7 +155,7 @@ def _view(basis: np.ndarray, origin: np.ndarray) -> np.ndarray:
     return m
 
 
-def _mip_layout(res: int, faces: int) -> tuple[list[int], list[int]]:
+def mip_layout(res: int, faces: int) -> tuple[list[int], list[int]]:
     """Offsets (rows of ``ShadowMap.mips``) and sides of the pyramid levels MIP_FIRST_LEVEL, ..."""
     offsets, sides, side, level, row = [], [], res, 0, 0
     while side > 1:
@@ -279,7 +225,7 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
             kernels.perspective_depths(tris, np.ascontiguousarray(view_proj[f][[0, 1, 3]]),
                                        near, depth)
         else:
-            depth = _rasterize_casters(raster.Projection(tris, view_proj[f]), res,
+            depth = _rasterize_casters(projection.Projection(tris, view_proj[f]), res,
                                        cutout, f, False).depth
         dist = depth * ray_len  # distance from the light, metres
         return depth, _pyramid(dist, depth), float(dist.min())
@@ -448,7 +394,7 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
             d = np.full((res, res), np.inf, np.float32)
             kernels.ortho_depths(tris, rows, d)
             return d, _pyramid(d, d)
-        frags = _rasterize_casters(raster.Projection(tris, view_proj[c]), res,
+        frags = _rasterize_casters(projection.Projection(tris, view_proj[c]), res,
                                    cutout, c, True)
         d = np.full((res, res), np.inf, np.float32)  # depth along the light of each texel
         hit = np.flatnonzero(frags.tri.reshape(-1) >= 0)
@@ -550,120 +496,3 @@ def build_shadow_map(
     """
     jobs, finish = shadow_map_jobs(light, triangles, camera, resolution=resolution)
     return finish([job() for job in jobs])
-
-
-# --------------------------------------------------------------------------------------------
-# queries: the compiled kernel ``kernels.shadows.visibility``, one point at a time
-
-_ROT_STEPS = 1024  # per-point rotations of the tap discs, 2 pi / _ROT_STEPS apart
-_ROT_ANGLE = (np.arange(_ROT_STEPS) + 0.5) * (2.0 * np.pi / _ROT_STEPS)
-_ROT_COS = np.cos(_ROT_ANGLE).astype(np.float32)
-_ROT_SIN = np.sin(_ROT_ANGLE).astype(np.float32)
-_FACES = np.float32([  # per cube face (columns): 0/1 of its major axis x, y, z; its sign
-    [1, 1, 0, 0, 0, 0],
-    [0, 0, 1, 1, 0, 0],
-    [0, 0, 0, 0, 1, 1],
-    [1, -1, 1, -1, 1, -1],
-])
-_SLACK = 1e-3  # texels (plus 1e-6 res) added to footprint bounds (rounding of tap positions)
-
-
-def _disc_reach(disc: np.ndarray) -> float:
-    """Largest distance of a disc's taps from its centre, a little enlarged (footprints)."""
-    return float(np.sqrt((disc.astype(np.float64) ** 2).sum(1)).max()) * (1.0 + 1e-5)
-
-
-_PCF_REACH = _disc_reach(_PCF_DISC)
-_PCF_REACH_HARD = _disc_reach(_PCF_DISC_HARD)
-
-
-def _cascades(sm: ShadowMap) -> np.ndarray:
-    """(F, 4) float32 rows (cx, cy, half side, z_min) of a sun's cascades; (0, 4) else."""
-    rects = np.reshape(sm.rects, (-1, 3))
-    z_min = sm.z_min if len(sm.z_min) == len(rects) else np.zeros(len(rects))
-    return np.ascontiguousarray(np.column_stack([rects, z_min]), np.float32)
-
-
-def _packed(sm: ShadowMap) -> tuple:
-    """The map's arrays and constants as the visibility kernel takes them (built once)."""
-    if sm.kernel_args is not None:
-        return sm.kernel_args
-    from ..kernels import shadows as kernels
-
-    res = sm.resolution
-    kind = {"CUBE": kernels.CUBE, "PERSPECTIVE": kernels.PERSPECTIVE, "ORTHO": kernels.ORTHO}
-    offsets, sides = _mip_layout(res, sm.depth.shape[0]) if len(sm.mips) else ([], [])
-    ortho = sm.kind == "ORTHO"
-    inv = np.float32(2.0 / res)
-    fp = np.zeros(kernels.P_SIZE_ALL, np.float32)
-    fp[kernels.P_TAN] = sm.tan_half
-    fp[kernels.P_HALF_RES] = 0.5 * res
-    fp[kernels.P_NEAR] = sm.near
-    fp[kernels.P_NEAR2] = 2.0 * sm.near
-    fp[kernels.P_OFFSET] = NORMAL_OFFSET_TEXELS * 2.0 * (1.0 if ortho else sm.tan_half) / res
-    fp[kernels.P_TEXEL] = 2.0 * sm.tan_half / res
-    fp[kernels.P_INV] = inv
-    fp[kernels.P_SIZE] = sm.light_size
-    fp[kernels.P_MIN_DEPTH] = sm.min_depth
-    fp[kernels.P_SLACK] = _SLACK + 1e-6 * res
-    fp[kernels.P_CAP] = 0.125 * res
-    if ortho and sm.max_filter > 0.0 and len(sm.rects):
-        texel = 2.0 * float(np.min(np.reshape(sm.rects, (-1, 3))[:, 2])) / res
-        fp[kernels.P_CAP] = min(fp[kernels.P_CAP], max(sm.max_filter / texel, 1.0))
-    fp[kernels.P_NEAR_FLOOR] = max(sm.near, 1e-12)
-    fp[kernels.P_OX : kernels.P_OZ + 1] = sm.origin
-    fp[kernels.P_HALF_INV] = 0.5 * inv - 1.0
-    fp[kernels.P_ONE_HALF_INV] = 1.0 - 0.5 * inv
-    fp[kernels.P_MAX_SLOPE] = MAX_SLOPE
-    fp[kernels.P_BIAS_REL] = DEPTH_BIAS_RELATIVE
-    fp[kernels.P_BIAS_TEXELS] = DEPTH_BIAS_TEXELS
-    fp[kernels.P_MIN_FILTER] = MIN_FILTER_TEXELS
-    ip = np.zeros(kernels.I_SIZE, np.int64)
-    ip[kernels.I_KIND], ip[kernels.I_RES], ip[kernels.I_LEVELS] = kind[sm.kind], res, len(sides)
-    ip[kernels.I_MIP_FIRST], ip[kernels.I_REFINEMENTS] = MIP_FIRST_LEVEL, SEARCH_REFINEMENTS
-    packed = (sm.depth.reshape(-1), np.ascontiguousarray(sm.mips.reshape(-1), np.float32),
-              np.asarray(offsets, np.int64), np.asarray(sides, np.int64),
-              np.ascontiguousarray(sm.basis[0], np.float32),
-              _cascades(sm), _FACES, fp, ip)
-    sm.kernel_args = packed
-    return packed
-
-
-_REACHES = np.float32([1.0, _PCF_REACH, _PCF_REACH_HARD])
-
-
-def shadow_visibility(
-    shadow_map: ShadowMap, points: np.ndarray, normals: np.ndarray, *, jitter: bool = True,
-    where: np.ndarray | None = None,
-) -> np.ndarray:
-    """Fraction of the light that reaches each point (PCF, Reeves 1987; PCSS, Fernando 2005).
-
-    shadow_map: output of ``build_shadow_map``
-    points:     (N, 3) float32 world-space receiver positions, metres
-    normals:    (N, 3) unit normals at the points, either side (geometric normals make the
-                receiver planes exact; shading normals are absorbed by the normal offset)
-    jitter:     rotate the tap disc per point by a hash of its position (noise rather than
-                banding in wide penumbrae); False uses one fixed rotation
-    where:      (N,) bool: only these points are queried (the others get 1), or None for all
-    returns:    (N,) float32 in [0, 1], 1 = fully lit; points outside every map, and points
-                with non-finite coordinates, are lit
-    """
-    from ..kernels import shadows as kernels
-
-    p = np.require(np.asarray(points, np.float32).reshape(-1, 3), np.float32, ["C", "W"])
-    n = np.require(np.asarray(normals, np.float32).reshape(-1, 3), np.float32, ["C", "W"])
-    if len(n) != len(p) or (where is not None and np.shape(where) != (len(p),)):
-        raise ValueError(f"points {p.shape}, normals {n.shape} and where "
-                         f"{np.shape(where) if where is not None else None} do not match")
-    out = np.ones(len(p), np.float32)
-    if shadow_map is None or shadow_map.depth.shape[0] == 0 or not len(p):
-        return out
-    depth, mips, offsets, sides, basis, rects, faces, fp, ip = _packed(shadow_map)
-    ip = ip.copy()
-    ip[kernels.I_JITTER] = bool(jitter)
-    active = (np.ones(len(p), bool) if where is None else
-              np.require(np.asarray(where, bool), bool, ["C", "W"]))
-    kernels.visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, _BLOCKER_DISC,
-                       _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, active,
-                       out)
-    return out

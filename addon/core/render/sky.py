@@ -30,7 +30,7 @@ import numpy as np
 
 from ..formulas import sh
 from ..scene import Light
-from . import shadows
+from . import shadow_filter
 
 __all__ = ["Sky", "dome", "dome_lights", "radiance_weights", "upsampled", "visibility"]
 
@@ -106,7 +106,7 @@ def visibility(sky: Sky, world_sh: np.ndarray, points: np.ndarray, normals: np.n
         if smap is None or not where.any():
             seen += w
             continue
-        seen += w * shadows.shadow_visibility(smap, points, geo, where=where, jitter=False)
+        seen += w * shadow_filter.shadow_visibility(smap, points, geo, where=where, jitter=False)
     out = np.ones(n, np.float32)
     lit = total > 1e-12
     out[lit] = np.clip(seen[lit] / total[lit], 0.0, 1.0)

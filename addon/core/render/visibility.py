@@ -17,7 +17,7 @@ import numpy as np
 
 from ..formulas import affine
 from ..scene import Scene
-from . import raster, transparency
+from . import projection, raster, transparency
 from .buffers import Frame
 from .surfaces import face_normals, surface_alpha
 
@@ -63,7 +63,7 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
     """Clip coordinates re-projected so that ``tile`` fills the viewport, of the triangles that
     may touch it (the others lie wholly beyond one plane of its frustum).
 
-    clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``), or its ``raster.Projection``
+    clip: (T, 3, 4) float32 of the whole frame (``Frame.clip``), or its ``projection.Projection``
     returns: (K, 3, 4) float32 clip coordinates and (K,) int64 indices into ``clip``, increasing
              (for a Projection of more triangles than a raster sets up at once: the Projection
              of the tile's triangles, and their indices; a smaller one is projected and culled
@@ -75,7 +75,7 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
     tw, th = x1 - x0, y1 - y0
     ax, bx = np.float32(width / tw), np.float32((width - 2.0 * x0) / tw - 1.0)
     ay, by = np.float32(height / th), np.float32(1.0 - height / th + 2.0 * y0 / th)
-    if isinstance(clip, raster.Projection) and len(clip.positions) <= raster.SETUP_TRIANGLES:
+    if isinstance(clip, projection.Projection) and len(clip.positions) <= raster.SETUP_TRIANGLES:
         # a view drawn as one tile (``with_camera``'s ``once``): projected and culled at once
         seen = np.zeros(0, bool)
         if clip.index is not None:
@@ -87,11 +87,11 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
                                           np.ascontiguousarray(clip.matrix, np.float64), seen,
                                           ax, bx, ay, by, out, index)
         return out[:count], index[:count]
-    if isinstance(clip, raster.Projection):  # re-projected a chunk at a time when drawn
+    if isinstance(clip, projection.Projection):  # re-projected a chunk at a time when drawn
         m = np.eye(4)
         m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
         m[1, 1], m[1, 3] = height / th, 1.0 - height / th + 2.0 * y0 / th
-        tile = raster.Projection(clip.positions, m @ clip.matrix, clip.dtype,
+        tile = projection.Projection(clip.positions, m @ clip.matrix, clip.dtype,
                                  clip.index).survivors()
         return tile, tile.index
     clip = np.ascontiguousarray(clip, np.float32)

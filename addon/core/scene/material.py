@@ -537,7 +537,7 @@ def _op_layer_weight(ev, op, pts):
 
 def _op_normal_map(ev, op, pts):
     """Normal Map: param (space, uv map); args (strength, colour) -> (N, 3) world normal."""
-    from ..formulas import texture
+    from ..formulas import tangents
 
     space = op.param[0]
     strength = np.broadcast_to(ev.arg(op, 0, pts), (pts.n, 1))
@@ -549,7 +549,7 @@ def _op_normal_map(ev, op, pts):
             return n
         t, sign = t4[:, :3], np.where(t4[:, 3] < 0.0, -1.0, 1.0)
         flip = np.where(pts.backfacing > 0.5, -1.0, 1.0).astype(np.float32)
-        out = texture.apply_normal_map(n * flip, t, sign, color, strength[:, 0])
+        out = tangents.apply_normal_map(n * flip, t, sign, color, strength[:, 0])
         return (out * flip).astype(np.float32)
     c = 2.0 * color - 1.0
     if space in ("OBJECT", "BLENDER_OBJECT", "BLENDER_WORLD") and space != "OBJECT":
