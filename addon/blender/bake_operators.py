@@ -61,6 +61,10 @@ class _ModalBake:
 
     running = False  # a modal bake is in progress (one at a time, of either kind)
 
+    def _warnings(self) -> Warnings:
+        """The bake's warning sink: each message the operator's report."""
+        return Warnings(lambda m: self.report({m.kind}, m.text))
+
     @classmethod
     def poll(cls, context):
         return context.scene is not None
@@ -170,8 +174,7 @@ class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
         objs = _objects(context, self.mode)
         probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
         self.what = f"light probe{'s' * (len(objs) != 1)}"
-        steps = bake.bake_steps(scene, objs, probes.capture_backend(scene),
-                                Warnings(lambda m: self.report({m.kind}, m.text)))
+        steps = bake.bake_steps(scene, objs, probes.capture_backend(scene), self._warnings())
         return steps, len(objs)
 
 
@@ -204,7 +207,7 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
         objs = _lightmap_objects(context, self.mode)
         probes.writable_folder(scene)
         self.what = f"lightmap{'s' * (len(objs) != 1)}"
-        steps = bake.lightmap_steps(scene, objs, Warnings(lambda m: self.report({m.kind}, m.text)),
+        steps = bake.lightmap_steps(scene, objs, self._warnings(),
                                     backend=probes.capture_backend(scene))
         return steps, len(objs)
 
