@@ -1,5 +1,8 @@
-"""A frame, stage by stage: the scene made into buffers, the raster (``raster``), shadow maps
-(``shadows``), the world's occlusion (``sky``), materials, shading and the passes
-(``passes``), ordered by ``pipeline``; the memory a frame takes (``memory``) and the viewport's
-session (``viewport``).
+"""A frame, stage by stage: the job (``job``), prepare (``buffers``), shadow maps
+(``shadow_maps``), what each sample sees (``visibility``), contact occlusion
+(``contact_occlusion``), the world's occlusion (``world_occlusion``), materials (``surfaces``),
+shading (``shading``) and the passes (``passes``), ordered by ``pipeline``. What they draw
+with: the raster (``raster``, ``projection``, ``clipping``, ``transparency``), shadow maps
+(``shadows``, queried by ``shadow_filter``) and the world's dome (``sky``). The memory a frame
+takes (``memory``) and the viewport's session (``viewport``).
 """
