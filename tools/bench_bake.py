@@ -110,12 +110,13 @@ def time_probe_bake(size: int, repeat: int, workers: int) -> tuple[float, float]
     chains of one reflection probe of face size ``size``: (cold, warm) seconds."""
     from bo2_lighting.addon.core.bakes import capture
     from bo2_lighting.addon.core.lighting.world_probes import filtered
+    from bo2_lighting.addon.core.render.job import RenderJob
 
     scene = probe_scene()
     scene.settings.threads = workers
 
     def bake():
-        cube = capture.Capture(scene).cube(np.array([0.0, 0.0, 1.5]), size, 0.05, 1e4)
+        cube = capture.Capture(RenderJob(scene)).cube(np.array([0.0, 0.0, 1.5]), size, 0.05, 1e4)
         filtered(cube)
 
     return timed(bake, repeat)
