@@ -1,7 +1,8 @@
 """The add-on's modules import one another in one direction: every module under addon/ is
 parsed (not imported), every import of another add-on module, at module level or inside a
 function, is an edge, and the graph must have no cycle. A module's import of a package that
-contains it is not an edge (Python imports the parents first anyway)."""
+contains it is not an edge (Python imports the parents first anyway), nor is an import under
+``if TYPE_CHECKING:`` (for annotations only: it never runs)."""
 
 import ast
 from pathlib import Path
@@ -16,14 +17,15 @@ def module_name(path: Path, root: Path = ROOT) -> str:
 
 
 def import_graph(files: dict[str, Path]) -> dict[str, set[str]]:
-    """{module: add-on modules it imports}, names relative to the repository root."""
+    """{module: add-on modules it imports}, names relative to the repository root (imports
+    under ``if TYPE_CHECKING:``, for annotations only, are not edges)."""
     graph = {}
     for name, path in files.items():
         package = name if path.name == "__init__.py" else name.rpartition(".")[0]
         edges = set()
-        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+        for node in _runtime_imports(ast.parse(path.read_text(), filename=str(path))):
             targets = []
-            if isinstance(node, ast.ImportFrom) and node.level:
+            if node.level:
                 base = package.split(".")
                 base = base[:len(base) - node.level + 1]
                 stem = ".".join(base + ([node.module] if node.module else []))
