@@ -1,7 +1,7 @@
 """Principled BSDF <-> BO2 Material: converting a material's surface, both ways.
 
 To BO2: the Principled BSDF's inputs (their links or values) go through **BO2 Principled to
-Talk** (``core.scene.material.principled_to_talk`` in nodes, docs/engine.md) into a **BO2
+Talk** (``core.scene.nodes.principled_to_talk`` in nodes, docs/engine.md) into a **BO2
 Material**; Normal, Emission and Alpha go straight across. Textured materials stay textured.
 
 Back: a BO2 Material fed by BO2 Principled to Talk gets its Principled BSDF back exactly (the
@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.formulas import brdf
-from ..core.scene.material import principled_to_talk
+from ..core.scene.nodes import principled_to_talk
 from . import node_groups
 
 _TALK_INPUTS = ("Base Color", "Metallic", "Roughness", "IOR", "Specular IOR Level",

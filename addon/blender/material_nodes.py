@@ -9,6 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.scene import node_math as nm
+from ..core.scene.nodes import BLENDER_NODES
 from .images import load_image
 
 RAMP_TABLE_SIZE = 257  # Cycles' RAMP_TABLE_SIZE + 1 entries, at i / 256
@@ -360,7 +361,9 @@ NODES = {
     "ShaderNodeBsdfTransparent": _transparent, "ShaderNodeHoldout": _holdout,
     "ShaderNodeMixShader": _mix_shader, "ShaderNodeAddShader": _add_shader,
 }
-SUPPORTED_NODES = frozenset(NODES) | {"NodeReroute", "NodeFrame", "NodeGroupInput",
-                                       "NodeGroupOutput", "ShaderNodeGroup",
-                                       "ShaderNodeOutputMaterial"}
+# The nodes a material may use: those the core's operations stand for (``nodes.NODES``), and
+# the tree's structure (groups, reroutes, frames, the output)
+SUPPORTED_NODES = BLENDER_NODES | {"NodeReroute", "NodeFrame", "NodeGroupInput",
+                                   "NodeGroupOutput", "ShaderNodeGroup",
+                                   "ShaderNodeOutputMaterial"}
 

@@ -1,4 +1,4 @@
-"""Blender materials -> ``core.scene.Material`` (a compiled ``core.scene.material.Program``).
+"""Blender materials -> ``core.scene.Material`` (a compiled ``core.scene.program.Program``).
 
 A node tree is translated once per material: each node becomes operations of the core's
 material program with Blender's semantics (the core evaluates them; this module only reads
@@ -18,7 +18,7 @@ import numpy as np
 
 from ..core.render.job import Warnings
 from ..core.scene import Material
-from ..core.scene.material import ProgramBuilder
+from ..core.scene.program import ProgramBuilder
 from ..core.scene.recursion import Bounded
 from .material_nodes import NODES, bo2_material, socket_kind
 from .node_groups import is_bo2_material_node

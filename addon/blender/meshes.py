@@ -13,7 +13,7 @@ from ..core.formulas import tangents
 def read_mesh(mesh, requires=frozenset(), warn=None, warn_ngons=None):
     """Object-space triangles of an evaluated mesh.
 
-    requires: corner attributes the materials read (``core.scene.material.Program.requires``)
+    requires: corner attributes the materials read (``core.scene.program.Program.requires``)
     warn:     called with the key of each attribute the mesh cannot give
     warn_ngons: called when n-gons leave a normal map with per-triangle tangents
     returns:  positions (T, 3, 3), corner normals (T, 3, 3), corner UVs of the active render

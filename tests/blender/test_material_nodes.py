@@ -964,3 +964,13 @@ def test_node_chains_deeper_than_pythons_recursion_limit(addon):
     assert len(program.ops) > 2 * groups * length  # every node compiled
     ours, cycles = compare_albedo(mat, mean=1e-3, worst=0.01)
     assert 0.05 < ours.mean() < 0.6  # the image times 0.6
+
+
+def test_the_blender_nodes_compiled_are_those_the_core_declares():
+    """Each Blender node the compiler reads is declared once, in the core (``nodes.NODES``):
+    the compiler has a function for exactly those, and the supported list derives from them."""
+    from bo2_lighting.addon.blender import material_nodes
+    from bo2_lighting.addon.core.scene.nodes import BLENDER_NODES
+
+    assert set(material_nodes.NODES) == set(BLENDER_NODES)
+    assert BLENDER_NODES <= material_nodes.SUPPORTED_NODES

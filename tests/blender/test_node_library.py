@@ -13,7 +13,7 @@ from test_node_groups import add_plane, add_sun, render, setup_render
 from util import bare_material, render_pixels
 
 from bo2_lighting.addon.blender import convert, library, node_groups
-from bo2_lighting.addon.core.scene.material import principled_to_talk
+from bo2_lighting.addon.core.scene.nodes import principled_to_talk
 
 
 def load_library():

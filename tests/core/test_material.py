@@ -6,13 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from bo2_lighting.addon.core.scene.material import (
-    Points,
-    ProgramBuilder,
-    evaluate,
-    principled_to_talk,
-    talk_program,
-)
+from bo2_lighting.addon.core.scene.material import Points, evaluate
+from bo2_lighting.addon.core.scene.nodes import NODES, principled_to_talk
+from bo2_lighting.addon.core.scene.program import ProgramBuilder, talk_program
 
 
 def points(n=1):
@@ -105,3 +101,13 @@ def test_glossy_roughness_to_gloss(roughness):
     surface = b.add("glossy", b.const(1.0, 1.0, 1.0), b.const(roughness), None)
     np.testing.assert_allclose(evaluate(b.build(surface), points()).gloss, [gloss_of(roughness)],
                                rtol=1e-5)
+
+
+def test_an_operation_is_built_as_declared():
+    b = ProgramBuilder()
+    with pytest.raises(ValueError, match="reads 3 inputs"):
+        b.add("glossy", b.const(1.0, 1.0, 1.0), b.const(0.5))  # the normal slot left out
+    with pytest.raises(ValueError, match="parameters"):
+        b.add("math", b.const(1.0), b.const(2.0), b.const(0.0), param=("ADD",))
+    assert NODES["principled"].index("alpha") == 9 and NODES["bo2"].index("alpha") == 6
+    assert all(node.reference is not None and node.output for node in NODES.values())

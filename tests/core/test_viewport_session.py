@@ -14,7 +14,7 @@ from test_pipeline import HALF_H, HALF_W, H, W, lambert_scene, pixel_centres
 from bo2_lighting.addon.core.lighting.probes import Probes, ReflectionProbe
 from bo2_lighting.addon.core.render import buffers, pipeline, viewport, visibility
 from bo2_lighting.addon.core.render.job import RenderJob
-from bo2_lighting.addon.core.scene import Light, Material, material
+from bo2_lighting.addon.core.scene import Light, Material, program
 
 LIGHT = np.array([0.7, -0.4, 1.5])
 POWER = 80.0
@@ -205,7 +205,7 @@ def test_unknown_change_is_refused(session):
 
 def test_with_materials_refuses_transparent_surfaces():
     frame = pipeline.prepare(RenderJob(scene()))
-    b = material.ProgramBuilder()
+    b = program.ProgramBuilder()
     surface = b.add("bo2", b.const(0.5, 0.5, 0.5), b.const(0.0, 0.0, 0.0), b.const(0.0), None,
                     b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(0.5))  # alpha 0.5
     s = scene()

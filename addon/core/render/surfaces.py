@@ -9,7 +9,7 @@ import dataclasses
 
 import numpy as np
 
-from ..scene import Material, material
+from ..scene import Material, material, nodes
 from .buffers import Frame
 
 
@@ -118,7 +118,7 @@ def caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
     """(N,) alpha of shadow casters at shadow-map texels (triangles ``tri``, weights ``bary``)."""
     q = frame.positions[tri]
     p = np.einsum("nk,nkc->nc", bary, q).astype(np.float32)
-    n = material.unit_vectors(np.einsum("nk,nkc->nc", bary, frame.normals[tri]))
-    geo = material.unit_vectors(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]))
+    n = nodes.unit_vectors(np.einsum("nk,nkc->nc", bary, frame.normals[tri]))
+    geo = nodes.unit_vectors(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]))
     zero = np.zeros(len(tri), np.float32)
     return surface_params(frame, tri, bary, p, n, geo, geo, zero, zero, shifts=False).alpha

@@ -18,7 +18,7 @@ import numpy as np
 
 from ..formulas import affine
 from ..formulas.texture import Texture
-from .material import Program, talk_program
+from .program import Program, talk_program
 
 if TYPE_CHECKING:  # the lighting floor, above this one, holds the probes
     from ..lighting.probes import Probes
@@ -103,9 +103,9 @@ class Camera:
 
 @dataclass
 class Material:
-    """A surface: its compiled node tree (``core.scene.material.Program``) and its settings.
+    """A surface: its compiled node tree (``core.scene.program.Program``) and its settings.
 
-    program: what the surface is at each point (``material.talk_program()``: a grey dielectric)
+    program: what the surface is at each point (``program.talk_program()``: a grey dielectric)
     backface_culling: cull faces seen from behind
     pass_index: the material's index in the IndexMA pass (Blender's Material > Pass Index)
     """
@@ -140,7 +140,7 @@ class MeshBatch:
     shadow:    it casts shadows (Blender's Shadow ray visibility)
     sphere_probes, volume_probes: the captures of Sphere, of Volume probes see it (Blender's
                Object > Visibility > Light Probes; False: it still casts shadows there)
-    attributes: corner values the materials read (``material.Program.requires``), by key:
+    attributes: corner values the materials read (``program.Program.requires``), by key:
                ("uv", map) (T, 3, 2); ("attribute", name) (T, 3, 4) RGBA (a float f as
                (f, f, f, 1), a vector as (x, y, z, 1)); ("tangent", map) (T, 3, 4) world
                MikkTSpace tangent and bitangent sign. Map or name "" is the active render one
