@@ -196,7 +196,7 @@ def test_running_out_of_memory_is_one_message_with_the_figure(addon, monkeypatch
     assert render_pixels(scene, "BO2_LIGHTING", samples=1).shape[2] == 4
     from bo2_lighting.addon.blender import extract
 
-    monkeypatch.setattr(extract, "_to_world", lambda *args: starved())  # reading the scene
+    monkeypatch.setattr(extract, "to_world", lambda *args: starved())  # reading the scene
     with pytest.raises(RuntimeError, match=r"ran out of memory reading the scene: its 2 "
                                            r"triangles need about 0 MiB"):
         render_pixels(scene, "BO2_LIGHTING", samples=1)

@@ -119,7 +119,7 @@ def test_indirect_kernel_matches_numpy(normalization, env_model, prefilter, worl
     view[:3] = normals[:3]  # n.v = 1, the table's last column
     args = (points, normals, view, albedo, rf0, gloss)
     diffuse, specular = cp.indirect(probes, *args, normalization=normalization,
-                                    prefilter=prefilter, env_model=env_model)
+                                    prefilter=prefilter, env_brdf=env_model)
     d_ref, s_ref = reference(probes, *args, normalization, prefilter, env_model)
     weights = np.stack([p.weight(points) for p in probes.reflection])
     assert (weights.sum(0) > 1).sum() > 20 and (weights.sum(0) == 0).sum() > 20  # both cases
@@ -172,7 +172,7 @@ def test_environment_brdf_of_the_kernel_clamps_like_numpy(env_model):
                       [1.0, 1.0, 1.0], [0.04, -np.inf, 0.3], [0.6, 0.7, 0.8],
                       [0.0, 0.0, 0.0], [0.5, 0.25, 0.125]])
     _, spec = cp.indirect(probes, np.zeros((n, 3), np.float32), normals, view, rf0, rf0, gloss,
-                          normalization="none", env_model=env_model)
+                          normalization="none", env_brdf=env_model)
     n_dot_v = np.einsum("nc,nc->n", normals, view)
     expected = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
     assert np.isfinite(spec).all()
@@ -184,7 +184,7 @@ def test_quadrature_is_not_a_shading_model():
     n = np.tile(np.float32([0, 0, 1]), (2, 1))
     with pytest.raises(ValueError, match="environment BRDF 'truth'"):
         cp.indirect(probes, np.zeros((2, 3), np.float32), n, n, n, n, np.ones(2, np.float32),
-                    env_model="truth")
+                    env_brdf="truth")
 
 
 def volume_sh_numpy(vol, points, normals=None):

@@ -726,7 +726,7 @@ def test_large_inputs_in_chunks_give_the_same_fragments(monkeypatch, offset):
     whole_next = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset,
                                   behind=whole.keys)
     monkeypatch.setattr(raster, "SETUP_TRIANGLES", 1000)
-    monkeypatch.setattr(raster, "_CHUNK", 3000)
+    monkeypatch.setattr(projection, "CHUNK", 3000)
     parts = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset)
     parts_next = raster.rasterize(clip, w, h, cull=cull, sample_offset=offset,
                                   behind=parts.keys)

@@ -67,8 +67,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import projection
 from .clipping import clip_triangles
-from .projection import CHUNK, Projection
 
 __all__ = ["Fragments", "coverage", "interpolate", "nearest", "rasterize"]
 
@@ -408,7 +408,7 @@ def rasterize(
     from ..kernels import raster as kernels
 
     width, height = int(width), int(height)
-    if isinstance(clip, Projection):
+    if isinstance(clip, projection.Projection):
         if len(clip) > SETUP_TRIANGLES:
             return _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
                                      depth_plane)
@@ -497,13 +497,13 @@ _MAX_PIECES = 32  # pieces of one triangle clipped by the five planes, one split
 
 
 def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind, depth_plane):
-    """``rasterize`` of a large input (an array or a ``Projection``) in chunks of ``CHUNK``
-    triangles, each set up for this sample offset only (triangles whose box holds no sample
-    are left out before the costly steps) and scanned into the same keys: the key index of a
-    piece of the chunk starting at triangle t0 is ``_MAX_PIECES`` t0 + the piece's rank in
-    the chunk (pieces in triangle order), so keys compare (depth, triangle) as in one set-up
-    and ``behind`` works across calls. The pixels a chunk wins are resolved with its set-up
-    before the next one."""
+    """``rasterize`` of a large input (an array or a ``projection.Projection``) in chunks of
+    ``projection.CHUNK`` triangles, each set up for this sample offset only (triangles whose
+    box holds no sample are left out before the costly steps) and scanned into the same keys:
+    the key index of a piece of the chunk starting at triangle t0 is ``_MAX_PIECES`` t0 + the
+    piece's rank in the chunk (pieces in triangle order), so keys compare (depth, triangle) as
+    in one set-up and ``behind`` works across calls. The pixels a chunk wins are resolved with
+    its set-up before the next one."""
     from ..kernels import raster as kernels
 
     n_tri = len(clip)
@@ -529,9 +529,9 @@ def _rasterize_chunks(clip, width, height, cull, sample_offset, weights, behind,
     part_tri, part_depth = np.empty(npx, np.int32), np.empty(npx, np.float32)
     part_bary = np.empty((npx, 3) if weights else (1, 3), np.float32)
     degenerate = nan = 0
-    for lo in range(0, n_tri, CHUNK):
-        hi = min(lo + CHUNK, n_tri)
-        part = clip.part(lo, hi) if isinstance(clip, Projection) else clip[lo:hi]
+    for lo in range(0, n_tri, projection.CHUNK):
+        hi = min(lo + projection.CHUNK, n_tri)
+        part = clip.part(lo, hi) if isinstance(clip, projection.Projection) else clip[lo:hi]
         part = np.ascontiguousarray(part, np.float32 if part.dtype == np.float32 else np.float64)
         base = _MAX_PIECES * lo
         s = _setup(part, width, height, None if cull is None else cull[lo:hi], guard_bits,
