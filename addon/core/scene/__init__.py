@@ -5,8 +5,9 @@ core knows nothing of Blender. Conventions (``docs/engine.md``): world space is
 Blender's (Z up, right-handed, metres), colours are scene-linear float32 RGB, light values are
 Blender's units (W for point, spot and area lights; W/m^2 irradiance for sun).
 
-A surface is a program (``material``: the node tree compiled, its node maths in ``node_math``,
-deep graphs evaluated within a bounded stack by ``recursion``).
+A surface is a program (``program``) of operations, each declared once (``nodes``), evaluated
+at the shaded points by ``material``, with Blender's node arithmetic in ``node_math`` and deep
+graphs evaluated within a bounded stack by ``recursion``.
 """
 
 from __future__ import annotations
