@@ -1,6 +1,6 @@
 """The BO2 Lighting render engine: F12, animations and headless ``blender -b ... -E BO2_LIGHTING``.
 
-``render()`` extracts the evaluated scene, runs ``core.render.pipeline.render_frame`` with Blender's
+``render()`` extracts the evaluated scene, runs ``core.render.pipeline.render_tiles`` with Blender's
 progress and cancel callbacks, and writes the passes with ``foreach_set``. Any failure ends in
 one ``error_set`` message, never a traceback in the UI. The same ``render()`` draws Blender's
 material, light and world previews (``is_preview``) in the talk's model.
