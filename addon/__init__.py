@@ -60,6 +60,7 @@ def register() -> None:
     node_groups.append_menus()
     ui.append_menus()
     library.register_library()
+    bpy.app.handlers.load_post.append(props.on_load)  # before adoption, which reads them
     bpy.app.handlers.load_post.append(adoption.on_load)
 
 
@@ -72,8 +73,9 @@ def unregister() -> None:
     if not _registered:
         return
     viewport.close_all()
-    if adoption.on_load in bpy.app.handlers.load_post:
-        bpy.app.handlers.load_post.remove(adoption.on_load)
+    for handler in (adoption.on_load, props.on_load):
+        if handler in bpy.app.handlers.load_post:
+            bpy.app.handlers.load_post.remove(handler)
     library.unregister_library()
     ui.remove_menus()
     node_groups.remove_menus()

@@ -60,7 +60,7 @@ def build(out: Path) -> None:
     probe("VOLUME", "Irradiance", (0.0, 0.0, z / 2),
           scale=(x - GAP, y - GAP, z / 2 - GAP),
           resolution_x=6, resolution_y=5, resolution_z=3)
-    scene.bo2.bake_volume_face_size = "16"
+    scene.bo2.probes.volume_face_size = "16"
 
     camera(18, (2.6, -2.1, 1.5), (80, 0, 55))
     save(out)

@@ -65,8 +65,8 @@ def build(out: Path) -> None:
     refl.data.parallax_distance = 1.0  # the object's unit box: the room
     probe("VOLUME", "Room irradiance", (0.0, 0.0, z / 2), scale=(x, y, z / 2),
           resolution_x=6, resolution_y=5, resolution_z=3, influence_distance=0.2)
-    scene.bo2.bake_volume_face_size = "16"
-    scene.bo2.bake_bounces = 3
+    scene.bo2.probes.volume_face_size = "16"
+    scene.bo2.probes.bounces = 3
 
     camera(16, (2.7, -2.2, 1.6), (82, 0, 62))
     save(out)

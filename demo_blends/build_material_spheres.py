@@ -97,7 +97,7 @@ def build(out: Path) -> None:
 
     probe("SPHERE", "Reflection", (0.0, -2.0, 2.1), influence_distance=12.0,
           use_custom_parallax=True, parallax_distance=1.0e4)  # the sky: no room to correct to
-    scene.bo2.bake_face_size = "128"
+    scene.bo2.probes.face_size = "128"
 
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.data.lens = 50

@@ -51,7 +51,7 @@ def build(out: Path) -> None:
           use_custom_parallax=True, parallax_distance=1.0e4)  # the sky: no room to correct to
     probe("VOLUME", "Irradiance", (0.0, 0.7, 1.0), scale=(3.5, 2.0, 1.0), resolution_x=8,
           resolution_y=4, resolution_z=2, influence_distance=1.0)
-    scene.bo2.bake_volume_face_size = "16"
+    scene.bo2.probes.volume_face_size = "16"
 
     camera(35, (0.0, -5.5, 2.2), (72, 0, 0))
     bpy.ops.wm.save_as_mainfile(filepath=str(out), compress=True)

@@ -130,8 +130,8 @@ def build(out: Path) -> None:
           resolution_x=5, resolution_y=4, resolution_z=3, influence_distance=0.5)
     probe("SPHERE", "Table reflection", (0.3, -0.6, 1.4), influence_distance=2.5, falloff=0.3)
     probe("SPHERE", "Shelf reflection", (1.6, 1.4, 1.2), influence_distance=1.6, falloff=0.3)
-    scene.bo2.bake_volume_face_size = "16"
-    scene.bo2.bake_bounces = 3  # with the render's own bounce, as Cycles' 4 diffuse bounces
+    scene.bo2.probes.volume_face_size = "16"
+    scene.bo2.probes.bounces = 3  # with the render's own bounce, as Cycles' 4 diffuse bounces
 
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.data.lens = 20

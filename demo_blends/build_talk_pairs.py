@@ -31,7 +31,7 @@ PAIRS = ("normalization", "prefilter", "env_brdf")
 def new_scene(lens: float, location, rotation_deg):
     scene = empty_scene()
     scene.cycles.samples = 64
-    scene.bo2.bake_volume_face_size = "16"
+    scene.bo2.probes.volume_face_size = "16"
     camera(lens, location, rotation_deg)
     return scene
 

@@ -62,10 +62,10 @@ def build(folder: Path, resolution: int, rays: int, bounces: int, samples: int):
     sun.rotation_euler = (math.radians(40), 0, math.radians(-30))
     scene.collection.objects.link(sun)
     s = scene.bo2
-    s.lightmap_max_resolution = str(resolution)
-    s.lightmap_density = 1000.0  # the ground's layout is held to the maximum resolution
-    s.lightmap_rays, s.lightmap_bounces = rays, bounces
-    s.bake_cycles_samples = samples
+    s.lightmaps.max_resolution = str(resolution)
+    s.lightmaps.density = 1000.0  # the ground's layout is held to the maximum resolution
+    s.lightmaps.rays, s.lightmaps.bounces = rays, bounces
+    s.probes.cycles_samples = samples
     s.bake_pack = False
     bpy.ops.wm.save_as_mainfile(filepath=str(folder / "far_ground.blend"))
     return scene, scene.objects["Ground"]

@@ -144,7 +144,7 @@ bpy.ops.wm.open_mainfile(filepath=sys.argv[1])
 kernels.load()
 scene = bpy.context.scene
 frame, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(),
-                                 indirect=scene.bo2.use_indirect)
+                                 indirect=scene.bo2.indirect.use)
 frame = dataclasses.replace(frame, settings=dataclasses.replace(frame.settings, threads=1))
 profile = cProfile.Profile()
 profile.enable()

@@ -49,7 +49,7 @@ def main() -> int:
     bpy.ops.wm.open_mainfile(filepath=str(args.blend.resolve()), load_ui=False)
     scene = bpy.context.scene
     scene.render.engine = "BO2_LIGHTING"
-    scene.bo2.viewport_samples = 1
+    scene.bo2.viewport.samples = 1
     kernels.load()
 
     caught: list = []

@@ -70,8 +70,9 @@ def main() -> int:
             for name, settings in cases:
                 settings = {"sky_directions": "32", "use_implicit_bounce": True, **settings}
                 for key, value in settings.items():
-                    if hasattr(scene.bo2, key):  # (an older version of the add-on: not all)
-                        setattr(scene.bo2, key, value)
+                    owner = getattr(scene.bo2, "indirect", scene.bo2)  # (flat in older versions)
+                    if hasattr(owner, key):  # (an older version of the add-on: not all)
+                        setattr(owner, key, value)
                 rows[width, name] = timed(scene, args.repeat)
         tris = 0
         for obj in scene.objects:

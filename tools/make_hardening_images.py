@@ -56,7 +56,7 @@ def shadow_scene():
     scene.camera = cam
     scene.render.engine = "BO2_LIGHTING"
     scene.bo2.samples = 64
-    scene.bo2.use_indirect = False
+    scene.bo2.indirect.use = False
     return scene
 
 

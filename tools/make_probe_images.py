@@ -62,7 +62,7 @@ def build(folder: Path, size: int):
           resolution_y=4, resolution_z=2, influence_distance=1.0)
     scene.cycles.device, scene.cycles.use_denoising = "CPU", False
     scene.cycles.max_bounces = 4
-    scene.bo2.bake_bounces = 2  # the second bounce brings the sky onto the walls
+    scene.bo2.probes.bounces = 2  # the second bounce brings the sky onto the walls
     bpy.ops.wm.save_as_mainfile(filepath=str(folder / "probes.blend"))
     return scene
 
@@ -92,9 +92,9 @@ def main() -> int:
     with tempfile.TemporaryDirectory() as tmp:
         scene = build(Path(tmp), args.size)
         cycles = render(scene, "CYCLES", 256)
-        scene.bo2.use_indirect = False
+        scene.bo2.indirect.use = False
         direct = render(scene, "BO2_LIGHTING", 8)
-        scene.bo2.use_indirect = True
+        scene.bo2.indirect.use = True
         world = render(scene, "BO2_LIGHTING", 8)
         assert bpy.ops.bo2.bake_probes() == {"FINISHED"}
         baked = render(scene, "BO2_LIGHTING", 8)
@@ -103,7 +103,7 @@ def main() -> int:
         save_row(scene, [direct, world, baked, cycles], OUT / "probes_indirect.png")
         rows = []
         for norm, pre in (("none", "bo2"), ("bo1", "bo2"), ("bo2", "bo2"), ("bo2", "bo1")):
-            scene.bo2.normalization, scene.bo2.prefilter = norm, pre
+            scene.bo2.indirect.normalization, scene.bo2.indirect.prefilter = norm, pre
             rows.append(render(scene, "BO2_LIGHTING", 8))
         save_row(scene, rows, OUT / "probes_normalization.png")
     return 0

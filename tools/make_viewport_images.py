@@ -71,7 +71,7 @@ def main() -> int:
     kernels.load()
     with tempfile.TemporaryDirectory() as folder:
         scene.bo2.bake_folder = folder
-        scene.bo2.use_indirect = True
+        scene.bo2.indirect.use = True
         depsgraph = bpy.context.evaluated_depsgraph_get()
         for _ in bake.bake_steps(scene, probes.probe_objects(scene), "BO2"):
             pass
@@ -79,7 +79,7 @@ def main() -> int:
         camera = core_viewport.view_camera(
             cam.matrix_world.inverted(), cam.calc_matrix_camera(depsgraph, x=W, y=H), W, H)
 
-        scene.bo2.viewport_samples = 8
+        scene.bo2.viewport.samples = 8
         images = []
         view = viewport.Viewport(on_image=lambda: images.append(view.session.image()))
         view.sync(bpy.context.evaluated_depsgraph_get())

@@ -35,8 +35,8 @@ Diffuse Indirect side by side. ``--reuse-cycles`` keeps a Cycles render already 
 object of these scenes is static: the figures over all geometry are the static surfaces'),
 and prints their bake time and files' size. ``--no-leak-fixes`` bakes the volumes without
 validity, escape and dilation and looks them up without biases (the behaviour before them).
-``--set NAME=VALUE`` sets one of the scene's BO2 settings first
-(``--set use_ambient_occlusion=False``, ``--set "sky_directions='64'"``).
+``--set NAME=VALUE`` sets one of the scene's BO2 settings first, by its path in ``scene.bo2``
+(``--set indirect.use_ambient_occlusion=False``, ``--set "indirect.sky_directions='64'"``).
 
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
 and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
@@ -61,7 +61,7 @@ import bpy
 import numpy as np
 
 import bo2_lighting
-from bo2_lighting.addon.blender import bake_files
+from bo2_lighting.addon.blender import bake_files, props
 from bo2_lighting.addon.blender import compare as blender_compare
 from bo2_lighting.addon.blender import images as blender_images
 from bo2_lighting.addon.core.review import compare, imaging
@@ -156,7 +156,7 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
     scene.render.engine = "BO2_LIGHTING"
     scene.bo2.bake_folder = str(out / "bake")
     if bounces:
-        scene.bo2.bake_bounces = bounces
+        scene.bo2.probes.bounces = bounces
     if args.cycles_samples:
         scene.cycles.samples = args.cycles_samples
     if args.cycles_bounces:
@@ -166,7 +166,7 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
         no_leak_fixes(scene)
     for item in [*args.set, *settings]:  # NAME=VALUE of BO2 settings, as Python literals
         name, _, value = item.partition("=")
-        setattr(scene.bo2, name, ast.literal_eval(value))
+        props.set_setting(scene, name, ast.literal_eval(value))
     for mat in bpy.data.materials:
         nodes = mat.node_tree.nodes if mat.node_tree else []
         if any(n.type == "BSDF_PRINCIPLED" and n.inputs["Metallic"].default_value >= 0.5

@@ -33,17 +33,17 @@ import numpy as np
 import bo2_lighting
 from bo2_lighting.addon.blender import compare as blender_compare
 from bo2_lighting.addon.blender import images as blender_images
-from bo2_lighting.addon.blender import probes
+from bo2_lighting.addon.blender import probes, props
 from bo2_lighting.addon.core.review import compare, imaging
 
 ROOT = Path(__file__).resolve().parents[1]
 BLENDS = ROOT / "demo_blends"
 PAIRS = {
-    "normalization": ("pair_normalization", "normalization", ("bo1", "BO1 normalization"),
+    "normalization": ("pair_normalization", "indirect.normalization", ("bo1", "BO1 normalization"),
                       ("bo2", "BO2 normalization")),
-    "prefilter": ("pair_prefilter", "prefilter", ("bo1", "BO1 angular Gaussian"),
+    "prefilter": ("pair_prefilter", "indirect.prefilter", ("bo1", "BO1 angular Gaussian"),
                   ("bo2", "BO2 cosine power")),
-    "env_brdf": ("pair_env_brdf", "env_brdf", ("bo1", "BO1 environment Fresnel"),
+    "env_brdf": ("pair_env_brdf", "indirect.env_brdf", ("bo1", "BO1 environment Fresnel"),
                  ("bo2", "BO2 environment BRDF")),
     "direct": ("old_vs_new", "specular_model", ("reference", "exact direct terms"),
                ("bo2", "BO2 optimized terms")),
@@ -77,7 +77,7 @@ def main() -> int:
         layer = bpy.context.view_layer.name
         images = []
         for value in (old, new):
-            setattr(scene.bo2, prop, value)
+            props.set_setting(scene, prop, value)
             bpy.ops.render.render()
             path = args.out / f".{name}_{value}.exr"
             blender_compare.save_result(scene, path)

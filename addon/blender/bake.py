@@ -102,7 +102,7 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1] that
     returns the number of probes written.
 
-    backend: "BO2" (the engine's pipeline, ``scene.bo2.bake_bounces`` bounces) or "CYCLES"
+    backend: "BO2" (the engine's pipeline, ``scene.bo2.probes.bounces`` bounces) or "CYCLES"
              (one Cycles render per face, full global illumination: one bounce)
     warnings: the sink of the bake's warnings (``core.render.job.Warnings``)
     The scene is read as a final render evaluates it (``render_graph``). Closing the

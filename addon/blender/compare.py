@@ -50,10 +50,11 @@ class CompareError(Exception):
 
 
 def output_folder(scene, setting: str = "compare_folder") -> Path:
-    """A folder setting of the scene (``scene.bo2.<setting>``, by default the Compare Folder)
-    as an absolute path."""
-    label = scene.bo2.bl_rna.properties[setting].name
-    text = getattr(scene.bo2, setting).strip()
+    """A folder setting of the scene's look-dev (``scene.bo2.lookdev.<setting>``, by default
+    the Compare Folder) as an absolute path."""
+    settings = scene.bo2.lookdev
+    label = settings.bl_rna.properties[setting].name
+    text = getattr(settings, setting).strip()
     if not text:
         raise CompareError(f"no {label} is set")
     if text.startswith("//") and not bpy.data.filepath:
@@ -218,7 +219,7 @@ class Comparison:
         if key == "bo2":
             used = settings_of.render_settings(scene)
             info.update(samples=used.samples, specular_model=used.specular_model,
-                        indirect=scene.bo2.use_indirect)
+                        indirect=scene.bo2.indirect.use)
         else:
             c = scene.cycles
             info.update(samples=c.samples, adaptive_sampling=c.use_adaptive_sampling,

@@ -101,7 +101,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             settings = settings_of.render_settings(
                 scene, "PREVIEW" if self.is_preview else "FINAL", depsgraph.view_layer)
             should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731
-            frame, _ = extract.extract_scene(depsgraph, settings, indirect=scene.bo2.use_indirect,
+            frame, _ = extract.extract_scene(depsgraph, settings, indirect=scene.bo2.indirect.use,
                                              should_stop=should_stop, warnings=sink)
             if not self.is_preview:
                 self.update_stats("BO2 Lighting", "Baking the bounce without probes")

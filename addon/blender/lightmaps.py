@@ -65,7 +65,7 @@ def lightmap_objects(scene, selected_only: bool = False) -> list:
 
 def density(obj, scene) -> float:
     """Texels per metre of ``obj``'s lightmap: its own, else the scene's."""
-    return float(obj.bo2.lightmap_density or scene.bo2.lightmap_density)
+    return float(obj.bo2.lightmap_density or scene.bo2.lightmaps.density)
 
 
 def uv_map(obj) -> str | None:
@@ -162,7 +162,7 @@ def attach(scene, core_scene: cs.Scene, warnings: Warnings, viewport: bool = Fal
     Lightmaps are baked for the meshes a final render evaluates; ``viewport``: ``core_scene``
     is the viewport's evaluation, compared with what the bake recorded of it (an object whose
     viewport mesh differs, Levels Viewport below Render, is lit by the probes there)."""
-    if not scene.bo2.use_lightmaps:
+    if not scene.bo2.lightmaps.use:
         return []
     light = None
     stale, render_only = [], []

@@ -31,8 +31,8 @@ KINDS = {"SPHERE": "reflection", "VOLUME": "irradiance"}
 
 
 def capture_backend(scene) -> str:
-    """"BO2" or "CYCLES": ``scene.bo2.bake_backend``, else the preferences' default."""
-    backend = scene.bo2.bake_backend
+    """"BO2" or "CYCLES": ``scene.bo2.probes.backend``, else the preferences' default."""
+    backend = scene.bo2.probes.backend
     return props.preferences().bake_backend if backend == "DEFAULT" else backend
 
 

@@ -1,5 +1,6 @@
 """Settings stored in .blend files: one PropertyGroup per ID type (``scene.bo2``,
-``object.bo2``)."""
+``object.bo2``, ``view_layer.bo2``); the scene's in one group per Render panel
+(``scene.bo2.indirect``, ``.probes``, ``.lightmaps``, ``.viewport``, ``.lookdev``)."""
 
 import bpy
 
@@ -12,7 +13,7 @@ def _items(setting: str) -> list[tuple[str, str, str]]:
     return [(c.id, c.label, c.description) for c in CHOICES[setting]]
 
 
-# Renderers of the probes' captures (``scene.bo2.bake_backend``, the preferences' default)
+# Renderers of the probes' captures (``scene.bo2.probes.backend``, the preferences' default)
 _BACKENDS = [
     ("BO2", "BO2 Lighting", "The engine's own pipeline: direct light, shadows, the world and "
      "the previous bounce's probes (fast)"),
@@ -20,31 +21,52 @@ _BACKENDS = [
 ]
 
 
-class BO2SceneSettings(bpy.types.PropertyGroup):
-    """Render settings of the BO2 Lighting engine (``scene.bo2``)."""
+class BO2IndirectSettings(bpy.types.PropertyGroup):
+    """Indirect light of renders and bakes (``scene.bo2.indirect``; Render > BO2 Lighting
+    > Indirect Light)."""
 
-    samples: bpy.props.IntProperty(
-        name="Samples",
-        description="Anti-aliasing samples per pixel of a final render",
-        default=4, min=1, max=1024, soft_max=64,
+    use: bpy.props.BoolProperty(
+        name="Indirect Light",
+        description="Light surfaces by the world and the baked light probes (indirect diffuse "
+        "from SH irradiance, indirect specular from prefiltered cube maps; slide 'Getting More "
+        "Physical in Call of Duty: Black Ops II', Indirect Specular)",
+        default=True,
     )
-    viewport_samples: bpy.props.IntProperty(
-        name="Viewport Samples",
-        description="Anti-aliasing samples per pixel of the viewport's Rendered shading, "
-        "added one at a time after a first image at a quarter of the resolution",
-        default=8, min=1, max=1024, soft_max=64,
+    normalization: bpy.props.EnumProperty(
+        name="Normalization",
+        description="Environment map normalization: how a reflection probe's cube map is "
+        "fitted to the lighting at each pixel (slides 'Black Ops: environment map "
+        "normalization', 'Improved normalization algorithm')",
+        items=_items("normalization"),
+        default="bo2",
     )
-    shade_every_sample: bpy.props.BoolProperty(
-        name="Shade Every Sample",
-        description="Shade each anti-aliasing sample on its own instead of once per pixel and "
-        "triangle: supersamples textures, highlights and shadow edges, at the cost of speed",
-        default=False,
+    prefilter: bpy.props.EnumProperty(
+        name="Prefilter",
+        description="Filter of the reflection probes' mip chains (both are baked)",
+        items=_items("prefilter"),
+        default="bo2",
     )
-    shadow_resolution: bpy.props.EnumProperty(
-        name="Shadow Resolution",
-        description="Size of each shadow map: per cube face, spot map or sun cascade",
-        items=[(str(n), f"{n} px", "") for n in (256, 512, 1024, 2048, 4096)],
-        default="1024",
+    env_brdf: bpy.props.EnumProperty(
+        name="Environment BRDF",
+        description="Environment BRDF that scales indirect specular (reflections); slides "
+        "'Environment BRDF: old method' and 'new method'",
+        items=_items("env_brdf"),
+        default="bo2",
+    )
+    sky_directions: bpy.props.EnumProperty(
+        name="World Occlusion",
+        description="The world lights a point in proportion to the sky it sees: a dome of "
+        "shadow maps, one per direction, occludes the world's light in renders and bakes "
+        "(Off: the world reaches every point, as if nothing stood around it)",
+        items=[("0", "Off", "The world's light reaches every point")]
+        + [(str(n), f"{n} Directions", "") for n in (16, 32, 64, 128, 256)],
+        default="32",
+    )
+    sky_resolution: bpy.props.EnumProperty(
+        name="Occlusion Resolution",
+        description="Size of each shadow map of the world's dome",
+        items=[(str(n), f"{n} px", "") for n in (128, 256, 512)],
+        default="256",
     )
     use_implicit_bounce: bpy.props.BoolProperty(
         name="Bounce Without Probes",
@@ -70,93 +92,27 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "and the gloss (Lagarde and de Rousiers 2014)",
         default=True,
     )
-    sky_directions: bpy.props.EnumProperty(
-        name="World Occlusion",
-        description="The world lights a point in proportion to the sky it sees: a dome of "
-        "shadow maps, one per direction, occludes the world's light in renders and bakes "
-        "(Off: the world reaches every point, as if nothing stood around it)",
-        items=[("0", "Off", "The world's light reaches every point")]
-        + [(str(n), f"{n} Directions", "") for n in (16, 32, 64, 128, 256)],
-        default="32",
-    )
-    sky_resolution: bpy.props.EnumProperty(
-        name="Occlusion Resolution",
-        description="Size of each shadow map of the world's dome",
-        items=[(str(n), f"{n} px", "") for n in (128, 256, 512)],
-        default="256",
-    )
-    specular_model: bpy.props.EnumProperty(
-        name="Direct Specular",
-        description="Terms of the direct specular BRDF (slide 'Black Ops: Microfacet BRDF' and "
-        "the bonus slides)",
-        items=_items("specular_model"),
-        default="reference",
-    )
 
-    env_brdf: bpy.props.EnumProperty(
-        name="Environment BRDF",
-        description="Environment BRDF that scales indirect specular (reflections); slides "
-        "'Environment BRDF: old method' and 'new method'",
-        items=_items("env_brdf"),
-        default="bo2",
-    )
-    use_indirect: bpy.props.BoolProperty(
-        name="Indirect Light",
-        description="Light surfaces by the world and the baked light probes (indirect diffuse "
-        "from SH irradiance, indirect specular from prefiltered cube maps; slide 'Getting More "
-        "Physical in Call of Duty: Black Ops II', Indirect Specular)",
-        default=True,
-    )
-    normalization: bpy.props.EnumProperty(
-        name="Normalization",
-        description="Environment map normalization: how a reflection probe's cube map is "
-        "fitted to the lighting at each pixel (slides 'Black Ops: environment map "
-        "normalization', 'Improved normalization algorithm')",
-        items=_items("normalization"),
-        default="bo2",
-    )
-    prefilter: bpy.props.EnumProperty(
-        name="Prefilter",
-        description="Filter of the reflection probes' mip chains (both are baked)",
-        items=_items("prefilter"),
-        default="bo2",
-    )
-    bake_folder: bpy.props.StringProperty(
-        name="Bake Folder",
-        description="Folder of the bakes: each .blend's go into a folder named after it "
-        "inside, one OpenEXR file per probe or lightmap ('//' is the .blend's folder; empty: "
-        "the Default Bake Folder of the add-on's preferences)",
-        default="",
-        subtype="DIR_PATH",
-    )
-    bake_pack: bpy.props.BoolProperty(
-        name="Pack Bakes",
-        description="Store new bakes (probes and lightmaps) inside the .blend, as EEVEE "
-        "does, so that a saved file carries its light to another machine or a farm; off: "
-        "only in the bake folder, declared as external files",
-        default=True,
-    )
-    bakes_adopted: bpy.props.BoolProperty(
-        name="Bakes Adopted",
-        description="The bakes of earlier versions were looked for (once per scene)",
-        default=False,
-        options={"HIDDEN"},
-    )
-    bake_backend: bpy.props.EnumProperty(
+
+class BO2ProbeSettings(bpy.types.PropertyGroup):
+    """How the light probes are baked (``scene.bo2.probes``; Render > BO2 Lighting
+    > Light Probes)."""
+
+    backend: bpy.props.EnumProperty(
         name="Bake With",
         description="Renderer of the probes' captures",
         items=[("DEFAULT", "Default", "The Default Capture Backend of the add-on's "
                 "preferences"), *_BACKENDS],
         default="DEFAULT",
     )
-    bake_face_size: bpy.props.EnumProperty(
+    face_size: bpy.props.EnumProperty(
         name="Cube Size",
         description="Face size of the reflection probes' cube maps (slide 'Improved environment "
         "map pre-filtering': 128, the top mip tied to the largest specular power)",
         items=[(str(n), f"{n} px", "") for n in (32, 64, 128, 256, 512)],
         default="128",
     )
-    bake_volume_face_size: bpy.props.EnumProperty(
+    volume_face_size: bpy.props.EnumProperty(
         name="Irradiance Cube Size",
         description="Face size of the captures at each irradiance volume sample (only their "
         "SH is kept, so small sizes suffice; slide 'Improved normalization algorithm', "
@@ -164,32 +120,102 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         items=[(str(n), f"{n} px", "") for n in (8, 16, 32, 64, 128)],
         default="32",
     )
-    bake_bounces: bpy.props.IntProperty(
+    bounces: bpy.props.IntProperty(
         name="Bounces",
         description="Light bounces of the bake (BO2 backend): each bounce's captures are lit "
                     "by the previous bounce's probes, diffuse and specular. With the render's "
                     "own bounce, 3 matches Cycles' default of 4 diffuse bounces",
         default=3, min=1, max=16,
     )
-    bake_samples: bpy.props.IntProperty(
+    samples: bpy.props.IntProperty(
         name="Bake Samples",
         description="Anti-aliasing samples per pixel of the captures (BO2 backend; Cycles uses "
         "its own sample count)",
         default=4, min=1, max=64,
     )
+    cycles_samples: bpy.props.IntProperty(
+        name="Cycles Samples",
+        description="Path-tracing samples per pixel of the captures (Cycles backend)",
+        default=64, min=1, max=65536, soft_max=4096,
+    )
+
+
+class BO2LightmapSettings(bpy.types.PropertyGroup):
+    """Lightmaps of the scene's static objects (``scene.bo2.lightmaps``; Render > BO2 Lighting
+    > Lightmaps)."""
+
+    use: bpy.props.BoolProperty(
+        name="Lightmaps",
+        description="Static objects with a baked lightmap take their diffuse indirect light "
+        "from it (and the BO2 normalization its irradiance); off: from the probes",
+        default=True,
+    )
+    density: bpy.props.FloatProperty(
+        name="Texels per Metre",
+        description="Density of the lightmaps the bake lays out (an object can ask for its own)",
+        default=20.0, min=0.1, max=1000.0, soft_max=200.0,
+    )
+    max_resolution: bpy.props.EnumProperty(
+        name="Max Resolution",
+        description="No lightmap is larger than this on a side; a larger object gets a lower "
+        "density",
+        items=[(str(n), f"{n} px", "") for n in (128, 256, 512, 1024, 2048, 4096)],
+        default="1024",
+    )
+    padding: bpy.props.IntProperty(
+        name="Padding",
+        description="Texels between the charts of a layout the bake makes (the lightmap is "
+        "dilated into them, so bilinear look-ups and mips do not bleed)",
+        default=2, min=1, max=16,
+    )
+    rays: bpy.props.IntProperty(
+        name="Rays",
+        description="Rays per texel and bounce of the BO2 lightmap bake (more: less noise)",
+        default=256, min=4, max=4096, soft_max=1024,
+    )
+    bounces: bpy.props.IntProperty(
+        name="Bounces",
+        description="Gathers of the lightmap bake: the first sees direct light, emission and "
+        "the world; each further one adds a bounce, and the last also sees the bounces after "
+        "it, estimated from the series of the ones before",
+        default=4, min=1, max=16,
+    )
+    directional: bpy.props.BoolProperty(
+        name="Directional",
+        description="Store the L1 SH of the incoming light per texel (4 x RGB) so normal maps "
+        "keep their relief under baked light (beyond the talk: as Bakery's SH and Godot's "
+        "directional lightmaps)",
+        default=False,
+    )
+    denoise: bpy.props.BoolProperty(
+        name="Denoise",
+        description="Filter each chart with an edge-avoiding filter guided by position, normal "
+        "and the noise of each texel (it never crosses a chart's edge)",
+        default=True,
+    )
+
+
+class BO2ViewportSettings(bpy.types.PropertyGroup):
+    """The viewport's Rendered shading (``scene.bo2.viewport``; Render > BO2 Lighting
+    > Viewport)."""
+
+    samples: bpy.props.IntProperty(
+        name="Viewport Samples",
+        description="Anti-aliasing samples per pixel of the viewport's Rendered shading, "
+        "added one at a time after a first image at a quarter of the resolution",
+        default=8, min=1, max=1024, soft_max=64,
+    )
+
+
+class BO2LookDevSettings(bpy.types.PropertyGroup):
+    """Comparisons with Cycles and the look-dev review (``scene.bo2.lookdev``; Render > BO2 Lighting
+    > Look-Dev)."""
+
     compare_folder: bpy.props.StringProperty(
         name="Compare Folder",
         description="Folder of Compare with Cycles: both renders as EXR, the side-by-side, "
         "split and difference pictures and metrics.json ('//' is the .blend's folder)",
         default="//bo2_compare/",
-        subtype="DIR_PATH",
-        options={"PATH_SUPPORTS_BLEND_RELATIVE"},
-    )
-    report_folder: bpy.props.StringProperty(
-        name="Report Folder",
-        description="Folder of the look-dev review: index.html (open it in a web browser), "
-        "report.json and each scene's renders and pictures ('//' is the .blend's folder)",
-        default="//bo2_report/",
         subtype="DIR_PATH",
         options={"PATH_SUPPORTS_BLEND_RELATIVE"},
     )
@@ -218,60 +244,80 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "BRDF, normalization and prefilter), for the page's old/new toggle",
         default=False,
     )
-    bake_cycles_samples: bpy.props.IntProperty(
-        name="Cycles Samples",
-        description="Path-tracing samples per pixel of the captures (Cycles backend)",
-        default=64, min=1, max=65536, soft_max=4096,
+    report_folder: bpy.props.StringProperty(
+        name="Report Folder",
+        description="Folder of the look-dev review: index.html (open it in a web browser), "
+        "report.json and each scene's renders and pictures ('//' is the .blend's folder)",
+        default="//bo2_report/",
+        subtype="DIR_PATH",
+        options={"PATH_SUPPORTS_BLEND_RELATIVE"},
     )
-    use_lightmaps: bpy.props.BoolProperty(
-        name="Lightmaps",
-        description="Static objects with a baked lightmap take their diffuse indirect light "
-        "from it (and the BO2 normalization its irradiance); off: from the probes",
-        default=True,
+
+
+class BO2SceneSettings(bpy.types.PropertyGroup):
+    """Render settings of the BO2 Lighting engine (``scene.bo2``): the main panel's, where the
+    bakes are kept, and one group per sub-panel."""
+
+    samples: bpy.props.IntProperty(
+        name="Samples",
+        description="Anti-aliasing samples per pixel of a final render",
+        default=4, min=1, max=1024, soft_max=64,
     )
-    lightmap_density: bpy.props.FloatProperty(
-        name="Texels per Metre",
-        description="Density of the lightmaps the bake lays out (an object can ask for its own)",
-        default=20.0, min=0.1, max=1000.0, soft_max=200.0,
-    )
-    lightmap_max_resolution: bpy.props.EnumProperty(
-        name="Max Resolution",
-        description="No lightmap is larger than this on a side; a larger object gets a lower "
-        "density",
-        items=[(str(n), f"{n} px", "") for n in (128, 256, 512, 1024, 2048, 4096)],
-        default="1024",
-    )
-    lightmap_padding: bpy.props.IntProperty(
-        name="Padding",
-        description="Texels between the charts of a layout the bake makes (the lightmap is "
-        "dilated into them, so bilinear look-ups and mips do not bleed)",
-        default=2, min=1, max=16,
-    )
-    lightmap_rays: bpy.props.IntProperty(
-        name="Rays",
-        description="Rays per texel and bounce of the BO2 lightmap bake (more: less noise)",
-        default=256, min=4, max=4096, soft_max=1024,
-    )
-    lightmap_bounces: bpy.props.IntProperty(
-        name="Bounces",
-        description="Gathers of the lightmap bake: the first sees direct light, emission and "
-        "the world; each further one adds a bounce, and the last also sees the bounces after "
-        "it, estimated from the series of the ones before",
-        default=4, min=1, max=16,
-    )
-    lightmap_directional: bpy.props.BoolProperty(
-        name="Directional",
-        description="Store the L1 SH of the incoming light per texel (4 x RGB) so normal maps "
-        "keep their relief under baked light (beyond the talk: as Bakery's SH and Godot's "
-        "directional lightmaps)",
+    shade_every_sample: bpy.props.BoolProperty(
+        name="Shade Every Sample",
+        description="Shade each anti-aliasing sample on its own instead of once per pixel and "
+        "triangle: supersamples textures, highlights and shadow edges, at the cost of speed",
         default=False,
     )
-    lightmap_denoise: bpy.props.BoolProperty(
-        name="Denoise",
-        description="Filter each chart with an edge-avoiding filter guided by position, normal "
-        "and the noise of each texel (it never crosses a chart's edge)",
+    specular_model: bpy.props.EnumProperty(
+        name="Direct Specular",
+        description="Terms of the direct specular BRDF (slide 'Black Ops: Microfacet BRDF' and "
+        "the bonus slides)",
+        items=_items("specular_model"),
+        default="reference",
+    )
+    shadow_resolution: bpy.props.EnumProperty(
+        name="Shadow Resolution",
+        description="Size of each shadow map: per cube face, spot map or sun cascade",
+        items=[(str(n), f"{n} px", "") for n in (256, 512, 1024, 2048, 4096)],
+        default="1024",
+    )
+    bake_folder: bpy.props.StringProperty(
+        name="Bake Folder",
+        description="Folder of the bakes: each .blend's go into a folder named after it "
+        "inside, one OpenEXR file per probe or lightmap ('//' is the .blend's folder; empty: "
+        "the Default Bake Folder of the add-on's preferences)",
+        default="",
+        subtype="DIR_PATH",
+    )
+    bake_pack: bpy.props.BoolProperty(
+        name="Pack Bakes",
+        description="Store new bakes (probes and lightmaps) inside the .blend, as EEVEE "
+        "does, so that a saved file carries its light to another machine or a farm; off: "
+        "only in the bake folder, declared as external files",
         default=True,
     )
+    bakes_adopted: bpy.props.BoolProperty(
+        name="Bakes Adopted",
+        description="The bakes of earlier versions were looked for (once per scene)",
+        default=False,
+        options={"HIDDEN"},
+    )
+    indirect: bpy.props.PointerProperty(
+        type=BO2IndirectSettings, name="Indirect Light",
+        description="Indirect light of renders and bakes: the world, the probes, occlusion")
+    probes: bpy.props.PointerProperty(
+        type=BO2ProbeSettings, name="Light Probes",
+        description="How the light probes are baked")
+    lightmaps: bpy.props.PointerProperty(
+        type=BO2LightmapSettings, name="Lightmaps",
+        description="Lightmaps of the static objects: their use and their bake")
+    viewport: bpy.props.PointerProperty(
+        type=BO2ViewportSettings, name="Viewport",
+        description="The viewport's Rendered shading")
+    lookdev: bpy.props.PointerProperty(
+        type=BO2LookDevSettings, name="Look-Dev",
+        description="Comparisons with Cycles and the look-dev review")
 
 
 class BO2ObjectSettings(bpy.types.PropertyGroup):
@@ -340,6 +386,11 @@ def _tagging(cls):
     return cls
 
 
+_tagging(BO2IndirectSettings)
+_tagging(BO2ProbeSettings)
+_tagging(BO2LightmapSettings)
+_tagging(BO2ViewportSettings)
+_tagging(BO2LookDevSettings)
 _tagging(BO2SceneSettings)
 _tagging(BO2ObjectSettings)
 
@@ -386,7 +437,81 @@ def preferences():
         else _Defaults
 
 
-CLASSES = [BO2SceneSettings, BO2ObjectSettings, BO2ViewLayerSettings, BO2Preferences]
+# Settings that files of earlier versions keep flat in ``scene.bo2``: name -> (group, name)
+MOVED = {
+    "use_indirect": ("indirect", "use"),
+    "normalization": ("indirect", "normalization"),
+    "prefilter": ("indirect", "prefilter"),
+    "env_brdf": ("indirect", "env_brdf"),
+    "sky_directions": ("indirect", "sky_directions"),
+    "sky_resolution": ("indirect", "sky_resolution"),
+    "use_implicit_bounce": ("indirect", "use_implicit_bounce"),
+    "use_ambient_occlusion": ("indirect", "use_ambient_occlusion"),
+    "ao_distance": ("indirect", "ao_distance"),
+    "use_specular_occlusion": ("indirect", "use_specular_occlusion"),
+    "bake_backend": ("probes", "backend"),
+    "bake_face_size": ("probes", "face_size"),
+    "bake_volume_face_size": ("probes", "volume_face_size"),
+    "bake_bounces": ("probes", "bounces"),
+    "bake_samples": ("probes", "samples"),
+    "bake_cycles_samples": ("probes", "cycles_samples"),
+    "use_lightmaps": ("lightmaps", "use"),
+    "lightmap_density": ("lightmaps", "density"),
+    "lightmap_max_resolution": ("lightmaps", "max_resolution"),
+    "lightmap_padding": ("lightmaps", "padding"),
+    "lightmap_rays": ("lightmaps", "rays"),
+    "lightmap_bounces": ("lightmaps", "bounces"),
+    "lightmap_directional": ("lightmaps", "directional"),
+    "lightmap_denoise": ("lightmaps", "denoise"),
+    "viewport_samples": ("viewport", "samples"),
+    "compare_folder": ("lookdev", "compare_folder"),
+    "report_source": ("lookdev", "report_source"),
+    "report_source_folder": ("lookdev", "report_source_folder"),
+    "report_old_methods": ("lookdev", "report_old_methods"),
+    "report_folder": ("lookdev", "report_folder"),
+}
+
+
+def upgrade(scene) -> int:
+    """Move the settings an earlier version kept flat in ``scene.bo2`` (``MOVED``) into their
+    groups, keeping their values; returns how many moved. Linked scenes are left as they are."""
+    if scene.library is not None:
+        return 0
+    stored = scene.bo2  # item access reads the group's stored values, set or not by RNA
+    moved = 0
+    for old, (group, name) in MOVED.items():
+        if old in stored.keys():
+            value = stored[old]  # an enum is stored as its item's number, which is kept
+            del stored[old]
+            if name not in getattr(stored, group).keys():
+                getattr(stored, group)[name] = value
+            moved += 1
+    return moved
+
+
+def set_setting(scene, path: str, value) -> None:
+    """Set the setting of ``scene.bo2`` at a dotted ``path`` ("samples", "indirect.env_brdf"); a
+    flat name of an earlier version (``MOVED``) is taken to its group. AttributeError if there
+    is no such setting."""
+    group, _, name = path.rpartition(".")
+    if not group and path in MOVED:
+        group, name = MOVED[path]
+    owner = getattr(scene.bo2, group) if group else scene.bo2
+    if name not in owner.bl_rna.properties or name == "rna_type":
+        raise AttributeError(f"BO2 Lighting has no scene setting '{path}'")
+    setattr(owner, name, value)
+
+
+@bpy.app.handlers.persistent
+def on_load(_filepath="") -> None:
+    """``load_post`` handler: upgrade the settings of every scene of the file just opened."""
+    for scene in bpy.data.scenes:
+        upgrade(scene)
+
+
+CLASSES = [BO2IndirectSettings, BO2ProbeSettings, BO2LightmapSettings, BO2ViewportSettings,
+           BO2LookDevSettings, BO2SceneSettings, BO2ObjectSettings, BO2ViewLayerSettings,
+           BO2Preferences]
 
 
 def _redraw_view(self, context) -> None:

@@ -198,10 +198,10 @@ def comparison_folders(folder: Path) -> list[Path]:
 
 
 def plan(context) -> tuple[Report, list[tuple[str, object]]]:
-    """The review of the scene's Review settings (``scene.bo2.report_*``), as steps to run one
+    """The review of the scene's Review settings (``scene.bo2.lookdev``), as steps to run one
     at a time: [(scene name, step())], each step rendering or reading one scene and rewriting
     the page. CompareError when there is nothing to review or nowhere to write."""
-    settings = context.scene.bo2
+    settings = context.scene.bo2.lookdev
     folder = compare.output_folder(context.scene, "report_folder")
     if settings.report_source == "SCENES":
         todo = [(s.name, s) for s in scenes_with_camera()]

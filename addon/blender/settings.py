@@ -54,12 +54,13 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
     if purpose not in PURPOSES:
         raise ValueError(f"purpose is one of {PURPOSES}, not {purpose!r}")
     s, r = scene.bo2, scene.render
+    ind = s.indirect
     width, height = resolution(scene)
     samples, shadow_resolution = int(s.samples), int(s.shadow_resolution)
     if purpose == "PREVIEW":
         samples, shadow_resolution = min(samples, 4), min(shadow_resolution, 512)
     elif purpose == "PROBE_BAKE":
-        samples = int(s.bake_samples)
+        samples = int(s.probes.samples)
     whole = purpose in ("VIEWPORT", "PROBE_BAKE", "LIGHTMAP_BAKE")
     bake = purpose in ("PROBE_BAKE", "LIGHTMAP_BAKE")
     fields = dict(
@@ -67,17 +68,17 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         shade_every_sample=bool(s.shade_every_sample),
         filter_width=float(r.filter_size),
         specular_model=str(s.specular_model),
-        env_brdf=str(s.env_brdf),
-        normalization=str(s.normalization),
-        prefilter=str(s.prefilter),
+        env_brdf=str(ind.env_brdf),
+        normalization=str(ind.normalization),
+        prefilter=str(ind.prefilter),
         film_transparent=bool(r.film_transparent) and not bake,
         shadow_resolution=shadow_resolution,
-        ambient_occlusion=bool(s.use_ambient_occlusion),
-        ao_distance=float(s.ao_distance),
-        specular_occlusion=bool(s.use_specular_occlusion),
-        sky_directions=int(s.sky_directions),
-        sky_resolution=int(s.sky_resolution),
-        implicit_bounce=bool(s.use_implicit_bounce),
+        ambient_occlusion=bool(ind.use_ambient_occlusion),
+        ao_distance=float(ind.ao_distance),
+        specular_occlusion=bool(ind.use_specular_occlusion),
+        sky_directions=int(ind.sky_directions),
+        sky_resolution=int(ind.sky_resolution),
+        implicit_bounce=bool(ind.use_implicit_bounce),
         threads=int(r.threads),  # Blender's Threads setting (Auto: one per core)
         border=None if whole else render_border(scene, width, height),
     )
@@ -109,21 +110,20 @@ class BakeSettings:
 
 def bake_settings(scene, backend: str) -> BakeSettings:
     """The probe bake settings of a Blender scene, for ``backend`` ("BO2" or "CYCLES")."""
-    s = scene.bo2
-    return BakeSettings(backend=backend, face_size=int(s.bake_face_size),
-                        volume_face_size=int(s.bake_volume_face_size),
-                        bounces=1 if backend == "CYCLES" else max(1, int(s.bake_bounces)),
-                        cycles_samples=int(s.bake_cycles_samples))
+    s = scene.bo2.probes
+    return BakeSettings(backend=backend, face_size=int(s.face_size),
+                        volume_face_size=int(s.volume_face_size),
+                        bounces=1 if backend == "CYCLES" else max(1, int(s.bounces)),
+                        cycles_samples=int(s.cycles_samples))
 
 
 def lightmap_settings(scene) -> lightmap.Settings:
     """The lightmap bake settings of a Blender scene (Render > Lightmaps)."""
-    s = scene.bo2
+    s = scene.bo2.lightmaps
     return lightmap.Settings(
-        texels_per_metre=float(s.lightmap_density),
-        max_resolution=int(s.lightmap_max_resolution), padding=int(s.lightmap_padding),
-        rays=int(s.lightmap_rays), bounces=int(s.lightmap_bounces),
-        directional=bool(s.lightmap_directional), denoise=bool(s.lightmap_denoise))
+        texels_per_metre=float(s.density), max_resolution=int(s.max_resolution),
+        padding=int(s.padding), rays=int(s.rays), bounces=int(s.bounces),
+        directional=bool(s.directional), denoise=bool(s.denoise))
 
 
 def resolution(scene) -> tuple[int, int]:

@@ -89,13 +89,13 @@ class RENDER_PT_bo2_indirect(BO2Panel, bpy.types.Panel):
     bl_parent_id = "RENDER_PT_bo2_settings"
 
     def draw_header(self, context):
-        self.layout.prop(context.scene.bo2, "use_indirect", text="")
+        self.layout.prop(context.scene.bo2.indirect, "use", text="")
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2
+        settings = context.scene.bo2.indirect
         col = layout.column()
-        col.active = settings.use_indirect
+        col.active = settings.use
         col.prop(settings, "normalization")
         col.prop(settings, "prefilter")
         col.prop(settings, "env_brdf")
@@ -132,17 +132,18 @@ class RENDER_PT_bo2_bake(BO2Panel, bpy.types.Panel):
             count = len(adoption.notices)
             layout.label(text=f"{count} bake{'s' * (count != 1)} of an earlier version adopted "
                          "(see the console); save to keep", icon="INFO")
-        layout.prop(settings, "bake_backend")
-        layout.prop(settings, "bake_face_size")
-        layout.prop(settings, "bake_volume_face_size")
+        settings = settings.probes
+        layout.prop(settings, "backend")
+        layout.prop(settings, "face_size")
+        layout.prop(settings, "volume_face_size")
         backend = probes.capture_backend(context.scene)
         col = layout.column()
         col.active = backend == "BO2"
-        col.prop(settings, "bake_bounces")
-        col.prop(settings, "bake_samples")
+        col.prop(settings, "bounces")
+        col.prop(settings, "samples")
         col = layout.column()
         col.active = backend == "CYCLES"
-        col.prop(settings, "bake_cycles_samples")
+        col.prop(settings, "cycles_samples")
 
 
 class RENDER_PT_bo2_lightmaps(BO2Panel, bpy.types.Panel):
@@ -151,22 +152,18 @@ class RENDER_PT_bo2_lightmaps(BO2Panel, bpy.types.Panel):
     bl_parent_id = "RENDER_PT_bo2_settings"
 
     def draw_header(self, context):
-        self.layout.prop(context.scene.bo2, "use_lightmaps", text="")
+        self.layout.prop(context.scene.bo2.lightmaps, "use", text="")
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2
+        settings = context.scene.bo2.lightmaps
         row = layout.row(align=True)
         row.operator("bo2.bake_lightmaps", text="Bake All", icon="RENDER_STILL").mode = "ALL"
         row.operator("bo2.bake_lightmaps", text="Bake Selected").mode = "SELECTED"
         layout.operator("bo2.clear_lightmaps", text="Clear Lightmaps", icon="TRASH").mode = "ALL"
-        layout.prop(settings, "lightmap_density")
-        layout.prop(settings, "lightmap_max_resolution")
-        layout.prop(settings, "lightmap_padding")
-        layout.prop(settings, "lightmap_rays")
-        layout.prop(settings, "lightmap_bounces")
-        layout.prop(settings, "lightmap_directional")
-        layout.prop(settings, "lightmap_denoise")
+        for name in ("density", "max_resolution", "padding", "rays", "bounces", "directional",
+                     "denoise"):
+            layout.prop(settings, name)
         objs = lightmaps.lightmap_objects(context.scene)
         texels, size = lightmaps.estimate(context.scene, objs)
         col = layout.column(align=True)
@@ -182,7 +179,7 @@ class RENDER_PT_bo2_viewport(BO2Panel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.split_layout()
-        layout.prop(context.scene.bo2, "viewport_samples")
+        layout.prop(context.scene.bo2.viewport, "samples")
         layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
         note = layout.row()
         note.active = False
@@ -196,7 +193,7 @@ class RENDER_PT_bo2_lookdev(BO2Panel, bpy.types.Panel):
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2
+        settings = context.scene.bo2.lookdev
         layout.operator("bo2.compare_cycles", icon="IMAGE_REFERENCE")
         layout.prop(settings, "compare_folder")
         layout.separator()

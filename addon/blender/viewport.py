@@ -145,7 +145,7 @@ def probe_labels(scene) -> list[tuple]:
 def probe_hint(scene) -> str:
     """One line for the status text when light probes need a (re-)bake, else ""."""
     objs = probes.probe_objects(scene)
-    if not objs or not scene.bo2.use_indirect:
+    if not objs or not scene.bo2.indirect.use:
         return ""
     counts: dict[str, int] = {}
     for obj in objs:
@@ -199,6 +199,7 @@ class Viewport:
             changed = changes(updates, self.cache) | self._unsent
         blender_scene = depsgraph.scene
         settings = blender_scene.bo2
+        indirect = settings.indirect.use
         if not changed:
             return set()
         render = settings_of.render_settings(blender_scene, "VIEWPORT")
@@ -206,14 +207,14 @@ class Viewport:
         try:
             scene, warnings = extract.extract_scene(
                 depsgraph, render, camera=False,
-                indirect=settings.use_indirect and studio_world is None, cache=self.cache)
+                indirect=indirect and studio_world is None, cache=self.cache)
         except extract.SceneError as exc:
             self.error, self._unsent = str(exc), changed  # sent with the next update
             return set()
         # the bounce without probes once a render has baked it for this content
         scene = bounce.attach(scene, bake_missing=False)
         # the studio light replaces the world and the probes (made on the render thread)
-        self._world_light = studio_world is not None and bool(settings.use_indirect)
+        self._world_light = studio_world is not None and indirect
         if studio_world is not None:
             scene = dataclasses.replace(scene, world=studio_world, probes=None)
             warnings = [w for w in warnings if not w.startswith("World ")]
@@ -223,12 +224,12 @@ class Viewport:
         self.error, self._unsent = None, set()
         self.warnings.extend(warnings)
         changed |= _differences(self.scene, scene)
-        state = (render, int(settings.viewport_samples), bool(settings.use_indirect))
+        state = (render, int(settings.viewport.samples), indirect)
         if changed == {"settings"} and state == self._state:
             self.scene = scene
             return set()  # e.g. the look-dev view alone: shown from the last passes
         self._state = state
-        self.session.samples = int(settings.viewport_samples)
+        self.session.samples = int(settings.viewport.samples)
         if changed & {"probes", "settings", "world"} or self.scene is None:
             self.hint = probe_hint(blender_scene)
         world = blender_scene.world

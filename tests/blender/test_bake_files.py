@@ -106,7 +106,7 @@ def test_packed_bakes_travel_in_the_blend_and_unpack_back(addon, tmp_path, capfd
 
 def test_damaged_packed_bake_is_reported_and_the_world_lights(addon, tmp_path, capfd):
     scene = room(tmp_path)
-    scene.bo2.use_indirect = True
+    scene.bo2.indirect.use = True
     world_only = render(scene)
     bake(scene)
     obj = scene.objects["Reflection"]

@@ -55,7 +55,7 @@ def scene(addon, empty_scene):
 
 
 def test_operator_writes_everything(scene, tmp_path):
-    scene.bo2.compare_folder = str(tmp_path / "cmp")
+    scene.bo2.lookdev.compare_folder = str(tmp_path / "cmp")
     view_layer = bpy.context.view_layer
     view_layer.use_pass_diffuse_color = False
     settings = scene.render.image_settings
@@ -105,7 +105,7 @@ def test_view_transform_is_applied(scene, tmp_path):
     pictures = {}
     for view in ("Standard", "AgX"):
         scene.view_settings.view_transform = view
-        scene.bo2.compare_folder = str(tmp_path / view)
+        scene.bo2.lookdev.compare_folder = str(tmp_path / view)
         # invoked without a window (background mode) it runs as from a script
         how = "INVOKE_DEFAULT" if view == "AgX" else "EXEC_DEFAULT"
         assert bpy.ops.bo2.compare_cycles(how) == {"FINISHED"}
@@ -136,15 +136,15 @@ def test_resolution_mismatch_keeps_both_renders(scene, tmp_path):
 
 
 def test_bad_inputs(scene, tmp_path):
-    scene.bo2.compare_folder = "//bo2_compare/"  # relative to an unsaved file
+    scene.bo2.lookdev.compare_folder = "//bo2_compare/"  # relative to an unsaved file
     with pytest.raises(RuntimeError, match="save the .blend file first"):
         bpy.ops.bo2.compare_cycles()
     blocker = tmp_path / "file"
     blocker.write_text("")
-    scene.bo2.compare_folder = str(blocker / "sub")
+    scene.bo2.lookdev.compare_folder = str(blocker / "sub")
     with pytest.raises(RuntimeError, match="cannot create the output folder"):
         bpy.ops.bo2.compare_cycles()
-    scene.bo2.compare_folder = str(tmp_path / "cmp")
+    scene.bo2.lookdev.compare_folder = str(tmp_path / "cmp")
     scene.camera = None
     with pytest.raises(RuntimeError, match="has no active camera"):
         bpy.ops.bo2.compare_cycles()
@@ -159,7 +159,7 @@ def test_ui_entries(empty_scene):
     try:
         assert hasattr(bpy.types, "RENDER_PT_bo2_lookdev")
         assert ui.draw_render_menu in bpy.types.TOPBAR_MT_render._dyn_ui_initialize()
-        prop = props.BO2SceneSettings.bl_rna.properties["compare_folder"]
+        prop = props.BO2LookDevSettings.bl_rna.properties["compare_folder"]
         assert prop.subtype == "DIR_PATH" and prop.default == "//bo2_compare/"
     finally:
         bo2_lighting.unregister()

@@ -119,12 +119,12 @@ def build(tmp_path):
     probe.data.influence_distance = 3.0
     scene.collection.objects.link(probe)
     scene.render.engine = "BO2_LIGHTING"
-    scene.bo2.use_indirect = False
-    scene.bo2.bake_face_size = "32"
-    scene.bo2.bake_volume_face_size = "8"
-    scene.bo2.bake_samples = 1
-    scene.bo2.bake_bounces = 1
-    scene.bo2.viewport_samples = SAMPLES
+    scene.bo2.indirect.use = False
+    scene.bo2.probes.face_size = "32"
+    scene.bo2.probes.volume_face_size = "8"
+    scene.bo2.probes.samples = 1
+    scene.bo2.probes.bounces = 1
+    scene.bo2.viewport.samples = SAMPLES
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "cross.blend"))
     return scene
 

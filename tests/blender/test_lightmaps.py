@@ -40,8 +40,8 @@ def room(tmp_path):
     scene.collection.objects.link(cam)
     scene.camera = cam
     scene.render.engine = "BO2_LIGHTING"
-    scene.bo2.lightmap_density = 8.0
-    scene.bo2.lightmap_rays = 32
+    scene.bo2.lightmaps.density = 8.0
+    scene.bo2.lightmaps.rays = 32
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "room.blend"))
     return scene
 
@@ -98,10 +98,10 @@ def test_bake_and_render_with_lightmaps(addon, tmp_path):
     assert np.isfinite(with_maps).all()
     assert np.abs(with_maps - without).mean() > 0.01 * without.mean()
     # the scene toggle and the object's own
-    scene.bo2.use_lightmaps = False
+    scene.bo2.lightmaps.use = False
     core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
     assert all(m.lightmap is None for m in core.meshes)
-    scene.bo2.use_lightmaps = True
+    scene.bo2.lightmaps.use = True
     scene.objects["Left"].bo2.use_lightmap = False
     core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(), indirect=True)
     assert [m.name for m in core.meshes if m.lightmap is None] == ["Left"]
@@ -175,14 +175,14 @@ def test_bad_input_is_one_message(addon, tmp_path):
     assert any("Lightmap UV map 'Nope' is not one of its UV maps" in w for w in warnings)
     floor.bo2.lightmap_uv = ""
     # a density beyond the memory cap
-    scene.bo2.lightmap_density = 1000.0
-    scene.bo2.lightmap_max_resolution = "4096"
-    scene.bo2.lightmap_directional = True
+    scene.bo2.lightmaps.density = 1000.0
+    scene.bo2.lightmaps.max_resolution = "4096"
+    scene.bo2.lightmaps.directional = True
     with pytest.raises(blender_bake.BakeError, match="MiB, more than"):
         for _ in blender_bake.lightmap_steps(scene, lightmaps.lightmap_objects(scene)):
             pass
     # an unwritable folder
-    scene.bo2.lightmap_density = 8.0
+    scene.bo2.lightmaps.density = 8.0
     scene.bo2.bake_folder = str(tmp_path / "room.blend")  # a file, not a folder
     with pytest.raises(RuntimeError, match="is a file, not a folder"):
         bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL")
@@ -190,8 +190,8 @@ def test_bad_input_is_one_message(addon, tmp_path):
 
 def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
     scene = room(tmp_path)
-    scene.bo2.lightmap_density = 4.0
-    scene.bo2.bake_cycles_samples = 16
+    scene.bo2.lightmaps.density = 4.0
+    scene.bo2.probes.cycles_samples = 16
     objs = [scene.objects["Floor"], scene.objects["Block"]]
     objs[1].modifiers.new("Bevel", "BEVEL")  # baked as its evaluated copy
     floor = scene.objects["Floor"]
@@ -202,7 +202,7 @@ def test_cycles_backend_agrees_and_leaves_nothing_behind(addon, tmp_path):
         pass
     meta, cycles = lightmap_file.read(baked(scene, "Floor"))
     assert meta["backend"] == "CYCLES"
-    scene.bo2.lightmap_rays = 128
+    scene.bo2.lightmaps.rays = 128
     for _ in blender_bake.lightmap_steps(scene, objs):
         pass
     _, ours = lightmap_file.read(baked(scene, "Floor"))
@@ -223,7 +223,7 @@ def test_the_viewport_sees_a_new_bake_and_nothing_else(addon, tmp_path):
     from bo2_lighting.addon.blender import viewport
 
     scene = room(tmp_path)
-    scene.bo2.lightmap_rays = 16
+    scene.bo2.lightmaps.rays = 16
     assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="ALL") == {"FINISHED"}
     cache = extract.SceneCache()
 
@@ -235,7 +235,7 @@ def test_the_viewport_sees_a_new_bake_and_nothing_else(addon, tmp_path):
     again = extraction()
     assert all(m.lightmap is not None for m in again.meshes)
     assert "geometry" not in viewport._differences(first, again)  # nothing re-prepared
-    scene.bo2.lightmap_rays = 32
+    scene.bo2.lightmaps.rays = 32
     for obj in scene.objects:
         obj.select_set(obj.name == "Floor")
     assert bpy.ops.bo2.bake_lightmaps("EXEC_DEFAULT", mode="SELECTED") == {"FINISHED"}
@@ -275,7 +275,7 @@ def test_subdivided_objects_are_baked_as_they_render(addon, tmp_path):
     assert not any("stale" in w or "was baked for" in w for w in warnings), warnings
     # Cycles' bake of the same objects, at the render's subdivision
     ours = lm.image
-    scene.bo2.bake_cycles_samples = 16
+    scene.bo2.probes.cycles_samples = 16
     for _ in blender_bake.lightmap_steps(scene, [block], backend="CYCLES"):
         pass
     _, cycles = lightmap_file.read(baked(scene, "Block"))
@@ -291,8 +291,8 @@ def test_a_far_ground_keeps_shadows_and_bounces(addon, tmp_path):
     texel, not the scene's size, and the direct light the bounces carry is ray traced, not
     read from shadow maps spread over 10 km."""
     scene = room(tmp_path)
-    scene.bo2.lightmap_rays = 64
-    scene.bo2.bake_cycles_samples = 32
+    scene.bo2.lightmaps.rays = 64
+    scene.bo2.probes.cycles_samples = 32
     objs = [scene.objects[n] for n in ("Back", "Floor", "Left")]
     means = {}
     for ground in (False, True):

@@ -763,8 +763,8 @@ def test_gltf_occlusion_dims_indirect_light(addon):
         sky.node_tree.nodes["Background"].inputs["Color"].default_value = (
             0.5, 0.5, 0.5, 1.0)
         scene.world = sky
-        scene.bo2.use_indirect = True
-        scene.bo2.use_implicit_bounce = False  # its captures would see the occlusion too
+        scene.bo2.indirect.use = True
+        scene.bo2.indirect.use_implicit_bounce = False  # its captures would see the occlusion too
         frame, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get())
         assert (frame.materials[-1].program.occlusion is None) == (occlusion is None)
         results[occlusion] = render_passes(scene, "BO2_LIGHTING", ["DiffInd"])["DiffInd"]

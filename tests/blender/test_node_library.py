@@ -114,7 +114,7 @@ def test_conversion_keeps_the_render_and_comes_back_exactly(addon):
     mat.node_tree.links.new(tex.outputs["X"], node.inputs["Roughness"])
     add_plane(mat)
     add_sun(scene, 3.0, tilt_deg=20.0)
-    scene.bo2.use_indirect = False
+    scene.bo2.indirect.use = False
     scene.render.filter_size = 0.01
     before = render_pixels(scene, "BO2_LIGHTING", samples=1)
     convert.to_bo2(mat)

@@ -59,9 +59,9 @@ def room(tmp_path):
     volume.data.resolution_x = volume.data.resolution_y = 3
     volume.data.resolution_z = 2
     scene.collection.objects.link(volume)
-    scene.bo2.bake_face_size = "32"
-    scene.bo2.bake_volume_face_size = "8"
-    scene.bo2.bake_samples = 1
+    scene.bo2.probes.face_size = "32"
+    scene.bo2.probes.volume_face_size = "8"
+    scene.bo2.probes.samples = 1
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "room.blend"))
     return scene
 
@@ -105,7 +105,7 @@ def test_objects_hidden_from_light_probes_are_not_baked(addon, tmp_path, capfd):
     scene = room(tmp_path)
     wall = next(o for o in scene.objects if o.type == "MESH" and o.location.y == 2)
     scene.objects["Sphere"].hide_probe_sphere = True
-    scene.bo2.bake_bounces = 1  # the volume's captures lit by the world alone
+    scene.bo2.probes.bounces = 1  # the volume's captures lit by the world alone
 
     def redness():
         bake(scene)
@@ -129,9 +129,9 @@ def test_baked_probes_bring_the_render_closer_to_cycles(addon, tmp_path):
     scene = room(tmp_path)
     scene.cycles.max_bounces = 4
     cycles = render_pixels(scene, "CYCLES", samples=64)[..., :3]
-    scene.bo2.use_indirect = False
+    scene.bo2.indirect.use = False
     direct = render_pixels(scene, "BO2_LIGHTING", samples=4)[..., :3]
-    scene.bo2.use_indirect = True
+    scene.bo2.indirect.use = True
     world_only = render_pixels(scene, "BO2_LIGHTING", samples=4)[..., :3]
     bake(scene)
     baked = render_pixels(scene, "BO2_LIGHTING", samples=4)[..., :3]
@@ -147,7 +147,7 @@ def test_every_normalization_and_prefilter_renders(addon, tmp_path):
     images = {}
     for norm in ("none", "bo1", "bo2"):
         for pre in ("bo1", "bo2"):
-            scene.bo2.normalization, scene.bo2.prefilter = norm, pre
+            scene.bo2.indirect.normalization, scene.bo2.indirect.prefilter = norm, pre
             images[norm, pre] = render_pixels(scene, "BO2_LIGHTING", samples=1)[..., :3]
             assert np.isfinite(images[norm, pre]).all()
     # The old/new pairs differ (on the chrome ball's reflections).
@@ -170,7 +170,7 @@ def test_cancelled_bake_keeps_the_previous_files_byte_identical(addon, tmp_path)
 
 def test_corrupt_or_stale_bake_warns_and_falls_back_to_the_world(addon, tmp_path, capfd):
     scene = room(tmp_path)
-    scene.bo2.use_indirect = True
+    scene.bo2.indirect.use = True
     scene.bo2.bake_pack = False  # the files on disk are what renders
     world_only = render_pixels(scene, "BO2_LIGHTING", samples=1)
     bake(scene)
@@ -277,8 +277,8 @@ def test_a_far_ground_keeps_the_captures_shadows(addon, tmp_path):
     # a shelf between the sun and the volume's middle sample, whose shadow it sits in
     bpy.ops.mesh.primitive_cube_add(size=0.8, location=(0.2, -0.54, 1.3))
     bpy.context.object.data.materials.append(lambert("Shelf", (0.6, 0.6, 0.6)))
-    scene.bo2.bake_bounces = 1  # as Cycles' backend: the world and one bounce of the lights
-    scene.bo2.bake_cycles_samples = 16
+    scene.bo2.probes.bounces = 1  # as Cycles' backend: the world and one bounce of the lights
+    scene.bo2.probes.cycles_samples = 16
     before = {b: _volume_irradiance(scene, b) for b in ("BO2", "CYCLES")}
     add_far_ground(scene)
     after = {b: _volume_irradiance(scene, b) for b in ("BO2", "CYCLES")}

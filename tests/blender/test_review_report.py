@@ -33,10 +33,10 @@ def read_report(folder):
 def test_this_files_scenes(scene, tmp_path):
     second = scene.copy()  # a linked copy with its own settings, camera included
     second.name = "Second"
-    second.bo2.normalization = "none"
+    second.bo2.indirect.normalization = "none"
     bpy.data.scenes.new("No camera")
-    scene.bo2.report_folder = str(tmp_path / "review")
-    scene.bo2.report_old_methods = True
+    scene.bo2.lookdev.report_folder = str(tmp_path / "review")
+    scene.bo2.lookdev.report_old_methods = True
     assert bpy.ops.bo2.review_report() == {"FINISHED"}
     data = read_report(tmp_path / "review")
     assert sorted(s["name"] for s in data["scenes"]) == sorted([scene.name, "Second"])
@@ -51,9 +51,9 @@ def test_this_files_scenes(scene, tmp_path):
         assert (folder / "bo2.exr").exists() and (folder / "old" / "bo2.exr").exists()
         assert s["links"]["bo2_old"] == f"scenes/{s['folder']}/old/bo2.exr"
     # the settings are the scenes' own again: old methods were for one render only
-    assert (scene.bo2.env_brdf, scene.bo2.normalization, scene.bo2.prefilter) == (
-        "bo2", "bo2", "bo2")
-    assert second.bo2.normalization == "none" and scene.render.engine == "BO2_LIGHTING"
+    indirect = scene.bo2.indirect
+    assert (indirect.env_brdf, indirect.normalization, indirect.prefilter) == ("bo2", "bo2", "bo2")
+    assert second.bo2.indirect.normalization == "none" and scene.render.engine == "BO2_LIGHTING"
     assert data["flip"] == flip.unavailable()
     html = (tmp_path / "review" / "index.html").read_text()
     assert "Second" in html and "<script" in html and "http" not in html.split("<body>")[1]
@@ -61,11 +61,11 @@ def test_this_files_scenes(scene, tmp_path):
 
 def test_a_second_review_replaces_the_first(scene, tmp_path):
     """Old methods in the first review only: the second shows no stale old-methods render."""
-    scene.bo2.report_folder = str(tmp_path / "review")
-    scene.bo2.report_old_methods = True
+    scene.bo2.lookdev.report_folder = str(tmp_path / "review")
+    scene.bo2.lookdev.report_old_methods = True
     assert bpy.ops.bo2.review_report() == {"FINISHED"}
     assert set(read_report(tmp_path / "review")["scenes"][0]["variants"]) == {"bo2", "bo2_old"}
-    scene.bo2.report_old_methods = False
+    scene.bo2.lookdev.report_old_methods = False
     assert bpy.ops.bo2.review_report() == {"FINISHED"}
     [s] = read_report(tmp_path / "review")["scenes"]
     assert set(s["variants"]) == {"bo2"}
@@ -74,12 +74,12 @@ def test_a_second_review_replaces_the_first(scene, tmp_path):
 
 def test_compare_folders_read_back(scene, tmp_path):
     scene.view_settings.view_transform = "Standard"
-    scene.bo2.compare_folder = str(tmp_path / "cmp" / "a")
+    scene.bo2.lookdev.compare_folder = str(tmp_path / "cmp" / "a")
     assert bpy.ops.bo2.compare_cycles() == {"FINISHED"}
     scene.view_settings.view_transform = "AgX"  # the report uses the one in metrics.json
-    scene.bo2.report_source = "FOLDER"
-    scene.bo2.report_source_folder = str(tmp_path / "cmp")
-    scene.bo2.report_folder = str(tmp_path / "review")
+    scene.bo2.lookdev.report_source = "FOLDER"
+    scene.bo2.lookdev.report_source_folder = str(tmp_path / "cmp")
+    scene.bo2.lookdev.report_folder = str(tmp_path / "review")
     assert bpy.ops.bo2.review_report() == {"FINISHED"}
     data = read_report(tmp_path / "review")
     [s] = data["scenes"]
@@ -100,15 +100,15 @@ def test_compare_folders_read_back(scene, tmp_path):
 
 
 def test_nothing_to_review(scene, tmp_path):
-    scene.bo2.report_folder = "//review/"
+    scene.bo2.lookdev.report_folder = "//review/"
     with pytest.raises(RuntimeError, match="save the .blend file first"):
         bpy.ops.bo2.review_report()
-    scene.bo2.report_folder = str(tmp_path / "review")
-    scene.bo2.report_source = "FOLDER"
-    scene.bo2.report_source_folder = str(tmp_path)
+    scene.bo2.lookdev.report_folder = str(tmp_path / "review")
+    scene.bo2.lookdev.report_source = "FOLDER"
+    scene.bo2.lookdev.report_source_folder = str(tmp_path)
     with pytest.raises(RuntimeError, match="holds no Compare with Cycles folder"):
         bpy.ops.bo2.review_report()
-    scene.bo2.report_source = "SCENES"
+    scene.bo2.lookdev.report_source = "SCENES"
     bpy.data.objects.remove(scene.camera)
     with pytest.raises(RuntimeError, match="no scene of this file has a camera"):
         bpy.ops.bo2.review_report()
@@ -128,9 +128,9 @@ def test_a_damaged_comparison_is_one_message(scene, tmp_path):
 
 
 def test_panel_settings(addon):
-    from bo2_lighting.addon.blender.props import BO2SceneSettings
+    from bo2_lighting.addon.blender.props import BO2LookDevSettings
 
-    props = BO2SceneSettings.bl_rna.properties
+    props = BO2LookDevSettings.bl_rna.properties
     assert props["report_folder"].default == "//bo2_report/"
     assert {i.identifier for i in props["report_source"].enum_items} == {"SCENES", "FOLDER"}
     assert hasattr(bpy.types, "BO2_OT_review_report")

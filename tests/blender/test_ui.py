@@ -133,7 +133,7 @@ def test_every_panel_draws_existing_properties(scene_with_everything):
         drawn |= {entry[1][1] for entry in log if entry[0] == "prop"}
         drawn |= {entry[1][0] for entry in log if entry[0] == "operator"}
     # what each panel is for shows up
-    assert {"samples", "viewport_samples", "normalization", "bake_folder",
+    assert {"samples", "normalization", "bake_folder", "face_size", "density",
             "dilation_threshold", "clip_start", "bo2.bake_probes", "material.bo2_convert",
             "bo2.compare_cycles"} <= drawn
     labels = [str(entry[2].get("text", "")) for entry in draw_all(contexts[1])
@@ -165,35 +165,41 @@ def test_menu_entries_draw(scene_with_everything):
 
 def test_enum_identifiers_are_stable(addon):
     """Saved files store these identifiers: renaming one loses the user's choice."""
-    s = bpy.types.Scene.bl_rna.properties["bo2"].fixed_type.properties
+    scene = bpy.types.Scene.bl_rna.properties["bo2"].fixed_type.properties
+    s = {name: prop for group in ("indirect", "probes", "lightmaps") for name, prop in
+         scene[group].fixed_type.properties.items()}
     views = bpy.types.View3DShading.bl_rna.properties["bo2_lookdev_view"]
     assert list(views.enum_items.keys()) == [
         "COMBINED", "ALBEDO", "SPECULAR_COLOR", "GLOSS", "NORMAL", "DIFFUSE_DIRECT",
         "GLOSSY_DIRECT", "DIFFUSE_INDIRECT", "GLOSSY_INDIRECT", "REFLECTION_PROBES",
         "IRRADIANCE_VOLUMES", "AMBIENT_OCCLUSION", "LIGHTMAP", "LIGHTMAP_TEXELS"]
-    assert list(s["bake_backend"].enum_items.keys()) == ["DEFAULT", "BO2", "CYCLES"]
-    assert list(s["lightmap_max_resolution"].enum_items.keys()) == [
+    assert list(s["backend"].enum_items.keys()) == ["DEFAULT", "BO2", "CYCLES"]
+    assert list(s["max_resolution"].enum_items.keys()) == [
         "128", "256", "512", "1024", "2048", "4096"]
     o = bpy.types.Object.bl_rna.properties["bo2"].fixed_type.properties
     assert list(o["lightmap_mode"].enum_items.keys()) == ["AUTO", "STATIC", "DYNAMIC"]
     assert list(s["normalization"].enum_items.keys()) == ["none", "bo1", "bo2"]
     assert list(s["prefilter"].enum_items.keys()) == ["bo1", "bo2"]
-    for name, prop in s.items():
-        if name != "rna_type":
-            assert prop.description, f"scene.bo2.{name} has no description"
+    every = {f"scene.bo2.{name}": prop for name, prop in scene.items()}
+    for group in ("indirect", "probes", "lightmaps", "viewport", "lookdev"):
+        every |= {f"scene.bo2.{group}.{name}": prop
+                  for name, prop in scene[group].fixed_type.properties.items()}
+    for path, prop in every.items():
+        if not path.endswith("rna_type"):
+            assert prop.description, f"{path} has no description"
 
 
 def test_undo_restores_a_bo2_setting(addon):
     scene = bpy.context.scene
     scene.bo2.samples = 4
-    scene.bo2.normalization = "bo2"
+    scene.bo2.indirect.normalization = "bo2"
     bpy.ops.ed.undo_push(message="before")
     scene.bo2.samples = 33
-    scene.bo2.normalization = "bo1"
+    scene.bo2.indirect.normalization = "bo1"
     bpy.ops.ed.undo_push(message="change")
     assert bpy.ops.ed.undo() == {"FINISHED"}
     assert bpy.context.scene.bo2.samples == 4
-    assert bpy.context.scene.bo2.normalization == "bo2"
+    assert bpy.context.scene.bo2.indirect.normalization == "bo2"
     assert bpy.ops.ed.redo() == {"FINISHED"}
     assert bpy.context.scene.bo2.samples == 33
 
@@ -204,9 +210,9 @@ def test_preferences_defaults_reach_the_scene(addon, tmp_path):
     scene = bpy.context.scene
     scene.bo2.bake_folder = ""
     assert props.preferences().bake_folder == "//bo2_bake/"
-    scene.bo2.bake_backend = "DEFAULT"
+    scene.bo2.probes.backend = "DEFAULT"
     assert probes.capture_backend(scene) == "BO2"
-    scene.bo2.bake_backend = "CYCLES"
+    scene.bo2.probes.backend = "CYCLES"
     assert probes.capture_backend(scene) == "CYCLES"
     scene.bo2.bake_folder = str(tmp_path)
     assert probes.bake_folder(scene) == tmp_path
@@ -225,8 +231,8 @@ def test_operators_poll_and_execute(scene_with_everything, tmp_path):
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
     # the bake of the active probe writes its file; clear removes it
     bpy.context.view_layer.objects.active = probes["SPHERE"]
-    scene.bo2.bake_face_size = "32"
-    scene.bo2.bake_samples = 1
+    scene.bo2.probes.face_size = "32"
+    scene.bo2.probes.samples = 1
     assert bpy.ops.bo2.bake_probes.poll()
     assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
     sphere = bake_files.path(probes["SPHERE"])

@@ -60,7 +60,7 @@ def build(scene):
     scene.collection.objects.link(cam)
     scene.camera = cam
     scene.render.engine = "BO2_LIGHTING"
-    scene.bo2.use_indirect = False
+    scene.bo2.indirect.use = False
     bpy.context.view_layer.update()
 
 
@@ -90,7 +90,7 @@ def settle(view, updates):
 def test_only_what_changed_is_read_again(view, updates):
     scene = bpy.context.scene
     build(scene)
-    scene.bo2.viewport_samples = 2
+    scene.bo2.viewport.samples = 2
     open_view(view, scene)
     first = view.session.image().pixels.copy()
     reads = dict(view.cache.reads)
@@ -128,7 +128,7 @@ def test_only_what_changed_is_read_again(view, updates):
 def test_viewport_through_the_scene_camera_matches_f12(view):
     scene = bpy.context.scene
     build(scene)
-    scene.bo2.viewport_samples = 4
+    scene.bo2.viewport.samples = 4
     open_view(view, scene)
     image = view.session.image()
     assert image.final and image.samples == 4 and image.pixels.shape == (H, W, 4)
@@ -154,7 +154,7 @@ def test_lookdev_view_and_viewport_samples(view, updates):
     red = np.all(np.abs(pixels[..., :3] - [0.8, 0.2, 0.2]) < 0.01, axis=-1)
     blue = np.all(np.abs(pixels[..., :3] - [0.2, 0.2, 0.8]) < 0.01, axis=-1)
     assert red.sum() > 50 and blue.sum() > 50
-    scene.bo2.viewport_samples = 3  # a setting that changes the image renders again
+    scene.bo2.viewport.samples = 3  # a setting that changes the image renders again
     assert settle(view, updates) == {"settings"}
     assert view.session.image().samples == 3
     for key in core_viewport.VIEWS:
@@ -186,7 +186,7 @@ def test_a_failed_render_shows_its_error_and_the_next_change_renders(view, updat
 def test_probe_state_hint(view, tmp_path):
     scene = bpy.context.scene
     build(scene)
-    scene.bo2.use_indirect = True
+    scene.bo2.indirect.use = True
     scene.bo2.bake_folder = str(tmp_path)
     probe = bpy.data.objects.new("Probe", bpy.data.lightprobes.new("Probe", "SPHERE"))
     scene.collection.objects.link(probe)
@@ -197,7 +197,7 @@ def test_probe_state_hint(view, tmp_path):
     assert obj == probe and text == "BO2 bake: missing"
     bpy.context.view_layer.objects.active = probe
     bpy.ops.wm.save_as_mainfile(filepath=str(tmp_path / "scene.blend"))
-    scene.bo2.bake_face_size, scene.bo2.bake_samples = "32", 1
+    scene.bo2.probes.face_size, scene.bo2.probes.samples = "32", 1
     assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
     assert viewport.probe_labels(scene)[0][1] == "BO2 bake: baked"
     assert viewport.probe_hint(scene) == ""
@@ -210,7 +210,7 @@ def test_probe_state_hint(view, tmp_path):
 def test_hiding_instancing_and_renaming_reach_the_viewport(view, updates):
     scene = bpy.context.scene
     build(scene)
-    scene.bo2.viewport_samples = 1
+    scene.bo2.viewport.samples = 1
     open_view(view, scene)
     updates.clear()
     shown = view.session.image().pixels.copy()
@@ -254,8 +254,8 @@ def test_hiding_instancing_and_renaming_reach_the_viewport(view, updates):
 def test_a_new_bake_reaches_the_viewport(view, updates, tmp_path):
     scene = bpy.context.scene
     build(scene)
-    scene.bo2.use_indirect = True
-    scene.bo2.viewport_samples = 1
+    scene.bo2.indirect.use = True
+    scene.bo2.viewport.samples = 1
     scene.bo2.bake_folder = str(tmp_path)
     probe = bpy.data.objects.new("Probe", bpy.data.lightprobes.new("Probe", "SPHERE"))
     probe.location = (0.0, 0.0, 1.0)
@@ -264,7 +264,7 @@ def test_a_new_bake_reaches_the_viewport(view, updates, tmp_path):
     open_view(view, scene)
     updates.clear()
     bpy.context.view_layer.objects.active = probe
-    scene.bo2.bake_face_size, scene.bo2.bake_samples = "32", 1
+    scene.bo2.probes.face_size, scene.bo2.probes.samples = "32", 1
     assert bpy.ops.bo2.bake_probes(mode="ACTIVE") == {"FINISHED"}
     assert "probes" in settle(view, updates)  # the operator tags the scene; the file is new
     assert "missing" not in view.status()
@@ -300,8 +300,8 @@ def test_studio_light_lights_the_viewport_as_the_same_world_would(view, monkeypa
     world and probes; Scene Lights off takes the lights away."""
     scene = bpy.context.scene
     build(scene)
-    scene.bo2.viewport_samples = 2
-    scene.bo2.use_indirect = True
+    scene.bo2.viewport.samples = 2
+    scene.bo2.indirect.use = True
     open_view(view, scene)
     own = view.session.image().pixels.copy()
     threads = []  # where the HDRI's SH and chains are made: not on Blender's thread

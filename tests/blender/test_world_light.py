@@ -44,7 +44,7 @@ def test_the_ground_bounces_onto_the_ball_without_any_probe(addon, empty_scene, 
     assert extract.extract_scene(depsgraph, camera=False, indirect=True)[0].probes.volumes == []
     cycles = underside(render_pixels(scene, "CYCLES", samples=128))
     with_bounce = underside(render_pixels(scene, "BO2_LIGHTING", samples=2))
-    scene.bo2.use_implicit_bounce = False
+    scene.bo2.indirect.use_implicit_bounce = False
     without = underside(render_pixels(scene, "BO2_LIGHTING", samples=2))
     assert abs(with_bounce - cycles) < 0.15 * cycles, (with_bounce, cycles)
     assert without < 0.8 * cycles, (without, cycles)

@@ -175,9 +175,9 @@ def walk():
     tab_check("Render tab", "render", {"BO2SceneSettings.samples",
                                        "BO2SceneSettings.shadow_resolution",
                                        "RenderSettings.preview_pixel_size",
-                                       "BO2SceneSettings.lightmap_density",
-                                       "BO2SceneSettings.report_source",
-                                       "BO2SceneSettings.report_folder"})
+                                       "BO2LightmapSettings.density",
+                                       "BO2LookDevSettings.report_source",
+                                       "BO2LookDevSettings.report_folder"})
     yield from show_tab(None, "OUTPUT")
     yield 1.0
     tab_check("Output tab", "output", {"RenderSettings.resolution_x"})
@@ -329,8 +329,8 @@ def walk():
     # 5c. The look-dev review of the open file's scenes, from the Look-Dev panel's button, at a
     # tenth of the resolution; this Blender's Python 3.14 has no FLIP: the page says why
     review = OUT / "review"
-    scene.bo2.report_folder = "//" + os.path.relpath(review, ROOM.parent) + "/"
-    scene.bo2.report_source = "SCENES"
+    scene.bo2.lookdev.report_folder = "//" + os.path.relpath(review, ROOM.parent) + "/"
+    scene.bo2.lookdev.report_source = "SCENES"
     r = scene.render
     kept = (r.resolution_percentage, scene.bo2.samples, scene.cycles.samples)
     r.resolution_percentage, scene.bo2.samples, scene.cycles.samples = 10, 1, 4
