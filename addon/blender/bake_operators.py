@@ -49,10 +49,12 @@ def _busy() -> str | None:
 
 class _ModalBake:
     """A bake run a step per timer tick (Esc cancels, nothing written) or, from a script, to
-    the end at once. Subclasses give ``what`` (messages) and ``_start(context)``: (the
-    generator of progress fractions, the number of things baked); raising BakeError."""
+    the end at once. Subclasses give ``noun`` (messages), ``_objects(context)`` (what to bake;
+    BakeError if nothing) and ``_bake_steps(scene, objs)`` (the generator of progress
+    fractions)."""
 
-    what = "light probes"
+    noun = ""
+    what = ""
 
     _timer = None
     _steps = None
@@ -74,7 +76,11 @@ class _ModalBake:
             busy = _busy()
             if busy:
                 raise probes.BakeError(busy)
-            self._steps, self._count = self._start(context)
+            objs = self._objects(context)
+            probes.writable_folder(context.scene)  # fail early: unsaved file, unwritable folder
+            self.what = f"{self.noun}{'s' * (len(objs) != 1)}"
+            self._steps = self._bake_steps(context.scene, objs)
+            self._count = len(objs)
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return False
@@ -169,13 +175,13 @@ class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
 
     mode: bpy.props.EnumProperty(name="Probes", items=_MODES, default="ALL")
 
-    def _start(self, context):
-        scene = context.scene
-        objs = _objects(context, self.mode)
-        probes.writable_folder(scene)  # fail early: unsaved file, unwritable folder
-        self.what = f"light probe{'s' * (len(objs) != 1)}"
-        steps = bake.bake_steps(scene, objs, probes.capture_backend(scene), self._warnings())
-        return steps, len(objs)
+    noun = "light probe"
+
+    def _objects(self, context):
+        return _objects(context, self.mode)
+
+    def _bake_steps(self, scene, objs):
+        return bake.bake_steps(scene, objs, probes.capture_backend(scene), self._warnings())
 
 
 _LIGHTMAP_MODES = [("ALL", "All", "Every static mesh object"),
@@ -202,14 +208,14 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
 
     mode: bpy.props.EnumProperty(name="Objects", items=_LIGHTMAP_MODES, default="ALL")
 
-    def _start(self, context):
-        scene = context.scene
-        objs = _lightmap_objects(context, self.mode)
-        probes.writable_folder(scene)
-        self.what = f"lightmap{'s' * (len(objs) != 1)}"
-        steps = bake.lightmap_steps(scene, objs, self._warnings(),
-                                    backend=probes.capture_backend(scene))
-        return steps, len(objs)
+    noun = "lightmap"
+
+    def _objects(self, context):
+        return _lightmap_objects(context, self.mode)
+
+    def _bake_steps(self, scene, objs):
+        return bake.lightmap_steps(scene, objs, self._warnings(),
+                                   backend=probes.capture_backend(scene))
 
 
 class BO2_OT_clear_lightmaps(bpy.types.Operator):

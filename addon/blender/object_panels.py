@@ -208,9 +208,7 @@ class DATA_PT_bo2_light_shadow(_LightPanel, bpy.types.Panel):
         layout.active = context.light.use_shadow
         layout.prop(context.scene.bo2, "shadow_resolution", text="Resolution (Scene)")
         size = {"SUN": "Angle", "AREA": "Size"}.get(context.light.type, "Radius")
-        note = layout.row()
-        note.active = False
-        note.label(text=f"Penumbra from the light's {size}", icon="INFO")
+        self.note(layout, f"Penumbra from the light's {size}")
 
 
 class DATA_PT_bo2_light_beam(_LightPanel, bpy.types.Panel):

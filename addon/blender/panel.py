@@ -23,3 +23,10 @@ class BO2Panel:
         layout.use_property_split = True
         layout.use_property_decorate = False
         return layout
+
+    @staticmethod
+    def note(layout, text: str) -> None:
+        """A greyed line of information under a panel's settings."""
+        row = layout.row()
+        row.active = False
+        row.label(text=text, icon="INFO")

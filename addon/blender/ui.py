@@ -83,17 +83,31 @@ class RENDER_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         sub.prop(context.scene.render, "threads")
 
 
-class RENDER_PT_bo2_indirect(BO2Panel, bpy.types.Panel):
-    bl_label = "Indirect Light"
+class _RenderSubPanel(BO2Panel):
+    """A sub-panel of Render > BO2 Lighting: it draws the settings group ``scene.bo2.<group>``."""
+
     bl_context = "render"
     bl_parent_id = "RENDER_PT_bo2_settings"
+    group = ""
+
+    def settings(self, context):
+        return getattr(context.scene.bo2, self.group)
+
+
+class _Switched:
+    """A sub-panel whose group is switched on and off by its ``use``, in the header."""
 
     def draw_header(self, context):
-        self.layout.prop(context.scene.bo2.indirect, "use", text="")
+        self.layout.prop(self.settings(context), "use", text="")
+
+
+class RENDER_PT_bo2_indirect(_Switched, _RenderSubPanel, bpy.types.Panel):
+    bl_label = "Indirect Light"
+    group = "indirect"
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2.indirect
+        settings = self.settings(context)
         col = layout.column()
         col.active = settings.use
         col.prop(settings, "normalization")
@@ -111,28 +125,26 @@ class RENDER_PT_bo2_indirect(BO2Panel, bpy.types.Panel):
         sub.prop(settings, "use_specular_occlusion")
 
 
-class RENDER_PT_bo2_bake(BO2Panel, bpy.types.Panel):
+class RENDER_PT_bo2_bake(_RenderSubPanel, bpy.types.Panel):
     bl_label = "Light Probes"
-    bl_context = "render"
-    bl_parent_id = "RENDER_PT_bo2_settings"
+    group = "probes"
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2
         row = layout.row(align=True)
         row.operator("bo2.bake_probes", text="Bake All", icon="RENDER_STILL").mode = "ALL"
         row.operator("bo2.bake_probes", text="Bake Selected").mode = "SELECTED"
         layout.operator("bo2.clear_probes", text="Clear Bakes", icon="TRASH").mode = "ALL"
-        layout.prop(settings, "bake_folder")
+        layout.prop(context.scene.bo2, "bake_folder")  # (the lightmaps' too)
         row = layout.row(align=True)
-        row.prop(settings, "bake_pack")
+        row.prop(context.scene.bo2, "bake_pack")
         row.operator("bo2.pack_bakes", text="", icon="PACKAGE")
         row.operator("bo2.unpack_bakes", text="", icon="UGLYPACKAGE")
         if adoption.notices:  # the details are in the console
             count = len(adoption.notices)
             layout.label(text=f"{count} bake{'s' * (count != 1)} of an earlier version adopted "
                          "(see the console); save to keep", icon="INFO")
-        settings = settings.probes
+        settings = self.settings(context)
         layout.prop(settings, "backend")
         layout.prop(settings, "face_size")
         layout.prop(settings, "volume_face_size")
@@ -146,17 +158,13 @@ class RENDER_PT_bo2_bake(BO2Panel, bpy.types.Panel):
         col.prop(settings, "cycles_samples")
 
 
-class RENDER_PT_bo2_lightmaps(BO2Panel, bpy.types.Panel):
+class RENDER_PT_bo2_lightmaps(_Switched, _RenderSubPanel, bpy.types.Panel):
     bl_label = "Lightmaps"
-    bl_context = "render"
-    bl_parent_id = "RENDER_PT_bo2_settings"
-
-    def draw_header(self, context):
-        self.layout.prop(context.scene.bo2.lightmaps, "use", text="")
+    group = "lightmaps"
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2.lightmaps
+        settings = self.settings(context)
         row = layout.row(align=True)
         row.operator("bo2.bake_lightmaps", text="Bake All", icon="RENDER_STILL").mode = "ALL"
         row.operator("bo2.bake_lightmaps", text="Bake Selected").mode = "SELECTED"
@@ -172,28 +180,24 @@ class RENDER_PT_bo2_lightmaps(BO2Panel, bpy.types.Panel):
         col.label(text=f"About {size / 2**20:.1f} MiB in a frame")
 
 
-class RENDER_PT_bo2_viewport(BO2Panel, bpy.types.Panel):
+class RENDER_PT_bo2_viewport(_RenderSubPanel, bpy.types.Panel):
     bl_label = "Viewport"
-    bl_context = "render"
-    bl_parent_id = "RENDER_PT_bo2_settings"
+    group = "viewport"
 
     def draw(self, context):
         layout = self.split_layout()
-        layout.prop(context.scene.bo2.viewport, "samples")
+        layout.prop(self.settings(context), "samples")
         layout.prop(context.scene.render, "preview_pixel_size", text="Pixel Size")
-        note = layout.row()
-        note.active = False
-        note.label(text="Look-dev view: each viewport's header", icon="INFO")
+        self.note(layout, "Look-dev view: each viewport's header")
 
 
-class RENDER_PT_bo2_lookdev(BO2Panel, bpy.types.Panel):
+class RENDER_PT_bo2_lookdev(_RenderSubPanel, bpy.types.Panel):
     bl_label = "Look-Dev"
-    bl_context = "render"
-    bl_parent_id = "RENDER_PT_bo2_settings"
+    group = "lookdev"
 
     def draw(self, context):
         layout = self.split_layout()
-        settings = context.scene.bo2.lookdev
+        settings = self.settings(context)
         layout.operator("bo2.compare_cycles", icon="IMAGE_REFERENCE")
         layout.prop(settings, "compare_folder")
         layout.separator()
@@ -274,9 +278,7 @@ class MATERIAL_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         layout.prop(mat, "pass_index")
         col = layout.column(heading="Backface Culling")
         col.prop(mat, "use_backface_culling", text="Camera")
-        note = layout.row()
-        note.active = False
-        note.label(text="Transparency: dithered, as EEVEE's Dithered", icon="INFO")
+        self.note(layout, "Transparency: dithered, as EEVEE's Dithered")
 
 
 class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):

@@ -24,6 +24,7 @@ import numba as nb
 import numpy as np
 
 from .indirect import sample_chain
+from .shading import triangle_normal
 
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
@@ -39,16 +40,28 @@ SUBSAMPLES = np.array([[0.5, 0.5]] + [[(i + 0.5) / 4, (j + 0.5) / 4]
 @nb.njit(**_OPTIONS)
 def _corners(uv, t, width, height):
     """Triangle ``t`` of ``uv`` (T, 3, 2) in texels (x right, y down): its corners, twice its
-    signed area and the texel rows and columns its box covers, clamped to the image."""
+    signed area and the texel columns and rows its box covers, clamped to the image (none
+    when its area is below 1e-12 or not finite)."""
     x0, y0 = uv[t, 0, 0] * width, (1.0 - uv[t, 0, 1]) * height
     x1, y1 = uv[t, 1, 0] * width, (1.0 - uv[t, 1, 1]) * height
     x2, y2 = uv[t, 2, 0] * width, (1.0 - uv[t, 2, 1]) * height
     area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    if not abs(area) > 1e-12:
+        return x0, y0, x1, y1, x2, y2, area, 0, -1, 0, -1
     lo_x = max(int(math.floor(min(x0, x1, x2))), 0)
     hi_x = min(int(math.floor(max(x0, x1, x2))), width - 1)
     lo_y = max(int(math.floor(min(y0, y1, y2))), 0)
     hi_y = min(int(math.floor(max(y0, y1, y2))), height - 1)
     return x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y
+
+
+@nb.njit(inline="always", **_OPTIONS)
+def _weights(x0, y0, x1, y1, x2, y2, area, px, py):
+    """Barycentric weights of the point (px, py) in a triangle of twice the signed ``area``
+    (``_corners``); all >= 0 inside."""
+    w0 = ((x1 - px) * (y2 - py) - (x2 - px) * (y1 - py)) / area
+    w1 = ((x2 - px) * (y0 - py) - (x0 - px) * (y2 - py)) / area
+    return w0, w1, 1.0 - w0 - w1
 
 
 @nb.njit(nb.void(nb.float32[:, :, ::1], nb.int64, nb.int64, nb.float64[:, ::1],
@@ -61,16 +74,12 @@ def texels(uv, width, height, subsamples, tri, bary):
     best = np.full(width * height, np.int64(subsamples.shape[0]))
     for t in range(uv.shape[0]):
         x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y = _corners(uv, t, width, height)
-        if not abs(area) > 1e-12:
-            continue
         for r in range(lo_y, hi_y + 1):
             for c in range(lo_x, hi_x + 1):
                 at = r * width + c
                 for k in range(min(best[at], subsamples.shape[0])):
                     px, py = c + subsamples[k, 0], r + subsamples[k, 1]
-                    w0 = ((x1 - px) * (y2 - py) - (x2 - px) * (y1 - py)) / area
-                    w1 = ((x2 - px) * (y0 - py) - (x0 - px) * (y2 - py)) / area
-                    w2 = 1.0 - w0 - w1
+                    w0, w1, w2 = _weights(x0, y0, x1, y1, x2, y2, area, px, py)
                     if w0 >= 0.0 and w1 >= 0.0 and w2 >= 0.0:
                         best[at] = k
                         tri[at] = t
@@ -84,15 +93,11 @@ def coverage(uv, width, height, count):
     (a margin of 1e-4 texel in) holds each texel centre."""
     for t in range(uv.shape[0]):
         x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y = _corners(uv, t, width, height)
-        if not abs(area) > 1e-12:
-            continue
         for r in range(lo_y, hi_y + 1):
             for c in range(lo_x, hi_x + 1):
                 px, py = c + 0.5, r + 0.5
-                # distances to the three edges, texels, inside positive
-                e0 = ((x1 - px) * (y2 - py) - (x2 - px) * (y1 - py)) / area
-                e1 = ((x2 - px) * (y0 - py) - (x0 - px) * (y2 - py)) / area
-                e2 = 1.0 - e0 - e1
+                e0, e1, e2 = _weights(x0, y0, x1, y1, x2, y2, area, px, py)
+                # times |area| / its edge's length: the distance to that edge in texels
                 l0 = math.hypot(x2 - x1, y2 - y1)
                 l1 = math.hypot(x0 - x2, y0 - y2)
                 l2 = math.hypot(x1 - x0, y1 - y0)
@@ -390,13 +395,7 @@ def gather(points, normals, geo, offsets, rays, reach, tris, order, bounds, link
             t, d, hu, hv = _nearest(tris, order, bounds, links, stack, ox, oy, oz, dx, dy, dz,
                                     reach)
             if t >= 0:
-                e1x = tris[t, 1, 0] - tris[t, 0, 0]
-                e1y = tris[t, 1, 1] - tris[t, 0, 1]
-                e1z = tris[t, 1, 2] - tris[t, 0, 2]
-                e2x = tris[t, 2, 0] - tris[t, 0, 0]
-                e2y = tris[t, 2, 1] - tris[t, 0, 1]
-                e2z = tris[t, 2, 2] - tris[t, 0, 2]
-                fx, fy, fz = e1y * e2z - e1z * e2y, e1z * e2x - e1x * e2z, e1x * e2y - e1y * e2x
+                fx, fy, fz = triangle_normal(tris, t)
                 if fx * dx + fy * dy + fz * dz > 0.0:
                     backs += 1
                     continue

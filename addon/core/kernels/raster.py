@@ -148,6 +148,16 @@ def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width,
                 bary_out[p, i] = q[i] * inv
 
 
+@nb.njit(inline="always", **_OPTIONS)
+def _affine(rows, k, corners, t, c):
+    """Row ``k`` of the affine map ``rows`` (K, 4) at corner ``c`` of triangle ``t`` of
+    ``corners`` (T, 3, 3), in float64: ((r0 x + r1 y) + r2 z) + r3."""
+    x = np.float64(corners[t, c, 0])
+    y = np.float64(corners[t, c, 1])
+    z = np.float64(corners[t, c, 2])
+    return ((rows[k, 0] * x + rows[k, 1] * y) + rows[k, 2] * z) + rows[k, 3]
+
+
 @nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float32[:, :, ::1]),
           nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], nb.float64[:, :, ::1])], **_OPTIONS)
 def project(positions, matrix, clip):
@@ -156,12 +166,8 @@ def project(positions, matrix, clip):
     stored in ``clip``'s type."""
     for t in range(positions.shape[0]):
         for c in range(3):
-            x = np.float64(positions[t, c, 0])
-            y = np.float64(positions[t, c, 1])
-            z = np.float64(positions[t, c, 2])
             for r in range(4):
-                clip[t, c, r] = ((x * matrix[r, 0] + y * matrix[r, 1])
-                                 + z * matrix[r, 2]) + matrix[r, 3]
+                clip[t, c, r] = _affine(matrix, r, positions, t, c)
 
 
 @nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1], nb.float32[:, ::1],
@@ -485,17 +491,10 @@ def project_survivors(positions, matrix, seen, ax, bx, ay, by, out, orig):
             continue
         corner = out[n]
         for c in range(3):
-            x = np.float64(positions[t, c, 0])
-            y = np.float64(positions[t, c, 1])
-            z = np.float64(positions[t, c, 2])
-            px = np.float32(((x * matrix[0, 0] + y * matrix[0, 1]) + z * matrix[0, 2])
-                            + matrix[0, 3])
-            py = np.float32(((x * matrix[1, 0] + y * matrix[1, 1]) + z * matrix[1, 2])
-                            + matrix[1, 3])
-            pz = np.float32(((x * matrix[2, 0] + y * matrix[2, 1]) + z * matrix[2, 2])
-                            + matrix[2, 3])
-            w = np.float32(((x * matrix[3, 0] + y * matrix[3, 1]) + z * matrix[3, 2])
-                           + matrix[3, 3])
+            px = np.float32(_affine(matrix, 0, positions, t, c))
+            py = np.float32(_affine(matrix, 1, positions, t, c))
+            pz = np.float32(_affine(matrix, 2, positions, t, c))
+            w = np.float32(_affine(matrix, 3, positions, t, c))
             corner[c, 0] = px * ax + w * bx
             corner[c, 1] = py * ay + w * by
             corner[c, 2] = pz
@@ -546,6 +545,17 @@ def _row_span(e, sign, y):
 
 
 @nb.njit(inline="always", **_OPTIONS)
+def _covered(lo, hi, offset, size):
+    """The pixels [start, stop) of a row or column of ``size`` whose sample at ``offset`` (0.5:
+    the centre) lies in [lo, hi], reaching ``_REACH`` further; (0, 0) if none (or a NaN)."""
+    first = max(np.ceil(lo - offset - _REACH), 0.0)
+    last = min(np.floor(hi - offset + _REACH), size - 1.0)
+    if not first <= last:
+        return np.int64(0), np.int64(0)
+    return np.int64(first), np.int64(last) + 1
+
+
+@nb.njit(inline="always", **_OPTIONS)
 def _span_min(xs, ys, zs, e, out):
     """Draw one triangle of map corners (xs, ys) and values zs (3,) into ``out``: at each
     covered texel centre the value interpolated over the map, kept where it is less than the
@@ -554,9 +564,8 @@ def _span_min(xs, ys, zs, e, out):
     area = (xs[1] - xs[0]) * (ys[2] - ys[0]) - (xs[2] - xs[0]) * (ys[1] - ys[0])
     if not (area != 0.0 and np.isfinite(area) and np.isfinite(zs[0] + zs[1] + zs[2])):
         return
-    r0 = max(np.ceil(min(ys[0], ys[1], ys[2]) - 0.5 - _REACH), 0.0)
-    r1 = min(np.floor(max(ys[0], ys[1], ys[2]) - 0.5 + _REACH), height - 1.0)
-    if r0 > r1:
+    r_start, r_stop = _covered(min(ys[0], ys[1], ys[2]), max(ys[0], ys[1], ys[2]), 0.5, height)
+    if r_start == r_stop:
         return
     for i in range(3):  # edge i: through corners j and k (their homogeneous (x, y, 1))
         j, k = (i + 1) % 3, (i + 2) % 3
@@ -568,14 +577,11 @@ def _span_min(xs, ys, zs, e, out):
     b = ((xs[1] - xs[0]) * (zs[2] - zs[0]) - (xs[2] - xs[0]) * (zs[1] - zs[0])) / area
     c0 = zs[0] - a * xs[0] - b * ys[0]
     sign = 1.0 if area > 0.0 else -1.0
-    for r in range(np.int64(r0), np.int64(r1) + 1):
+    for r in range(r_start, r_stop):
         lo, hi = _row_span(e, sign, r + 0.5)
-        c_lo = max(np.ceil(lo - 0.5 - _REACH), 0.0)
-        c_hi = min(np.floor(hi - 0.5 + _REACH), width - 1.0)
-        if not c_lo <= c_hi:
-            continue
+        c_start, c_stop = _covered(lo, hi, 0.5, width)
         zrow = b * (r + 0.5) + c0
-        for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+        for col in range(c_start, c_stop):
             z = np.float32(a * (col + 0.5) + zrow)
             if z < out[r, col]:
                 out[r, col] = z
@@ -595,12 +601,9 @@ def ortho_depths(points, rows, out):
     e = np.empty((3, 3))
     for t in range(points.shape[0]):
         for c in range(3):
-            x = np.float64(points[t, c, 0])
-            y = np.float64(points[t, c, 1])
-            z = np.float64(points[t, c, 2])
-            xs[c] = ((rows[0, 0] * x + rows[0, 1] * y) + rows[0, 2] * z) + rows[0, 3]
-            ys[c] = ((rows[1, 0] * x + rows[1, 1] * y) + rows[1, 2] * z) + rows[1, 3]
-            zs[c] = ((rows[2, 0] * x + rows[2, 1] * y) + rows[2, 2] * z) + rows[2, 3]
+            xs[c] = _affine(rows, 0, points, t, c)
+            ys[c] = _affine(rows, 1, points, t, c)
+            zs[c] = _affine(rows, 2, points, t, c)
         _span_min(xs, ys, zs, e, out)
 
 
@@ -608,8 +611,11 @@ def ortho_depths(points, rows, out):
 def _near_polygon(corners, dist, poly):
     """The part of one triangle in front of a plane (Sutherland and Hodgman 1974): its
     ``corners`` (3, K) float64 and their signed distances ``dist`` (3,) to the plane (>= 0 in
-    front) -> ``poly`` (4, K), every component interpolated; returns its corner count."""
+    front) -> ``poly`` (4, K), every component interpolated; returns its corner count (0
+    when a corner is not finite or all lie behind the plane)."""
     count = 0
+    if not (np.isfinite(corners.sum()) and dist.max() >= 0.0):
+        return count
     for c in range(3):
         d = (c + 1) % 3
         if dist[c] >= 0.0:
@@ -649,6 +655,17 @@ def _window_edges(poly, fan, w_at, width, height, v, e):
     return v[0, 0] * e[0, 0] + v[0, 1] * e[0, 1] + v[0, 2] * e[0, 2], lo_r, hi_r
 
 
+@nb.njit(inline="always", **_OPTIONS)
+def _inverse_w(e, det):
+    """The sign that turns the edge functions ``e`` (3, 3) of ``_window_edges`` to be >= 0
+    inside, and the plane 1 / w = a x + b y + c0 over the window: (sign, a, b, c0)."""
+    sign = 1.0 if det > 0.0 else -1.0
+    a = (e[0, 0] + e[1, 0] + e[2, 0]) / det
+    b = (e[0, 1] + e[1, 1] + e[2, 1]) / det
+    c0 = (e[0, 2] + e[1, 2] + e[2, 2]) / det
+    return sign, a, b, c0
+
+
 @nb.njit([nb.void(nb.float32[:, :, ::1], nb.float64[:, ::1], nb.float64, _F2),
           nb.void(nb.float64[:, :, ::1], nb.float64[:, ::1], nb.float64, _F2)], **_OPTIONS)
 def perspective_depths(points, rows, near, out):
@@ -668,33 +685,21 @@ def perspective_depths(points, rows, near, out):
     e = np.empty((3, 3))
     for t in range(points.shape[0]):
         for c in range(3):
-            x = np.float64(points[t, c, 0])
-            y = np.float64(points[t, c, 1])
-            z = np.float64(points[t, c, 2])
             for k in range(3):
-                clip[c, k] = ((rows[k, 0] * x + rows[k, 1] * y) + rows[k, 2] * z) + rows[k, 3]
+                clip[c, k] = _affine(rows, k, points, t, c)
             dist[c] = clip[c, 2] - near
-        if not (np.isfinite(clip[0, 2] + clip[1, 2] + clip[2, 2]) and dist.max() >= 0.0):
-            continue
         count = _near_polygon(clip, dist, poly)
         for fan in range(count - 2):
             det, lo_r, hi_r = _window_edges(poly, fan, 2, width, height, v, e)
             if not (det != 0.0 and np.isfinite(det)):
                 continue
-            sign = 1.0 if det > 0.0 else -1.0
-            a = (e[0, 0] + e[1, 0] + e[2, 0]) / det  # 1 / w = a u + b v + c0
-            b = (e[0, 1] + e[1, 1] + e[2, 1]) / det
-            c0 = (e[0, 2] + e[1, 2] + e[2, 2]) / det
-            r0 = max(np.ceil(lo_r - 0.5 - _REACH), 0.0)
-            r1 = min(np.floor(hi_r - 0.5 + _REACH), height - 1.0)
-            for r in range(np.int64(r0), np.int64(r1) + 1):
+            sign, a, b, c0 = _inverse_w(e, det)
+            r_start, r_stop = _covered(lo_r, hi_r, 0.5, height)
+            for r in range(r_start, r_stop):
                 lo, hi = _row_span(e, sign, r + 0.5)
-                c_lo = max(np.ceil(lo - 0.5 - _REACH), 0.0)
-                c_hi = min(np.floor(hi - 0.5 + _REACH), width - 1.0)
-                if not c_lo <= c_hi:
-                    continue
+                c_start, c_stop = _covered(lo, hi, 0.5, width)
                 zrow = b * (r + 0.5) + c0
-                for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+                for col in range(c_start, c_stop):
                     inv_w = a * (col + 0.5) + zrow
                     if not inv_w > 0.0:  # (extrapolated past a sliver's edge)
                         continue
@@ -737,8 +742,6 @@ def nearest(clip, cull, culling, offsets, far, tri_out, bary_out, depth_out):
             for k in range(4):
                 corners[c, k] = clip[t, c, k]
             dist[c] = corners[c, 2] + corners[c, 3]  # the near plane: z + w >= 0
-        if not (np.isfinite(corners.sum()) and dist.max() >= 0.0):
-            continue
         count = _near_polygon(corners, dist, poly)
         for fan in range(count - 2):
             det, lo_r, hi_r = _window_edges(poly, fan, 3, width, height, v, e)
@@ -746,23 +749,16 @@ def nearest(clip, cull, culling, offsets, far, tri_out, bary_out, depth_out):
                 continue
             if culling and cull[t] and det > 0.0:  # clockwise with y up: its back
                 continue
-            sign = 1.0 if det > 0.0 else -1.0
-            a = (e[0, 0] + e[1, 0] + e[2, 0]) / det  # 1 / w = a x + b y + c0 (window)
-            b = (e[0, 1] + e[1, 1] + e[2, 1]) / det
-            c0 = (e[0, 2] + e[1, 2] + e[2, 2]) / det
+            sign, a, b, c0 = _inverse_w(e, det)
             for smp in range(samples):
                 ox, oy = offsets[smp, 0], offsets[smp, 1]
-                r0 = max(np.ceil(lo_r - oy - _REACH), 0.0)
-                r1 = min(np.floor(hi_r - oy + _REACH), height - 1.0)
-                for r in range(np.int64(r0), np.int64(r1) + 1):
+                r_start, r_stop = _covered(lo_r, hi_r, oy, height)
+                for r in range(r_start, r_stop):
                     y = r + oy
                     lo, hi = _row_span(e, sign, y)
-                    c_lo = max(np.ceil(lo - ox - _REACH), 0.0)
-                    c_hi = min(np.floor(hi - ox + _REACH), width - 1.0)
-                    if not c_lo <= c_hi:
-                        continue
+                    c_start, c_stop = _covered(lo, hi, ox, width)
                     zrow = b * y + c0
-                    for col in range(np.int64(c_lo), np.int64(c_hi) + 1):
+                    for col in range(c_start, c_stop):
                         inv_w = a * (col + ox) + zrow
                         if not inv_w > 0.0:
                             continue

@@ -148,6 +148,19 @@ _SURFACE = nb.void(
 )
 
 
+@nb.njit(inline="always", **_OPTIONS)
+def triangle_normal(corners, t):
+    """The geometric normal of triangle ``t`` of ``corners`` (T, 3, 3), not normalized:
+    (c1 - c0) x (c2 - c0), its length twice the area; in the corners' float type."""
+    ax = corners[t, 1, 0] - corners[t, 0, 0]
+    ay = corners[t, 1, 1] - corners[t, 0, 1]
+    az = corners[t, 1, 2] - corners[t, 0, 2]
+    bx = corners[t, 2, 0] - corners[t, 0, 0]
+    by = corners[t, 2, 1] - corners[t, 0, 1]
+    bz = corners[t, 2, 2] - corners[t, 0, 2]
+    return ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+
+
 @nb.njit(_SURFACE, **_OPTIONS)
 def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out):
     """The surface under N camera samples: position ``p_out``, unit shading normal ``n_out``
@@ -173,13 +186,7 @@ def surface(tri, bary, positions, normals, uvs, v, p_out, n_out, geo_out, uv_out
         length = np.sqrt((n_out[i, 0] * n_out[i, 0] + n_out[i, 1] * n_out[i, 1])
                          + n_out[i, 2] * n_out[i, 2])
         length = max(length, tiny_n)
-        ax = positions[t, 1, 0] - positions[t, 0, 0]
-        ay = positions[t, 1, 1] - positions[t, 0, 1]
-        az = positions[t, 1, 2] - positions[t, 0, 2]
-        bx = positions[t, 2, 0] - positions[t, 0, 0]
-        by = positions[t, 2, 1] - positions[t, 0, 1]
-        bz = positions[t, 2, 2] - positions[t, 0, 2]
-        gx, gy, gz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+        gx, gy, gz = triangle_normal(positions, t)
         g_len = max(np.sqrt((gx * gx + gy * gy) + gz * gz), tiny_g)
         gx, gy, gz = gx / g_len, gy / g_len, gz / g_len
         flip = (gx * v[i, 0] + gy * v[i, 1]) + gz * v[i, 2] < np.float32(0.0)

@@ -48,6 +48,32 @@ def prepare(image, decode, lut, out):
                 out[y, x, c] = v
 
 
+@nb.njit(inline="always", **_OPTIONS)
+def _halve_first_axis(src, out):
+    """``src`` (n, m, C) box-filtered along its first axis to ``out`` (max(1, n // 2), m, C):
+    pairs for an even n; weights (k - i)/n, k/n, (i + 1)/n, k = (n - 1) // 2, for an odd n."""
+    n, m, nc = src.shape
+    if n == 1:  # (element loops: slice assignment is slow to compile)
+        for x in range(m):
+            for c in range(nc):
+                out[0, x, c] = src[0, x, c]
+    elif n % 2 == 0:
+        for i in range(out.shape[0]):
+            for x in range(m):
+                for c in range(nc):
+                    out[i, x, c] = np.float32(0.5) * (src[2 * i, x, c] + src[2 * i + 1, x, c])
+    else:
+        k = (n - 1) // 2
+        wk = np.float32(k / n)
+        for i in range(out.shape[0]):
+            w0 = (np.float32(k) - np.float32(i)) / np.float32(n)
+            w2 = (np.float32(i) + np.float32(1.0)) / np.float32(n)
+            for x in range(m):
+                for c in range(nc):
+                    out[i, x, c] = (w0 * src[2 * i, x, c] + wk * src[2 * i + 1, x, c]) \
+                        + w2 * src[2 * i + 2, x, c]
+
+
 @nb.njit(nb.void(nb.float32[:, :, ::1], nb.float32[:, :, ::1]), **_OPTIONS)
 def halve(src, out):
     """One mip level: ``src`` (h, w, C) box-filtered to ``out`` (max(1, h // 2),
@@ -65,44 +91,9 @@ def halve(src, out):
                     out[i, x, c] = half * (left + right)
         return
     rows = np.empty((h2, w, nc), np.float32)
-    if h == 1:  # (element loops: slice assignment is slow to compile)
-        for x in range(w):
-            for c in range(nc):
-                rows[0, x, c] = src[0, x, c]
-    elif h % 2 == 0:
-        for i in range(h2):
-            for x in range(w):
-                for c in range(nc):
-                    rows[i, x, c] = np.float32(0.5) * (src[2 * i, x, c] + src[2 * i + 1, x, c])
-    else:
-        m = (h - 1) // 2
-        wm = np.float32(m / h)
-        for i in range(h2):
-            w0 = (np.float32(m) - np.float32(i)) / np.float32(h)
-            w2_ = (np.float32(i) + np.float32(1.0)) / np.float32(h)
-            for x in range(w):
-                for c in range(nc):
-                    rows[i, x, c] = (w0 * src[2 * i, x, c] + wm * src[2 * i + 1, x, c]) \
-                        + w2_ * src[2 * i + 2, x, c]
-    if w == 1:
-        for i in range(h2):
-            for c in range(nc):
-                out[i, 0, c] = rows[i, 0, c]
-    elif w % 2 == 0:
-        for i in range(h2):
-            for x in range(w2):
-                for c in range(nc):
-                    out[i, x, c] = np.float32(0.5) * (rows[i, 2 * x, c] + rows[i, 2 * x + 1, c])
-    else:
-        m = (w - 1) // 2
-        wm = np.float32(m / w)
-        for x in range(w2):
-            w0 = (np.float32(m) - np.float32(x)) / np.float32(w)
-            w2_ = (np.float32(x) + np.float32(1.0)) / np.float32(w)
-            for i in range(h2):
-                for c in range(nc):
-                    out[i, x, c] = (w0 * rows[i, 2 * x, c] + wm * rows[i, 2 * x + 1, c]) \
-                        + w2_ * rows[i, 2 * x + 2, c]
+    _halve_first_axis(src, rows)
+    for i in range(h2):
+        _halve_first_axis(rows[i].reshape((w, 1, nc)), out[i].reshape((w2, 1, nc)))
 
 
 CODE_BINS = 16384
