@@ -506,7 +506,10 @@ def set_setting(scene, path: str, value) -> None:
 def on_load(_filepath="") -> None:
     """``load_post`` handler: upgrade the settings of every scene of the file just opened."""
     for scene in bpy.data.scenes:
-        upgrade(scene)
+        try:
+            upgrade(scene)
+        except (TypeError, KeyError, AttributeError) as exc:  # a handler must not stop the load
+            print(f"BO2 Lighting: the settings of scene '{scene.name}' were not upgraded: {exc}")
 
 
 CLASSES = [BO2IndirectSettings, BO2ProbeSettings, BO2LightmapSettings, BO2ViewportSettings,
