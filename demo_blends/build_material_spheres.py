@@ -57,6 +57,8 @@ def environment_image():
                                   float_buffer=True)
         img.pixels.foreach_set(sky[::-1].ravel())  # Blender rows run bottom to top
     img.pack()
+    if HDRI.exists():  # the file keeps no path of the machine that built it
+        img.packed_files[0].filepath = f"//{HDRI.name}"
     return img
 
 
