@@ -93,15 +93,15 @@ def coverage(uv, width, height, count):
     (a margin of 1e-4 texel in) holds each texel centre."""
     for t in range(uv.shape[0]):
         x0, y0, x1, y1, x2, y2, area, lo_x, hi_x, lo_y, hi_y = _corners(uv, t, width, height)
+        l0 = math.hypot(x2 - x1, y2 - y1)  # the edges' lengths, texels
+        l1 = math.hypot(x0 - x2, y0 - y2)
+        l2 = math.hypot(x1 - x0, y1 - y0)
+        h = abs(area)
         for r in range(lo_y, hi_y + 1):
             for c in range(lo_x, hi_x + 1):
                 px, py = c + 0.5, r + 0.5
                 e0, e1, e2 = _weights(x0, y0, x1, y1, x2, y2, area, px, py)
-                # times |area| / its edge's length: the distance to that edge in texels
-                l0 = math.hypot(x2 - x1, y2 - y1)
-                l1 = math.hypot(x0 - x2, y0 - y2)
-                l2 = math.hypot(x1 - x0, y1 - y0)
-                h = abs(area)
+                # a weight times |area| / its edge's length: the distance to that edge
                 if e0 * h / max(l0, 1e-12) > 1e-4 and e1 * h / max(l1, 1e-12) > 1e-4 and \
                         e2 * h / max(l2, 1e-12) > 1e-4:
                     count[r * width + c] += 1
