@@ -11,7 +11,7 @@ lights, penumbra widths, acne and peter-panning).
 
 Per-point set-up values live in a small scratch vector (``F_*`` slots) reused point after
 point; the map's constants and the filter's (``shadow_filter.MAX_SLOPE`` ...) come packed by
-``shadow_filter._packed`` (``P_*`` and ``I_*`` slots).
+``shadow_filter.packed`` (``P_*`` and ``I_*`` slots).
 """
 
 from __future__ import annotations

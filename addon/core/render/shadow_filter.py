@@ -42,7 +42,7 @@ import numpy as np
 
 from .shadows import MIP_FIRST_LEVEL, ShadowMap, mip_layout
 
-__all__ = ["shadow_visibility"]
+__all__ = ["packed", "shadow_visibility", "FILTER_TABLES"]
 
 NORMAL_OFFSET_TEXELS = 1.0  # receiver moved along its normal by this many texels (world size)
 DEPTH_BIAS_TEXELS = 0.05  # constant depth bias, texels (world size at the receiver)
@@ -97,8 +97,10 @@ def _cascades(sm: ShadowMap) -> np.ndarray:
     return np.ascontiguousarray(np.column_stack([rects, z_min]), np.float32)
 
 
-def _packed(sm: ShadowMap) -> tuple:
-    """The map's arrays and constants as the visibility kernel takes them (built once)."""
+def packed(sm: ShadowMap) -> tuple:
+    """The map's arrays and constants as the visibility kernel (and the GPU's filter) take them,
+    built once: depth (F*res*res,), mips (M*3,), pyramid offsets and sides (L,), basis (3, 3),
+    cascades (C, 4), cube faces (4, 6), fparams (``kernels.shadows.P_*``), iparams (``I_*``)."""
     if sm.kernel_args is not None:
         return sm.kernel_args
     from ..kernels import shadows as kernels
@@ -144,6 +146,12 @@ def _packed(sm: ShadowMap) -> tuple:
 
 _REACHES = np.float32([1.0, _PCF_REACH, _PCF_REACH_HARD])
 
+# The filter's constant tables, for another backend: the tap discs (K, 2) float32, their
+# reaches (``_disc_reach``), the disc rotations' cosines and sines (_ROT_STEPS,) float32
+FILTER_TABLES = {"blocker_disc": _BLOCKER_DISC, "pcf_disc": _PCF_DISC, "hard_disc": _PCF_DISC_HARD,
+                 "pcf_reach": _PCF_REACH, "hard_reach": _PCF_REACH_HARD, "rot_cos": _ROT_COS,
+                 "rot_sin": _ROT_SIN, "search_refinements": SEARCH_REFINEMENTS}
+
 
 def shadow_visibility(
     shadow_map: ShadowMap, points: np.ndarray, normals: np.ndarray, *, jitter: bool = True,
@@ -171,7 +179,7 @@ def shadow_visibility(
     out = np.ones(len(p), np.float32)
     if shadow_map is None or shadow_map.depth.shape[0] == 0 or not len(p):
         return out
-    depth, mips, offsets, sides, basis, rects, faces, fp, ip = _packed(shadow_map)
+    depth, mips, offsets, sides, basis, rects, faces, fp, ip = packed(shadow_map)
     ip = ip.copy()
     ip[kernels.I_JITTER] = bool(jitter)
     active = (np.ones(len(p), bool) if where is None else

@@ -1,0 +1,4 @@
+/* The depth pre-pass: depth only. */
+void main()
+{
+}

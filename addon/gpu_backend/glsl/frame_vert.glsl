@@ -1,0 +1,11 @@
+/* The frame's geometry through the camera, shifted by the sample's jitter (in NDC). */
+void main()
+{
+  v_position = pos;
+  v_normal = nor;
+  v_geo = geo;
+  v_material = int(mat + 0.5);
+  vec4 clip = frame.view_proj * vec4(pos, 1.0);
+  clip.xy += frame.jitter * clip.w;
+  gl_Position = clip;
+}
