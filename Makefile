@@ -44,14 +44,17 @@ test: venv venv45 build lint
 	$(VENV45)/bin/pytest tests/blender
 	@$(MAKE) --no-print-directory test52
 
-# The core and Blender tests on 5.2 LTS (Python 3.13, numpy 2.3).
+# The core and Blender tests on 5.2 LTS (Python 3.13, numpy 2.3), and the GPU backend's (the
+# only bpy whose gpu module opens a context in background mode; required where EGL is found).
 test52:
 	@ok() { [ -n "$$1" ] && "$$1" -c 'import ssl, sys; assert sys.version_info[:2] == (3, 13)' >/dev/null 2>&1; }; \
 	py="$(PY313)"; \
 	ok "$$py" || py=$$(command -v python3.13); \
 	ok "$$py" || py=$$([ -x "$(PY313_SCRIPT)" ] && $(PY313_SCRIPT)); \
 	if ok "$$py"; then \
-	  $(MAKE) --no-print-directory venv52 PY313="$$py" && $(VENV52)/bin/pytest tests/core tests/blender; \
+	  egl=$$( (ldconfig -p || /sbin/ldconfig -p) 2>/dev/null | grep -q 'libEGL.so.1 ' && echo 1); \
+	  $(MAKE) --no-print-directory venv52 PY313="$$py" && \
+	  BO2_REQUIRE_GPU=$$egl $(VENV52)/bin/pytest tests/core tests/blender tests/gpu; \
 	else \
 	  echo "make test: skipped the Blender 5.2 LTS tests: no working Python 3.13 (PY313, python3.13 on PATH, $(PY313_SCRIPT))"; \
 	fi

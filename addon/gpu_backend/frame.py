@@ -29,15 +29,22 @@ FRAME = Struct("FrameData", (
     ("eye", "vec3", 0), ("ortho", "int", 0),  # the camera's position; 1: orthographic
     ("forward", "vec3", 0),  # the direction it looks along
     ("jitter", "vec2", 0),  # the sample's shift, NDC
-    ("counts", "ivec4", 0),  # (lights in the batch, specular model, first batch, -)
+    ("counts", "ivec4", 0),  # (lights in the batch, specular model, first batch, MODES)
+    ("size", "ivec4", 0),  # (width, height, the sample's number, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
 ))
-# The targets, in slot order, and the passes they hold (``core.render.passes.PASSES`` names)
-TARGETS = ("combined", "diffuse", "specular", "surface", "normal", "emit")
+# How a sample is shaded (``glsl/frame_frag.glsl``): the batch's first sample, a later one
+# (reusing the first's shading where it sees the same triangle), or every sample on its own
+MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
+# What shading gives (the order of ``WRITE_TARGETS``'s arguments), the passes each holds
+# (``core.render.passes.PASSES`` names), and the groups drawn at once (a framebuffer holds
+# six targets: the key and five)
+TARGETS = ("combined", "diffuse", "specular", "emit", "surface", "normal")
 PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0, 3)),
            "GlossDir": ("specular", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
            "Gloss": ("surface", slice(3, 4)), "Normal": ("normal", slice(0, 3)),
            "Emit": ("emit", slice(0, 3))}
+GROUPS = (("combined", "diffuse", "specular", "emit"), ("surface", "normal"))
 
 
 class Unsupported(Exception):
@@ -64,13 +71,25 @@ def unsupported(frame: Frame) -> str | None:
     return None
 
 
-def _program(kind: str) -> programs.Program:
+def _writes(names: tuple[str, ...]) -> dict:
+    """The defines that store shading's values into the targets ``names``."""
+    args = ", ".join(f"v_{name}" for name in TARGETS)
+    stores = " ".join(f"out_{name} = v_{name};" for name in names)
+    compose = " ".join(f"out_{name} = texelFetch(rest_{name}, pixel, 0) + weight * "
+                       f"texelFetch(first_{name}, pixel, 0);" for name in names)
+    return {f"WRITE_TARGETS({args})": stores, "COMPOSE_TARGETS": compose}
+
+
+def _program(kind: str, names: tuple[str, ...]) -> programs.Program:
     frame_block = (("FrameData", "frame"),)
-    vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"))
+    vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
+                 ("INT", "tri"))
     varyings = (("VEC3", "v_position", "smooth"), ("VEC3", "v_normal", "smooth"),
-                ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"))
-    outputs = tuple(("VEC4", f"out_{name}") for name in TARGETS)
+                ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"),
+                ("INT", "v_tri", "flat"))
+    outputs = (("VEC4", "out_key"),) + tuple(("VEC4", f"out_{name}") for name in names)
     vert = programs.source("frame_vert")
+    corner = (("VEC2", "corner"),)
     if kind == "depth":
         return programs.Program("draw", (), (vert, programs.source("depth_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
@@ -78,22 +97,31 @@ def _program(kind: str) -> programs.Program:
     if kind == "background":
         return programs.Program("draw", (), (programs.source("background_vert"),
                                              programs.source("background_frag")),
-                                structs=(FRAME,), blocks=frame_block,
-                                inputs=(("VEC2", "corner"),), outputs=outputs)
+                                defines=_writes(names), structs=(FRAME,), blocks=frame_block,
+                                inputs=corner, outputs=outputs)
+    if kind == "compose":
+        return programs.Program(
+            "draw", (), (programs.source("background_vert"), programs.source("compose_frag")),
+            defines=_writes(names), inputs=corner,
+            samplers=(("FLOAT_2D", "first_key"), ("FLOAT_2D", "rest_key")) + tuple(
+                ("FLOAT_2D", f"{part}_{name}") for part in ("first", "rest") for name in names),
+            outputs=outputs[1:])
     return programs.Program(
         "draw", ("direct", "shadow_filter", "surface"), (vert, programs.source("frame_frag")),
-        defines=lights.filter_defines(), structs=(FRAME, lights.LIGHT, lights.SHADOW),
-        prelude=lights.filter_prelude(),
+        defines={**lights.filter_defines(), **MODES, **_writes(names)},
+        structs=(FRAME, lights.LIGHT, lights.SHADOW), prelude=lights.filter_prelude(),
         blocks=frame_block + (("LightData", f"lights[{BATCH_LIGHTS}]"),
                               ("ShadowData", f"shadows[{BATCH_LIGHTS}]")),
-        samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D_ARRAY", "shadow_depth"),
-                  ("FLOAT_2D", "shadow_mips"), ("FLOAT_2D", "shadow_rotations")),
+        samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"),
+                  ("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
+                  ("FLOAT_2D", "shadow_rotations")),
         inputs=vertex_in, varyings=varyings, outputs=outputs)
 
 
-def shader(kind: str):
-    """The compiled ``kind`` program ("depth", "shade", "background")."""
-    return programs.compiled(_program(kind), ("frame", kind))
+def shader(kind: str, names: tuple[str, ...] = GROUPS[0]):
+    """The compiled ``kind`` program ("depth", "shade", "background", "compose") writing the
+    targets ``names``."""
+    return programs.compiled(_program(kind, names), ("frame", kind, names))
 
 
 @dataclass
@@ -123,11 +151,13 @@ class GPUFrame:
         fmt = gpu.types.GPUVertFormat()
         for name, size in (("pos", 3), ("nor", 3), ("geo", 3), ("mat", 1)):
             fmt.attr_add(id=name, comp_type="F32", len=size, fetch_mode="FLOAT")
+        fmt.attr_add(id="tri", comp_type="I32", len=1, fetch_mode="INT")
         vbo = gpu.types.GPUVertBuf(fmt, 3 * t)
         vbo.attr_fill("pos", pos.reshape(-1, 3))
         vbo.attr_fill("nor", np.ascontiguousarray(frame.normals[keep], np.float32).reshape(-1, 3))
         vbo.attr_fill("geo", np.repeat(geo, 3, axis=0).astype(np.float32))
         vbo.attr_fill("mat", np.repeat(frame.material[keep], 3).astype(np.float32))
+        vbo.attr_fill("tri", np.repeat(np.flatnonzero(keep).astype(np.int32), 3))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()
@@ -152,33 +182,49 @@ class GPUFrame:
                 shadow_set, gpu.types.GPUUniformBuf(
                     _padded(shadow_set.block, lights.SHADOW, BATCH_LIGHTS))))
 
-    def draw(self, camera, offsets, targets: Targets) -> None:
-        """Add the samples at ``offsets`` ((S, 2) positions in the pixel, top-left origin)
-        of the frame through ``camera`` (``core.scene.Camera`` of the targets' size) to
-        ``targets``."""
+    def draw(self, camera, offsets, targets: Targets, first_sample: int = 0) -> None:
+        """Add the samples at ``offsets`` ((S, 2) positions in the pixel, top-left origin;
+        the first being sample ``first_sample`` of the whole) of the frame through ``camera``
+        (``core.scene.Camera`` of the targets' size) to ``targets``, shaded once per pixel and
+        triangle within these samples (``pipeline.render_tile``; every sample on its own with
+        the setting ``shade_every_sample``)."""
         import gpu
 
         scene = self.frame.scene
+        settings = scene.settings
         view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
         c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
+        w, h = camera.width, camera.height
         base = {"view_proj": view_proj, "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                 "world": np.append(np.asarray(scene.world.color, np.float32), 1.0)}
-        model = shading_kernel.MODELS[scene.settings.specular_model]
-        depth, shade, background = shader("depth"), shader("shade"), shader("background")
-        w, h = camera.width, camera.height
-        with targets.framebuffer.bind():
-            gpu.state.viewport_set(0, 0, w, h)
-            for ox, oy in np.asarray(offsets, np.float64).reshape(-1, 2):
-                jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
-                targets.framebuffer.clear(depth=1.0)
+        model = shading_kernel.MODELS[settings.specular_model]
+        depth, shade = shader("depth"), shader("shade", targets.names)
+        background = shader("background", targets.names)
+        targets.clear_batch()
+        blocks = []  # uniform buffers stay alive until drawn
+        gpu.state.viewport_set(0, 0, w, h)
+        for k, (ox, oy) in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
+            mode = ("MODE_EVERY" if settings.shade_every_sample else
+                    "MODE_FIRST" if k == 0 else "MODE_REST")
+            jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
+
+            def block(count, first_batch, mode=mode, jitter=jitter, k=k):
+                blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{
+                    **base, "jitter": jitter,
+                    "counts": [count, model, int(first_batch), MODES[mode]],
+                    "size": [w, h, first_sample + k, 0]}])))
+                return blocks[-1]
+
+            fb = targets.first if mode == "MODE_FIRST" else targets.rest
+            with fb.bind():
+                fb.clear(depth=1.0)
                 gpu.state.color_mask_set(False, False, False, False)
                 gpu.state.depth_mask_set(True)
                 gpu.state.depth_test_set("LESS")
                 gpu.state.blend_set("NONE")
-                block = self._frame_block(base, jitter, 0, model, True)
                 depth.bind()
-                depth.uniform_block("frame", block)
+                depth.uniform_block("frame", block(0, True))
                 self.batch.draw(depth)
                 gpu.state.color_mask_set(True, True, True, True)
                 gpu.state.depth_mask_set(False)
@@ -186,61 +232,92 @@ class GPUFrame:
                 gpu.state.depth_test_set("EQUAL")
                 shade.bind()
                 shade.uniform_sampler("materials", self.materials)
-                blocks = []  # alive until drawn
-                for k, batch in enumerate(self.batches):
-                    blocks.append(self._frame_block(base, jitter, batch.count, model, k == 0))
-                    shade.uniform_block("frame", blocks[-1])
+                shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
+                                      else targets.textures["first_key"])
+                for b, batch in enumerate(self.batches):
+                    shade.uniform_block("frame", block(batch.count, b == 0))
                     shade.uniform_block("lights", batch.light_block)
                     shade.uniform_block("shadows", batch.shadow_block)
                     for _, name, texture in batch.shadows.samplers():
                         shade.uniform_sampler(name, texture)
                     self.batch.draw(shade)
-                if not scene.settings.film_transparent:
+            if not settings.film_transparent:
+                with targets.rest.bind():  # a miss adds the world in every sample
                     gpu.state.depth_test_set("LESS_EQUAL")
+                    gpu.state.blend_set("ADDITIVE_PREMULT")
                     background.bind()
-                    background.uniform_block("frame", block)
+                    background.uniform_block("frame", block(0, True))
                     self.background.draw(background)
-            gpu.state.depth_test_set("NONE")
-            gpu.state.depth_mask_set(False)
-            gpu.state.blend_set("NONE")
-        targets.samples += len(np.reshape(offsets, (-1, 2)))
-
-    @staticmethod
-    def _frame_block(base: dict, jitter, count: int, model: int, first: bool):
-        import gpu
-
-        return gpu.types.GPUUniformBuf(FRAME.pack([{
-            **base, "jitter": jitter, "counts": [count, model, int(first), 0]}]))
+        targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
+        gpu.state.depth_test_set("NONE")
+        gpu.state.depth_mask_set(False)
+        gpu.state.blend_set("NONE")
 
 
 class Targets:
-    """The float32 targets samples add up in (``TARGETS``) and a depth buffer, of one size."""
+    """Float32 targets of one size: a batch's first sample (its key: the triangle of each
+    pixel) and later samples (their key: how many reuse the first's shading), and the running
+    total every batch is composed into; ``names``: the ``TARGETS`` drawn (a group of
+    ``GROUPS`` or fewer: the viewport draws Combined alone)."""
 
-    def __init__(self, width: int, height: int):
+    def __init__(self, width: int, height: int, names: tuple[str, ...] = GROUPS[0]):
         import gpu
 
-        self.width, self.height = width, height
-        self.textures = {name: gpu.types.GPUTexture((width, height), format="RGBA32F")
-                         for name in TARGETS}
+        self.width, self.height, self.names = width, height, tuple(names)
+
+        def texture():
+            return gpu.types.GPUTexture((width, height), format="RGBA32F")
+
+        self.textures = {f"{part}_{name}": texture() for part in ("first", "rest", "total")
+                         for name in ("key", *self.names) if f"{part}_{name}" != "total_key"}
         self.depth = gpu.types.GPUTexture((width, height), format="DEPTH_COMPONENT32F")
-        self.framebuffer = gpu.types.GPUFrameBuffer(
-            depth_slot=self.depth, color_slots=tuple(self.textures[n] for n in TARGETS))
+        self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
+        self.first, self.rest = (gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=tuple(
+            self.textures[f"{part}_{name}"] for name in ("key", *self.names)))
+            for part in ("first", "rest"))
+        self.total = gpu.types.GPUFrameBuffer(color_slots=tuple(
+            self.textures[f"total_{name}"] for name in self.names))
         self.samples = 0
         self.clear()
 
     def clear(self) -> None:
-        with self.framebuffer.bind():
-            self.framebuffer.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+        """Forget every sample."""
+        with self.total.bind():
+            self.total.clear(color=(0.0, 0.0, 0.0, 0.0))
         self.samples = 0
+
+    def clear_batch(self) -> None:
+        for fb in (self.first, self.rest):
+            with fb.bind():
+                fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+
+    def compose(self, triangle, count: int) -> None:
+        """Add the batch of ``count`` samples to the total (``glsl/compose_frag.glsl``)."""
+        import gpu
+
+        program = shader("compose", self.names)
+        with self.total.bind():
+            gpu.state.depth_test_set("NONE")
+            gpu.state.blend_set("ADDITIVE_PREMULT")
+            program.bind()
+            for name, texture in self.textures.items():
+                if not name.startswith("total"):
+                    program.uniform_sampler(name, texture)
+            triangle.draw(program)
+        self.samples += count
+
+    def combined(self):
+        """The running total of Combined (divide by ``samples``): a GPU texture."""
+        return self.textures["total_combined"]
 
     def passes(self, names=None) -> dict[str, np.ndarray]:
         """{pass name: (H, W, C) float32} averaged over the samples, row 0 at the top."""
         out, read = {}, {}
         scale = np.float32(1.0 / max(1, self.samples))
-        for name in names or PASS_OF:
+        for name in names or [p for p, (t, _) in PASS_OF.items() if t in self.names]:
             target, channels = PASS_OF[name]
             if target not in read:
-                read[target] = textures.read(self.textures[target])[::-1] * scale
+                read[target] = textures.read(self.textures[f"total_{target}"])[::-1] * scale
             out[name] = np.ascontiguousarray(read[target][..., channels])
         return out
 
@@ -267,6 +344,10 @@ def render(frame: Frame, offsets) -> dict[str, np.ndarray]:
     """The frame's passes (``PASS_OF``) through its own camera, drawn on the GPU:
     {name: (H, W, C) float32}, row 0 at the top (``pipeline.render_frame``'s layout)."""
     cam = frame.scene.camera
-    targets = Targets(cam.width, cam.height)
-    GPUFrame(frame).draw(cam, offsets, targets)
-    return targets.passes()
+    drawn = GPUFrame(frame)
+    out = {}
+    for names in GROUPS:
+        targets = Targets(cam.width, cam.height, names)
+        drawn.draw(cam, offsets, targets)
+        out.update(targets.passes())
+    return out

@@ -2,13 +2,15 @@
 structs into ``gpu.types.GPUShaderCreateInfo``, compiled once per session.
 
 A shader that fails to compile raises ``ShaderError`` naming the driver's first error line
-(Blender prints the log on stderr only: it is captured while compiling).
+(Blender prints the log on the console only: it is captured while compiling).
 """
 
 from __future__ import annotations
 
 import contextlib
 import os
+import re
+import sys
 import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -112,28 +114,34 @@ def _compile(program: Program):
 
     info = program.create_info()
     log: list[str] = []
-    with _stderr_captured(log):
+    with _output_captured(log):
         try:
             return gpu.shader.create_from_info(info)
         except Exception as exc:  # noqa: BLE001 - the cause is in the captured log
             error = exc
-    lines = [line.strip() for line in "".join(log).splitlines() if "error" in line.lower()]
-    cause = lines[0] if lines else str(error)
+    lines = [line.strip(" |") for line in "".join(log).splitlines()]
+    causes = [line for line in lines if re.search(r"\berror\b\s*[:(]", line, re.I)]
+    cause = causes[0] if causes else str(error)
     raise ShaderError(f"The GPU shader did not compile: {cause}")
 
 
 @contextlib.contextmanager
-def _stderr_captured(log: list[str]):
-    """Standard error (the C level, where Blender prints a shader's log) into ``log`` while
-    open; echoed to stderr afterwards."""
+def _output_captured(log: list[str]):
+    """Standard output and error (at the C level, where Blender prints a shader's log: one or
+    the other by version) into ``log`` while open; echoed to stderr afterwards."""
     with tempfile.TemporaryFile() as fh:
-        saved = os.dup(2)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        saved = [os.dup(1), os.dup(2)]
+        os.dup2(fh.fileno(), 1)
         os.dup2(fh.fileno(), 2)
         try:
             yield
         finally:
-            os.dup2(saved, 2)
-            os.close(saved)
+            os.dup2(saved[0], 1)
+            os.dup2(saved[1], 2)
+            for fd in saved:
+                os.close(fd)
             fh.seek(0)
             text = fh.read()
             if text:

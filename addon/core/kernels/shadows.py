@@ -216,8 +216,8 @@ def _setup_ortho(fr, fp, ip, basis, rects, px, py, pz, nx, ny, nz):
 
 @nb.njit(**_OPTIONS)
 def _rotation_index(bits):
-    """One of 1024 disc rotations from a white-noise hash of a position's float32 bits
-    ("lowbias32" finaliser, C. Wellons)."""
+    """One of 1024 disc rotations from a white-noise hash of three 32-bit words ("lowbias32"
+    finaliser, C. Wellons)."""
     h = (np.uint64(bits[0]) * np.uint64(0x9E3779B1)) & _M32
     h ^= (np.uint64(bits[1]) * np.uint64(0x85EBCA77)) & _M32
     h ^= (np.uint64(bits[2]) * np.uint64(0xC2B2AE3D)) & _M32
@@ -510,18 +510,20 @@ _VIS = nb.void(
     nb.float32[::1], nb.int64[::1],  # fparams, iparams
     nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1],  # discs, reaches
     nb.float32[::1], nb.float32[::1],  # rotation cos, sin
-    nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean[::1], nb.float32[::1],  # points,
-)  # normals, active; out
+    nb.float32[:, ::1], nb.float32[:, ::1], nb.uint32[:, ::1],  # points, normals, seeds,
+    nb.boolean[::1], nb.float32[::1],  # active; out
+)
 
 
 @nb.njit(_VIS, **_OPTIONS)
 def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker_disc,
-               pcf_disc, hard_disc, reaches, rot_cos, rot_sin, points, normals, active, out):
+               pcf_disc, hard_disc, reaches, rot_cos, rot_sin, points, normals, seeds, active,
+               out):
     """Fraction of the light that reaches each point (``shadow_filter.shadow_visibility``):
-    ``out`` (N,) for points (N, 3) and normals (N, 3) where ``active`` (N,) (elsewhere 1);
-    points outside every map, and points with non-finite coordinates, are lit (1)."""
+    ``out`` (N,) for points (N, 3) and normals (N, 3) where ``active`` (N,) (elsewhere 1),
+    each point's disc turned by the hash of its three ``seeds`` (N, 3); points outside every
+    map, and points with non-finite coordinates, are lit (1)."""
     fr = np.zeros(F_SIZE, np.float32)
-    bits = points.view(np.uint32)
     ortho = ip[I_KIND] == ORTHO
     for i in range(points.shape[0]):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
@@ -538,7 +540,7 @@ def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker
         fr[F_JC] = np.sqrt(fr[F_JC1] * fr[F_JC1] + fr[F_JC2] * fr[F_JC2])
         fr[F_JR] = np.sqrt(fr[F_JR1] * fr[F_JR1] + fr[F_JR2] * fr[F_JR2])
         if ip[I_JITTER]:
-            k = _rotation_index(bits[i])
+            k = _rotation_index(seeds[i])
             c, s = rot_cos[k], rot_sin[k]
         else:
             c, s = np.float32(1.0), np.float32(0.0)

@@ -28,6 +28,7 @@ from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH, Film, tile_passes
 from .shading import background_radiance, has_indirect, shade_points
+from .shadow_filter import pixel_seeds
 from .shadow_maps import build_shadow_maps, shadow_map_count
 from .visibility import (
     dither_sample,
@@ -46,7 +47,9 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     """All samples of one tile, averaged: the passes of ``SAMPLED`` side by side
     (npx, SAMPLED_WIDTH), Depth (npx,) and IndexMA (npx,), float32.
 
-    Shading is done once per pixel and triangle, as in multisample anti-aliasing: every
+    The shadow filter turns its taps by the pixel, triangle and sample of each point shaded
+    (``shadow_filter.pixel_seeds``). Shading is done once per pixel and triangle, as in
+    multisample anti-aliasing: every
     sample position is rasterized, but a sample that sees the same triangle as the pixel's
     first sample reuses that sample's shading (weighted by the number of samples that do);
     only samples that see another triangle (edges) are shaded on their own. The points of all
@@ -66,7 +69,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
-    points = []  # per sample: (tri, bary, sx, sy, pixel) of the points it shades
+    points = []  # per sample: (tri, bary, sx, sy, pixel, sample) of the points it shades
     margin = tile_margin(frame, tile)
     m, clip, _, cull, keep = margin
     drawn = []
@@ -103,14 +106,17 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
             reuse_count += reuse
             fresh = hit & ~reuse
         pixel = np.flatnonzero(fresh)
-        points.append((tri[pixel], bary[pixel], sx[pixel], sy[pixel], pixel))
+        points.append((tri[pixel], bary[pixel], sx[pixel], sy[pixel], pixel,
+                       np.full(len(pixel), first_sample + k, np.uint32)))
         if k == central:
             depth_acc = np.where(hit, depth, np.float32(EMPTY_DEPTH))
             index_acc = np.zeros(npx, np.float32)
             index_acc[hit] = frame.tables["pass_index"][frame.material[tri[hit]]]
     # the later samples' own points first, then the first sample's, weighted by its reuses
     points = points[1:] + points[:1]
-    tri, bary, sx, sy, pixel = (np.concatenate(a) for a in zip(*points, strict=True))
+    tri, bary, sx, sy, pixel, sample = (np.concatenate(a) for a in zip(*points, strict=True))
+    width = x1 - x0
+    seeds = pixel_seeds(x0 + pixel % width, y0 + pixel // width, tri, sample)
     weight = np.ones(len(pixel), np.float32)
     first = len(pixel) - len(points[-1][4])
     weight[first:] = reuse_count[pixel[first:]]
@@ -126,7 +132,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         tick(len(pixel[block]) / count)
         shading.splat(acc, pixel[block], weight[block],
                       shade_points(frame, tri[block], bary[block], sx[block], sy[block],
-                                    tick, ao_tile))
+                                    tick, ao_tile, seeds[block]))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color

@@ -42,10 +42,13 @@ def has_indirect(frame: Frame) -> bool:
     return probes_ is not None and (frame.lightmaps is not None or probes.sends_light(probes_))
 
 
-def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> np.ndarray:
+def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
+                 seeds=None) -> np.ndarray:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,);
     ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon;
-    ``ao_tile``: the tile's ``tile_ambient`` and its origin (x, y) in the frame, or None.
+    ``ao_tile``: the tile's ``tile_ambient`` and its origin (x, y) in the frame, or None;
+    ``seeds``: (N, 3) the shadow filter's rotation seeds (``shadow_filter.pixel_seeds``), or
+    None (the positions').
 
     returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
              Combined with alpha 1)
@@ -72,7 +75,8 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None) -> np
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
         if not lit.any():
             continue
-        vis = None if smap is None else shadow_filter.shadow_visibility(smap, p, geo, where=lit)
+        vis = None if smap is None else shadow_filter.shadow_visibility(smap, p, geo, where=lit,
+                                                                          seeds=seeds)
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
                          diffuse, specular, visibility=vis)
     ao = np.ones(len(tri), np.float32)

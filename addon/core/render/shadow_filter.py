@@ -3,8 +3,10 @@ reaches a surface point.
 
 Filtering: percentage-closer filtering (Reeves, Salesin & Cook 1987, "Rendering antialiased
 shadows with depth maps") with a fixed Vogel-spiral disc of taps rotated per point (one of 1024
-angles picked by a white-noise hash of the position's bits, so results are deterministic and do
-not depend on the other points of a query), and percentage-closer soft shadows
+angles picked by a white-noise hash of three words: the position's bits, or for a camera's
+points their pixel, triangle and sample (``seeds``), which a GPU draws alike; results are
+deterministic and do not depend on the other points of a query), and percentage-closer soft
+shadows
 (Fernando 2005, "Percentage-closer soft shadows"): a blocker search in the region where
 blockers can hide part of the light, then a disc kernel whose radius at the receiver is the
 penumbra half-width of a disc light,
@@ -42,7 +44,7 @@ import numpy as np
 
 from .shadows import MIP_FIRST_LEVEL, ShadowMap, mip_layout
 
-__all__ = ["packed", "shadow_visibility", "FILTER_TABLES"]
+__all__ = ["packed", "pixel_seeds", "shadow_visibility", "FILTER_TABLES"]
 
 NORMAL_OFFSET_TEXELS = 1.0  # receiver moved along its normal by this many texels (world size)
 DEPTH_BIAS_TEXELS = 0.05  # constant depth bias, texels (world size at the receiver)
@@ -155,7 +157,7 @@ FILTER_TABLES = {"blocker_disc": _BLOCKER_DISC, "pcf_disc": _PCF_DISC, "hard_dis
 
 def shadow_visibility(
     shadow_map: ShadowMap, points: np.ndarray, normals: np.ndarray, *, jitter: bool = True,
-    where: np.ndarray | None = None,
+    where: np.ndarray | None = None, seeds: np.ndarray | None = None,
 ) -> np.ndarray:
     """Fraction of the light that reaches each point (PCF, Reeves 1987; PCSS, Fernando 2005).
 
@@ -166,6 +168,8 @@ def shadow_visibility(
     jitter:     rotate the tap disc per point by a hash of its position (noise rather than
                 banding in wide penumbrae); False uses one fixed rotation
     where:      (N,) bool: only these points are queried (the others get 1), or None for all
+    seeds:      (N, 3) uint32 words hashed into each point's rotation (``pixel_seeds``), or
+                None: the position's float32 bits
     returns:    (N,) float32 in [0, 1], 1 = fully lit; points outside every map, and points
                 with non-finite coordinates, are lit
     """
@@ -184,7 +188,23 @@ def shadow_visibility(
     ip[kernels.I_JITTER] = bool(jitter)
     active = (np.ones(len(p), bool) if where is None else
               np.require(np.asarray(where, bool), bool, ["C", "W"]))
+    bits = p.view(np.uint32) if seeds is None else np.require(seeds, np.uint32, ["C"])
+    if bits.shape != p.shape:
+        raise ValueError(f"seeds {bits.shape} do not match points {p.shape}")
     kernels.visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, _BLOCKER_DISC,
-                       _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, active,
-                       out)
+                       _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, bits,
+                       active, out)
+    return out
+
+
+def pixel_seeds(x: np.ndarray, y: np.ndarray, tri: np.ndarray, sample: np.ndarray
+                ) -> np.ndarray:
+    """(N, 3) uint32 rotation seeds of points a camera sees: pixel column ``x`` and row ``y``
+    (N,) (under 65536), the triangle ``tri`` (N,) and the sample's number ``sample`` (N,) of
+    the point shaded. A GPU shading the same pixel, triangle and sample turns its taps alike,
+    wherever its rasterizer puts the point within the float32 rounding."""
+    out = np.empty((len(tri), 3), np.uint32)
+    out[:, 0] = np.asarray(x, np.uint32) | (np.asarray(y, np.uint32) << np.uint32(16))
+    out[:, 1] = np.asarray(tri, np.uint32)
+    out[:, 2] = np.asarray(sample, np.uint32)
     return out

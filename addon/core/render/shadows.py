@@ -90,7 +90,8 @@ class ShadowMap:
                 light (perspective) or light-space depth (cascades), the least and the greatest
                 value of ``depth``, metres; bounds the blocker search and proves points fully lit
                 or fully shadowed without taps (about 6% of the maps' memory)
-    kernel_args: the arrays and constants the visibility kernel takes (``shadow_filter.packed``), once
+    kernel_args: the arrays and constants the visibility kernel takes
+                (``shadow_filter.packed``), once
     """
 
     kind: str

@@ -1,10 +1,6 @@
-/* The world seen where no surface is: its constant colour and the background's opacity. */
+/* The world seen where no surface is: its constant colour (alpha 1), added per sample. */
 void main()
 {
-  out_combined = frame.world;
-  out_diffuse = vec4(0.0);
-  out_specular = vec4(0.0);
-  out_surface = vec4(0.0);
-  out_normal = vec4(0.0);
-  out_emit = vec4(0.0);
+  out_key = vec4(0.0);
+  WRITE_TARGETS(frame.world, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
 }

@@ -5,6 +5,7 @@ void main()
   v_normal = nor;
   v_geo = geo;
   v_material = int(mat + 0.5);
+  v_tri = tri;
   vec4 clip = frame.view_proj * vec4(pos, 1.0);
   clip.xy += frame.jitter * clip.w;
   gl_Position = clip;

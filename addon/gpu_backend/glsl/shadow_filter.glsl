@@ -28,14 +28,11 @@ float mx(float a, float b) { return (a >= b || isnan(a)) ? a : b; }
 float fp(int s, int i) { return shadows[s].fp[i >> 2][i & 3]; }
 int rects_count(int s) { return shadows[s].ints.w; }
 
+/* max(ceil(log2(width)), first) of an integer-valued width >= 1. */
 int level_of(float width, int first)
 {
   int iw = int(width);
-  int level = 0;
-  while ((1 << level) < iw) {
-    level += 1;
-  }
-  return max(level, first);
+  return max(iw > 1 ? findMSB(iw - 1) + 1 : 0, first);
 }
 
 vec3 unit_normal(vec3 n, vec3 a)
@@ -511,9 +508,10 @@ float pcss(Setup f, int s, float r_search, float r_min)
   return pcf(f, s, radius, 1, PCF_REACH);
 }
 
-/* Fraction of light reaching point p (geometric normal n) from shadow map s; 1 outside
+/* Fraction of light reaching point p (geometric normal n) from shadow map s, its taps turned
+ * by the hash of the three words of seed (core/render/shadow_filter.pixel_seeds); 1 outside
  * every map and for non-finite input. */
-float shadow_visibility(int s, vec3 p, vec3 n)
+float shadow_visibility(int s, vec3 p, vec3 n, uvec3 seed)
 {
   if (s < 0 || isnan(p.x + p.y + p.z + n.x + n.y + n.z) ||
       isinf(p.x + p.y + p.z + n.x + n.y + n.z)) {
@@ -529,7 +527,7 @@ float shadow_visibility(int s, vec3 p, vec3 n)
   f.jr = sqrt(f.jr1 * f.jr1 + f.jr2 * f.jr2);
   float c = 1.0, sn = 0.0;
   if (shadows[s].ints2.z != 0) {
-    vec2 rot = texelFetch(shadow_rotations, ivec2(rotation_index(floatBitsToUint(p)), 0), 0).xy;
+    vec2 rot = texelFetch(shadow_rotations, ivec2(rotation_index(seed), 0), 0).xy;
     c = rot.x;
     sn = rot.y;
   }

@@ -1,0 +1,87 @@
+"""Where a frame can be drawn: whether this Blender can open a GPU context, asked once per
+session of a child process (a Blender with neither a display nor EGL aborts the whole process
+when asked for one, so this process never asks first), and the Device setting's choice."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from dataclasses import dataclass
+
+_MARK = "BO2-GPU"
+# What the child runs: open a context (``gpu.init`` exists and is needed in background mode
+# from Blender 5.2), compile a compute shader and draw into an offscreen target.
+PROBE = f"""
+import sys
+try:
+    import gpu
+    if hasattr(gpu, "init"):
+        gpu.init()
+    info = gpu.types.GPUShaderCreateInfo()
+    info.image(0, "RGBA32F", "FLOAT_2D", "img", qualifiers={{"WRITE"}})
+    info.local_group_size(1, 1)
+    info.compute_source("void main() {{ imageStore(img, ivec2(0), vec4(1.0)); }}")
+    shader = gpu.shader.create_from_info(info)
+    texture = gpu.types.GPUTexture((1, 1), format="RGBA32F")
+    shader.bind()
+    shader.image("img", texture)
+    gpu.compute.dispatch(shader, 1, 1, 1)
+    ok = float(texture.read()[0][0][0]) == 1.0
+    print("{_MARK}", "OK" if ok else "NO", gpu.platform.backend_type_get(),
+          gpu.platform.renderer_get(), sep="\\t")
+except Exception as exc:
+    print("{_MARK}", "NO", f"{{type(exc).__name__}}: {{exc}}", sep="\\t")
+sys.stdout.flush()
+"""
+
+
+@dataclass(frozen=True)
+class Device:
+    """What the probe found: ``ok`` a GPU context can be had (``backend``, ``renderer``), or
+    ``reason`` why not (one line)."""
+
+    ok: bool
+    backend: str = ""
+    renderer: str = ""
+    reason: str = ""
+
+    def describe(self) -> str:
+        return f"GPU ({self.renderer})" if self.ok else f"CPU (no GPU: {self.reason})"
+
+
+def probe_command(binary_path: str) -> list[str]:
+    """The child's command: Blender itself in background mode, or (for the ``bpy`` module,
+    whose ``binary_path`` is empty) this Python importing ``bpy``."""
+    if binary_path:
+        return [binary_path, "--background", "--factory-startup", "--python-exit-code", "1",
+                "--python-expr", PROBE]
+    return [sys.executable, "-c", "import bpy\n" + PROBE]
+
+
+_probed: dict[tuple, Device] = {}
+
+
+def probe(command: list[str], timeout: float = 120.0) -> Device:
+    """Run ``command`` (``probe_command``) once per session and read what it printed."""
+    key = tuple(command)
+    if key not in _probed:
+        _probed[key] = _run(command, timeout)
+    return _probed[key]
+
+
+def _run(command: list[str], timeout: float) -> Device:
+    try:
+        done = subprocess.run(command, capture_output=True, text=True, timeout=timeout,
+                              stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.SubprocessError) as exc:
+        return Device(False, reason=f"the GPU probe could not run: {exc}")
+    for line in done.stdout.splitlines():
+        parts = line.split("\t")
+        if parts[0] == _MARK:
+            if parts[1] == "OK":
+                return Device(True, parts[2], parts[3] if len(parts) > 3 else "")
+            return Device(False, reason=parts[2] if len(parts) > 2 else "unknown")
+    lines = [s for s in done.stderr.splitlines() if s.strip() and "EGL Error" not in s]
+    last = lines[-1].strip() if lines else ""
+    return Device(False, reason=f"Blender stopped while opening a GPU context (exit "
+                               f"{done.returncode}){': ' + last if last else ''}")

@@ -1,0 +1,87 @@
+"""Whole frames on the GPU against the CPU's ``pipeline.render_frame`` of the same scene:
+PSNR per pass, and the Combined pass after the view transform pixel by pixel outside edges
+(the counts are printed: ``pytest -s``)."""
+
+import dataclasses
+
+import compare
+import numpy as np
+import pytest
+import scenes
+
+from bo2_lighting.addon.core.render import pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
+from bo2_lighting.addon.core.render.visibility import sample_offsets
+from bo2_lighting.addon.core.scene import Light, Material, program
+from bo2_lighting.addon.gpu_backend import frame as gpu_frame
+
+CASES = {
+    "point": dict(lights=["POINT"]),
+    "spot": dict(lights=["SPOT"]),
+    "sun": dict(lights=["SUN"]),
+    "area": dict(lights=["AREA"]),
+    "all_lights_emission": dict(lights=list(scenes.LIGHTS), emission=True),
+    "orthographic_portrait": dict(lights=list(scenes.LIGHTS), ortho=True, width=150,
+                                  height=260),
+    "bo2_specular_8_samples": dict(lights=["SPOT", "SUN"], model="bo2", samples=8),
+}
+
+
+def _render_both(scene):
+    cpu = pipeline.render_frame(RenderJob(scene))
+    frame = pipeline.prepare(RenderJob(scene))
+    gpu = gpu_frame.render(frame, sample_offsets(scene.settings.samples,
+                                                 scene.settings.filter_width))
+    return cpu, gpu
+
+
+def _check(cpu, gpu, name):
+    report = {}
+    for pass_name, image in gpu.items():
+        value = compare.psnr(image, cpu[pass_name][..., :image.shape[-1]])
+        report[pass_name] = round(float(value), 1)
+        assert value >= 40.0, f"{name}: {pass_name} {value:.1f} dB"
+    off, edge = compare.off_pixels(gpu, cpu)
+    print(f"{name}: PSNR {report}; Combined off by > 4/255: {off} pixels "
+          f"(edge pixels left out: {edge})")
+    assert off <= 0.0005 * gpu["Combined"][..., 0].size
+
+
+@pytest.mark.parametrize("name", list(CASES))
+def test_frame_matches_the_cpu(name):
+    case = dict(CASES[name])
+    lights = [scenes.LIGHTS[k] for k in case.pop("lights")]
+    scene = scenes.objects_scene(lights, **case)
+    _check(*_render_both(scene), name)
+
+
+def test_every_sample_shaded_and_transparent_film():
+    scene = scenes.objects_scene(list(scenes.LIGHTS.values()))
+    scene.settings = dataclasses.replace(scene.settings, shade_every_sample=True,
+                                         film_transparent=True)
+    cpu, gpu = _render_both(scene)
+    assert gpu["Combined"][0, 0, 3] == 0.0  # the sky's corner: no background
+    _check(cpu, gpu, "every sample, transparent film")
+
+
+def test_more_lights_than_one_batch():
+    """Lights beyond ``BATCH_LIGHTS`` are shaded in further draws and add up."""
+    rng = np.random.default_rng(3)
+    lights = [Light("POINT", rng.uniform(2, 6, 3), position=np.array(
+        [*rng.uniform(-3, 3, 2), rng.uniform(1.5, 3)]), radius=0.1,
+        shadow=bool(k % 3)) for k in range(gpu_frame.BATCH_LIGHTS + 9)]
+    scene = scenes.objects_scene(lights, samples=2)
+    _check(*_render_both(scene), "41 lights")
+
+
+def test_what_the_gpu_does_not_draw_is_named():
+    scene = scenes.objects_scene([scenes.LIGHTS["SUN"]])
+    b = program.ProgramBuilder()
+    pos = b.add("geometry", param=("position",))
+    scene.materials[1] = Material("Checker", b.build(b.add(
+        "bo2", pos, b.const(0.04, 0.04, 0.04), b.const(0.5), None, b.const(0.0, 0.0, 0.0),
+        b.const(1.0), b.const(1.0))))
+    frame = pipeline.prepare(RenderJob(scene))
+    assert "Checker" in gpu_frame.unsupported(frame)
+    with pytest.raises(gpu_frame.Unsupported, match="vary over their surface"):
+        gpu_frame.GPUFrame(frame)

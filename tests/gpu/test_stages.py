@@ -1,0 +1,151 @@
+"""Each GPU stage against the core's kernel of the same name, point for point: the same inputs
+(the core's points, normals, maps) through ``pointwise.run``, the outputs compared."""
+
+import numpy as np
+import pytest
+import scenes
+
+from bo2_lighting.addon.core.kernels import shading
+from bo2_lighting.addon.core.lighting import shade
+from bo2_lighting.addon.core.render import shadow_filter, shadows
+from bo2_lighting.addon.core.scene import Camera, Light
+from bo2_lighting.addon.gpu_backend import lights, pointwise, programs, uniforms
+
+RNG = np.random.default_rng(7)
+
+
+def _unit(a):
+    return (a / np.linalg.norm(a, axis=1, keepdims=True)).astype(np.float32)
+
+
+def test_uniform_block_reads_back_what_was_packed():
+    """A struct of every type, packed in Python and read by a shader field by field."""
+    struct = uniforms.Struct("Probe", (("a", "float", 0), ("b", "vec3", 0), ("c", "int", 0),
+                                       ("d", "vec2", 0), ("e", "vec4", 3), ("f", "ivec4", 2),
+                                       ("m", "mat4", 0)))
+    m = RNG.normal(size=(4, 4))
+    records = [{"a": 1.5, "b": [2, 3, 4], "c": -7, "d": [5, 6],
+                "e": np.arange(12) + 0.25, "f": np.arange(8) - 3, "m": m},
+               {"a": -1.0, "b": [0.5, 0.25, 0.125], "c": 9, "d": [7, 8],
+                "e": -np.arange(12.0), "f": np.arange(8) * 2, "m": -m}]
+    body = """
+      Probe r = items[index];
+      o1 = vec4(r.a, r.b); o2 = vec4(float(r.c), r.d, 0.0); o3 = r.e[1];
+      o4 = vec4(r.f[1]); o5 = r.m * vec4(1.0, 2.0, 3.0, 4.0);"""
+    out = pointwise.run((), body, {"x": np.zeros((2, 1), np.float32)},
+                        ("o1", "o2", "o3", "o4", "o5"), structs=(struct,),
+                        blocks=(("Probe", "items[2]", struct.pack(records)),))
+    for k, r in enumerate(records):
+        assert out["o1"][k] == pytest.approx([r["a"], *r["b"]])
+        assert out["o2"][k] == pytest.approx([r["c"], *r["d"], 0.0])
+        assert out["o3"][k] == pytest.approx(np.asarray(r["e"]).reshape(3, 4)[1])
+        assert out["o4"][k] == pytest.approx(np.asarray(r["f"]).reshape(2, 4)[1])
+        assert out["o5"][k] == pytest.approx(np.asarray(r["m"]) @ [1, 2, 3, 4], rel=1e-5)
+
+
+def test_a_broken_shader_names_its_error():
+    with pytest.raises(programs.ShaderError) as info:
+        pointwise.run((), "o = vec4(no_such_name);", {"x": np.zeros((1, 1), np.float32)},
+                      ("o",), key="broken")
+    assert "no_such_name" in str(info.value) and "did not compile" in str(info.value)
+
+
+@pytest.mark.parametrize("kind", ["POINT", "SPOT", "SUN", "AREA"])
+def test_incidence_matches_the_kernel(kind):
+    n = 4000
+    p = RNG.uniform(-3, 3, (n, 3)).astype(np.float32)
+    geo = _unit(RNG.normal(size=(n, 3)))
+    light = scenes.LIGHTS[kind]
+    l_dir, e, lit = shade.light_incidence(light, p, geo)
+    out = pointwise.run(("direct",), """
+      vec3 l, e;
+      bool lit = incidence(lights[0], p.xyz, geo.xyz, l, e);
+      l_out = vec4(l, lit ? 1.0 : 0.0);
+      e_out = vec4(e, 0.0);""", {"p": p, "geo": geo}, ("l_out", "e_out"),
+        structs=(lights.LIGHT,),
+        blocks=(("LightData", "lights[1]", lights.light_block([light], [-1])),))
+    assert np.array_equal(out["l_out"][:, 3] > 0.5, lit)
+    assert np.abs(out["l_out"][:, :3] - l_dir).max() < 1e-6
+    assert np.abs(out["e_out"][:, :3] - e).max() <= 1e-5 * np.abs(e).max()
+
+
+@pytest.mark.parametrize("model", list(shading.MODELS))
+def test_every_specular_model_matches_the_kernel(model):
+    """The direct BRDF (slide "Black Ops: shading model" and the Black Ops II terms): float32
+    on the GPU against the kernel's float64 within a point; the specular power 8192^gloss
+    turns a rounding of n.h into a relative error of at most ~1e-3."""
+    n = 20000
+    normal = _unit(RNG.normal(size=(n, 3)))
+    view = _unit(normal + 0.7 * RNG.normal(size=(n, 3)))
+    light = _unit(normal + 0.7 * RNG.normal(size=(n, 3)))
+    e = RNG.uniform(0, 3, (n, 3)).astype(np.float32)
+    vis = RNG.uniform(0, 1, n).astype(np.float32)
+    albedo, rf0 = (RNG.uniform(0, 1, (n, 3)).astype(np.float32) for _ in range(2))
+    gloss = RNG.uniform(0, 1, n).astype(np.float32)
+    diffuse, specular = (np.zeros((n, 3), np.float32) for _ in range(2))
+    shade.add_direct(normal, view, light, e, albedo, rf0, gloss, model, diffuse, specular,
+                     visibility=vis)
+    out = pointwise.run(("direct",), f"""
+      vec3 d = vec3(0.0), s = vec3(0.0);
+      accumulate(n.xyz, v.xyz, l.xyz, e.xyz, e.w, a.xyz, f.xyz, a.w, {shading.MODELS[model]},
+                 d, s);
+      dd = vec4(d, 0.0);
+      ss = vec4(s, 0.0);""", {"n": normal, "v": view, "l": light,
+                              "e": np.column_stack([e, vis]),
+                              "a": np.column_stack([albedo, gloss]), "f": rf0},
+        ("dd", "ss"), structs=(lights.LIGHT,),
+        blocks=(("LightData", "lights[1]", lights.light_block([scenes.LIGHTS["SUN"]], [-1])),))
+    assert np.abs(out["dd"][:, :3] - diffuse).max() <= 1e-6 * np.abs(diffuse).max()
+    assert np.abs(out["ss"][:, :3] - specular).max() <= 2e-3 * np.abs(specular).max()
+    close = np.abs(out["ss"][:, :3] - specular) <= 1e-3 * np.abs(specular) + 1e-6
+    assert close.mean() > 0.999
+
+
+def _casters() -> np.ndarray:
+    ground = np.array([[[-5, -5, 0], [5, -5, 0], [5, 5, 0]], [[-5, -5, 0], [5, 5, 0],
+                                                              [-5, 5, 0]]], np.float32)
+    return np.concatenate([ground, scenes.box([-0.5, -0.5, 0.3], [0.5, 0.5, 1.3]),
+                           scenes.box([1, 1, 0], [1.4, 1.6, 2.0])])
+
+
+SHADOW_LIGHTS = {
+    "point": Light("POINT", np.ones(3), position=np.array([0.3, -0.4, 3.0]), radius=0.25),
+    "point_hard": Light("POINT", np.ones(3), position=np.array([0.3, -0.4, 3.0]), radius=0.0),
+    "spot": Light("SPOT", np.ones(3), position=np.array([-2, 1, 4.0]),
+                  direction=_unit(np.array([[0.4, -0.2, -1]]))[0], radius=0.1, spot_size=1.4),
+    "sun": Light("SUN", np.ones(3), direction=_unit(np.array([[0.3, 0.5, -1]]))[0],
+                 radius=np.radians(3)),
+    "area": Light("AREA", np.ones(3), position=np.array([2.3, -1.4, 2.5]),
+                  direction=np.array([0, 0, -1.0]), size=np.array([0.5, 0.3])),
+}
+
+
+@pytest.mark.parametrize("name", list(SHADOW_LIGHTS))
+def test_shadow_filter_matches_the_kernel(name):
+    """PCF and PCSS with the pyramid tests (``shadow_filter``), every map kind: the GPU reads
+    the very maps the CPU built and gives the kernel's visibility at the same points and
+    seeds (float32 in the kernel's order: equal where the GPU rounds as the CPU does)."""
+    cam = Camera(scenes.look_at(np.array([6.0, -6.0, 4.0]), [0, 0, 0.5]),
+                 scenes.perspective(1.5, 16 / 9), 320, 180)
+    light = SHADOW_LIGHTS[name]
+    smap = shadows.build_shadow_map(light, _casters(), cam, resolution=512)
+    n = 20000
+    pts = np.column_stack([RNG.uniform(-3, 3, n), RNG.uniform(-3, 3, n), np.zeros(n)])
+    pts[:n // 4, 2] = 1.3  # on the box's top, and a slope
+    pts[:n // 4, :2] = RNG.uniform(-0.5, 0.5, (n // 4, 2))
+    pts = pts.astype(np.float32)
+    normals = np.tile(np.float32([0, 0, 1]), (n, 1))
+    normals[n // 2:] = _unit(np.array([[0.3, 0.2, 1.0]]))
+    seeds = RNG.integers(0, 2**32, (n, 3), dtype=np.uint32)
+    cpu = shadow_filter.shadow_visibility(smap, pts, normals, seeds=seeds)
+    assert 0.05 < (cpu < 1).mean() < 0.95 and ((cpu > 0) & (cpu < 1)).sum() > 100
+    shadow_set = lights.shadow_set([smap])
+    out = pointwise.run(("shadow_filter",), """
+      vis = vec4(shadow_visibility(0, p.xyz, n.xyz, floatBitsToUint(seed.xyz)));""",
+        {"p": pts, "n": normals, "seed": seeds.view(np.float32)}, ("vis",),
+        defines=lights.filter_defines(), structs=(lights.SHADOW,),
+        prelude=lights.filter_prelude(),
+        blocks=(("ShadowData", "shadows[1]", shadow_set.block),),
+        samplers=shadow_set.samplers())["vis"][:, 0]
+    diff = np.abs(out - cpu)
+    assert diff.mean() < 1e-4 and (diff > 1 / 16).mean() < 1e-3
