@@ -22,7 +22,8 @@ from ..core.bakes import bounce
 from ..core.render import memory, pipeline
 from ..core.render.job import Cancelled, Message, RenderJob, Warnings
 from ..core.render.passes import PASSES
-from . import extract, interrupt, passes, render_graph, viewport
+from ..core.render.viewport import VIEWS
+from . import extract, gpu_frames, interrupt, passes, render_graph, viewport
 from . import settings as settings_of
 
 
@@ -33,6 +34,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
     bl_use_postprocess = True
     bl_use_eevee_viewport = True  # Material Preview shading: EEVEE renders the BO2 groups
     bl_use_shading_nodes_custom = False  # Blender's shader node trees: the Shader Editor works
+    # F12 in a window draws on the GPU (``gpu_frames``); in background mode the context is
+    # opened only after a child process showed it can be (a Blender without one aborts)
+    bl_use_gpu_context = not bpy.app.background
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
@@ -75,16 +79,24 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         except Exception as exc:  # noqa: BLE001 - the viewport shows one line, the console the trace
             traceback.print_exc(file=sys.stderr)
             view.error = f"{type(exc).__name__}: {exc}"
-        view.session.set_view(getattr(space.shading, "bo2_lookdev_view", "COMBINED"))
+        view.set_view(getattr(space.shading, "bo2_lookdev_view", "COMBINED"))
         scale = viewport.pixel_size(depsgraph.scene, context.preferences)
-        view.set_camera(viewport.region_camera(region, context.region_data, scale))
+        camera = viewport.region_camera(region, context.region_data, scale)
+        view.set_camera(camera)
         busy = view.session.busy  # before the image: a last sample landing now is redrawn
-        image = view.session.image()
+        if self._drawing is None:
+            self._drawing = viewport.Drawing()
+        texture = None if view.error else view.draw_gpu(camera)
+        if texture is not None:
+            data = VIEWS[view.session.view].data
+            self._drawing.draw_texture(self, depsgraph.scene, texture, data, region.width,
+                                       region.height)
+            busy = busy or view.gpu_busy
+        else:
+            image = view.session.image()
+            if image is not None and not (view.error or view.session.error):
+                self._drawing.draw(self, depsgraph.scene, image, region.width, region.height)
         self.update_stats("BO2 Lighting", view.status())
-        if image is not None and not (view.error or view.session.error):
-            if self._drawing is None:
-                self._drawing = viewport.Drawing()
-            self._drawing.draw(self, depsgraph.scene, image, region.width, region.height)
         if busy:
             self.tag_redraw()  # poll until the refinement is done
 
@@ -110,7 +122,14 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             self.update_stats("BO2 Lighting", f"Rendering {ntris:,} triangles")
             job = RenderJob(frame, progress=self.update_progress, should_stop=should_stop,
                             warnings=sink)
-            for tile, layers in pipeline.render_tiles(job):
+            prepared = None
+            if not self.is_preview:
+                prepared, device = self._render_gpu(job, depsgraph)
+                if device == "GPU":
+                    seconds = time.perf_counter() - start
+                    self._rendered(seconds, "GPU")
+                    return
+            for tile, layers in pipeline.render_tiles(job, frame=prepared):
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
         except Cancelled:
             return
@@ -124,11 +143,48 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             traceback.print_exc(file=sys.stderr)
             self._fail(f"BO2 Lighting failed: {type(exc).__name__}: {exc}")
             return
-        seconds = time.perf_counter() - start
+        self._rendered(time.perf_counter() - start, "CPU")
+
+    def _rendered(self, seconds: float, device: str) -> None:
         for listener in list(_listeners):
             listener.add(f"{'Preview' if self.is_preview else 'Frame'} rendered in "
                          f"{seconds:.3f} s", "INFO")
-        self.update_stats("BO2 Lighting", f"Done in {seconds:.2f} s")
+        self.update_stats("BO2 Lighting", f"Done in {seconds:.2f} s ({device})")
+
+    def _render_gpu(self, job, depsgraph) -> tuple[object, str]:
+        """Draw the job's frame on the GPU where the Device setting and this session allow:
+        (the prepared frame or None, "GPU" when drawn and written, else "CPU"). Why it was not
+        drawn there is said once per render in the Auto device's case (as INFO), and always
+        when GPU was chosen (as WARNING); a failure on the GPU goes to the CPU the same way."""
+        scene = depsgraph.scene
+        why = gpu_frames.refusal(scene)
+        if why and scene.bo2.device == "CPU":
+            return None, "CPU"
+        prepared = None
+        if not why:
+            try:
+                self.update_stats("BO2 Lighting", "Drawing on the GPU")
+                prepared, drawn = gpu_frames.render(job, depsgraph.view_layer)
+            except (Cancelled, MemoryError):
+                raise
+            except Exception as exc:  # noqa: BLE001 - the frame goes to the CPU, the cause said
+                traceback.print_exc(file=sys.stderr)
+                drawn = f"a GPU failure: {exc}"
+            if isinstance(drawn, dict):
+                cam = job.scene.camera
+                border = job.scene.settings.border or (0, 0, cam.width, cam.height)
+                x0, y0, x1, y1 = border
+                self._write_tile(border, {name: image[y0:y1, x0:x1]
+                                          for name, image in drawn.items()},
+                                 job.scene, depsgraph.view_layer.name)
+                job.warn(f"Rendered on the GPU ({gpu_frames.renderer()})", "INFO")
+                return prepared, "GPU"
+            why = drawn
+        kind = "WARNING" if scene.bo2.device == "GPU" else "INFO"
+        job.warn(f"Rendered on the CPU: the GPU does not draw {why}"
+                 if not why.startswith(("no GPU", "a GPU failure"))
+                 else f"Rendered on the CPU: {why}", kind)
+        return prepared, "CPU"
 
     def _forward(self, message: Message) -> None:
         """A render's message: the operator's report (not a preview's), and every listener's

@@ -254,9 +254,28 @@ class BO2LookDevSettings(bpy.types.PropertyGroup):
     )
 
 
+# Where frames are drawn (``scene.bo2.device``)
+DEVICES = [
+    ("AUTO", "Auto", "The viewport on the GPU; renders on the GPU where this Blender can open "
+     "a GPU context (checked once per session), else on the CPU. A frame with what the GPU "
+     "does not draw yet is rendered on the CPU, and the status line says why"),
+    ("GPU", "GPU", "Draw the talk's model as shaders through Blender's GPU module; frames the "
+     "GPU cannot draw fall back to the CPU with one message"),
+    ("CPU", "CPU", "The engine's CPU kernels: the reference every GPU stage is tested "
+     "against"),
+]
+
+
 class BO2SceneSettings(bpy.types.PropertyGroup):
     """Render settings of the BO2 Lighting engine (``scene.bo2``): the main panel's, where the
     bakes are kept, and one group per sub-panel."""
+
+    device: bpy.props.EnumProperty(
+        name="Device",
+        description="Where the viewport and renders are drawn",
+        items=DEVICES,
+        default="AUTO",
+    )
 
     samples: bpy.props.IntProperty(
         name="Samples",

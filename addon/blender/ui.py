@@ -70,6 +70,7 @@ class RENDER_PT_bo2_settings(BO2Panel, bpy.types.Panel):
             if not bpy.app.timers.is_registered(_redraw_properties):
                 bpy.app.timers.register(_redraw_properties, first_interval=0.5)
         settings = context.scene.bo2
+        layout.prop(settings, "device")
         layout.prop(settings, "samples")
         layout.prop(settings, "shade_every_sample")
         layout.prop(context.scene.render, "filter_size", text="Filter Width")

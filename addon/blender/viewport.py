@@ -9,6 +9,8 @@ session; ``Drawing`` is the only code that needs a GPU, and the only code not ru
 from __future__ import annotations
 
 import dataclasses
+import sys
+import traceback
 
 import bpy
 import numpy as np
@@ -18,6 +20,8 @@ from ..core.bakes import bounce
 from ..core.render import viewport
 from ..core.render.job import Warnings
 from ..core.scene import Camera
+from ..gpu_backend import frame as gpu_frame
+from ..gpu_backend import viewport as gpu_viewport
 from . import extract, probes, studio, worlds
 from . import settings as settings_of
 
@@ -187,6 +191,10 @@ class Viewport:
         self.shading = studio.SCENE  # the viewport's Scene World and Scene Lights toggles
         self._shading_key: tuple = ()  # ``studio.key`` of the toggles last seen
         self._world_light = False  # the studio light's world alone lights the scene
+        self._sent_camera = None  # the camera of the last update sent to the session
+        self.device = "AUTO"  # the scene's Device setting
+        self.gpu = None  # ``gpu_viewport.ViewportDrawing``, made on the first GPU draw
+        self.gpu_failure: str | None = None  # why the GPU could not draw (until a change)
 
     def sync(self, depsgraph, updates=None) -> set[str]:
         """Read what ``updates`` changed (None: everything) and render anew; returns the
@@ -224,12 +232,17 @@ class Viewport:
         self.error, self._unsent = None, set()
         self.warnings.extend(warnings)
         changed |= _differences(self.scene, scene)
-        state = (render, int(settings.viewport.samples), indirect)
+        state = (render, int(settings.viewport.samples), indirect, str(settings.device))
         if changed == {"settings"} and state == self._state:
             self.scene = scene
             return set()  # e.g. the look-dev view alone: shown from the last passes
         self._state = state
         self.session.samples = int(settings.viewport.samples)
+        self.device = str(settings.device)
+        self.gpu_failure = None  # a change: the GPU may take it
+        # the GPU draws in view_draw, which a window has (background mode: the CPU's images)
+        gpu_draws = self.device != "CPU" and not bpy.app.background
+        self.session.drawer = self._gpu_refusal if gpu_draws else None
         if changed & {"probes", "settings", "world"} or self.scene is None:
             self.hint = probe_hint(blender_scene)
         world = blender_scene.world
@@ -259,17 +272,67 @@ class Viewport:
 
     def set_camera(self, camera) -> bool:
         """Render through ``camera`` (``core.render.viewport.view_camera``) when it differs from the
-        last one; True when it did."""
+        last one; True when it did. The GPU draws the frame it has through any camera: the
+        session is told only when it renders."""
         if self.camera is not None and viewport.same_camera(self.camera, camera):
             return False
         self.camera = camera
-        self._submit({"camera"})
+        if self.session.frame() is None or self.gpu_failure:
+            self._submit({"camera"})
         return True
 
     def _submit(self, changed) -> None:
         if self.scene is not None and self.camera is not None:
+            changed = set(changed)
+            if self._sent_camera is not None and not viewport.same_camera(self._sent_camera,
+                                                                          self.camera):
+                changed.add("camera")  # moved while the GPU drew
+            self._sent_camera = self.camera
             self.session.update(dataclasses.replace(self.scene, camera=self.camera), changed,
                                 world_light=self._world_light)
+
+    def set_view(self, view: str) -> None:
+        """Show look-dev view ``view``; a view the GPU does not draw (or one it draws, after
+        one it did not) renders the frame again on the right side."""
+        if view == self.session.view:
+            return
+        was = self.session.view in gpu_viewport.VIEWS
+        self.session.set_view(view)
+        if self.device != "CPU" and was != (view in gpu_viewport.VIEWS):
+            self._submit({"settings"})  # the frame kept: only who draws it changes
+
+    def _gpu_refusal(self, frame) -> str | None:
+        """On the session's worker: why the GPU cannot draw ``frame`` in this viewport's view,
+        or None."""
+        if self.gpu_failure:
+            return self.gpu_failure
+        if self.session.view not in gpu_viewport.VIEWS:
+            return f"the {viewport.VIEWS[self.session.view].label} view"
+        return gpu_frame.unsupported(frame)
+
+    def draw_gpu(self, camera):
+        """Draw the session's frame on the GPU (one more sample): the view's texture, or None
+        when the session renders on the CPU. A failure (a shader that does not compile, GPU
+        memory) is kept as ``gpu_failure`` and the frame is rendered on the CPU instead."""
+        drawn = self.session.frame()
+        if drawn is None or self.gpu_failure:
+            return None
+        if self.gpu is None:
+            self.gpu = gpu_viewport.ViewportDrawing()
+        try:
+            return self.gpu.draw(drawn[0], camera, self.session.view, self.session.samples)
+        except Exception as exc:  # noqa: BLE001 - the frame goes to the CPU, the cause shown
+            traceback.print_exc(file=sys.stderr)
+            self.gpu_failure = _failure(exc)
+            self.gpu = None
+            self._submit({"settings"})  # the frame kept, rendered on the CPU
+            return None
+
+    @property
+    def gpu_busy(self) -> bool:
+        """The GPU draws and has samples to add."""
+        return (self.session.frame() is not None and not self.gpu_failure
+                and self.gpu is not None and self.gpu.samples < self.session.samples)
 
     def status(self) -> str:
         """The viewport's status text: the error, or the samples done, the probe hint and
@@ -278,12 +341,21 @@ class Viewport:
         if error:
             return f"Error: {error}"
         image = self.session.image()
-        if image is None:
+        on_gpu = self.session.frame() is not None and not self.gpu_failure
+        if on_gpu:
+            done = 0 if self.gpu is None else self.gpu.samples
+            parts = [f"GPU: sample {done}/{self.session.samples}"]
+        elif image is None:
             parts = [kernels.status() or "Preparing"]
         elif image.samples == 0:
             parts = ["Preview"]
         else:
             parts = [f"Sample {image.samples}/{self.session.samples}"]
+        if not on_gpu and self.device != "CPU":
+            if self.gpu_failure:
+                parts.insert(0, f"CPU ({self.gpu_failure})")
+            elif self.session.refusal:
+                parts.insert(0, f"CPU (the GPU does not draw {self.session.refusal} yet)")
         if self.hint:
             parts.append(self.hint)
         if self.warnings:
@@ -295,6 +367,13 @@ class Viewport:
         """Stop the render thread."""
         self.session.close()
         _live.discard(self)
+
+
+def _failure(exc: Exception) -> str:
+    """One line on why the GPU failed to draw."""
+    if isinstance(exc, MemoryError) or "memory" in str(exc).lower():
+        return f"the GPU ran out of memory: {exc}"
+    return str(exc) if str(exc) else type(exc).__name__
 
 
 def pixel_size(scene, preferences) -> int:
@@ -316,8 +395,8 @@ def region_camera(region, region_data, scale: int = 1) -> Camera:
 
 
 class Drawing:
-    """The GPU side: one texture upload per new image, drawn over the region through Blender's
-    display transform (data views drawn as they are)."""
+    """The GPU side: one texture upload per new image (or the GPU's own image), drawn over the
+    region through Blender's display transform (data views drawn as they are)."""
 
     def __init__(self):
         self._image = None
@@ -325,17 +404,24 @@ class Drawing:
 
     def draw(self, engine, scene, image: viewport.Image, width: int, height: int) -> None:
         import gpu
-        from gpu_extras.presets import draw_texture_2d
 
         if image is not self._image:
             h, w = image.pixels.shape[:2]
             buffer = gpu.types.Buffer("FLOAT", w * h * 4, image.pixels.ravel())
             self._texture = gpu.types.GPUTexture((w, h), format="RGBA16F", data=buffer)
             self._image = image
+        self.draw_texture(engine, scene, self._texture, image.data, width, height)
+
+    @staticmethod
+    def draw_texture(engine, scene, texture, data: bool, width: int, height: int) -> None:
+        """Draw ``texture`` (scene-linear RGBA, or ``data`` shown as it is) over the region."""
+        import gpu
+        from gpu_extras.presets import draw_texture_2d
+
         gpu.state.blend_set("ALPHA_PREMULT")
-        if not image.data:
+        if not data:
             engine.bind_display_space_shader(scene)
-        draw_texture_2d(self._texture, (0, 0), width, height)
-        if not image.data:
+        draw_texture_2d(texture, (0, 0), width, height)
+        if not data:
             engine.unbind_display_space_shader()
         gpu.state.blend_set("NONE")

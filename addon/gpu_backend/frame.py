@@ -45,6 +45,7 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "Gloss": ("surface", slice(3, 4)), "Normal": ("normal", slice(0, 3)),
            "Emit": ("emit", slice(0, 3))}
 GROUPS = (("combined", "diffuse", "specular", "emit"), ("surface", "normal"))
+LIT = {"combined", "diffuse", "specular"}  # the targets that need the lights
 
 
 class Unsupported(Exception):
@@ -106,15 +107,21 @@ def _program(kind: str, names: tuple[str, ...]) -> programs.Program:
             samplers=(("FLOAT_2D", "first_key"), ("FLOAT_2D", "rest_key")) + tuple(
                 ("FLOAT_2D", f"{part}_{name}") for part in ("first", "rest") for name in names),
             outputs=outputs[1:])
+    samplers = (("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"))
+    if not set(names) & LIT:
+        return programs.Program(
+            "draw", ("surface",), (vert, programs.source("frame_frag")),
+            defines={**MODES, **_writes(names), "SURFACE_ONLY": 1}, structs=(FRAME,),
+            blocks=frame_block, samplers=samplers, inputs=vertex_in, varyings=varyings,
+            outputs=outputs)
     return programs.Program(
         "draw", ("direct", "shadow_filter", "surface"), (vert, programs.source("frame_frag")),
         defines={**lights.filter_defines(), **MODES, **_writes(names)},
         structs=(FRAME, lights.LIGHT, lights.SHADOW), prelude=lights.filter_prelude(),
         blocks=frame_block + (("LightData", f"lights[{BATCH_LIGHTS}]"),
                               ("ShadowData", f"shadows[{BATCH_LIGHTS}]")),
-        samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"),
-                  ("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
-                  ("FLOAT_2D", "shadow_rotations")),
+        samplers=samplers + (("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
+                             ("FLOAT_2D", "shadow_rotations")),
         inputs=vertex_in, varyings=varyings, outputs=outputs)
 
 
@@ -203,7 +210,7 @@ class GPUFrame:
         background = shader("background", targets.names)
         targets.clear_batch()
         blocks = []  # uniform buffers stay alive until drawn
-        gpu.state.viewport_set(0, 0, w, h)
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
         for k, (ox, oy) in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
             mode = ("MODE_EVERY" if settings.shade_every_sample else
                     "MODE_FIRST" if k == 0 else "MODE_REST")
@@ -234,12 +241,14 @@ class GPUFrame:
                 shade.uniform_sampler("materials", self.materials)
                 shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
                                       else targets.textures["first_key"])
-                for b, batch in enumerate(self.batches):
+                lit = bool(set(targets.names) & LIT)
+                for b, batch in enumerate(self.batches if lit else self.batches[:1]):
                     shade.uniform_block("frame", block(batch.count, b == 0))
-                    shade.uniform_block("lights", batch.light_block)
-                    shade.uniform_block("shadows", batch.shadow_block)
-                    for _, name, texture in batch.shadows.samplers():
-                        shade.uniform_sampler(name, texture)
+                    if lit:
+                        shade.uniform_block("lights", batch.light_block)
+                        shade.uniform_block("shadows", batch.shadow_block)
+                        for _, name, texture in batch.shadows.samplers():
+                            shade.uniform_sampler(name, texture)
                     self.batch.draw(shade)
             if not settings.film_transparent:
                 with targets.rest.bind():  # a miss adds the world in every sample
@@ -249,9 +258,9 @@ class GPUFrame:
                     background.uniform_block("frame", block(0, True))
                     self.background.draw(background)
         targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
-        gpu.state.depth_test_set("NONE")
-        gpu.state.depth_mask_set(False)
-        gpu.state.blend_set("NONE")
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
 
 
 class Targets:

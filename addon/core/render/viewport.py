@@ -151,6 +151,11 @@ class Session:
     samples:  samples per pixel of the finished image (the scene's settings give the threads)
     on_image: called on the worker thread after each new image (e.g. to ask for a redraw)
     warnings: the sink of the renders' warnings (``job.Warnings``; a new one by default)
+
+    With ``drawer`` set (a function of a prepared ``Frame`` giving None when another backend
+    draws it, else why not), the worker prepares each update's frame and, where the drawer
+    takes it, publishes it (``frame``) instead of rendering samples: the GPU draws it
+    through any camera, so camera moves need no update at all.
     """
 
     def __init__(self, samples: int = 8, on_image: Callable[[], None] | None = None,
@@ -171,6 +176,9 @@ class Session:
         self._error: str | None = None
         self._frame: Frame | None = None
         self._preview: Frame | None = None
+        self.drawer: Callable[[Frame], str | None] | None = None
+        self._drawn: tuple | None = None  # (frame, update number) published for the drawer
+        self._refusal: str | None = None  # why the drawer did not take the last frame
         self._thread = threading.Thread(target=self._run, name="bo2-viewport", daemon=True)
         self._thread.start()
 
@@ -221,6 +229,18 @@ class Session:
         """The newest image, or None before the first one."""
         with self._cond:
             return self._image
+
+    def frame(self) -> tuple | None:
+        """(the newest prepared frame for the drawer, its update's number), or None when the
+        newest update was rendered here (or none was prepared yet)."""
+        with self._cond:
+            return self._drawn
+
+    @property
+    def refusal(self) -> str | None:
+        """Why the drawer did not take the newest frame (rendered here instead), or None."""
+        with self._cond:
+            return self._refusal
 
     @property
     def error(self) -> str | None:
@@ -373,7 +393,24 @@ class Session:
             self.stats["renders"] += 1
             self._publish(passes, small.scene, 0, False, number)
 
-        frame = self._prepared(scene, changed, should_stop, preview)
+        drawer = self.drawer
+        frame = self._prepared(scene, changed, should_stop,
+                               preview if drawer is None else lambda frame: None)
+        if drawer is not None:
+            refusal = drawer(frame)
+            with self._cond:
+                if self._stale(number):
+                    return
+                self._refusal = refusal
+                self._drawn = None if refusal else (frame, number)
+                self._cond.notify_all()
+            if refusal is None:
+                if self.on_image is not None:
+                    self.on_image()
+                return
+        else:
+            with self._cond:
+                self._drawn, self._refusal = None, None
         total = None
         for k in range(samples):
             passes = pipeline.render_frame(self._job(scene, should_stop), frame=frame,

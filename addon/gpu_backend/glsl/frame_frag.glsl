@@ -5,7 +5,8 @@
  * = 1) and is weighted into the first's shading by the compose pass; one that sees another
  * triangle (an edge) is shaded on its own. Lights come in batches (frame.counts.x of them;
  * frame.counts.z: the first batch, which also adds the surface's own terms). WRITE_TARGETS
- * (defined from Python) stores the values of TARGETS the targets drawn into hold. */
+ * (defined from Python) stores the values of TARGETS the targets drawn into hold; with
+ * SURFACE_ONLY (targets that need no light) the lights are left out. */
 void main()
 {
   bool first_batch = frame.counts.z != 0;
@@ -29,6 +30,7 @@ void main()
   int row = frame.size.y - 1 - pixel.y;
   uvec3 seed = uvec3(uint(pixel.x) | (uint(row) << 16u), uint(v_tri), uint(frame.size.z));
   vec3 diffuse = vec3(0.0), specular = vec3(0.0);
+#ifndef SURFACE_ONLY
   for (int i = 0; i < frame.counts.x; i++) {
     vec3 l, e;
     if (!incidence(lights[i], s.p, s.geo, l, e)) {
@@ -39,6 +41,7 @@ void main()
     accumulate(s.n, s.v, l, e, vis, s.albedo, s.rf0, s.gloss, frame.counts.y, diffuse,
                specular);
   }
+#endif
   vec3 emit = first_batch ? s.emission : vec3(0.0);
   WRITE_TARGETS(vec4((diffuse + specular) + emit, first_batch ? 1.0 : 0.0), vec4(diffuse, 0.0),
                 vec4(specular, 0.0), vec4(emit, 0.0),

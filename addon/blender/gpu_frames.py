@@ -1,0 +1,71 @@
+"""F12 and ``bo2 render`` on the GPU: whether this session can draw a frame there (the scene's
+Device setting, and in background mode a GPU context probed once in a child process), and the
+frame drawn and read back as the render's passes."""
+
+from __future__ import annotations
+
+import bpy
+
+from ..core.render import pipeline
+from ..core.render.passes import PASSES
+from ..core.render.visibility import sample_offsets
+from ..gpu_backend import device
+from ..gpu_backend import frame as gpu_frame
+from . import passes
+
+_initialised: list[bool] = []
+
+
+def refusal(scene) -> str | None:
+    """Why a final render of ``scene`` is not drawn on the GPU in this session, or None."""
+    if scene.bo2.device == "CPU":
+        return "the CPU was chosen"
+    if not bpy.app.background:
+        return None  # the render thread has Blender's GPU context (bl_use_gpu_context)
+    found = device.probe(device.probe_command(bpy.app.binary_path))
+    if not found.ok:
+        return f"no GPU context: {found.reason}"
+    if not _initialised:
+        import gpu
+
+        if hasattr(gpu, "init"):
+            gpu.init()
+        _initialised.append(True)
+    return None
+
+
+def renderer() -> str:
+    """The GPU's name, as its driver gives it."""
+    import gpu
+
+    try:
+        return gpu.platform.renderer_get()
+    except Exception:  # noqa: BLE001 - a name only
+        return "GPU"
+
+
+def unsupported_passes(view_layer) -> str | None:
+    """The enabled passes the GPU does not draw yet (one phrase), or None."""
+    missing = [name for name in PASSES if name not in gpu_frame.PASS_OF
+               and passes.enabled(view_layer, name)]
+    if not missing:
+        return None
+    return f"the {', '.join(missing[:3])} pass{'es' if len(missing) > 1 else ''}"
+
+
+def render(job, view_layer) -> tuple[object, dict | str]:
+    """The job's frame prepared (``pipeline.prepare``) and its passes drawn on the GPU:
+    (frame, {pass name: (H, W, C) float32, row 0 at the top}), or (frame or None, why the
+    GPU does not draw it)."""
+    why = unsupported_passes(view_layer)
+    if why:
+        return None, why
+    frame = pipeline.prepare(job)
+    why = gpu_frame.unsupported(frame)
+    if why:
+        return frame, why
+    s = job.scene.settings
+    drawn = gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)), s.filter_width))
+    wanted = {name for name in gpu_frame.PASS_OF if name == "Combined"
+              or passes.enabled(view_layer, name)}
+    return frame, {name: image for name, image in drawn.items() if name in wanted}
