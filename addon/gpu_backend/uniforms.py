@@ -44,7 +44,9 @@ class Struct:
     def pack(self, records: list[dict], count: int | None = None) -> bytes:
         """std140 bytes of an array of ``count`` structs (``len(records)`` by default, at
         least one: a block may not be empty); a record maps field names to values (scalars or
-        arrays, flattened), a missing field is 0."""
+        arrays, flattened: an array's elements filled in order, or from rows (K, C) one row per
+        element; a vector's or an array's last components may be left out), a missing field
+        or component is 0."""
         offsets, size = self.layout()
         count = max(1, len(records) if count is None else count)
         if len(records) > count:
@@ -58,6 +60,8 @@ class Struct:
                 value = np.asarray(record[name], dtype)
                 if kind == "mat4":  # GLSL matrices are stored column by column
                     value = np.swapaxes(value.reshape(-1, 4, 4), 1, 2)
+                elif n and value.ndim == 2 and value.shape[1] < comps:  # rows: one per element
+                    value = np.pad(value, ((0, 0), (0, comps - value.shape[1])))
                 value = value.reshape(-1)
                 at = k * size + offsets[name]
                 if n:  # each element in its own 16-byte slot
@@ -70,7 +74,7 @@ class Struct:
                     padded[:, :comps] = flat.reshape(n, comps)
                     raw[at:at + 16 * n] = padded.view(np.uint8).reshape(-1)
                 else:
-                    if len(value) != comps:
+                    if len(value) > comps or (len(value) < comps and kind == "mat4"):
                         raise ValueError(f"{self.name}.{name}: {len(value)} values for {kind}")
-                    raw[at:at + 4 * comps] = value.view(np.uint8)
+                    raw[at:at + 4 * len(value)] = value.view(np.uint8)  # the rest stays 0
         return raw.tobytes()

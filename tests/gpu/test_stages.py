@@ -149,3 +149,81 @@ def test_shadow_filter_matches_the_kernel(name):
         samplers=shadow_set.samplers())["vis"][:, 0]
     diff = np.abs(out - cpu)
     assert diff.mean() < 1e-4 and (diff > 1 / 16).mean() < 1e-3
+
+
+DC = np.eye(9, 3)[:, :1] * np.ones(3)
+
+
+def _chain(size):
+    out = []
+    while size >= 1:
+        out.append(RNG.uniform(0.05, 2.0, (6, size, size, 3)).astype(np.float32))
+        size //= 2
+    return out
+
+
+def _probes(world_color: bool, volumes: bool):
+    """Three overlapping reflection probes (with sphere and box proxies when ``volumes``), a
+    world chain or colour, and an irradiance volume with validity and biases plus a bounce
+    volume."""
+    from bo2_lighting.addon.core.lighting import probes as cp
+
+    refl = [cp.ReflectionProbe(
+        f"P{i}", RNG.uniform(-1, 1, 3), float(RNG.uniform(1, 2)), float(RNG.uniform(0.1, 0.9)),
+        {"bo2": _chain(16), "bo1": _chain(8)},
+        (RNG.normal(size=(9, 3)) * 0.3 + DC * 2.0).astype(np.float32),
+        proxy=("box" if i % 2 else "sphere") if volumes else "none",
+        proxy_to_world=np.diag([2.0, 1.5, 1.0, 1.0]) if volumes else None) for i in range(3)]
+    world_sh = (RNG.normal(size=(9, 3)) * 0.2 + DC * [1.5, 1.2, 1.0]).astype(np.float32)
+    p = cp.Probes(world_sh=world_sh, world_mips={"bo2": _chain(16), "bo1": _chain(8)},
+                  world_color=np.float32([0.4, 0.5, 0.6]) if world_color else None,
+                  reflection=refl)
+    if volumes:
+        p.volumes.append(cp.IrradianceVolume(
+            "V", np.diag([1.5, 1.5, 1.5, 1.0]), (3, 2, 2),
+            (RNG.normal(size=(3, 2, 2, 9, 3)) * 0.2 + 1.0).astype(np.float32), influence=0.5,
+            validity=RNG.uniform(0, 1, (3, 2, 2)).astype(np.float32), normal_bias=0.2,
+            view_bias=0.1, facing_bias=0.3))
+        p.bounce = cp.IrradianceVolume(
+            "B", np.diag([3.0, 3.0, 2.0, 1.0]), (4, 4, 2),
+            (RNG.normal(size=(4, 4, 2, 9, 3)) * 0.1 + 0.3).astype(np.float32), influence=0.3)
+    return p
+
+
+@pytest.mark.parametrize("world_color,volumes,normalization,env_model", [
+    (False, False, "none", "bo2"), (False, False, "bo1", "table"), (True, False, "bo2", "fit"),
+    (False, True, "bo2", "bo1"), (True, True, "bo2", "bo2"), (False, True, "bo1", "table"),
+])
+def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, env_model):
+    """The SH irradiance of volumes, bounce and world (with the sky's share), and the
+    normalized prefiltered reflections of overlapping probes with parallax proxies times the
+    environment BRDF (``probes.indirect``): relative difference below 2e-5."""
+    from bo2_lighting.addon.core.lighting import probes as cp
+    from bo2_lighting.addon.gpu_backend import probes as gpu_probes
+
+    probes = _probes(world_color, volumes)
+    n = 20000
+    pts = RNG.uniform(-2.5, 2.5, (n, 3)).astype(np.float32)
+    normal = _unit(RNG.normal(size=(n, 3)))
+    view = _unit(normal + RNG.normal(size=(n, 3)))
+    albedo, rf0 = (RNG.uniform(0, 1, (n, 3)).astype(np.float32) for _ in range(2))
+    gloss = RNG.uniform(0, 1, n).astype(np.float32)
+    sky = RNG.uniform(0, 1, n).astype(np.float32)
+    diffuse, specular = cp.indirect(probes, pts, normal, view, albedo, rf0, gloss,
+                                    normalization, "bo2", env_model, sky=lambda k: sky[k])
+    drawn = gpu_probes.indirect_set(probes, normalization, "bo2", env_model)
+    out = pointwise.run(("direct", "indirect"), """
+      vec3 psh[9];
+      pixel_sh(p.xyz, n.xyz, v.xyz, p.w, psh);
+      vec3 d, s;
+      indirect_light(p.xyz, n.xyz, v.xyz, a.xyz, f.xyz, a.w, psh, d, s);
+      od = vec4(d, 0.0);
+      os = vec4(s, 0.0);""",
+        {"p": np.column_stack([pts, sky]), "n": normal, "v": view,
+         "a": np.column_stack([albedo, gloss]), "f": rf0}, ("od", "os"),
+        defines=gpu_probes.defines(), prelude=gpu_probes.prelude(),
+        structs=(lights.LIGHT, gpu_probes.INDIRECT, gpu_probes.REFLECTION, gpu_probes.VOLUME),
+        blocks=drawn.blocks() + (("LightData", "lights[1]", bytes(64)),),
+        samplers=drawn.samplers())
+    assert np.abs(out["od"][:, :3] - diffuse).max() <= 2e-5 * np.abs(diffuse).max()
+    assert np.abs(out["os"][:, :3] - specular).max() <= 2e-5 * np.abs(specular).max()

@@ -9,7 +9,7 @@ normalization algorithm" and "Improved normalization algorithm"), written out in
 ``env_brdf.environment_brdf`` (the models "table", "bo1", "bo2" and "fit"; "truth" integrates
 per point and is for tools and tests only).
 
-Cube-map chains come packed (``probes._packed_chains``): every level of every chain padded with
+Cube-map chains come packed (``probes.packed_chains``): every level of every chain padded with
 its one-texel seamless border (``cubemap.with_border``) in one flat float32 array, chain c's
 level m at ``level_offset[c, m]`` with side ``level_size[c, m]`` (padded side minus 2).
 """

@@ -65,7 +65,7 @@ __all__ = [
 NORMALIZATIONS = tuple(c.id for c in CHOICES["normalization"])
 PREFILTERS = tuple(c.id for c in CHOICES["prefilter"])
 MAX_NORMALIZATION = 16.0
-_EPS = 1e-6
+EPS = 1e-6
 # the fraction of the world's light that reaches the points of these indices: (k,) -> (k,)
 SkyFn = Callable[[np.ndarray], np.ndarray]
 
@@ -214,7 +214,7 @@ class Probes:
                 colour everywhere, so they are not sampled), else None
     bounce:     the implicit volume of what surfaces send after one bounce (``bounce``),
                 added to the world's light where it reaches a point, or None
-    packed:     the chains as the indirect kernel takes them (``_packed_chains``), once
+    packed:     the chains as the indirect kernel takes them (``packed_chains``), once
     """
 
     world_sh: np.ndarray
@@ -278,7 +278,7 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
     return acc
 
 
-def _packed_chains(probes: Probes, prefilter: str) -> tuple:
+def packed_chains(probes: Probes, prefilter: str) -> tuple:
     """The chains of ``prefilter`` of every reflection probe, then the world's, as the indirect
     kernel takes them (``kernels.indirect``): padded levels in one flat float32 array, level
     offsets and sides (C, L) int64, level counts (C,); built again only when the chains (the
@@ -364,7 +364,7 @@ def indirect(
             pixel_sh[rest] = _pixel_sh(probes, np.asarray(points)[rest], normals3[rest],
                                        view3[rest], None if sky is None else
                                        (lambda k: sky(rest[k])))
-    chains, offsets, sides, levels = _packed_chains(probes, prefilter)
+    chains, offsets, sides, levels = packed_chains(probes, prefilter)
     shs = [p.sh for p in probes.reflection] + [probes.world_sh]
     tinted = [sh.to_tinted(np.asarray(c, np.float64)) for c in shs]
     radius_fade = np.array([[p.radius, max(max(p.falloff, 1e-4) * p.radius, 1e-6)]
@@ -382,7 +382,7 @@ def indirect(
         return np.require(np.broadcast_to(np.asarray(a, np.float32), shape), np.float32,
                           ["C", "W"])
 
-    table, table_gloss, table_nv = _env_table()
+    table, table_gloss, table_nv = env_table()
     diffuse = np.empty((n, 3), np.float32)
     specular = np.empty((n, 3), np.float32)
     kernels.indirect(
@@ -391,13 +391,13 @@ def indirect(
         offsets, sides, levels, np.array(cubemap.FACES),
         np.array([p.position for p in probes.reflection], np.float32).reshape(-1, 3),
         radius_fade, proxies, proxy_kinds,
-        np.array([np.asarray(c, np.float64)[0] + _EPS for c in shs]),
+        np.array([np.asarray(c, np.float64)[0] + EPS for c in shs]),
         np.array([t[0] for t in tinted], np.float32), np.array([t[1] for t in tinted], np.float32),
         probes.world_color is not None,
         np.asarray(probes.world_color if probes.world_color is not None else np.zeros(3),
                    np.float32).reshape(-1)[:3].copy(),
         kernels.NORMALIZATIONS[normalization],
-        np.array([_EPS, MAX_NORMALIZATION, formulas_env_brdf.N_DOT_V_MIN]),
+        np.array([EPS, MAX_NORMALIZATION, formulas_env_brdf.N_DOT_V_MIN]),
         kernels.ENV_MODELS[env_brdf], table, table_gloss, table_nv,
         np.array(formulas_env_brdf.FIT_A0 + formulas_env_brdf.FIT_A1, np.float64),
         diffuse, specular)
@@ -405,7 +405,7 @@ def indirect(
 
 
 @functools.lru_cache(maxsize=1)
-def _env_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def env_table() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The environment BRDF's table for the kernel: parts (2, G, N), gloss (G,), n.v (N,),
     float64 (the reference visibility, as ``env_brdf.table_parts``)."""
     t = formulas_env_brdf.table_arrays()
