@@ -17,20 +17,27 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.formulas import occlusion as occlusion_formulas
 from ..core.kernels import shading as shading_kernel
 from ..core.render.buffers import Frame
 from ..core.render.shading import has_indirect
-from . import lights, programs, textures
+from . import dome, lights, occlusion, probes, programs, textures
 from .uniforms import Struct
 
 BATCH_LIGHTS = 32  # lights shaded per draw (their blocks stay far below 16 KiB)
+DOME_BATCH_LIGHTS = 8  # lights of the first draw when the world's dome shares its block
+SHADOW_RECORDS = DOME_BATCH_LIGHTS + dome.MAX_DIRECTIONS  # a draw's ShadowData (15 KiB)
 FRAME = Struct("FrameData", (
     ("view_proj", "mat4", 0),  # world -> clip of the camera
+    ("world_to_camera", "mat4", 0),
+    ("ndc_scale", "vec2", 0),  # the frame's part of the target (1, 1; less with a margin)
+    ("sample_offset", "vec2", 0),  # the sample's position in its pixel, top-left origin
     ("eye", "vec3", 0), ("ortho", "int", 0),  # the camera's position; 1: orthographic
     ("forward", "vec3", 0),  # the direction it looks along
     ("jitter", "vec2", 0),  # the sample's shift, NDC
     ("counts", "ivec4", 0),  # (lights in the batch, specular model, first batch, MODES)
     ("size", "ivec4", 0),  # (width, height, the sample's number, -)
+    ("flags", "ivec4", 0),  # (specular occlusion, -, -, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
 ))
 # How a sample is shaded (``glsl/frame_frag.glsl``): the batch's first sample, a later one
@@ -39,13 +46,17 @@ MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
 # What shading gives (the order of ``WRITE_TARGETS``'s arguments), the passes each holds
 # (``core.render.passes.PASSES`` names), and the groups drawn at once (a framebuffer holds
 # six targets: the key and five)
-TARGETS = ("combined", "diffuse", "specular", "emit", "surface", "normal")
+TARGETS = ("combined", "diffuse", "specular", "diff_ind", "gloss_ind", "emit", "surface",
+           "normal")
 PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0, 3)),
-           "GlossDir": ("specular", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
+           "GlossDir": ("specular", slice(0, 3)), "DiffInd": ("diff_ind", slice(0, 3)),
+           "GlossInd": ("gloss_ind", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
            "Gloss": ("surface", slice(3, 4)), "Normal": ("normal", slice(0, 3)),
            "Emit": ("emit", slice(0, 3))}
-GROUPS = (("combined", "diffuse", "specular", "emit"), ("surface", "normal"))
-LIT = {"combined", "diffuse", "specular"}  # the targets that need the lights
+GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
+          ("emit", "surface", "normal"))
+LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind"}  # need the light
+DOME_TEXTURES = ("dome_grid", "dome_points", "dome_normals")  # dome_grid_frag's outputs
 
 
 class Unsupported(Exception):
@@ -56,8 +67,15 @@ def unsupported(frame: Frame) -> str | None:
     """What of ``frame`` the GPU does not draw yet (one phrase), or None."""
     scene = frame.scene
     mats = scene.materials
-    if has_indirect(frame) or frame.sky is not None:
-        return "indirect light (probes, lightmaps, the world's light)"
+    if has_indirect(frame):
+        if frame.lightmaps is not None:
+            return "lightmaps"
+        why = dome.unsupported(frame)
+        if why:
+            return why
+        why = probes.unsupported(scene.probes)
+        if why:
+            return why
     varying = [m.name for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
     if varying:
         return f"materials that vary over their surface ({', '.join(varying[:3])})"
@@ -81,7 +99,8 @@ def _writes(names: tuple[str, ...]) -> dict:
     return {f"WRITE_TARGETS({args})": stores, "COMPOSE_TARGETS": compose}
 
 
-def _program(kind: str, names: tuple[str, ...]) -> programs.Program:
+def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
+             ambient: bool = False, sky: bool = False) -> programs.Program:
     frame_block = (("FrameData", "frame"),)
     vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
                  ("INT", "tri"))
@@ -95,6 +114,10 @@ def _program(kind: str, names: tuple[str, ...]) -> programs.Program:
         return programs.Program("draw", (), (vert, programs.source("depth_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
                                 varyings=varyings)
+    if kind == "center":
+        return programs.Program("draw", (), (vert, programs.source("center_frag")),
+                                structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
+                                varyings=varyings, outputs=outputs[:2])
     if kind == "background":
         return programs.Program("draw", (), (programs.source("background_vert"),
                                              programs.source("background_frag")),
@@ -108,27 +131,65 @@ def _program(kind: str, names: tuple[str, ...]) -> programs.Program:
                 ("FLOAT_2D", f"{part}_{name}") for part in ("first", "rest") for name in names),
             outputs=outputs[1:])
     samplers = (("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"))
+    shadow_samplers = (("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
+                       ("FLOAT_2D", "shadow_rotations"))
+    if kind == "dome_grid":
+        return programs.Program(
+            "draw", ("shadow_filter", "surface", "dome"),
+            (vert, programs.source("dome_grid_frag")), defines=lights.filter_defines(),
+            structs=(FRAME, lights.SHADOW, dome.DOME), prelude=lights.filter_prelude(),
+            blocks=frame_block + (("ShadowData", f"shadows[{SHADOW_RECORDS}]"),
+                                  ("DomeData", "dome")),
+            samplers=samplers[:1] + shadow_samplers, inputs=vertex_in, varyings=varyings,
+            outputs=(("VEC4", "out_vis"), ("VEC4", "out_point"), ("VEC4", "out_normal")))
     if not set(names) & LIT:
         return programs.Program(
             "draw", ("surface",), (vert, programs.source("frame_frag")),
             defines={**MODES, **_writes(names), "SURFACE_ONLY": 1}, structs=(FRAME,),
             blocks=frame_block, samplers=samplers, inputs=vertex_in, varyings=varyings,
             outputs=outputs)
+    sources = ("direct", "shadow_filter", "surface")
+    defines = {**lights.filter_defines(), **MODES, **_writes(names)}
+    structs = (FRAME, lights.LIGHT, lights.SHADOW)
+    blocks = frame_block + (("LightData", f"lights[{BATCH_LIGHTS}]"),
+                            ("ShadowData", f"shadows[{SHADOW_RECORDS}]"))
+    samplers += shadow_samplers
+    prelude = lights.filter_prelude()
+    if indirect:
+        sources += ("indirect",)
+        defines.update(probes.defines(), INDIRECT=1)
+        structs += (probes.INDIRECT, probes.REFLECTION, probes.VOLUME)
+        blocks += tuple((struct, member) for struct, member, _ in probes.BLOCKS)
+        samplers += tuple((kind_, name) for kind_, name in probes.SAMPLERS)
+        prelude += probes.prelude()
+        sources += ("occlusion",)
+        if ambient:
+            defines["AMBIENT"] = 1
+            structs += (occlusion.AO,)
+            blocks += (("AOData", "ao"),)
+            samplers += (("FLOAT_2D", "ambient"),)
+        if sky:
+            sources += ("dome",)
+            defines.update(DOME=1, DOME_SHADING=1)
+            structs += (dome.DOME,)
+            blocks += (("DomeData", "dome"),)
+            samplers += tuple(("FLOAT_2D", name) for name in DOME_TEXTURES)
     return programs.Program(
-        "draw", ("direct", "shadow_filter", "surface"), (vert, programs.source("frame_frag")),
-        defines={**lights.filter_defines(), **MODES, **_writes(names)},
-        structs=(FRAME, lights.LIGHT, lights.SHADOW), prelude=lights.filter_prelude(),
-        blocks=frame_block + (("LightData", f"lights[{BATCH_LIGHTS}]"),
-                              ("ShadowData", f"shadows[{BATCH_LIGHTS}]")),
-        samplers=samplers + (("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
-                             ("FLOAT_2D", "shadow_rotations")),
-        inputs=vertex_in, varyings=varyings, outputs=outputs)
+        "draw", sources, (vert, programs.source("frame_frag")), defines=defines,
+        structs=structs, prelude=prelude, blocks=blocks, samplers=samplers, inputs=vertex_in,
+        varyings=varyings, outputs=outputs)
 
 
-def shader(kind: str, names: tuple[str, ...] = GROUPS[0]):
-    """The compiled ``kind`` program ("depth", "shade", "background", "compose") writing the
-    targets ``names``."""
-    return programs.compiled(_program(kind, names), ("frame", kind, names))
+def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False,
+           ambient: bool = False, sky: bool = False):
+    """The compiled ``kind`` program ("depth", "center", "dome_grid", "shade", "background",
+    "compose") writing the targets ``names``; ``indirect``: with the probes' light
+    (``glsl/indirect.glsl``), ``ambient``: its contact occlusion, ``sky``: the world's
+    occlusion through the dome (``glsl/dome.glsl``)."""
+    indirect = indirect and kind == "shade" and bool(set(names) & LIT)
+    ambient, sky = ambient and indirect, sky and indirect
+    return programs.compiled(_program(kind, names, indirect, ambient, sky),
+                             ("frame", kind, names, indirect, ambient, sky))
 
 
 @dataclass
@@ -176,18 +237,37 @@ class GPUFrame:
         table = np.zeros((max(1, len(tab["albedo"])), 3, 4), np.float32)
         table[:len(tab["albedo"]), 0] = np.column_stack([tab["albedo"], tab["gloss"]])
         table[:len(tab["albedo"]), 1] = np.column_stack([tab["rf0"], tab["alpha"]])
-        table[:len(tab["albedo"]), 2, :3] = tab["emission"]
+        table[:len(tab["albedo"]), 2] = np.column_stack([tab["emission"], tab["occlusion"]])
         self.materials = textures.image(table.reshape(1, -1, 4))
+        self.indirect = None
+        s = frame.scene.settings
+        self.ambient = (has_indirect(frame) and s.ambient_occlusion and s.ao_distance > 0.0)
+        if has_indirect(frame):
+            s = frame.scene.settings
+            drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,
+                                        s.env_brdf)
+            self.indirect = ([(member.partition("[")[0], gpu.types.GPUUniformBuf(raw))
+                              for _, member, raw in drawn.blocks()],
+                             [(name, texture) for _, name, texture in drawn.samplers()])
         scene_lights = frame.scene.lights
         maps = frame.shadow_maps[:len(scene_lights)]
+        sky = frame.sky if self.indirect is not None else None
+        self.dome = None  # (the dome's map numbers in the first draw's ShadowData)
         self.batches = []
-        for lo in range(0, max(1, len(scene_lights)), BATCH_LIGHTS):
-            group = scene_lights[lo:lo + BATCH_LIGHTS]
-            shadow_set = lights.shadow_set(maps[lo:lo + BATCH_LIGHTS])
+        lo = 0
+        while lo < max(1, len(scene_lights)):
+            size = DOME_BATCH_LIGHTS if sky is not None and lo == 0 else BATCH_LIGHTS
+            group = scene_lights[lo:lo + size]
+            extra = sky.maps if sky is not None and lo == 0 else []
+            shadow_set = lights.shadow_set(maps[lo:lo + size] + list(extra),
+                                           jitter=[True] * len(group) + [False] * len(extra))
+            if extra:
+                self.dome = shadow_set.index[len(group):]
             self.batches.append(_Batch(
                 len(group), gpu.types.GPUUniformBuf(_light_bytes(group, shadow_set)),
                 shadow_set, gpu.types.GPUUniformBuf(
-                    _padded(shadow_set.block, lights.SHADOW, BATCH_LIGHTS))))
+                    _padded(shadow_set.block, lights.SHADOW, SHADOW_RECORDS))))
+            lo += size
 
     def draw(self, camera, offsets, targets: Targets, first_sample: int = 0) -> None:
         """Add the samples at ``offsets`` ((S, 2) positions in the pixel, top-left origin;
@@ -203,10 +283,17 @@ class GPUFrame:
         c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
         w, h = camera.width, camera.height
         base = {"view_proj": view_proj, "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+                "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
-                "world": np.append(np.asarray(scene.world.color, np.float32), 1.0)}
+                "world": np.append(np.asarray(scene.world.color, np.float32), 1.0),
+                "flags": [int(settings.specular_occlusion), 0, 0, 0]}
         model = shading_kernel.MODELS[settings.specular_model]
-        depth, shade = shader("depth"), shader("shade", targets.names)
+        depth = shader("depth")
+        lit = bool(set(targets.names) & LIT)
+        ambient = self.ambient and lit and self._ambient(camera, targets, base)
+        sky = self.dome is not None and lit and self._dome(camera, targets, base)
+        shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
+                       self.dome is not None)
         background = shader("background", targets.names)
         targets.clear_batch()
         blocks = []  # uniform buffers stay alive until drawn
@@ -216,9 +303,9 @@ class GPUFrame:
                     "MODE_FIRST" if k == 0 else "MODE_REST")
             jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
 
-            def block(count, first_batch, mode=mode, jitter=jitter, k=k):
+            def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy)):
                 blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{
-                    **base, "jitter": jitter,
+                    **base, "jitter": jitter, "sample_offset": offset,
                     "counts": [count, model, int(first_batch), MODES[mode]],
                     "size": [w, h, first_sample + k, 0]}])))
                 return blocks[-1]
@@ -241,7 +328,18 @@ class GPUFrame:
                 shade.uniform_sampler("materials", self.materials)
                 shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
                                       else targets.textures["first_key"])
-                lit = bool(set(targets.names) & LIT)
+                if ambient:
+                    shade.uniform_block("ao", ambient[0])
+                    shade.uniform_sampler("ambient", ambient[1])
+                if sky:
+                    shade.uniform_block("dome", sky[0])
+                    for name, texture in zip(DOME_TEXTURES, sky[1], strict=True):
+                        shade.uniform_sampler(name, texture)
+                if lit and self.indirect is not None:
+                    for name, buffer in self.indirect[0]:
+                        shade.uniform_block(name, buffer)
+                    for name, texture in self.indirect[1]:
+                        shade.uniform_sampler(name, texture)
                 for b, batch in enumerate(self.batches if lit else self.batches[:1]):
                     shade.uniform_block("frame", block(batch.count, b == 0))
                     if lit:
@@ -261,6 +359,89 @@ class GPUFrame:
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
+
+
+    def _dome(self, camera, targets: Targets, base: dict):
+        """(the DomeData block, its grid's textures) through ``camera``: the dome's visibility
+        at the anchor pixels of ``sky.upsampled``, made once per camera and targets."""
+        import gpu
+
+        kept = targets.kept.get("dome")
+        if kept is not None and kept[0] is camera:
+            return kept[1]
+        _, _, gw, gh = dome.grid(camera)
+        scale, shift = dome.grid_projection(camera)
+        grid_textures = [gpu.types.GPUTexture((gw, gh), format="RGBA32F") for _ in range(3)]
+        z = gpu.types.GPUTexture((gw, gh), format="DEPTH_COMPONENT32F")
+        fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=tuple(grid_textures))
+        data = gpu.types.GPUUniformBuf(dome.block(self.frame, self.dome, camera))
+        frame_data = gpu.types.GPUUniformBuf(FRAME.pack([{
+            **base, "jitter": shift, "ndc_scale": scale}]))
+        batch = self.batches[0]
+        depth, program = shader("depth"), shader("dome_grid")
+        saved = (gpu.state.depth_test_get(), gpu.state.depth_mask_get(),
+                 gpu.state.blend_get())
+        with fb.bind():
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.blend_set("NONE")
+            gpu.state.depth_test_set("LESS")
+            gpu.state.depth_mask_set(True)
+            gpu.state.color_mask_set(False, False, False, False)
+            depth.bind()
+            depth.uniform_block("frame", frame_data)
+            self.batch.draw(depth)
+            gpu.state.color_mask_set(True, True, True, True)
+            gpu.state.depth_mask_set(False)
+            gpu.state.depth_test_set("EQUAL")
+            program.bind()
+            program.uniform_block("frame", frame_data)
+            program.uniform_block("shadows", batch.shadow_block)
+            program.uniform_block("dome", data)
+            program.uniform_sampler("materials", self.materials)
+            for _, name, texture in batch.shadows.samplers():
+                program.uniform_sampler(name, texture)
+            self.batch.draw(program)
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
+        result = (data, grid_textures)
+        targets.kept["dome"] = (camera, result)
+        return result
+
+    def _ambient(self, camera, targets: Targets, base: dict):
+        """(the AOData block, the frame's ambient occlusion texture) through ``camera``, made
+        once per camera and targets (``occlusion.ambient``)."""
+        import gpu
+
+        kept = targets.kept.get("ambient")
+        if kept is not None and kept[0] is camera:
+            return kept[1]
+        m = occlusion_formulas.REACH
+        w, h = camera.width, camera.height
+        size = (w + 2 * m, h + 2 * m)
+        depth_tex, normal_tex, z = (gpu.types.GPUTexture(size, format=f) for f in
+                                    ("RGBA32F", "RGBA32F", "DEPTH_COMPONENT32F"))
+        fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(depth_tex, normal_tex))
+        program = shader("center")
+        data = gpu.types.GPUUniformBuf(FRAME.pack([{
+            **base, "jitter": (0.0, 0.0), "ndc_scale": (w / size[0], h / size[1])}]))
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        with fb.bind():
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.depth_test_set("LESS")
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+            program.bind()
+            program.uniform_block("frame", data)
+            self.batch.draw(program)
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
+        texture = occlusion.ambient(depth_tex, normal_tex, camera,
+                                    self.frame.scene.settings.ao_distance, self.background)
+        result = (gpu.types.GPUUniformBuf(occlusion.block(camera, 0.0)), texture)
+        targets.kept["ambient"] = (camera, result)
+        return result
 
 
 class Targets:
@@ -287,6 +468,7 @@ class Targets:
         self.total = gpu.types.GPUFrameBuffer(color_slots=tuple(
             self.textures[f"total_{name}"] for name in self.names))
         self.samples = 0
+        self.kept = {}  # what depends on the camera alone (the ambient occlusion)
         self.clear()
 
     def clear(self) -> None:
@@ -339,7 +521,7 @@ def _triangle_normals(pos: np.ndarray):
 
 
 def _light_bytes(group, shadow_set) -> bytes:
-    return _padded(lights.light_block(group, shadow_set.index) if group else b"",
+    return _padded(lights.light_block(group, shadow_set.index[:len(group)]) if group else b"",
                    lights.LIGHT, BATCH_LIGHTS)
 
 

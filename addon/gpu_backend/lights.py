@@ -88,12 +88,14 @@ class ShadowSet:
                 ("FLOAT_2D", "shadow_rotations", self.rotations))
 
 
-def shadow_set(maps: list, *, jitter: bool = True) -> ShadowSet:
-    """Upload ``maps`` (``core.render.shadows.ShadowMap`` or None each) for the filter."""
+def shadow_set(maps: list, *, jitter=True) -> ShadowSet:
+    """Upload ``maps`` (``core.render.shadows.ShadowMap`` or None each) for the filter;
+    ``jitter``: whether each map's taps turn per point (one bool, or one per map)."""
+    turns = [jitter] * len(maps) if isinstance(jitter, bool) else list(jitter)
     records, index, depths, mip_rows = [], [], [], []
     layer = row = 0
     side = max([m.resolution for m in maps if m is not None and len(m.depth)], default=1)
-    for m in maps:
+    for m, turn in zip(maps, turns, strict=True):
         if m is None or not len(m.depth):
             index.append(-1)
             continue
@@ -109,7 +111,7 @@ def shadow_set(maps: list, *, jitter: bool = True) -> ShadowSet:
         records.append({
             "fp": fp, "kind": ip[filter_kernel.I_KIND],
             "ints": [0, res, layer, len(rects)],
-            "ints2": [row, len(sides), int(jitter), 0],
+            "ints2": [row, len(sides), int(turn), 0],
             "basis": np.pad(basis, ((0, 0), (0, 1))),
             "rects": rects, "offsets": offsets, "sides": sides})
         layer += faces

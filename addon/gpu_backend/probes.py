@@ -16,7 +16,7 @@ from . import textures
 from .uniforms import Struct
 
 MAX_LEVELS = 16  # mip levels of a chain (a 32768 texel face has 16)
-MAX_REFLECTIONS = 64  # reflection probes a frame's block holds (and the world's chain)
+MAX_REFLECTIONS = 32  # reflection probes a frame's block holds (and the world's chain)
 MAX_VOLUMES = 32  # irradiance volumes (and the bounce volume)
 INDIRECT = Struct("IndirectData", (
     ("world_sh", "vec4", 9),  # the world's radiance SH, RGB
@@ -42,6 +42,14 @@ VOLUME = Struct("VolumeData", (
     ("params", "vec4", 0),  # (influence, falloff, normal bias, view bias; metres)
     ("facing", "vec4", 0),  # (facing bias, facing on, validity on, -)
 ))
+
+
+# The blocks and samplers ``glsl/indirect.glsl`` reads, as a program declares them
+BLOCKS = (("IndirectData", "indirect", None),
+          ("ReflectionData", f"reflections[{MAX_REFLECTIONS + 1}]", None),
+          ("VolumeData", f"volumes[{MAX_VOLUMES + 1}]", None))
+SAMPLERS = (("FLOAT_2D", "chains"), ("FLOAT_2D", "volume_sh"), ("FLOAT_2D", "env_table"),
+            ("FLOAT_2D", "env_axes"))
 
 
 def defines() -> dict:
@@ -74,14 +82,14 @@ class IndirectSet:
 
     def blocks(self) -> tuple:
         """(struct, member, bytes) as ``pointwise.run`` takes them."""
-        return (("IndirectData", "indirect", self.indirect),
-                ("ReflectionData", f"reflections[{MAX_REFLECTIONS + 1}]", self.reflections),
-                ("VolumeData", f"volumes[{MAX_VOLUMES + 1}]", self.volumes))
+        data = (self.indirect, self.reflections, self.volumes)
+        return tuple((struct, member, raw) for (struct, member, _), raw in
+                     zip(BLOCKS, data, strict=True))
 
     def samplers(self) -> tuple:
-        return (("FLOAT_2D", "chains", self.chains), ("FLOAT_2D", "volume_sh", self.volume_sh),
-                ("FLOAT_2D", "env_table", self.env_table),
-                ("FLOAT_2D", "env_axes", self.env_axes))
+        textures_ = (self.chains, self.volume_sh, self.env_table, self.env_axes)
+        return tuple((kind, name, t) for (kind, name), t in
+                     zip(SAMPLERS, textures_, strict=True))
 
 
 def unsupported(probes) -> str | None:

@@ -2,5 +2,6 @@
 void main()
 {
   out_key = vec4(0.0);
-  WRITE_TARGETS(frame.world, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+  WRITE_TARGETS(frame.world, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                vec4(0.0));
 }

@@ -22,7 +22,8 @@ void main()
     vec4 first = texelFetch(first_key, pixel, 0);
     if (first.g > 0.0 && int(first.r) * 4096 + int(first.g) - 1 == v_tri) {
       out_key = vec4(first_batch ? 1.0 : 0.0, 0.0, 0.0, 0.0);
-      WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+      WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                    vec4(0.0), vec4(0.0));
       return;
     }
   }
@@ -42,9 +43,42 @@ void main()
                specular);
   }
 #endif
+  vec3 diff_ind = vec3(0.0), gloss_ind = vec3(0.0);
+#ifdef INDIRECT
+  if (first_batch) { /* the probes' light (core/render/shading.shade_points) */
+    vec2 window = vec2(float(pixel.x), float(row)) + frame.sample_offset;
+    float occluded = 1.0;
+#ifdef AMBIENT
+    /* the contact occlusion of the pixel that holds the sample (render_tile's ao_tile) */
+    ivec2 at = clamp(ivec2(floor(window)), ivec2(0), frame.size.xy - 1);
+    occluded = texelFetch(ambient, ivec2(at.x, frame.size.y - 1 - at.y), 0).r;
+#endif
+    float sky = 1.0;
+#ifdef DOME
+    float rho = dot(s.albedo, vec3(0.2126, 0.7152, 0.0722));
+    if (indirect.flags.x >= 0) { /* what bounces off the occluders is in the bounce volume */
+      rho *= 1.0 - volume_weight(indirect.flags.x, s.p);
+    }
+    sky = world_seen(dome_upsampled(window, s.p, s.n, s.geo), occluded, rho);
+#endif
+    vec3 psh[9];
+    pixel_sh(s.p, s.n, s.v, sky, psh);
+    indirect_light(s.p, s.n, s.v, s.albedo, s.rf0, s.gloss, psh, diff_ind, gloss_ind);
+    diff_ind *= s.occlusion; /* the glTF importer's occlusion */
+    gloss_ind *= s.occlusion;
+#ifdef AMBIENT
+    diff_ind *= multi_bounce(occluded, s.albedo);
+    if (frame.flags.x != 0) {
+      gloss_ind *= specular_occlusion(occluded, dot(s.n, s.v), s.gloss);
+    }
+#endif
+  }
+#endif
   vec3 emit = first_batch ? s.emission : vec3(0.0);
-  WRITE_TARGETS(vec4((diffuse + specular) + emit, first_batch ? 1.0 : 0.0), vec4(diffuse, 0.0),
-                vec4(specular, 0.0), vec4(emit, 0.0),
+  WRITE_TARGETS(vec4((((diffuse + specular) + diff_ind) + gloss_ind) + emit,
+                     first_batch ? 1.0 : 0.0),
+                vec4(diffuse, 0.0), vec4(specular, 0.0), vec4(diff_ind, 0.0),
+                vec4(gloss_ind, 0.0), vec4(emit, 0.0),
                 first_batch ? vec4(s.albedo, s.gloss) : vec4(0.0),
                 first_batch ? vec4(s.n, 1.0) : vec4(0.0));
 }

@@ -7,6 +7,6 @@ void main()
   v_material = int(mat + 0.5);
   v_tri = tri;
   vec4 clip = frame.view_proj * vec4(pos, 1.0);
-  clip.xy += frame.jitter * clip.w;
+  clip.xy = clip.xy * frame.ndc_scale + frame.jitter * clip.w;
   gl_Position = clip;
 }

@@ -1,12 +1,12 @@
 /* A visible point's surface: view direction, normals turned towards the camera, material.
  * The GLSL form of core/kernels/shading.surface and the constant material tables of
  * core/render/buffers (Frame.tables): per material three texels of `materials`:
- * (albedo, gloss), (rf0, alpha), (emission, -). */
+ * (albedo, gloss), (rf0, alpha), (emission, occlusion). */
 
 struct Surface {
   vec3 p, n, geo, v;
   vec3 albedo, rf0, emission;
-  float gloss;
+  float gloss, occlusion;
 };
 
 Surface surface_at(vec3 p, vec3 normal, vec3 geo, int material)
@@ -27,5 +27,6 @@ Surface surface_at(vec3 p, vec3 normal, vec3 geo, int material)
   s.gloss = a.a;
   s.rf0 = b.rgb;
   s.emission = c.rgb;
+  s.occlusion = c.a;
   return s;
 }
