@@ -181,9 +181,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 return prepared, "GPU"
             why = drawn
         kind = "WARNING" if scene.bo2.device == "GPU" else "INFO"
-        job.warn(f"Rendered on the CPU: the GPU does not draw {why}"
-                 if not why.startswith(("no GPU", "a GPU failure"))
-                 else f"Rendered on the CPU: {why}", kind)
+        job.warn(f"Rendered on the CPU: {why}" if why.startswith(("no GPU", "a GPU failure",
+                                                                  "the GPU is"))
+                 else f"Rendered on the CPU: the GPU does not draw {why} yet", kind)
         return prepared, "CPU"
 
     def _forward(self, message: Message) -> None:

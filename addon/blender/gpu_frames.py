@@ -18,14 +18,19 @@ _initialised: list[bool] = []
 
 def refusal(scene) -> str | None:
     """Why a final render of ``scene`` is not drawn on the GPU in this session, or None."""
-    if scene.bo2.device == "CPU":
+    choice = scene.bo2.device
+    if choice == "CPU":
         return "the CPU was chosen"
-    if not bpy.app.background:
-        return None  # the render thread has Blender's GPU context (bl_use_gpu_context)
-    found = device.probe(device.probe_command(bpy.app.binary_path))
-    if not found.ok:
-        return f"no GPU context: {found.reason}"
-    if not _initialised:
+    if bpy.app.background:
+        found = device.probe(device.probe_command(bpy.app.binary_path))
+        if not found.ok:
+            return f"no GPU context: {found.reason}"
+        name = found.renderer
+    else:
+        name = renderer()  # the render thread has Blender's GPU context (bl_use_gpu_context)
+    if choice == "AUTO" and device.auto_refusal(name):
+        return device.auto_refusal(name)
+    if bpy.app.background and not _initialised:
         import gpu
 
         if hasattr(gpu, "init"):

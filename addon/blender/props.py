@@ -256,9 +256,10 @@ class BO2LookDevSettings(bpy.types.PropertyGroup):
 
 # Where frames are drawn (``scene.bo2.device``)
 DEVICES = [
-    ("AUTO", "Auto", "The viewport on the GPU; renders on the GPU where this Blender can open "
-     "a GPU context (checked once per session), else on the CPU. A frame with what the GPU "
-     "does not draw yet is rendered on the CPU, and the status line says why"),
+    ("AUTO", "Auto", "The GPU where this Blender has one (in background mode: checked once "
+     "per session), else the CPU; a software rasterizer (llvmpipe) is left to the CPU "
+     "kernels, which are faster there. A frame with what the GPU does not draw yet is "
+     "rendered on the CPU, and the status line says why"),
     ("GPU", "GPU", "Draw the talk's model as shaders through Blender's GPU module; frames the "
      "GPU cannot draw fall back to the CPU with one message"),
     ("CPU", "CPU", "The engine's CPU kernels: the reference every GPU stage is tested "

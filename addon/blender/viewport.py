@@ -20,6 +20,7 @@ from ..core.bakes import bounce
 from ..core.render import viewport
 from ..core.render.job import Warnings
 from ..core.scene import Camera
+from ..gpu_backend import device as gpu_device
 from ..gpu_backend import frame as gpu_frame
 from ..gpu_backend import viewport as gpu_viewport
 from . import extract, probes, studio, worlds
@@ -195,6 +196,7 @@ class Viewport:
         self.device = "AUTO"  # the scene's Device setting
         self.gpu = None  # ``gpu_viewport.ViewportDrawing``, made on the first GPU draw
         self.gpu_failure: str | None = None  # why the GPU could not draw (until a change)
+        self.auto_refusal: str | None = None  # why Auto leaves the viewport to the CPU
 
     def sync(self, depsgraph, updates=None) -> set[str]:
         """Read what ``updates`` changed (None: everything) and render anew; returns the
@@ -240,8 +242,12 @@ class Viewport:
         self.session.samples = int(settings.viewport.samples)
         self.device = str(settings.device)
         self.gpu_failure = None  # a change: the GPU may take it
-        # the GPU draws in view_draw, which a window has (background mode: the CPU's images)
-        gpu_draws = self.device != "CPU" and not bpy.app.background
+        # the GPU draws in view_draw, which a window has (background mode: the CPU's images);
+        # Auto leaves a software rasterizer to the CPU kernels, which are faster
+        self.auto_refusal = None
+        if self.device == "AUTO" and not bpy.app.background:
+            self.auto_refusal = gpu_device.auto_refusal(_renderer())
+        gpu_draws = self.device != "CPU" and not bpy.app.background and not self.auto_refusal
         self.session.drawer = self._gpu_refusal if gpu_draws else None
         if changed & {"probes", "settings", "world"} or self.scene is None:
             self.hint = probe_hint(blender_scene)
@@ -352,7 +358,9 @@ class Viewport:
         else:
             parts = [f"Sample {image.samples}/{self.session.samples}"]
         if not on_gpu and self.device != "CPU":
-            if self.gpu_failure:
+            if self.auto_refusal:
+                parts.insert(0, f"CPU ({self.auto_refusal})")
+            elif self.gpu_failure:
                 parts.insert(0, f"CPU ({self.gpu_failure})")
             elif self.session.refusal:
                 parts.insert(0, f"CPU (the GPU does not draw {self.session.refusal} yet)")
@@ -367,6 +375,16 @@ class Viewport:
         """Stop the render thread."""
         self.session.close()
         _live.discard(self)
+
+
+def _renderer() -> str:
+    """The GPU's name (the window's context)."""
+    import gpu
+
+    try:
+        return gpu.platform.renderer_get()
+    except Exception:  # noqa: BLE001 - no name: taken for a hardware GPU
+        return ""
 
 
 def _failure(exc: Exception) -> str:

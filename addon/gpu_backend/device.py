@@ -45,8 +45,30 @@ class Device:
     renderer: str = ""
     reason: str = ""
 
-    def describe(self) -> str:
-        return f"GPU ({self.renderer})" if self.ok else f"CPU (no GPU: {self.reason})"
+    @property
+    def software(self) -> bool:
+        """The GPU is a rasterizer in software on the CPU (``is_software``)."""
+        return is_software(self.renderer)
+
+
+# Renderers that draw on the CPU: Mesa's llvmpipe, softpipe and lavapipe, SwiftShader,
+# Windows' basic render driver. The engine's CPU kernels are faster there (docs/gpu.md).
+SOFTWARE = ("llvmpipe", "softpipe", "lavapipe", "swiftshader", "software rasterizer",
+            "basic render")
+
+
+def is_software(renderer: str) -> bool:
+    """Whether a GPU of this name (``gpu.platform.renderer_get()``) is a software rasterizer."""
+    name = renderer.lower()
+    return any(word in name for word in SOFTWARE)
+
+
+def auto_refusal(renderer: str) -> str | None:
+    """Why the Auto device leaves a frame to the CPU on the GPU named ``renderer``, or None."""
+    if is_software(renderer):
+        return (f"the GPU is a software rasterizer ({renderer.split('(')[0].strip()}), slower "
+                "than the CPU kernels: choose Device GPU to use it")
+    return None
 
 
 def probe_command(binary_path: str) -> list[str]:

@@ -171,7 +171,7 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str) -> 
     return IndirectSet(
         indirect, REFLECTION.pack(records, MAX_REFLECTIONS + 1),
         VOLUME.pack(vol_records, MAX_VOLUMES + 1),
-        textures.rows(flat.reshape(-1, 3)),
+        textures.rows(flat.reshape(-1, 3) if flat.size % 3 == 0 else np.zeros((1, 3))),
         textures.rows(np.concatenate(rows) if rows else np.zeros((1, 4), np.float32)),
         textures.image(np.ascontiguousarray(np.moveaxis(table, 0, -1), np.float32)),
         textures.image(axes))

@@ -112,3 +112,42 @@ def objects_scene(lights, width=320, height=180, ortho=False, samples=4, model="
     return Scene(cam, meshes, mats, list(lights),
                  World(color=np.array([0.05, 0.06, 0.08], np.float32)),
                  RenderSettings(samples=samples, specular_model=model))
+
+
+def _chain(rng, size, tint):
+    """A smooth-ish random cube-map chain (6, S, S, 3) per level, S, S/2, ..., 1."""
+    out = []
+    while size >= 1:
+        base = rng.uniform(0.6, 1.4, (6, 1, 1, 3)) * tint
+        noise = rng.uniform(0.8, 1.2, (6, size, size, 3))
+        out.append((base * noise).astype(np.float32))
+        size //= 2
+    return out
+
+
+def with_probes(scene: Scene, volume: bool = True, seed: int = 2) -> Scene:
+    """``scene`` lit by a sky-blue world (its SH and chain), a reflection probe with a box
+    proxy over the objects and, with ``volume``, an irradiance volume around them."""
+    import dataclasses
+
+    from bo2_lighting.addon.core.lighting import probes as cp
+
+    rng = np.random.default_rng(seed)
+    dc = np.eye(9, 3)[:, :1] * np.ones(3)
+    world_sh = (rng.normal(size=(9, 3)) * 0.05 + dc * [0.5, 0.6, 0.8]).astype(np.float32)
+    sky = np.array([0.5, 0.6, 0.8])
+    probes = cp.Probes(
+        world_sh=world_sh, world_mips={"bo2": _chain(rng, 32, sky), "bo1": _chain(rng, 32, sky)},
+        reflection=[cp.ReflectionProbe(
+            "R", np.array([0.5, 0.0, 1.0]), 3.0, 0.3,
+            {"bo2": _chain(rng, 32, [0.8, 0.7, 0.6]), "bo1": _chain(rng, 32, [0.8, 0.7, 0.6])},
+            (dc * 1.2).astype(np.float32), proxy="box",
+            proxy_to_world=np.diag([3.0, 3.0, 2.0, 1.0]))])
+    if volume:
+        to_world = np.diag([2.0, 2.0, 1.5, 1.0])
+        to_world[:3, 3] = [0.0, 0.0, 1.5]
+        probes.volumes.append(cp.IrradianceVolume(
+            "V", to_world, (4, 4, 3),
+            (rng.normal(size=(4, 4, 3, 9, 3)) * 0.1 + dc * 0.8).astype(np.float32),
+            influence=0.5, facing_bias=0.2))
+    return dataclasses.replace(scene, probes=probes)

@@ -55,6 +55,30 @@ def test_frame_matches_the_cpu(name):
     _check(*_render_both(scene), name)
 
 
+INDIRECT_CASES = {
+    # (volume, contact occlusion, dome directions, width, height, normalization, env BRDF)
+    "probes": (True, False, 0, 320, 180, "bo2", "bo2"),
+    "probes_occlusion_bo1": (True, True, 0, 320, 180, "bo1", "table"),
+    "world_dome_upsampled": (False, True, 32, 480, 270, "bo2", "fit"),
+}
+
+
+@pytest.mark.parametrize("name", list(INDIRECT_CASES))
+def test_indirect_frame_matches_the_cpu(name):
+    """The probes' light, the contact occlusion and the world's occlusion through the dome
+    (at 270 rows the dome is looked up every 2 pixels and blended: ``sky.upsampled``)."""
+    volume, ao, dome, width, height, normalization, env = INDIRECT_CASES[name]
+    scene = scenes.with_probes(scenes.objects_scene(
+        [scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], width=width, height=height),
+        volume=volume)
+    scene.settings = dataclasses.replace(scene.settings, ambient_occlusion=ao,
+                                         sky_directions=dome, normalization=normalization,
+                                         env_brdf=env)
+    frame = pipeline.prepare(RenderJob(scene))
+    assert (frame.sky is not None) == bool(dome)
+    _check(*_render_both(scene), name)
+
+
 def test_every_sample_shaded_and_transparent_film():
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()))
     scene.settings = dataclasses.replace(scene.settings, shade_every_sample=True,

@@ -1,0 +1,91 @@
+"""The Device setting through Blender (5.2 LTS's bpy, background mode): F12 drawn on the GPU
+matches the CPU's render, Auto leaves a software rasterizer to the CPU, and a frame the GPU
+does not draw yet renders on the CPU with one message; the child-process probe."""
+
+import sys
+
+import bpy
+import compare
+import numpy as np
+import pytest
+
+import bo2_lighting
+from bo2_lighting.addon.gpu_backend import device
+
+
+@pytest.fixture
+def scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    bo2_lighting.register()
+    s = bpy.context.scene
+    s.render.engine = "BO2_LIGHTING"
+    s.render.resolution_x, s.render.resolution_y = 240, 136
+    s.render.resolution_percentage = 100
+    bpy.ops.mesh.primitive_plane_add(size=10)
+    bpy.ops.mesh.primitive_uv_sphere_add(location=(0, 0, 1))
+    bpy.ops.object.shade_smooth()
+    bpy.ops.object.light_add(type="SUN", rotation=(0.6, 0.2, 0.0))
+    bpy.ops.object.light_add(type="SPOT", location=(2, -2, 3), rotation=(0.7, 0.0, 0.8))
+    bpy.context.object.data.energy = 500
+    bpy.ops.object.camera_add(location=(6, -6, 4), rotation=(1.1, 0, 0.785))
+    s.camera = bpy.context.object
+    yield s
+    bo2_lighting.unregister()
+
+
+def _render(scene, choice):
+    from bo2_lighting.addon.blender import engine
+
+    scene.bo2.device = choice
+    with engine.listening() as sink:
+        bpy.ops.render.render()
+    image = bpy.data.images["Render Result"]
+    # the Combined pass through the compositor-less result: read via a saved EXR
+    path = bpy.app.tempdir + f"bo2_gpu_{choice}.exr"
+    scene.render.image_settings.file_format = "OPEN_EXR"
+    image.save_render(path)
+    loaded = bpy.data.images.load(path)
+    pixels = np.array(loaded.pixels[:], np.float32).reshape(loaded.size[1], loaded.size[0], 4)
+    bpy.data.images.remove(loaded)
+    return pixels, sink.texts()
+
+
+def test_f12_on_the_gpu_matches_the_cpu(scene):
+    scene.bo2.indirect.use = True
+    gpu_pixels, said = _render(scene, "GPU")
+    assert any(text.startswith("Rendered on the GPU") for text in said), said
+    cpu_pixels, said_cpu = _render(scene, "CPU")
+    assert not any("GPU" in text for text in said_cpu), said_cpu
+    value = compare.psnr(gpu_pixels, cpu_pixels)
+    print(f"F12 GPU vs CPU: {value:.1f} dB")
+    assert value >= 40.0
+
+
+def test_auto_leaves_a_software_rasterizer_to_the_cpu(scene):
+    found = device.probe(device.probe_command(bpy.app.binary_path))
+    _, said = _render(scene, "AUTO")
+    if found.software:
+        assert any("software rasterizer" in text for text in said), said
+    else:
+        assert any(text.startswith("Rendered on the GPU") for text in said), said
+
+
+def test_what_the_gpu_does_not_draw_renders_on_the_cpu_with_one_message(scene):
+    mat = bpy.data.materials.new("Gradient")
+    mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    coords = nodes.new("ShaderNodeTexCoord")
+    mat.node_tree.links.new(coords.outputs["Generated"],
+                            nodes["Principled BSDF"].inputs["Base Color"])
+    bpy.data.objects["Sphere"].data.materials.append(mat)
+    _, said = _render(scene, "GPU")
+    notes = [text for text in said if text.startswith("Rendered on the CPU")]
+    assert len(notes) == 1 and "Gradient" in notes[0], said
+
+
+def test_the_probe_names_why_there_is_no_gpu():
+    """A Blender that aborts opening a context (no display, no EGL) is a reason, not a crash."""
+    aborted = device.probe([sys.executable, "-c", "import os; os.abort()"])
+    assert not aborted.ok and "exit" in aborted.reason
+    missing = device.probe(["/nonexistent/blender"])
+    assert not missing.ok and "could not run" in missing.reason
