@@ -656,10 +656,14 @@ def test_shadows_honour_alpha(addon):
     cycles = render_passes(scene, "CYCLES", ["Combined"], samples=64)["Combined"][..., 0]
     ours_line, cycles_line = ours.mean(axis=1), cycles.mean(axis=1)  # alpha follows v: rows
     d = np.abs(ours_line - cycles_line)
+    # the trend over bands of 4 rows: one row's mean still holds the noise of the dithered
+    # caster under the filter's turned discs (about +-0.04 from one seeding to another)
+    n = len(d) // 4 * 4
+    bands = np.abs(ours_line[:n].reshape(-1, 4).mean(1) - cycles_line[:n].reshape(-1, 4).mean(1))
     print(f"shadow: rows {np.round(ours_line[::4], 3)} vs {np.round(cycles_line[::4], 3)}; "
-          f"mean |d| {d.mean():.4f}, max {d.max():.4f}")
+          f"mean |d| {d.mean():.4f}, max {d.max():.4f}, over 4-row bands {bands.max():.4f}")
     assert np.ptp(cycles_line) > 0.2  # the shadow's darkness varies with alpha
-    assert d.mean() < 0.02 and d.max() < 0.04
+    assert d.mean() < 0.02 and bands.max() < 0.03
 
 
 def test_bad_node_trees_warn_once_and_render_finite(addon):
