@@ -21,7 +21,7 @@ from ..core.formulas import occlusion as occlusion_formulas
 from ..core.kernels import shading as shading_kernel
 from ..core.render.buffers import Frame
 from ..core.render.shading import has_indirect
-from . import dome, lights, occlusion, probes, programs, textures
+from . import dome, images, lights, occlusion, probes, programs, textures
 from .uniforms import Struct
 
 BATCH_LIGHTS = 32  # lights shaded per draw (their blocks stay far below 16 KiB)
@@ -39,6 +39,13 @@ FRAME = Struct("FrameData", (
     ("size", "ivec4", 0),  # (width, height, the sample's number, -)
     ("flags", "ivec4", 0),  # (specular occlusion, -, -, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
+))
+WORLD = Struct("WorldData", (
+    ("clip_to_world", "mat4", 0),  # the camera's inverse projection and view
+    ("rotation", "vec4", 3),  # world -> texture rotation rows (the Mapping node's)
+    ("params", "vec4", 0),  # (strength, background alpha, level of detail or -1, has a sun)
+    ("sun", "vec4", 0),  # towards the sun, cos(half its angle)
+    ("sun_color", "vec4", 0),  # its disc's radiance
 ))
 # How a sample is shaded (``glsl/frame_frag.glsl``): the batch's first sample, a later one
 # (reusing the first's shading where it sees the same triangle), or every sample on its own
@@ -85,8 +92,6 @@ def unsupported(frame: Frame) -> str | None:
         return "holdout"
     if frame.cull is not None:
         return "backface culling"
-    if scene.world.texture is not None:
-        return "an image world"
     return None
 
 
@@ -119,10 +124,18 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
                                 varyings=varyings, outputs=outputs[:2])
     if kind == "background":
-        return programs.Program("draw", (), (programs.source("background_vert"),
-                                             programs.source("background_frag")),
-                                defines=_writes(names), structs=(FRAME,), blocks=frame_block,
-                                inputs=corner, outputs=outputs)
+        world = {"sources": ("texture",), "defines": {"WORLD_IMAGE": 1},
+                 "structs": (WORLD, images.IMAGE),
+                 "blocks": (("WorldData", "world"), ("ImageData", "images[1]")),
+                 "samplers": (("FLOAT_2D", "world_texels"), ("FLOAT_2D", "srgb_table"))
+                 } if indirect else {}
+        return programs.Program(
+            "draw", world.get("sources", ()), (programs.source("background_vert"),
+                                               programs.source("background_frag")),
+            defines={**_writes(names), **world.get("defines", {})},
+            structs=(FRAME,) + world.get("structs", ()),
+            blocks=frame_block + world.get("blocks", ()), samplers=world.get("samplers", ()),
+            inputs=corner, outputs=outputs)
     if kind == "compose":
         return programs.Program(
             "draw", (), (programs.source("background_vert"), programs.source("compose_frag")),
@@ -186,6 +199,9 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
     "compose") writing the targets ``names``; ``indirect``: with the probes' light
     (``glsl/indirect.glsl``), ``ambient``: its contact occlusion, ``sky``: the world's
     occlusion through the dome (``glsl/dome.glsl``)."""
+    if kind == "background":  # ``indirect``: the world is an image
+        return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
+                                                                   indirect))
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
     ambient, sky = ambient and indirect, sky and indirect
     return programs.compiled(_program(kind, names, indirect, ambient, sky),
@@ -239,6 +255,12 @@ class GPUFrame:
         table[:len(tab["albedo"]), 1] = np.column_stack([tab["rf0"], tab["alpha"]])
         table[:len(tab["albedo"]), 2] = np.column_stack([tab["emission"], tab["occlusion"]])
         self.materials = textures.image(table.reshape(1, -1, 4))
+        self.world = None  # (ImageData record's buffer, texels, sRGB table) of an image world
+        world = frame.scene.world
+        if world.texture is not None:
+            record, texels = images.upload(world.texture)
+            self.world = (gpu.types.GPUUniformBuf(images.IMAGE.pack([record])), texels,
+                          images.srgb_table())
         self.indirect = None
         s = frame.scene.settings
         self.ambient = (has_indirect(frame) and s.ambient_occlusion and s.ao_distance > 0.0)
@@ -294,7 +316,8 @@ class GPUFrame:
         sky = self.dome is not None and lit and self._dome(camera, targets, base)
         shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
                        self.dome is not None)
-        background = shader("background", targets.names)
+        background = shader("background", targets.names, self.world is not None)
+        world_block = self.world and gpu.types.GPUUniformBuf(self._world_block(camera))
         targets.clear_batch()
         blocks = []  # uniform buffers stay alive until drawn
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
@@ -354,12 +377,36 @@ class GPUFrame:
                     gpu.state.blend_set("ADDITIVE_PREMULT")
                     background.bind()
                     background.uniform_block("frame", block(0, True))
+                    if self.world is not None:
+                        background.uniform_block("world", world_block)
+                        background.uniform_block("images", self.world[0])
+                        background.uniform_sampler("world_texels", self.world[1])
+                        background.uniform_sampler("srgb_table", self.world[2])
                     self.background.draw(background)
         targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
 
+
+    def _world_block(self, camera) -> bytes:
+        """The WorldData of the frame's image world seen through ``camera``."""
+        import math
+
+        world = self.frame.scene.world
+        view_proj = np.asarray(camera.projection, np.float64) @ np.asarray(
+            camera.world_to_camera, np.float64)
+        record = {"clip_to_world": np.linalg.inv(view_proj),
+                  "rotation": np.asarray(world.rotation, np.float64),
+                  "params": [world.strength, world.background_alpha,
+                             world.background_lod or -1.0, float(world.sun is not None)]}
+        sun = world.sun
+        if sun is not None:
+            half = max(float(sun.radius), 1e-4) / 2.0
+            solid = 2.0 * math.pi * (1.0 - math.cos(half))
+            record["sun"] = [*(-np.asarray(sun.direction, np.float64)), math.cos(half)]
+            record["sun_color"] = np.asarray(sun.color, np.float32) / np.float32(solid)
+        return WORLD.pack([record])
 
     def _dome(self, camera, targets: Targets, base: dict):
         """(the DomeData block, its grid's textures) through ``camera``: the dome's visibility

@@ -79,6 +79,29 @@ def test_indirect_frame_matches_the_cpu(name):
     _check(*_render_both(scene), name)
 
 
+def test_image_world_frame_matches_the_cpu():
+    """An equirect image world (rotated, with strength, a blurred background at a level of
+    detail and half its opacity) seen past the objects, and its prefiltered light."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+    from bo2_lighting.addon.core.scene import World
+
+    rng = np.random.default_rng(8)
+    h, w = 64, 128
+    yy, xx = np.mgrid[0:h, 0:w]
+    image = np.stack([0.3 + 0.7 * yy / h, 0.4 + 0.3 * np.sin(xx / 9.0),
+                      0.5 + 0.2 * rng.uniform(0, 1, (h, w))], -1).astype(np.float32)
+    tex = core_texture.make_texture(image, srgb=False)
+    angle = 0.7
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0],
+                         [0, 0, 1.0]])
+    scene = scenes.with_probes(scenes.objects_scene([scenes.LIGHTS["SUN"]], width=320,
+                                                    height=180), volume=False)
+    scene = dataclasses.replace(scene, world=World(texture=tex, strength=1.5, rotation=rotation,
+                                                   background_lod=1.5, background_alpha=0.5))
+    scene.settings = dataclasses.replace(scene.settings, sky_directions=0)
+    _check(*_render_both(scene), "image world")
+
+
 def test_every_sample_shaded_and_transparent_film():
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()))
     scene.settings = dataclasses.replace(scene.settings, shade_every_sample=True,
