@@ -21,7 +21,7 @@ from ..core.formulas import occlusion as occlusion_formulas
 from ..core.kernels import shading as shading_kernel
 from ..core.render.buffers import Frame
 from ..core.render.shading import has_indirect
-from . import dome, images, lights, occlusion, probes, programs, textures
+from . import dome, images, lightmaps, lights, occlusion, probes, programs, textures
 from .uniforms import Struct
 
 BATCH_LIGHTS = 32  # lights shaded per draw (their blocks stay far below 16 KiB)
@@ -75,8 +75,6 @@ def unsupported(frame: Frame) -> str | None:
     scene = frame.scene
     mats = scene.materials
     if has_indirect(frame):
-        if frame.lightmaps is not None:
-            return "lightmaps"
         why = dome.unsupported(frame)
         if why:
             return why
@@ -108,10 +106,11 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
              ambient: bool = False, sky: bool = False) -> programs.Program:
     frame_block = (("FrameData", "frame"),)
     vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
-                 ("INT", "tri"))
+                 ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"))
     varyings = (("VEC3", "v_position", "smooth"), ("VEC3", "v_normal", "smooth"),
                 ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"),
-                ("INT", "v_tri", "flat"))
+                ("INT", "v_tri", "flat"), ("INT", "v_lightmap", "flat"),
+                ("VEC2", "v_lightmap_uv", "smooth"))
     outputs = (("VEC4", "out_key"),) + tuple(("VEC4", f"out_{name}") for name in names)
     vert = programs.source("frame_vert")
     corner = (("VEC2", "corner"),)
@@ -175,7 +174,11 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
         blocks += tuple((struct, member) for struct, member, _ in probes.BLOCKS)
         samplers += tuple((kind_, name) for kind_, name in probes.SAMPLERS)
         prelude += probes.prelude()
-        sources += ("occlusion",)
+        sources += ("occlusion", "lightmap")
+        defines.update(lightmaps.defines())
+        structs += (lightmaps.LIGHTMAPS,)
+        blocks += (("LightmapData", "lightmaps"),)
+        samplers += (("FLOAT_2D", "lightmap_texels"),)
         if ambient:
             defines["AMBIENT"] = 1
             structs += (occlusion.AO,)
@@ -236,12 +239,19 @@ class GPUFrame:
         for name, size in (("pos", 3), ("nor", 3), ("geo", 3), ("mat", 1)):
             fmt.attr_add(id=name, comp_type="F32", len=size, fetch_mode="FLOAT")
         fmt.attr_add(id="tri", comp_type="I32", len=1, fetch_mode="INT")
+        fmt.attr_add(id="lm", comp_type="I32", len=1, fetch_mode="INT")
+        fmt.attr_add(id="lm_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
         vbo = gpu.types.GPUVertBuf(fmt, 3 * t)
         vbo.attr_fill("pos", pos.reshape(-1, 3))
         vbo.attr_fill("nor", np.ascontiguousarray(frame.normals[keep], np.float32).reshape(-1, 3))
         vbo.attr_fill("geo", np.repeat(geo, 3, axis=0).astype(np.float32))
         vbo.attr_fill("mat", np.repeat(frame.material[keep], 3).astype(np.float32))
         vbo.attr_fill("tri", np.repeat(np.flatnonzero(keep).astype(np.int32), 3))
+        lit = frame.lightmap is not None and frame.scene.probes is not None
+        vbo.attr_fill("lm", np.repeat(frame.lightmap[keep].astype(np.int32), 3) if lit
+                      else np.full(3 * t, -1, np.int32))
+        vbo.attr_fill("lm_uv", np.ascontiguousarray(frame.lightmap_uvs[keep], np.float32)
+                      .reshape(-1, 2) if lit else np.zeros((3 * t, 2), np.float32))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()
@@ -268,9 +278,12 @@ class GPUFrame:
             s = frame.scene.settings
             drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,
                                         s.env_brdf)
+            block, texels = lightmaps.upload(frame.lightmaps or [])
             self.indirect = ([(member.partition("[")[0], gpu.types.GPUUniformBuf(raw))
-                              for _, member, raw in drawn.blocks()],
-                             [(name, texture) for _, name, texture in drawn.samplers()])
+                              for _, member, raw in drawn.blocks()]
+                             + [("lightmaps", gpu.types.GPUUniformBuf(block))],
+                             [(name, texture) for _, name, texture in drawn.samplers()]
+                             + [("lightmap_texels", texels)])
         scene_lights = frame.scene.lights
         maps = frame.shadow_maps[:len(scene_lights)]
         sky = frame.sky if self.indirect is not None else None

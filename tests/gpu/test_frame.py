@@ -102,6 +102,32 @@ def test_image_world_frame_matches_the_cpu():
     _check(*_render_both(scene), "image world")
 
 
+@pytest.mark.parametrize("directional", [False, True])
+def test_lightmapped_frame_matches_the_cpu(directional):
+    """The ground and the box take their diffuse indirect light from baked lightmaps (an
+    irradiance one, or a directional one's L1 SH), the sphere from the probes."""
+    from bo2_lighting.addon.core.lighting.lightmap import Lightmap
+
+    rng = np.random.default_rng(9)
+    scene = scenes.with_probes(scenes.objects_scene([scenes.LIGHTS["SPOT"]]), volume=False)
+    scene.settings = dataclasses.replace(scene.settings, sky_directions=32)
+    for k in (0, 1):
+        mesh = scene.meshes[k]
+        corners = mesh.positions.reshape(-1, 3)
+        uvs = ((corners[:, :2] - corners[:, :2].min(0)) / np.ptp(corners[:, :2], 0).clip(1e-6)
+               ).reshape(-1, 3, 2).astype(np.float32)
+        h, w = 24, 32
+        yy, xx = np.mgrid[0:h, 0:w]
+        base = 0.5 + 0.4 * np.sin(xx / 5.0 + k)[..., None] * np.cos(yy / 4.0)[..., None]
+        image = np.repeat(base, 12 if directional else 3, -1) * rng.uniform(0.8, 1.2, 12 if
+                                                                            directional else 3)
+        scene.meshes[k] = dataclasses.replace(mesh, lightmap=Lightmap(
+            image.astype(np.float32), uvs))
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.lightmaps is not None and len(frame.lightmaps) == 2
+    _check(*_render_both(scene), f"lightmaps (directional: {directional})")
+
+
 def test_every_sample_shaded_and_transparent_film():
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()))
     scene.settings = dataclasses.replace(scene.settings, shade_every_sample=True,

@@ -47,6 +47,7 @@ void main()
 #ifdef INDIRECT
   if (first_batch) { /* the probes' light (core/render/shading.shade_points) */
     vec2 window = vec2(float(pixel.x), float(row)) + frame.sample_offset;
+    bool baked = v_lightmap >= 0;  /* a lightmap holds the light of its surface */
     float occluded = 1.0;
 #ifdef AMBIENT
     /* the contact occlusion of the pixel that holds the sample (render_tile's ao_tile) */
@@ -59,15 +60,22 @@ void main()
     if (indirect.flags.x >= 0) { /* what bounces off the occluders is in the bounce volume */
       rho *= 1.0 - volume_weight(indirect.flags.x, s.p);
     }
-    sky = world_seen(dome_upsampled(window, s.p, s.n, s.geo), occluded, rho);
+    if (!baked) {
+      sky = world_seen(dome_upsampled(window, s.p, s.n, s.geo), occluded, rho);
+    }
 #endif
     vec3 psh[9];
-    pixel_sh(s.p, s.n, s.v, sky, psh);
+    if (baked) {
+      lightmap_sh(v_lightmap, v_lightmap_uv, psh);
+    }
+    else {
+      pixel_sh(s.p, s.n, s.v, sky, psh);
+    }
     indirect_light(s.p, s.n, s.v, s.albedo, s.rf0, s.gloss, psh, diff_ind, gloss_ind);
     diff_ind *= s.occlusion; /* the glTF importer's occlusion */
     gloss_ind *= s.occlusion;
 #ifdef AMBIENT
-    diff_ind *= multi_bounce(occluded, s.albedo);
+    diff_ind *= baked ? vec3(1.0) : multi_bounce(occluded, s.albedo);
     if (frame.flags.x != 0) {
       gloss_ind *= specular_occlusion(occluded, dot(s.n, s.v), s.gloss);
     }
