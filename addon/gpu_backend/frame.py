@@ -20,6 +20,7 @@ import numpy as np
 from ..core.formulas import occlusion as occlusion_formulas
 from ..core.kernels import shading as shading_kernel
 from ..core.render.buffers import Frame
+from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
 from . import dome, images, lightmaps, lights, occlusion, probes, programs, textures
 from .uniforms import Struct
@@ -54,15 +55,22 @@ MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
 # (``core.render.passes.PASSES`` names), and the groups drawn at once (a framebuffer holds
 # six targets: the key and five)
 TARGETS = ("combined", "diffuse", "specular", "diff_ind", "gloss_ind", "emit", "surface",
-           "normal")
+           "normal", "position", "uv", "rf0", "ao", "lightmap", "texels")
 PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0, 3)),
            "GlossDir": ("specular", slice(0, 3)), "DiffInd": ("diff_ind", slice(0, 3)),
            "GlossInd": ("gloss_ind", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
            "Gloss": ("surface", slice(3, 4)), "Normal": ("normal", slice(0, 3)),
-           "Emit": ("emit", slice(0, 3))}
+           "Emit": ("emit", slice(0, 3)), "Position": ("position", slice(0, 3)),
+           "UV": ("uv", slice(0, 3)), "Specular Color": ("rf0", slice(0, 3)),
+           "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
+           "Lightmap Texels": ("texels", slice(0, 3))}
+# Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
+CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
-          ("emit", "surface", "normal"))
-LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind"}  # need the light
+          ("emit", "surface", "normal", "position", "uv"),
+          ("rf0", "ao", "lightmap", "texels"))
+# the targets that need the lights or the indirect light (the others: the surface alone)
+LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind", "ao", "lightmap", "texels"}
 DOME_TEXTURES = ("dome_grid", "dome_points", "dome_normals")  # dome_grid_frag's outputs
 
 
@@ -74,13 +82,14 @@ def unsupported(frame: Frame) -> str | None:
     """What of ``frame`` the GPU does not draw yet (one phrase), or None."""
     scene = frame.scene
     mats = scene.materials
+    s = scene.settings
     if has_indirect(frame):
-        why = dome.unsupported(frame)
+        why = dome.unsupported(frame) or probes.unsupported(scene.probes)
         if why:
             return why
-        why = probes.unsupported(scene.probes)
-        if why:
-            return why
+    elif (scene.probes is not None and s.ambient_occlusion and s.ao_distance > 0.0
+          and s.ao_pass):
+        return "the AO pass without indirect light"
     varying = [m.name for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
     if varying:
         return f"materials that vary over their surface ({', '.join(varying[:3])})"
@@ -106,11 +115,11 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
              ambient: bool = False, sky: bool = False) -> programs.Program:
     frame_block = (("FrameData", "frame"),)
     vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
-                 ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"))
+                 ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"), ("VEC3", "uv"))
     varyings = (("VEC3", "v_position", "smooth"), ("VEC3", "v_normal", "smooth"),
                 ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"),
                 ("INT", "v_tri", "flat"), ("INT", "v_lightmap", "flat"),
-                ("VEC2", "v_lightmap_uv", "smooth"))
+                ("VEC2", "v_lightmap_uv", "smooth"), ("VEC3", "v_uv", "smooth"))
     outputs = (("VEC4", "out_key"),) + tuple(("VEC4", f"out_{name}") for name in names)
     vert = programs.source("frame_vert")
     corner = (("VEC2", "corner"),)
@@ -118,6 +127,11 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
         return programs.Program("draw", (), (vert, programs.source("depth_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
                                 varyings=varyings)
+    if kind == "central":
+        return programs.Program("draw", ("surface",), (vert, programs.source("central_frag")),
+                                structs=(FRAME,), blocks=frame_block,
+                                samplers=(("FLOAT_2D", "materials"),), inputs=vertex_in,
+                                varyings=varyings, outputs=(("VEC4", "out_central"),))
     if kind == "center":
         return programs.Program("draw", (), (vert, programs.source("center_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
@@ -176,6 +190,7 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
         prelude += probes.prelude()
         sources += ("occlusion", "lightmap")
         defines.update(lightmaps.defines())
+        prelude += lightmaps.prelude()
         structs += (lightmaps.LIGHTMAPS,)
         blocks += (("LightmapData", "lightmaps"),)
         samplers += (("FLOAT_2D", "lightmap_texels"),)
@@ -241,6 +256,7 @@ class GPUFrame:
         fmt.attr_add(id="tri", comp_type="I32", len=1, fetch_mode="INT")
         fmt.attr_add(id="lm", comp_type="I32", len=1, fetch_mode="INT")
         fmt.attr_add(id="lm_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
+        fmt.attr_add(id="uv", comp_type="F32", len=3, fetch_mode="FLOAT")
         vbo = gpu.types.GPUVertBuf(fmt, 3 * t)
         vbo.attr_fill("pos", pos.reshape(-1, 3))
         vbo.attr_fill("nor", np.ascontiguousarray(frame.normals[keep], np.float32).reshape(-1, 3))
@@ -252,6 +268,12 @@ class GPUFrame:
                       else np.full(3 * t, -1, np.int32))
         vbo.attr_fill("lm_uv", np.ascontiguousarray(frame.lightmap_uvs[keep], np.float32)
                       .reshape(-1, 2) if lit else np.zeros((3 * t, 2), np.float32))
+        uv = np.zeros((t, 3, 3), np.float32)  # (u, v, 1) where the triangle has UVs
+        if len(frame.uvs):
+            has = frame.has_uv[keep]
+            uv[has, :, :2] = frame.uvs[keep][has]
+            uv[has, :, 2] = 1.0
+        vbo.attr_fill("uv", uv.reshape(-1, 3))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()
@@ -260,10 +282,11 @@ class GPUFrame:
         corners.attr_fill("corner", np.float32([[-1, -1], [3, -1], [-1, 3]]))
         self.background = gpu.types.GPUBatch(type="TRIS", buf=corners)
         tab = frame.tables
-        table = np.zeros((max(1, len(tab["albedo"])), 3, 4), np.float32)
+        table = np.zeros((max(1, len(tab["albedo"])), 4, 4), np.float32)
         table[:len(tab["albedo"]), 0] = np.column_stack([tab["albedo"], tab["gloss"]])
         table[:len(tab["albedo"]), 1] = np.column_stack([tab["rf0"], tab["alpha"]])
         table[:len(tab["albedo"]), 2] = np.column_stack([tab["emission"], tab["occlusion"]])
+        table[:len(tab["albedo"]), 3, 0] = tab["pass_index"]
         self.materials = textures.image(table.reshape(1, -1, 4))
         self.world = None  # (ImageData record's buffer, texels, sRGB table) of an image world
         world = frame.scene.world
@@ -401,6 +424,42 @@ class GPUFrame:
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
 
+
+    def central(self, camera, offsets) -> dict[str, np.ndarray]:
+        """Depth and IndexMA through ``camera`` at the sample of ``offsets`` nearest the
+        pixel centre: {name: (H, W, 1) float32}, row 0 at the top; 1e10 and 0 where no
+        surface is seen (``passes.EMPTY_DEPTH``)."""
+        import gpu
+
+        offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
+        ox, oy = offsets[int(np.argmin(np.abs(offsets - 0.5).sum(-1)))]
+        w, h = camera.width, camera.height
+        c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
+        data = gpu.types.GPUUniformBuf(FRAME.pack([{
+            "view_proj": np.asarray(camera.projection @ camera.world_to_camera, np.float64),
+            "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
+            "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+            "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)}]))
+        target = gpu.types.GPUTexture((w, h), format="RGBA32F")
+        z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+        fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(target,))
+        program = shader("central")
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        with fb.bind():
+            fb.clear(color=(float(EMPTY_DEPTH), 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.depth_test_set("LESS")
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+            program.bind()
+            program.uniform_block("frame", data)
+            program.uniform_sampler("materials", self.materials)
+            self.batch.draw(program)
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
+        image = textures.read(target)[::-1]
+        return {"Depth": np.ascontiguousarray(image[..., :1]),
+                "IndexMA": np.ascontiguousarray(image[..., 1:2])}
 
     def _world_block(self, camera) -> bytes:
         """The WorldData of the frame's image world seen through ``camera``."""
@@ -591,14 +650,20 @@ def _padded(block: bytes, struct: Struct, count: int) -> bytes:
     return block[:count * size] + bytes(count * size - min(len(block), count * size))
 
 
-def render(frame: Frame, offsets) -> dict[str, np.ndarray]:
-    """The frame's passes (``PASS_OF``) through its own camera, drawn on the GPU:
-    {name: (H, W, C) float32}, row 0 at the top (``pipeline.render_frame``'s layout)."""
+def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
+    """The frame's passes through its own camera, drawn on the GPU: {name: (H, W, C)
+    float32}, row 0 at the top (``pipeline.render_frame``'s layout); ``passes``: the names
+    wanted (``PASS_OF`` and ``CENTRAL``; default all), Combined always."""
     cam = frame.scene.camera
+    wanted = set(PASS_OF) | set(CENTRAL) if passes is None else set(passes) | {"Combined"}
     drawn = GPUFrame(frame)
     out = {}
     for names in GROUPS:
+        if not any(PASS_OF[p][0] in names for p in wanted if p in PASS_OF):
+            continue
         targets = Targets(cam.width, cam.height, names)
         drawn.draw(cam, offsets, targets)
-        out.update(targets.passes())
+        out.update({p: image for p, image in targets.passes().items() if p in wanted})
+    if wanted & set(CENTRAL):
+        out.update(drawn.central(cam, offsets))
     return out

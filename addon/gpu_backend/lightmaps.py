@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.lighting import lightmap as core_lightmap
+from ..core.render.shading import LIGHTMAP_HUES
 from . import textures
 from .uniforms import Struct
 
@@ -19,6 +20,12 @@ LIGHTMAPS = Struct("LightmapData", (
 def defines() -> dict:
     return {"LIGHTMAP_SH_SCALE": f"{float(np.pi * core_lightmap.SH_SCALE_C0):.9g}",
             "ROW_WIDTH": textures.ROW_WIDTH}
+
+
+def prelude() -> str:
+    """The Lightmap Texels pass's hues (``shading.LIGHTMAP_HUES``) as a GLSL constant."""
+    hues = ", ".join(f"vec3({r}, {g}, {b})" for r, g, b in LIGHTMAP_HUES)
+    return f"const vec3 LIGHTMAP_HUES[{len(LIGHTMAP_HUES)}] = vec3[{len(LIGHTMAP_HUES)}]({hues});\n"
 
 
 def upload(maps) -> tuple[bytes, object]:

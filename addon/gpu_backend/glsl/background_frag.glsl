@@ -25,5 +25,5 @@ void main()
   color = vec4(radiance * world.params.y, world.params.y);
 #endif
   WRITE_TARGETS(color, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
-                vec4(0.0));
+                vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
 }

@@ -23,6 +23,7 @@ void main()
     if (first.g > 0.0 && int(first.r) * 4096 + int(first.g) - 1 == v_tri) {
       out_key = vec4(first_batch ? 1.0 : 0.0, 0.0, 0.0, 0.0);
       WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                    vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
                     vec4(0.0), vec4(0.0));
       return;
     }
@@ -44,6 +45,8 @@ void main()
   }
 #endif
   vec3 diff_ind = vec3(0.0), gloss_ind = vec3(0.0);
+  float ao_out = 1.0;  /* the AO pass: 1 where no contact occlusion is searched */
+  vec3 lightmap_e = vec3(0.0), texels = vec3(0.0);  /* the Lightmap passes */
 #ifdef INDIRECT
   if (first_batch) { /* the probes' light (core/render/shading.shade_points) */
     vec2 window = vec2(float(pixel.x), float(row)) + frame.sample_offset;
@@ -53,6 +56,7 @@ void main()
     /* the contact occlusion of the pixel that holds the sample (render_tile's ao_tile) */
     ivec2 at = clamp(ivec2(floor(window)), ivec2(0), frame.size.xy - 1);
     occluded = texelFetch(ambient, ivec2(at.x, frame.size.y - 1 - at.y), 0).r;
+    ao_out = occluded;
 #endif
     float sky = 1.0;
 #ifdef DOME
@@ -67,6 +71,15 @@ void main()
     vec3 psh[9];
     if (baked) {
       lightmap_sh(v_lightmap, v_lightmap_uv, psh);
+      float y[9];
+      sh_basis(s.n, y);
+      for (int k = 0; k < 9; k++) {
+        lightmap_e += y[k] * psh[k];
+      }
+      ivec4 m = lightmaps.maps[v_lightmap];
+      float cell = mod(floor(v_lightmap_uv.x * float(m.y)) + floor((1.0 - v_lightmap_uv.y) *
+                                                                   float(m.z)), 2.0);
+      texels = LIGHTMAP_HUES[v_lightmap % LIGHTMAP_HUES.length()] * (0.45 + 0.55 * cell);
     }
     else {
       pixel_sh(s.p, s.n, s.v, sky, psh);
@@ -88,5 +101,8 @@ void main()
                 vec4(diffuse, 0.0), vec4(specular, 0.0), vec4(diff_ind, 0.0),
                 vec4(gloss_ind, 0.0), vec4(emit, 0.0),
                 first_batch ? vec4(s.albedo, s.gloss) : vec4(0.0),
-                first_batch ? vec4(s.n, 1.0) : vec4(0.0));
+                first_batch ? vec4(s.n, 1.0) : vec4(0.0),
+                first_batch ? vec4(s.p, 0.0) : vec4(0.0), first_batch ? vec4(v_uv, 0.0) : vec4(0.0),
+                first_batch ? vec4(s.rf0, 0.0) : vec4(0.0), vec4(first_batch ? ao_out : 0.0),
+                vec4(lightmap_e, 0.0), vec4(texels, 0.0));
 }

@@ -8,6 +8,7 @@ void main()
   v_tri = tri;
   v_lightmap = lm;
   v_lightmap_uv = lm_uv;
+  v_uv = uv;
   vec4 clip = frame.view_proj * vec4(pos, 1.0);
   clip.xy = clip.xy * frame.ndc_scale + frame.jitter * clip.w;
   gl_Position = clip;
