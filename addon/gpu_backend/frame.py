@@ -64,6 +64,7 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "UV": ("uv", slice(0, 3)), "Specular Color": ("rf0", slice(0, 3)),
            "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
            "Lightmap Texels": ("texels", slice(0, 3))}
+FLAG_CULL, FLAG_HOLDOUT = 1, 2  # a triangle's flags (``glsl/frame_vert.glsl``)
 # Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
 CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
@@ -95,10 +96,6 @@ def unsupported(frame: Frame) -> str | None:
         return f"materials that vary over their surface ({', '.join(varying[:3])})"
     if frame.fades.any():
         return "transparent materials"
-    if frame.holdout.any():
-        return "holdout"
-    if frame.cull is not None:
-        return "backface culling"
     return None
 
 
@@ -115,18 +112,20 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
              ambient: bool = False, sky: bool = False) -> programs.Program:
     frame_block = (("FrameData", "frame"),)
     vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
-                 ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"), ("VEC3", "uv"))
+                 ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"), ("VEC3", "uv"),
+                 ("INT", "flags"))
     varyings = (("VEC3", "v_position", "smooth"), ("VEC3", "v_normal", "smooth"),
                 ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"),
                 ("INT", "v_tri", "flat"), ("INT", "v_lightmap", "flat"),
-                ("VEC2", "v_lightmap_uv", "smooth"), ("VEC3", "v_uv", "smooth"))
+                ("VEC2", "v_lightmap_uv", "smooth"), ("VEC3", "v_uv", "smooth"),
+                ("INT", "v_flags", "flat"))
     outputs = (("VEC4", "out_key"),) + tuple(("VEC4", f"out_{name}") for name in names)
     vert = programs.source("frame_vert")
     corner = (("VEC2", "corner"),)
     if kind == "depth":
         return programs.Program("draw", (), (vert, programs.source("depth_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
-                                varyings=varyings)
+                                varyings=varyings, outputs=(("VEC4", "out_visible"),))
     if kind == "central":
         return programs.Program("draw", ("surface",), (vert, programs.source("central_frag")),
                                 structs=(FRAME,), blocks=frame_block,
@@ -156,7 +155,7 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
             samplers=(("FLOAT_2D", "first_key"), ("FLOAT_2D", "rest_key")) + tuple(
                 ("FLOAT_2D", f"{part}_{name}") for part in ("first", "rest") for name in names),
             outputs=outputs[1:])
-    samplers = (("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"))
+    samplers = (("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"), ("FLOAT_2D", "visible"))
     shadow_samplers = (("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
                        ("FLOAT_2D", "shadow_rotations"))
     if kind == "dome_grid":
@@ -257,6 +256,7 @@ class GPUFrame:
         fmt.attr_add(id="lm", comp_type="I32", len=1, fetch_mode="INT")
         fmt.attr_add(id="lm_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
         fmt.attr_add(id="uv", comp_type="F32", len=3, fetch_mode="FLOAT")
+        fmt.attr_add(id="flags", comp_type="I32", len=1, fetch_mode="INT")
         vbo = gpu.types.GPUVertBuf(fmt, 3 * t)
         vbo.attr_fill("pos", pos.reshape(-1, 3))
         vbo.attr_fill("nor", np.ascontiguousarray(frame.normals[keep], np.float32).reshape(-1, 3))
@@ -274,6 +274,11 @@ class GPUFrame:
             uv[has, :, :2] = frame.uvs[keep][has]
             uv[has, :, 2] = 1.0
         vbo.attr_fill("uv", uv.reshape(-1, 3))
+        flags = np.zeros(t, np.int32)  # glsl/flags.glsl: culled from behind, holdout
+        if frame.cull is not None:
+            flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
+        flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
+        vbo.attr_fill("flags", np.repeat(flags, 3))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()
@@ -369,17 +374,16 @@ class GPUFrame:
                     "size": [w, h, first_sample + k, 0]}])))
                 return blocks[-1]
 
-            fb = targets.first if mode == "MODE_FIRST" else targets.rest
-            with fb.bind():
-                fb.clear(depth=1.0)
-                gpu.state.color_mask_set(False, False, False, False)
+            with targets.prepass.bind():  # the nearest triangle of each pixel, and its depth
+                targets.prepass.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
                 gpu.state.depth_mask_set(True)
                 gpu.state.depth_test_set("LESS")
                 gpu.state.blend_set("NONE")
                 depth.bind()
                 depth.uniform_block("frame", block(0, True))
                 self.batch.draw(depth)
-                gpu.state.color_mask_set(True, True, True, True)
+            fb = targets.first if mode == "MODE_FIRST" else targets.rest
+            with fb.bind():  # only that triangle shades (not another at the same depth)
                 gpu.state.depth_mask_set(False)
                 gpu.state.blend_set("ADDITIVE_PREMULT")
                 gpu.state.depth_test_set("EQUAL")
@@ -387,6 +391,7 @@ class GPUFrame:
                 shade.uniform_sampler("materials", self.materials)
                 shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
                                       else targets.textures["first_key"])
+                shade.uniform_sampler("visible", targets.textures["visible"])
                 if ambient:
                     shade.uniform_block("ao", ambient[0])
                     shade.uniform_sampler("ambient", ambient[1])
@@ -579,11 +584,14 @@ class Targets:
 
         self.textures = {f"{part}_{name}": texture() for part in ("first", "rest", "total")
                          for name in ("key", *self.names) if f"{part}_{name}" != "total_key"}
+        self.textures["visible"] = texture()
         self.depth = gpu.types.GPUTexture((width, height), format="DEPTH_COMPONENT32F")
         self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
         self.first, self.rest = (gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=tuple(
             self.textures[f"{part}_{name}"] for name in ("key", *self.names)))
             for part in ("first", "rest"))
+        self.prepass = gpu.types.GPUFrameBuffer(depth_slot=self.depth,
+                                                color_slots=(self.textures["visible"],))
         self.total = gpu.types.GPUFrameBuffer(color_slots=tuple(
             self.textures[f"total_{name}"] for name in self.names))
         self.samples = 0
@@ -611,7 +619,7 @@ class Targets:
             gpu.state.blend_set("ADDITIVE_PREMULT")
             program.bind()
             for name, texture in self.textures.items():
-                if not name.startswith("total"):
+                if name.startswith(("first", "rest")):
                     program.uniform_sampler(name, texture)
             triangle.draw(program)
         self.samples += count

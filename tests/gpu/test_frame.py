@@ -146,6 +146,28 @@ def test_lightmapped_frame_matches_the_cpu(directional):
     _check(*_render_both(scene), f"lightmaps (directional: {directional})")
 
 
+def test_holdout_and_backface_culling_match_the_cpu():
+    """A holdout sphere cuts a hole (alpha 0) through the ground and hides what is behind it;
+    the box's material culls its faces seen from behind (its walls' insides show, and a camera
+    inside it sees out)."""
+    scene = scenes.with_probes(scenes.objects_scene([scenes.LIGHTS["SUN"],
+                                                     scenes.LIGHTS["POINT"]]), volume=False)
+    scene.meshes[2] = dataclasses.replace(scene.meshes[2], holdout=True)
+    scene.materials[1] = dataclasses.replace(scene.materials[1], backface_culling=True)
+    box = scene.meshes[1]  # 1 cm above the ground: its bottom, seen from inside, is not
+    scene.meshes[1] = dataclasses.replace(box, positions=box.positions + np.float32([0, 0, 0.01]))
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.holdout.any() and frame.cull is not None
+    cpu, gpu = _render_both(scene)
+    hole = cpu["Combined"][..., 3] == 0.0
+    assert hole.sum() > 500 and (gpu["Combined"][..., 3][hole] < 0.26).all()
+    _check(cpu, gpu, "holdout and culling")
+    inside = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, world_to_camera=scenes.look_at(np.array([-1.0, 0.0, 0.5]),
+                                                     [3.0, -2.0, 0.3])))
+    _check(*_render_both(inside), "culled faces seen from inside")
+
+
 def test_every_sample_shaded_and_transparent_film():
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()))
     scene.settings = dataclasses.replace(scene.settings, shade_every_sample=True,

@@ -1,4 +1,4 @@
-/* One sample's visible points shaded (depth test EQUAL after the pre-pass), once per pixel
+/* One sample's visible points shaded (the pre-pass's triangle, at its depth), once per pixel
  * and triangle as core/render/pipeline.render_tile does: the batch's first sample is shaded
  * into its own targets with its triangle (out_key: the triangle's number in two parts, the
  * low one plus 1); a later sample that sees the same triangle only counts itself (out_key.r
@@ -9,10 +9,20 @@
  * SURFACE_ONLY (targets that need no light) the lights are left out. */
 void main()
 {
+  vec4 nearest = texelFetch(visible, ivec2(gl_FragCoord.xy), 0);
+  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
+    discard;  /* culled, or another triangle at the same depth drew the pixel */
+  }
   bool first_batch = frame.counts.z != 0;
   int mode = frame.counts.w;
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   out_key = vec4(0.0);
+  if ((v_flags & 2) != 0) { /* a holdout: nothing, alpha 0, and no sample reuses it */
+    WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                  vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                  vec4(0.0), vec4(0.0));
+    return;
+  }
   if (mode == MODE_FIRST) {
     if (first_batch) {
       out_key = vec4(float(v_tri >> 12), float(v_tri & 4095) + 1.0, 0.0, 0.0);
