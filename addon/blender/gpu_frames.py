@@ -52,7 +52,7 @@ def renderer() -> str:
 def unsupported_passes(view_layer) -> str | None:
     """The enabled passes the GPU does not draw yet (one phrase), or None."""
     missing = [name for name in PASSES if name not in gpu_frame.PASS_OF
-               and passes.enabled(view_layer, name)]
+               and name not in gpu_frame.CENTRAL and passes.enabled(view_layer, name)]
     if not missing:
         return None
     return f"the {', '.join(missing[:3])} pass{'es' if len(missing) > 1 else ''}"
@@ -70,7 +70,6 @@ def render(job, view_layer) -> tuple[object, dict | str]:
     if why:
         return frame, why
     s = job.scene.settings
-    drawn = gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)), s.filter_width))
-    wanted = {name for name in gpu_frame.PASS_OF if name == "Combined"
-              or passes.enabled(view_layer, name)}
-    return frame, {name: image for name, image in drawn.items() if name in wanted}
+    wanted = [name for name in PASSES if name == "Combined" or passes.enabled(view_layer, name)]
+    return frame, gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)),
+                                                         s.filter_width), wanted)

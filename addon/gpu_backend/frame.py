@@ -20,8 +20,9 @@ import numpy as np
 from ..core.formulas import occlusion as occlusion_formulas
 from ..core.kernels import shading as shading_kernel
 from ..core.render.buffers import Frame
+from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
-from . import dome, lights, occlusion, probes, programs, textures
+from . import dome, images, lightmaps, lights, occlusion, probes, programs, textures
 from .uniforms import Struct
 
 BATCH_LIGHTS = 32  # lights shaded per draw (their blocks stay far below 16 KiB)
@@ -40,6 +41,13 @@ FRAME = Struct("FrameData", (
     ("flags", "ivec4", 0),  # (specular occlusion, -, -, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
 ))
+WORLD = Struct("WorldData", (
+    ("clip_to_world", "mat4", 0),  # the camera's inverse projection and view
+    ("rotation", "vec4", 3),  # world -> texture rotation rows (the Mapping node's)
+    ("params", "vec4", 0),  # (strength, background alpha, level of detail or -1, has a sun)
+    ("sun", "vec4", 0),  # towards the sun, cos(half its angle)
+    ("sun_color", "vec4", 0),  # its disc's radiance
+))
 # How a sample is shaded (``glsl/frame_frag.glsl``): the batch's first sample, a later one
 # (reusing the first's shading where it sees the same triangle), or every sample on its own
 MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
@@ -47,15 +55,23 @@ MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
 # (``core.render.passes.PASSES`` names), and the groups drawn at once (a framebuffer holds
 # six targets: the key and five)
 TARGETS = ("combined", "diffuse", "specular", "diff_ind", "gloss_ind", "emit", "surface",
-           "normal")
+           "normal", "position", "uv", "rf0", "ao", "lightmap", "texels")
 PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0, 3)),
            "GlossDir": ("specular", slice(0, 3)), "DiffInd": ("diff_ind", slice(0, 3)),
            "GlossInd": ("gloss_ind", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
            "Gloss": ("surface", slice(3, 4)), "Normal": ("normal", slice(0, 3)),
-           "Emit": ("emit", slice(0, 3))}
+           "Emit": ("emit", slice(0, 3)), "Position": ("position", slice(0, 3)),
+           "UV": ("uv", slice(0, 3)), "Specular Color": ("rf0", slice(0, 3)),
+           "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
+           "Lightmap Texels": ("texels", slice(0, 3))}
+FLAG_CULL, FLAG_HOLDOUT = 1, 2  # a triangle's flags (``glsl/frame_vert.glsl``)
+# Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
+CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
-          ("emit", "surface", "normal"))
-LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind"}  # need the light
+          ("emit", "surface", "normal", "position", "uv"),
+          ("rf0", "ao", "lightmap", "texels"))
+# the targets that need the lights or the indirect light (the others: the surface alone)
+LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind", "ao", "lightmap", "texels"}
 DOME_TEXTURES = ("dome_grid", "dome_points", "dome_normals")  # dome_grid_frag's outputs
 
 
@@ -67,26 +83,19 @@ def unsupported(frame: Frame) -> str | None:
     """What of ``frame`` the GPU does not draw yet (one phrase), or None."""
     scene = frame.scene
     mats = scene.materials
+    s = scene.settings
     if has_indirect(frame):
-        if frame.lightmaps is not None:
-            return "lightmaps"
-        why = dome.unsupported(frame)
+        why = dome.unsupported(frame) or probes.unsupported(scene.probes)
         if why:
             return why
-        why = probes.unsupported(scene.probes)
-        if why:
-            return why
+    elif (scene.probes is not None and s.ambient_occlusion and s.ao_distance > 0.0
+          and s.ao_pass):
+        return "the AO pass without indirect light"
     varying = [m.name for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
     if varying:
         return f"materials that vary over their surface ({', '.join(varying[:3])})"
     if frame.fades.any():
         return "transparent materials"
-    if frame.holdout.any():
-        return "holdout"
-    if frame.cull is not None:
-        return "backface culling"
-    if scene.world.texture is not None:
-        return "an image world"
     return None
 
 
@@ -103,26 +112,42 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
              ambient: bool = False, sky: bool = False) -> programs.Program:
     frame_block = (("FrameData", "frame"),)
     vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
-                 ("INT", "tri"))
+                 ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"), ("VEC3", "uv"),
+                 ("INT", "flags"))
     varyings = (("VEC3", "v_position", "smooth"), ("VEC3", "v_normal", "smooth"),
                 ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"),
-                ("INT", "v_tri", "flat"))
+                ("INT", "v_tri", "flat"), ("INT", "v_lightmap", "flat"),
+                ("VEC2", "v_lightmap_uv", "smooth"), ("VEC3", "v_uv", "smooth"),
+                ("INT", "v_flags", "flat"))
     outputs = (("VEC4", "out_key"),) + tuple(("VEC4", f"out_{name}") for name in names)
     vert = programs.source("frame_vert")
     corner = (("VEC2", "corner"),)
     if kind == "depth":
         return programs.Program("draw", (), (vert, programs.source("depth_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
-                                varyings=varyings)
+                                varyings=varyings, outputs=(("VEC4", "out_visible"),))
+    if kind == "central":
+        return programs.Program("draw", ("surface",), (vert, programs.source("central_frag")),
+                                structs=(FRAME,), blocks=frame_block,
+                                samplers=(("FLOAT_2D", "materials"),), inputs=vertex_in,
+                                varyings=varyings, outputs=(("VEC4", "out_central"),))
     if kind == "center":
         return programs.Program("draw", (), (vert, programs.source("center_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
                                 varyings=varyings, outputs=outputs[:2])
     if kind == "background":
-        return programs.Program("draw", (), (programs.source("background_vert"),
-                                             programs.source("background_frag")),
-                                defines=_writes(names), structs=(FRAME,), blocks=frame_block,
-                                inputs=corner, outputs=outputs)
+        world = {"sources": ("texture",), "defines": {"WORLD_IMAGE": 1},
+                 "structs": (WORLD, images.IMAGE),
+                 "blocks": (("WorldData", "world"), ("ImageData", "images[1]")),
+                 "samplers": (("FLOAT_2D", "world_texels"), ("FLOAT_2D", "srgb_table"))
+                 } if indirect else {}
+        return programs.Program(
+            "draw", world.get("sources", ()), (programs.source("background_vert"),
+                                               programs.source("background_frag")),
+            defines={**_writes(names), **world.get("defines", {})},
+            structs=(FRAME,) + world.get("structs", ()),
+            blocks=frame_block + world.get("blocks", ()), samplers=world.get("samplers", ()),
+            inputs=corner, outputs=outputs)
     if kind == "compose":
         return programs.Program(
             "draw", (), (programs.source("background_vert"), programs.source("compose_frag")),
@@ -130,7 +155,7 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
             samplers=(("FLOAT_2D", "first_key"), ("FLOAT_2D", "rest_key")) + tuple(
                 ("FLOAT_2D", f"{part}_{name}") for part in ("first", "rest") for name in names),
             outputs=outputs[1:])
-    samplers = (("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"))
+    samplers = (("FLOAT_2D", "materials"), ("FLOAT_2D", "first_key"), ("FLOAT_2D", "visible"))
     shadow_samplers = (("FLOAT_2D_ARRAY", "shadow_depth"), ("FLOAT_2D", "shadow_mips"),
                        ("FLOAT_2D", "shadow_rotations"))
     if kind == "dome_grid":
@@ -162,7 +187,12 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
         blocks += tuple((struct, member) for struct, member, _ in probes.BLOCKS)
         samplers += tuple((kind_, name) for kind_, name in probes.SAMPLERS)
         prelude += probes.prelude()
-        sources += ("occlusion",)
+        sources += ("occlusion", "lightmap")
+        defines.update(lightmaps.defines())
+        prelude += lightmaps.prelude()
+        structs += (lightmaps.LIGHTMAPS,)
+        blocks += (("LightmapData", "lightmaps"),)
+        samplers += (("FLOAT_2D", "lightmap_texels"),)
         if ambient:
             defines["AMBIENT"] = 1
             structs += (occlusion.AO,)
@@ -186,6 +216,9 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
     "compose") writing the targets ``names``; ``indirect``: with the probes' light
     (``glsl/indirect.glsl``), ``ambient``: its contact occlusion, ``sky``: the world's
     occlusion through the dome (``glsl/dome.glsl``)."""
+    if kind == "background":  # ``indirect``: the world is an image
+        return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
+                                                                   indirect))
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
     ambient, sky = ambient and indirect, sky and indirect
     return programs.compiled(_program(kind, names, indirect, ambient, sky),
@@ -220,12 +253,32 @@ class GPUFrame:
         for name, size in (("pos", 3), ("nor", 3), ("geo", 3), ("mat", 1)):
             fmt.attr_add(id=name, comp_type="F32", len=size, fetch_mode="FLOAT")
         fmt.attr_add(id="tri", comp_type="I32", len=1, fetch_mode="INT")
+        fmt.attr_add(id="lm", comp_type="I32", len=1, fetch_mode="INT")
+        fmt.attr_add(id="lm_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
+        fmt.attr_add(id="uv", comp_type="F32", len=3, fetch_mode="FLOAT")
+        fmt.attr_add(id="flags", comp_type="I32", len=1, fetch_mode="INT")
         vbo = gpu.types.GPUVertBuf(fmt, 3 * t)
         vbo.attr_fill("pos", pos.reshape(-1, 3))
         vbo.attr_fill("nor", np.ascontiguousarray(frame.normals[keep], np.float32).reshape(-1, 3))
         vbo.attr_fill("geo", np.repeat(geo, 3, axis=0).astype(np.float32))
         vbo.attr_fill("mat", np.repeat(frame.material[keep], 3).astype(np.float32))
         vbo.attr_fill("tri", np.repeat(np.flatnonzero(keep).astype(np.int32), 3))
+        lit = frame.lightmap is not None and frame.scene.probes is not None
+        vbo.attr_fill("lm", np.repeat(frame.lightmap[keep].astype(np.int32), 3) if lit
+                      else np.full(3 * t, -1, np.int32))
+        vbo.attr_fill("lm_uv", np.ascontiguousarray(frame.lightmap_uvs[keep], np.float32)
+                      .reshape(-1, 2) if lit else np.zeros((3 * t, 2), np.float32))
+        uv = np.zeros((t, 3, 3), np.float32)  # (u, v, 1) where the triangle has UVs
+        if len(frame.uvs):
+            has = frame.has_uv[keep]
+            uv[has, :, :2] = frame.uvs[keep][has]
+            uv[has, :, 2] = 1.0
+        vbo.attr_fill("uv", uv.reshape(-1, 3))
+        flags = np.zeros(t, np.int32)  # glsl/flags.glsl: culled from behind, holdout
+        if frame.cull is not None:
+            flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
+        flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
+        vbo.attr_fill("flags", np.repeat(flags, 3))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()
@@ -234,11 +287,18 @@ class GPUFrame:
         corners.attr_fill("corner", np.float32([[-1, -1], [3, -1], [-1, 3]]))
         self.background = gpu.types.GPUBatch(type="TRIS", buf=corners)
         tab = frame.tables
-        table = np.zeros((max(1, len(tab["albedo"])), 3, 4), np.float32)
+        table = np.zeros((max(1, len(tab["albedo"])), 4, 4), np.float32)
         table[:len(tab["albedo"]), 0] = np.column_stack([tab["albedo"], tab["gloss"]])
         table[:len(tab["albedo"]), 1] = np.column_stack([tab["rf0"], tab["alpha"]])
         table[:len(tab["albedo"]), 2] = np.column_stack([tab["emission"], tab["occlusion"]])
+        table[:len(tab["albedo"]), 3, 0] = tab["pass_index"]
         self.materials = textures.image(table.reshape(1, -1, 4))
+        self.world = None  # (ImageData record's buffer, texels, sRGB table) of an image world
+        world = frame.scene.world
+        if world.texture is not None:
+            record, texels = images.upload(world.texture)
+            self.world = (gpu.types.GPUUniformBuf(images.IMAGE.pack([record])), texels,
+                          images.srgb_table())
         self.indirect = None
         s = frame.scene.settings
         self.ambient = (has_indirect(frame) and s.ambient_occlusion and s.ao_distance > 0.0)
@@ -246,9 +306,12 @@ class GPUFrame:
             s = frame.scene.settings
             drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,
                                         s.env_brdf)
+            block, texels = lightmaps.upload(frame.lightmaps or [])
             self.indirect = ([(member.partition("[")[0], gpu.types.GPUUniformBuf(raw))
-                              for _, member, raw in drawn.blocks()],
-                             [(name, texture) for _, name, texture in drawn.samplers()])
+                              for _, member, raw in drawn.blocks()]
+                             + [("lightmaps", gpu.types.GPUUniformBuf(block))],
+                             [(name, texture) for _, name, texture in drawn.samplers()]
+                             + [("lightmap_texels", texels)])
         scene_lights = frame.scene.lights
         maps = frame.shadow_maps[:len(scene_lights)]
         sky = frame.sky if self.indirect is not None else None
@@ -294,7 +357,8 @@ class GPUFrame:
         sky = self.dome is not None and lit and self._dome(camera, targets, base)
         shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
                        self.dome is not None)
-        background = shader("background", targets.names)
+        background = shader("background", targets.names, self.world is not None)
+        world_block = self.world and gpu.types.GPUUniformBuf(self._world_block(camera))
         targets.clear_batch()
         blocks = []  # uniform buffers stay alive until drawn
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
@@ -310,17 +374,16 @@ class GPUFrame:
                     "size": [w, h, first_sample + k, 0]}])))
                 return blocks[-1]
 
-            fb = targets.first if mode == "MODE_FIRST" else targets.rest
-            with fb.bind():
-                fb.clear(depth=1.0)
-                gpu.state.color_mask_set(False, False, False, False)
+            with targets.prepass.bind():  # the nearest triangle of each pixel, and its depth
+                targets.prepass.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
                 gpu.state.depth_mask_set(True)
                 gpu.state.depth_test_set("LESS")
                 gpu.state.blend_set("NONE")
                 depth.bind()
                 depth.uniform_block("frame", block(0, True))
                 self.batch.draw(depth)
-                gpu.state.color_mask_set(True, True, True, True)
+            fb = targets.first if mode == "MODE_FIRST" else targets.rest
+            with fb.bind():  # only that triangle shades (not another at the same depth)
                 gpu.state.depth_mask_set(False)
                 gpu.state.blend_set("ADDITIVE_PREMULT")
                 gpu.state.depth_test_set("EQUAL")
@@ -328,6 +391,7 @@ class GPUFrame:
                 shade.uniform_sampler("materials", self.materials)
                 shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
                                       else targets.textures["first_key"])
+                shade.uniform_sampler("visible", targets.textures["visible"])
                 if ambient:
                     shade.uniform_block("ao", ambient[0])
                     shade.uniform_sampler("ambient", ambient[1])
@@ -354,12 +418,72 @@ class GPUFrame:
                     gpu.state.blend_set("ADDITIVE_PREMULT")
                     background.bind()
                     background.uniform_block("frame", block(0, True))
+                    if self.world is not None:
+                        background.uniform_block("world", world_block)
+                        background.uniform_block("images", self.world[0])
+                        background.uniform_sampler("world_texels", self.world[1])
+                        background.uniform_sampler("srgb_table", self.world[2])
                     self.background.draw(background)
         targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
 
+
+    def central(self, camera, offsets) -> dict[str, np.ndarray]:
+        """Depth and IndexMA through ``camera`` at the sample of ``offsets`` nearest the
+        pixel centre: {name: (H, W, 1) float32}, row 0 at the top; 1e10 and 0 where no
+        surface is seen (``passes.EMPTY_DEPTH``)."""
+        import gpu
+
+        offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
+        ox, oy = offsets[int(np.argmin(np.abs(offsets - 0.5).sum(-1)))]
+        w, h = camera.width, camera.height
+        c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
+        data = gpu.types.GPUUniformBuf(FRAME.pack([{
+            "view_proj": np.asarray(camera.projection @ camera.world_to_camera, np.float64),
+            "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
+            "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+            "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)}]))
+        target = gpu.types.GPUTexture((w, h), format="RGBA32F")
+        z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+        fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(target,))
+        program = shader("central")
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        with fb.bind():
+            fb.clear(color=(float(EMPTY_DEPTH), 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.depth_test_set("LESS")
+            gpu.state.depth_mask_set(True)
+            gpu.state.blend_set("NONE")
+            program.bind()
+            program.uniform_block("frame", data)
+            program.uniform_sampler("materials", self.materials)
+            self.batch.draw(program)
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
+        image = textures.read(target)[::-1]
+        return {"Depth": np.ascontiguousarray(image[..., :1]),
+                "IndexMA": np.ascontiguousarray(image[..., 1:2])}
+
+    def _world_block(self, camera) -> bytes:
+        """The WorldData of the frame's image world seen through ``camera``."""
+        import math
+
+        world = self.frame.scene.world
+        view_proj = np.asarray(camera.projection, np.float64) @ np.asarray(
+            camera.world_to_camera, np.float64)
+        record = {"clip_to_world": np.linalg.inv(view_proj),
+                  "rotation": np.asarray(world.rotation, np.float64),
+                  "params": [world.strength, world.background_alpha,
+                             world.background_lod or -1.0, float(world.sun is not None)]}
+        sun = world.sun
+        if sun is not None:
+            half = max(float(sun.radius), 1e-4) / 2.0
+            solid = 2.0 * math.pi * (1.0 - math.cos(half))
+            record["sun"] = [*(-np.asarray(sun.direction, np.float64)), math.cos(half)]
+            record["sun_color"] = np.asarray(sun.color, np.float32) / np.float32(solid)
+        return WORLD.pack([record])
 
     def _dome(self, camera, targets: Targets, base: dict):
         """(the DomeData block, its grid's textures) through ``camera``: the dome's visibility
@@ -460,11 +584,14 @@ class Targets:
 
         self.textures = {f"{part}_{name}": texture() for part in ("first", "rest", "total")
                          for name in ("key", *self.names) if f"{part}_{name}" != "total_key"}
+        self.textures["visible"] = texture()
         self.depth = gpu.types.GPUTexture((width, height), format="DEPTH_COMPONENT32F")
         self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
         self.first, self.rest = (gpu.types.GPUFrameBuffer(depth_slot=self.depth, color_slots=tuple(
             self.textures[f"{part}_{name}"] for name in ("key", *self.names)))
             for part in ("first", "rest"))
+        self.prepass = gpu.types.GPUFrameBuffer(depth_slot=self.depth,
+                                                color_slots=(self.textures["visible"],))
         self.total = gpu.types.GPUFrameBuffer(color_slots=tuple(
             self.textures[f"total_{name}"] for name in self.names))
         self.samples = 0
@@ -492,7 +619,7 @@ class Targets:
             gpu.state.blend_set("ADDITIVE_PREMULT")
             program.bind()
             for name, texture in self.textures.items():
-                if not name.startswith("total"):
+                if name.startswith(("first", "rest")):
                     program.uniform_sampler(name, texture)
             triangle.draw(program)
         self.samples += count
@@ -531,14 +658,20 @@ def _padded(block: bytes, struct: Struct, count: int) -> bytes:
     return block[:count * size] + bytes(count * size - min(len(block), count * size))
 
 
-def render(frame: Frame, offsets) -> dict[str, np.ndarray]:
-    """The frame's passes (``PASS_OF``) through its own camera, drawn on the GPU:
-    {name: (H, W, C) float32}, row 0 at the top (``pipeline.render_frame``'s layout)."""
+def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
+    """The frame's passes through its own camera, drawn on the GPU: {name: (H, W, C)
+    float32}, row 0 at the top (``pipeline.render_frame``'s layout); ``passes``: the names
+    wanted (``PASS_OF`` and ``CENTRAL``; default all), Combined always."""
     cam = frame.scene.camera
+    wanted = set(PASS_OF) | set(CENTRAL) if passes is None else set(passes) | {"Combined"}
     drawn = GPUFrame(frame)
     out = {}
     for names in GROUPS:
+        if not any(PASS_OF[p][0] in names for p in wanted if p in PASS_OF):
+            continue
         targets = Targets(cam.width, cam.height, names)
         drawn.draw(cam, offsets, targets)
-        out.update(targets.passes())
+        out.update({p: image for p, image in targets.passes().items() if p in wanted})
+    if wanted & set(CENTRAL):
+        out.update(drawn.central(cam, offsets))
     return out

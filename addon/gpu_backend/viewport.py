@@ -11,11 +11,14 @@ from ..core.render.visibility import sample_offsets
 from . import programs
 from .frame import GPUFrame, Targets
 
-# look-dev views the GPU draws: (its target, how the resolve shows it: 0 value, 1 normal,
-# 2 the alpha channel in grey)
-VIEWS = {"COMBINED": ("combined", 0), "ALBEDO": ("surface", 0), "GLOSS": ("surface", 2),
-         "NORMAL": ("normal", 1), "DIFFUSE_DIRECT": ("diffuse", 0),
-         "GLOSSY_DIRECT": ("specular", 0)}
+# look-dev views the GPU draws: (its target, how the resolve shows it: 0 the value, 1 a
+# normal, 2 the alpha channel in grey, 3 the colour, opaque)
+VIEWS = {"COMBINED": ("combined", 0), "ALBEDO": ("surface", 3), "GLOSS": ("surface", 2),
+         "NORMAL": ("normal", 1), "DIFFUSE_DIRECT": ("diffuse", 3),
+         "GLOSSY_DIRECT": ("specular", 3), "DIFFUSE_INDIRECT": ("diff_ind", 3),
+         "GLOSSY_INDIRECT": ("gloss_ind", 3), "SPECULAR_COLOR": ("rf0", 3),
+         "AMBIENT_OCCLUSION": ("ao", 3), "LIGHTMAP": ("lightmap", 3),
+         "LIGHTMAP_TEXELS": ("texels", 3)}
 
 
 def _resolve_program(mode: int) -> programs.Program:

@@ -39,3 +39,15 @@ def off_pixels(gpu: dict, cpu: dict, limit: float = 4 / 255) -> tuple[int, int]:
     edge = edges(cpu["Depth"][..., 0], cpu["Normal"])
     diff = np.abs(srgb(gpu["Combined"][..., :3]) - srgb(cpu["Combined"][..., :3])).max(-1)
     return int(((diff > limit) & ~edge).sum()), int(edge.sum())
+
+
+def cell_interiors(image: np.ndarray) -> np.ndarray:
+    """(H, W) bool: pixels whose eight neighbours hold the same value (inside a checker's
+    cells)."""
+    h, w = image.shape[:2]
+    padded = np.pad(image, ((1, 1), (1, 1), (0, 0)), mode="edge")
+    same = np.ones((h, w), bool)
+    for dy in (-1, 0, 1):
+        for dx in (-1, 0, 1):
+            same &= (padded[1 + dy:1 + dy + h, 1 + dx:1 + dx + w] == image).all(-1)
+    return same

@@ -95,11 +95,14 @@ def objects_scene(lights, width=320, height=180, ortho=False, samples=4, model="
                                                               [-5, 5, 0]]], np.float32)
     cube = box([-1.5, -0.5, 0], [-0.5, 0.5, 1.0])
     ball, ball_n = sphere([0.8, 0.2, 0.7], 0.7)
+    cube_uv = (cube[..., [0, 2]] - cube[..., [0, 2]].min((0, 1))).astype(np.float32)
     meshes = [MeshBatch(ground, flat_normals(ground), np.zeros(2, np.int32)),
-              MeshBatch(cube, flat_normals(cube), np.full(len(cube), 1, np.int32)),
+              MeshBatch(cube, flat_normals(cube), np.full(len(cube), 1, np.int32),
+                        uvs=cube_uv),
               MeshBatch(ball, ball_n, np.full(len(ball), 2, np.int32))]
     mats = [Material("ground", program.talk_program((0.6, 0.6, 0.6), (0.04,) * 3, 0.3)),
-            Material("box", program.talk_program((0.7, 0.2, 0.1), (0.04,) * 3, 0.6)),
+            Material("box", program.talk_program((0.7, 0.2, 0.1), (0.04,) * 3, 0.6),
+                     pass_index=3),
             Material("metal", program.talk_program((0.0, 0.0, 0.0), (0.9, 0.7, 0.4), 0.8))]
     if emission:
         glow = box([1.8, -1.8, 0.0], [2.2, -1.4, 0.4])

@@ -11,6 +11,7 @@ import scenes
 
 from bo2_lighting.addon.core.render import pipeline
 from bo2_lighting.addon.core.render.job import RenderJob
+from bo2_lighting.addon.core.render.passes import EMPTY_DEPTH
 from bo2_lighting.addon.core.render.visibility import sample_offsets
 from bo2_lighting.addon.core.scene import Light, Material, program
 from bo2_lighting.addon.gpu_backend import frame as gpu_frame
@@ -36,14 +37,31 @@ def _render_both(scene):
 
 
 def _check(cpu, gpu, name):
+    """Every pass at 40 dB or more; Depth within 1e-4 of the CPU's where both see a surface
+    and IndexMA equal there; the Lightmap Texels checker inside its cells (a pixel on a cell's
+    border is on one side or the other, as one on an edge); Combined after the view
+    transform off by more than 4/255 on at most 0.05% of the pixels outside edges."""
     report = {}
+    edge = compare.edges(cpu["Depth"][..., 0], cpu["Normal"])
     for pass_name, image in gpu.items():
-        value = compare.psnr(image, cpu[pass_name][..., :image.shape[-1]])
+        reference = cpu[pass_name][..., :image.shape[-1]]
+        if pass_name in ("Depth", "IndexMA"):
+            seen = (reference[..., 0] < EMPTY_DEPTH) & (image[..., 0] < EMPTY_DEPTH) & ~edge
+            if pass_name == "Depth":
+                error = np.abs(image - reference)[seen] / reference[seen]
+                assert error.max(initial=0.0) < 1e-4, f"{name}: Depth {error.max()}"
+            else:
+                assert np.array_equal(image[seen], reference[seen]), f"{name}: IndexMA"
+            continue
+        if pass_name == "Lightmap Texels":
+            inside = compare.cell_interiors(reference)
+            image, reference = image[inside], reference[inside]
+        value = compare.psnr(image, reference)
         report[pass_name] = round(float(value), 1)
         assert value >= 40.0, f"{name}: {pass_name} {value:.1f} dB"
-    off, edge = compare.off_pixels(gpu, cpu)
+    off, edges = compare.off_pixels(gpu, cpu)
     print(f"{name}: PSNR {report}; Combined off by > 4/255: {off} pixels "
-          f"(edge pixels left out: {edge})")
+          f"(edge pixels left out: {edges})")
     assert off <= 0.0005 * gpu["Combined"][..., 0].size
 
 
@@ -77,6 +95,77 @@ def test_indirect_frame_matches_the_cpu(name):
     frame = pipeline.prepare(RenderJob(scene))
     assert (frame.sky is not None) == bool(dome)
     _check(*_render_both(scene), name)
+
+
+def test_image_world_frame_matches_the_cpu():
+    """An equirect image world (rotated, with strength, a blurred background at a level of
+    detail and half its opacity) seen past the objects, and its prefiltered light."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+    from bo2_lighting.addon.core.scene import World
+
+    rng = np.random.default_rng(8)
+    h, w = 64, 128
+    yy, xx = np.mgrid[0:h, 0:w]
+    image = np.stack([0.3 + 0.7 * yy / h, 0.4 + 0.3 * np.sin(xx / 9.0),
+                      0.5 + 0.2 * rng.uniform(0, 1, (h, w))], -1).astype(np.float32)
+    tex = core_texture.make_texture(image, srgb=False)
+    angle = 0.7
+    rotation = np.array([[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0],
+                         [0, 0, 1.0]])
+    scene = scenes.with_probes(scenes.objects_scene([scenes.LIGHTS["SUN"]], width=320,
+                                                    height=180), volume=False)
+    scene = dataclasses.replace(scene, world=World(texture=tex, strength=1.5, rotation=rotation,
+                                                   background_lod=1.5, background_alpha=0.5))
+    scene.settings = dataclasses.replace(scene.settings, sky_directions=0)
+    _check(*_render_both(scene), "image world")
+
+
+@pytest.mark.parametrize("directional", [False, True])
+def test_lightmapped_frame_matches_the_cpu(directional):
+    """The ground and the box take their diffuse indirect light from baked lightmaps (an
+    irradiance one, or a directional one's L1 SH), the sphere from the probes."""
+    from bo2_lighting.addon.core.lighting.lightmap import Lightmap
+
+    rng = np.random.default_rng(9)
+    scene = scenes.with_probes(scenes.objects_scene([scenes.LIGHTS["SPOT"]]), volume=False)
+    scene.settings = dataclasses.replace(scene.settings, sky_directions=32)
+    for k in (0, 1):
+        mesh = scene.meshes[k]
+        corners = mesh.positions.reshape(-1, 3)
+        uvs = ((corners[:, :2] - corners[:, :2].min(0)) / np.ptp(corners[:, :2], 0).clip(1e-6)
+               ).reshape(-1, 3, 2).astype(np.float32)
+        h, w = 24, 32
+        yy, xx = np.mgrid[0:h, 0:w]
+        base = 0.5 + 0.4 * np.sin(xx / 5.0 + k)[..., None] * np.cos(yy / 4.0)[..., None]
+        image = np.repeat(base, 12 if directional else 3, -1) * rng.uniform(0.8, 1.2, 12 if
+                                                                            directional else 3)
+        scene.meshes[k] = dataclasses.replace(mesh, lightmap=Lightmap(
+            image.astype(np.float32), uvs))
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.lightmaps is not None and len(frame.lightmaps) == 2
+    _check(*_render_both(scene), f"lightmaps (directional: {directional})")
+
+
+def test_holdout_and_backface_culling_match_the_cpu():
+    """A holdout sphere cuts a hole (alpha 0) through the ground and hides what is behind it;
+    the box's material culls its faces seen from behind (its walls' insides show, and a camera
+    inside it sees out)."""
+    scene = scenes.with_probes(scenes.objects_scene([scenes.LIGHTS["SUN"],
+                                                     scenes.LIGHTS["POINT"]]), volume=False)
+    scene.meshes[2] = dataclasses.replace(scene.meshes[2], holdout=True)
+    scene.materials[1] = dataclasses.replace(scene.materials[1], backface_culling=True)
+    box = scene.meshes[1]  # 1 cm above the ground: its bottom, seen from inside, is not
+    scene.meshes[1] = dataclasses.replace(box, positions=box.positions + np.float32([0, 0, 0.01]))
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.holdout.any() and frame.cull is not None
+    cpu, gpu = _render_both(scene)
+    hole = cpu["Combined"][..., 3] == 0.0
+    assert hole.sum() > 500 and (gpu["Combined"][..., 3][hole] < 0.26).all()
+    _check(cpu, gpu, "holdout and culling")
+    inside = dataclasses.replace(scene, camera=dataclasses.replace(
+        scene.camera, world_to_camera=scenes.look_at(np.array([-1.0, 0.0, 0.5]),
+                                                     [3.0, -2.0, 0.3])))
+    _check(*_render_both(inside), "culled faces seen from inside")
 
 
 def test_every_sample_shaded_and_transparent_film():

@@ -227,3 +227,37 @@ def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, 
         samplers=drawn.samplers())
     assert np.abs(out["od"][:, :3] - diffuse).max() <= 2e-5 * np.abs(diffuse).max()
     assert np.abs(out["os"][:, :3] - specular).max() <= 2e-5 * np.abs(specular).max()
+
+
+@pytest.mark.parametrize("dtype,channels,extension,interpolation", [
+    ("float", 3, "REPEAT", "Linear"), ("uint8", 4, "REPEAT", "Cubic"),
+    ("uint8", 3, "MIRROR", "Linear"), ("float", 1, "EXTEND", "Closest"),
+    ("uint8", 4, "CLIP", "Linear"), ("float", 4, "MIRROR", "Cubic"),
+])
+def test_texture_look_ups_match_the_kernel(dtype, channels, extension, interpolation):
+    """``texture.sample``: every extension and filter, sRGB 8-bit codes (their decoded mip
+    levels too) and float texels, level 0 and trilinear levels of detail, associated alpha:
+    relative difference below 2e-4 (an alpha near 0 divides its rounding)."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+    from bo2_lighting.addon.gpu_backend import images
+
+    image = RNG.uniform(0, 1, (37, 53, channels)).astype(np.float32)
+    if dtype == "uint8":
+        image = (image * 255).astype(np.uint8)
+    tex = core_texture.make_texture(image if channels > 1 else image[..., 0], srgb=True,
+                                    extension=extension, interpolation=interpolation)
+    n = 20000
+    uv = RNG.uniform(-1.5, 2.5, (n, 2)).astype(np.float32)
+    lod = RNG.uniform(0, 7, n).astype(np.float32)
+    record, texels = images.upload(tex)
+    table = images.srgb_table()
+    for use_lod in (False, True):
+        for associate in ((0, 1, 2) if channels == 4 else (0,)):
+            cpu = core_texture.sample(tex, uv, lod if use_lod else None, associate)
+            out = pointwise.run(("texture",), f"""
+              o = texture_sample(0, texels, uv.xy, {"uv.z" if use_lod else "-1.0"}, {associate});
+              """, {"uv": np.column_stack([uv, lod])}, ("o",), structs=(images.IMAGE,),
+                blocks=(("ImageData", "images[1]", images.IMAGE.pack([record])),),
+                samplers=(("FLOAT_2D", "texels", texels), ("FLOAT_2D", "srgb_table", table)))
+            error = np.abs(out["o"][:, :channels] - cpu).max() / np.abs(cpu).max()
+            assert error <= 2e-4, (use_lod, associate, error)

@@ -1,4 +1,4 @@
-/* One sample's visible points shaded (depth test EQUAL after the pre-pass), once per pixel
+/* One sample's visible points shaded (the pre-pass's triangle, at its depth), once per pixel
  * and triangle as core/render/pipeline.render_tile does: the batch's first sample is shaded
  * into its own targets with its triangle (out_key: the triangle's number in two parts, the
  * low one plus 1); a later sample that sees the same triangle only counts itself (out_key.r
@@ -9,10 +9,20 @@
  * SURFACE_ONLY (targets that need no light) the lights are left out. */
 void main()
 {
+  vec4 nearest = texelFetch(visible, ivec2(gl_FragCoord.xy), 0);
+  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
+    discard;  /* culled, or another triangle at the same depth drew the pixel */
+  }
   bool first_batch = frame.counts.z != 0;
   int mode = frame.counts.w;
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   out_key = vec4(0.0);
+  if ((v_flags & 2) != 0) { /* a holdout: nothing, alpha 0, and no sample reuses it */
+    WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                  vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                  vec4(0.0), vec4(0.0));
+    return;
+  }
   if (mode == MODE_FIRST) {
     if (first_batch) {
       out_key = vec4(float(v_tri >> 12), float(v_tri & 4095) + 1.0, 0.0, 0.0);
@@ -23,6 +33,7 @@ void main()
     if (first.g > 0.0 && int(first.r) * 4096 + int(first.g) - 1 == v_tri) {
       out_key = vec4(first_batch ? 1.0 : 0.0, 0.0, 0.0, 0.0);
       WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
+                    vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
                     vec4(0.0), vec4(0.0));
       return;
     }
@@ -44,14 +55,18 @@ void main()
   }
 #endif
   vec3 diff_ind = vec3(0.0), gloss_ind = vec3(0.0);
+  float ao_out = 1.0;  /* the AO pass: 1 where no contact occlusion is searched */
+  vec3 lightmap_e = vec3(0.0), texels = vec3(0.0);  /* the Lightmap passes */
 #ifdef INDIRECT
   if (first_batch) { /* the probes' light (core/render/shading.shade_points) */
     vec2 window = vec2(float(pixel.x), float(row)) + frame.sample_offset;
+    bool baked = v_lightmap >= 0;  /* a lightmap holds the light of its surface */
     float occluded = 1.0;
 #ifdef AMBIENT
     /* the contact occlusion of the pixel that holds the sample (render_tile's ao_tile) */
     ivec2 at = clamp(ivec2(floor(window)), ivec2(0), frame.size.xy - 1);
     occluded = texelFetch(ambient, ivec2(at.x, frame.size.y - 1 - at.y), 0).r;
+    ao_out = occluded;
 #endif
     float sky = 1.0;
 #ifdef DOME
@@ -59,15 +74,31 @@ void main()
     if (indirect.flags.x >= 0) { /* what bounces off the occluders is in the bounce volume */
       rho *= 1.0 - volume_weight(indirect.flags.x, s.p);
     }
-    sky = world_seen(dome_upsampled(window, s.p, s.n, s.geo), occluded, rho);
+    if (!baked) {
+      sky = world_seen(dome_upsampled(window, s.p, s.n, s.geo), occluded, rho);
+    }
 #endif
     vec3 psh[9];
-    pixel_sh(s.p, s.n, s.v, sky, psh);
+    if (baked) {
+      lightmap_sh(v_lightmap, v_lightmap_uv, psh);
+      float y[9];
+      sh_basis(s.n, y);
+      for (int k = 0; k < 9; k++) {
+        lightmap_e += y[k] * psh[k];
+      }
+      ivec4 m = lightmaps.maps[v_lightmap];
+      float cell = mod(floor(v_lightmap_uv.x * float(m.y)) + floor((1.0 - v_lightmap_uv.y) *
+                                                                   float(m.z)), 2.0);
+      texels = LIGHTMAP_HUES[v_lightmap % LIGHTMAP_HUES.length()] * (0.45 + 0.55 * cell);
+    }
+    else {
+      pixel_sh(s.p, s.n, s.v, sky, psh);
+    }
     indirect_light(s.p, s.n, s.v, s.albedo, s.rf0, s.gloss, psh, diff_ind, gloss_ind);
     diff_ind *= s.occlusion; /* the glTF importer's occlusion */
     gloss_ind *= s.occlusion;
 #ifdef AMBIENT
-    diff_ind *= multi_bounce(occluded, s.albedo);
+    diff_ind *= baked ? vec3(1.0) : multi_bounce(occluded, s.albedo);
     if (frame.flags.x != 0) {
       gloss_ind *= specular_occlusion(occluded, dot(s.n, s.v), s.gloss);
     }
@@ -80,5 +111,8 @@ void main()
                 vec4(diffuse, 0.0), vec4(specular, 0.0), vec4(diff_ind, 0.0),
                 vec4(gloss_ind, 0.0), vec4(emit, 0.0),
                 first_batch ? vec4(s.albedo, s.gloss) : vec4(0.0),
-                first_batch ? vec4(s.n, 1.0) : vec4(0.0));
+                first_batch ? vec4(s.n, 1.0) : vec4(0.0),
+                first_batch ? vec4(s.p, 0.0) : vec4(0.0), first_batch ? vec4(v_uv, 0.0) : vec4(0.0),
+                first_batch ? vec4(s.rf0, 0.0) : vec4(0.0), vec4(first_batch ? ao_out : 0.0),
+                vec4(lightmap_e, 0.0), vec4(texels, 0.0));
 }

@@ -1,4 +1,6 @@
-/* The frame's geometry through the camera, shifted by the sample's jitter (in NDC). */
+/* The frame's geometry through the camera, shifted by the sample's jitter (in NDC). A
+ * triangle's flags: 1 culled when seen from behind (its material's Backface Culling), 2 a
+ * holdout (it hides what is behind and is drawn as nothing). */
 void main()
 {
   v_position = pos;
@@ -6,6 +8,10 @@ void main()
   v_geo = geo;
   v_material = int(mat + 0.5);
   v_tri = tri;
+  v_lightmap = lm;
+  v_lightmap_uv = lm_uv;
+  v_uv = uv;
+  v_flags = flags;
   vec4 clip = frame.view_proj * vec4(pos, 1.0);
   clip.xy = clip.xy * frame.ndc_scale + frame.jitter * clip.w;
   gl_Position = clip;

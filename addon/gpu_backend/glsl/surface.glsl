@@ -1,7 +1,7 @@
 /* A visible point's surface: view direction, normals turned towards the camera, material.
  * The GLSL form of core/kernels/shading.surface and the constant material tables of
- * core/render/buffers (Frame.tables): per material three texels of `materials`:
- * (albedo, gloss), (rf0, alpha), (emission, occlusion). */
+ * core/render/buffers (Frame.tables): per material four texels of `materials`:
+ * (albedo, gloss), (rf0, alpha), (emission, occlusion), (pass index, -, -, -). */
 
 struct Surface {
   vec3 p, n, geo, v;
@@ -20,9 +20,9 @@ Surface surface_at(vec3 p, vec3 normal, vec3 geo, int material)
     s.n = -s.n;
     s.geo = -s.geo;
   }
-  vec4 a = texelFetch(materials, ivec2(3 * material, 0), 0);
-  vec4 b = texelFetch(materials, ivec2(3 * material + 1, 0), 0);
-  vec4 c = texelFetch(materials, ivec2(3 * material + 2, 0), 0);
+  vec4 a = texelFetch(materials, ivec2(4 * material, 0), 0);
+  vec4 b = texelFetch(materials, ivec2(4 * material + 1, 0), 0);
+  vec4 c = texelFetch(materials, ivec2(4 * material + 2, 0), 0);
   s.albedo = a.rgb;
   s.gloss = a.a;
   s.rf0 = b.rgb;

@@ -1,0 +1,59 @@
+"""Image textures on the GPU (``glsl/texture.glsl``): a ``core.formulas.texture.Texture``'s
+mip chain as rows of a texture (one texel per pixel; 8-bit images keep their codes) and its
+``ImageData`` record (declared once here)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.formulas import texture as core_texture
+from ..core.kernels import textures as texture_kernel
+from . import textures
+from .uniforms import Struct
+
+MAX_LEVELS = 16  # a 32768-pixel image has 16 levels
+ROW_WIDTH = 4096  # texels per row of an image's texture (16384 rows: 64 M texels)
+IMAGE = Struct("ImageData", (
+    ("levels", "ivec4", MAX_LEVELS),  # per level: (first texel, height, width, -)
+    ("info", "ivec4", 0),  # (levels, channels, extension, filter): kernels.textures' codes
+    ("info2", "ivec4", 0),  # (sRGB channels, 8-bit codes, texels per row, -)
+))
+
+
+def srgb_table():
+    """The 256 linear values of the 8-bit sRGB codes (texture._SRGB_LUT), a 256 x 1 texture."""
+    lut = core_texture.srgb_to_linear(np.arange(256, dtype=np.float32) / np.float32(255.0))
+    return textures.image(np.asarray(lut, np.float32).reshape(1, 256, 1))
+
+
+def upload(tex) -> tuple[dict, object]:
+    """(the ImageData record, the GPU texture of its texels) of texture ``tex``, its mip chain
+    filled first."""
+    import gpu
+
+    if tex.pending:
+        tex.fill_mips()
+    flat, rows = tex.packed
+    c = tex.channels
+    if len(rows) > MAX_LEVELS:
+        raise ValueError(f"an image of more than {MAX_LEVELS} mip levels")
+    count = len(flat) // c
+    width = min(max(1, count), ROW_WIDTH)
+    height = -(-count // width)
+    if height > 16384:
+        raise MemoryError(f"the image {tex.name!r} is too large for one GPU texture")
+    data = np.zeros((height * width, 4), np.float32)
+    codes = flat.dtype == np.uint8
+    data[:count, :c] = flat.reshape(-1, c).astype(np.float32) / (255.0 if codes else 1.0)
+    buffer = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
+    texels = gpu.types.GPUTexture((width, height), format="RGBA8" if codes else "RGBA32F",
+                                  data=buffer)
+    levels = np.zeros((len(rows), 4), np.int64)
+    levels[:, 0] = rows[:, 0] // c
+    levels[:, 1:3] = rows[:, 1:3]
+    record = {"levels": levels,
+              "info": [len(rows), c,
+                       texture_kernel.EXTENSIONS.get(tex.extension, texture_kernel.EXTEND),
+                       texture_kernel.FILTERS.get(tex.interpolation, texture_kernel.LINEAR)],
+              "info2": [tex.encoded, int(codes), width, 0]}
+    return record, texels
