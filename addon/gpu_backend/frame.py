@@ -18,7 +18,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.formulas import occlusion as occlusion_formulas
-from ..core.kernels import shading as shading_kernel
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
@@ -350,6 +349,8 @@ class GPUFrame:
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                 "world": np.append(np.asarray(scene.world.color, np.float32), 1.0),
                 "flags": [int(settings.specular_occlusion), 0, 0, 0]}
+        from ..core.kernels import shading as shading_kernel
+
         model = shading_kernel.MODELS[settings.specular_model]
         depth = shader("depth")
         lit = bool(set(targets.names) & LIT)

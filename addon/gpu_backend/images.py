@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.formulas import texture as core_texture
-from ..core.kernels import textures as texture_kernel
 from . import textures
 from .uniforms import Struct
 
@@ -30,6 +29,8 @@ def upload(tex) -> tuple[dict, object]:
     """(the ImageData record, the GPU texture of its texels) of texture ``tex``, its mip chain
     filled first."""
     import gpu
+
+    from ..core.kernels import textures as texture_kernel
 
     if tex.pending:
         tex.fill_mips()

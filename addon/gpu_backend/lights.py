@@ -8,8 +8,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.kernels import shading as shading_kernel
-from ..core.kernels import shadows as filter_kernel
 from ..core.render import shadow_filter
 from ..core.render.shadows import MAX_CASCADES, MIP_FIRST_LEVEL
 from . import textures
@@ -22,8 +20,9 @@ LIGHT = Struct("LightData", (
     ("shadow", "int", 0),  # its shadow map's index in the ShadowData block, -1 none
 ))
 MAX_LEVELS = 16  # pyramid levels of a map (a 16384 texel map has 12)
+FP_SLOTS = 24  # room for the filter's float constants (kernels.shadows.P_SIZE_ALL, 21)
 SHADOW = Struct("ShadowData", (
-    ("fp", "vec4", -(-filter_kernel.P_SIZE_ALL // 4)),  # kernels.shadows.P_* in order
+    ("fp", "vec4", FP_SLOTS // 4),  # kernels.shadows.P_* in order
     ("kind", "int", 0),  # kernels.shadows.CUBE, PERSPECTIVE, ORTHO
     ("ints", "ivec4", 0),  # (-, resolution, first layer in shadow_depth, cascades)
     ("ints2", "ivec4", 0),  # (first row in shadow_mips, pyramid levels, jitter, -)
@@ -46,6 +45,8 @@ def _disc(name: str, disc: np.ndarray) -> str:
 def filter_defines() -> dict:
     """The defines ``glsl/shadow_filter.glsl`` reads: the kernel's slot numbers and the
     filter's constants (``shadow_filter.FILTER_TABLES``)."""
+    from ..core.kernels import shadows as filter_kernel
+
     t = shadow_filter.FILTER_TABLES
     out = {name: getattr(filter_kernel, name) for name in dir(filter_kernel)
            if name.startswith("P_") and name != "P_SIZE_ALL"}
@@ -91,6 +92,10 @@ class ShadowSet:
 def shadow_set(maps: list, *, jitter=True) -> ShadowSet:
     """Upload ``maps`` (``core.render.shadows.ShadowMap`` or None each) for the filter;
     ``jitter``: whether each map's taps turn per point (one bool, or one per map)."""
+    from ..core.kernels import shadows as filter_kernel
+
+    if filter_kernel.P_SIZE_ALL > FP_SLOTS:
+        raise ValueError(f"the filter has {filter_kernel.P_SIZE_ALL} constants: raise FP_SLOTS")
     turns = [jitter] * len(maps) if isinstance(jitter, bool) else list(jitter)
     records, index, depths, mip_rows = [], [], [], []
     layer = row = 0
@@ -127,6 +132,8 @@ def shadow_set(maps: list, *, jitter=True) -> ShadowSet:
 def light_block(lights: list, shadow_index: list[int]) -> bytes:
     """The LightData block of ``lights`` (``core.scene.Light``), each with its shadow map's
     number (``ShadowSet.index``)."""
+    from ..core.kernels import shading as shading_kernel
+
     return LIGHT.pack([{
         "color": np.asarray(light.color, np.float32).ravel()[:3],
         "kind": shading_kernel.KINDS[light.kind],

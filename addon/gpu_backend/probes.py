@@ -10,7 +10,6 @@ import numpy as np
 
 from ..core.formulas import affine, cubemap, sh
 from ..core.formulas import env_brdf as formulas_env_brdf
-from ..core.kernels import indirect as indirect_kernel
 from ..core.lighting import probes as core_probes
 from . import textures
 from .uniforms import Struct
@@ -117,6 +116,8 @@ def _volume_record(vol, row: int) -> dict:
 def indirect_set(probes, normalization: str, prefilter: str, env_model: str) -> IndirectSet:
     """Upload ``probes`` (``core.lighting.probes.Probes``) for ``glsl/indirect.glsl`` with the
     frame's normalization, prefilter and environment BRDF (``RenderSettings``' names)."""
+    from ..core.kernels import indirect as indirect_kernel
+
     why = unsupported(probes)
     if why:
         raise ValueError(why)
