@@ -165,11 +165,11 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             try:
                 self.update_stats("BO2 Lighting", "Drawing on the GPU")
                 prepared, drawn = gpu_frames.render(job, depsgraph.view_layer)
-            except (Cancelled, MemoryError):
+            except Cancelled:
                 raise
             except Exception as exc:  # noqa: BLE001 - the frame goes to the CPU, the cause said
-                traceback.print_exc(file=sys.stderr)
-                drawn = f"a GPU failure: {exc}"
+                traceback.print_exc(file=sys.stderr)  # (memory too: the CPU's is another)
+                drawn = f"a GPU failure: {type(exc).__name__}: {exc}"
             if isinstance(drawn, dict):
                 cam = job.scene.camera
                 border = job.scene.settings.border or (0, 0, cam.width, cam.height)

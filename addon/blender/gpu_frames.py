@@ -65,6 +65,12 @@ def render(job, view_layer) -> tuple[object, dict | str]:
     why = unsupported_passes(view_layer)
     if why:
         return None, why
+    cam = job.scene.camera
+    need = max(gpu_frame.memory(cam.width, cam.height, names) for names in gpu_frame.GROUPS)
+    if need > gpu_frame.GPU_BUDGET:
+        return None, (f"a frame of {cam.width} x {cam.height} (it needs "
+                      f"{need / (1 << 30):.1f} GiB of GPU memory, more than "
+                      f"{gpu_frame.GPU_BUDGET >> 30} GiB)")
     frame = pipeline.prepare(job)
     why = gpu_frame.unsupported(frame)
     if why:

@@ -8,9 +8,10 @@ writing into the scene.
 from __future__ import annotations
 
 import contextlib
-import math
 from collections.abc import Iterator
 from dataclasses import dataclass
+
+import numpy as np
 
 from ..core import scene as cs
 from ..core.lighting import lightmap
@@ -134,12 +135,18 @@ def resolution(scene) -> tuple[int, int]:
 
 
 def render_border(scene, width: int, height: int) -> tuple[int, int, int, int] | None:
-    """Blender's render border as a pixel rectangle (x0, y0, x1, y1), top-left origin."""
+    """Blender's render border as a pixel rectangle (x0, y0, x1, y1), top-left origin: its
+    edges as Blender places them (each fraction times the size in float32, truncated), so the
+    tiles fill the result Blender made for it."""
     r = scene.render
     if not r.use_border:
         return None
-    x0, x1 = int(r.border_min_x * width), math.ceil(r.border_max_x * width)
-    y0, y1 = int((1.0 - r.border_max_y) * height), math.ceil((1.0 - r.border_min_y) * height)
+
+    def edge(fraction: float, size: int) -> int:  # Blender's: float32 product, truncated
+        return int(np.float32(fraction) * np.float32(size))
+
+    x0, x1 = edge(r.border_min_x, width), edge(r.border_max_x, width)
+    y0, y1 = height - edge(r.border_max_y, height), height - edge(r.border_min_y, height)
     x0, y0 = max(0, min(x0, width - 1)), max(0, min(y0, height - 1))
     x1, y1 = max(x0 + 1, min(x1, width)), max(y0 + 1, min(y1, height))
     return x0, y0, x1, y1

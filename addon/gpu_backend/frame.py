@@ -74,6 +74,18 @@ LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind", "ao", "lightm
 DOME_TEXTURES = ("dome_grid", "dome_points", "dome_normals")  # dome_grid_frag's outputs
 
 
+GPU_BUDGET = 4 << 30  # bytes of GPU memory a frame may take (the gpu module cannot tell)
+
+
+def memory(width: int, height: int, names: tuple[str, ...]) -> int:
+    """Bytes of GPU memory the targets of one group ``names`` take at width x height: the
+    first and later samples' (each with its key), the total, the pre-pass's triangle and the
+    depth; the contact occlusion's buffers (the frame and its margin) beside them."""
+    pixels = width * height
+    margin = (width + 2 * 64) * (height + 2 * 64)
+    return pixels * (16 * (3 * len(names) + 3) + 4) + margin * (2 * 16 + 4) + pixels * 32
+
+
 class Unsupported(Exception):
     """The frame needs what the GPU backend does not draw yet: the message says what."""
 

@@ -89,3 +89,15 @@ def test_the_probe_names_why_there_is_no_gpu():
     assert not aborted.ok and "exit" in aborted.reason
     missing = device.probe(["/nonexistent/blender"])
     assert not missing.ok and "could not run" in missing.reason
+
+
+def test_a_frame_too_large_for_the_gpu_renders_on_the_cpu(scene):
+    """An 8K frame's targets would take about 11 GiB of GPU memory: one message, the CPU
+    (a small render border keeps the CPU's share short)."""
+    scene.render.resolution_x, scene.render.resolution_y = 7680, 4320
+    scene.render.use_border = True
+    scene.render.border_min_x, scene.render.border_max_x = 0.5, 0.52
+    scene.render.border_min_y, scene.render.border_max_y = 0.5, 0.52
+    _, said = _render(scene, "GPU")
+    notes = [text for text in said if text.startswith("Rendered on the CPU")]
+    assert len(notes) == 1 and "GiB of GPU memory" in notes[0], said
