@@ -44,14 +44,10 @@ def main() -> int:
     import bo2_lighting
     from bo2_lighting.addon.gpu_backend import device
 
-    found = device.probe(device.probe_command(bpy.app.binary_path))
+    found = device.open_context(bpy.app.binary_path)
     if not found.ok:
         print(f"bench_gpu: no GPU context: {found.reason}", file=sys.stderr)
         return 1
-    import gpu
-
-    if hasattr(gpu, "init"):
-        gpu.init()
     from bo2_lighting.addon.blender import extract, settings
     from bo2_lighting.addon.core import kernels
     from bo2_lighting.addon.core.bakes import bounce
@@ -150,16 +146,9 @@ def main() -> int:
     print(f"F12 {final_w}x{final_h}, {samples} samples, every pass read back: "
           f"GPU {timed(gpu_final):.3f} s, CPU {timed(cpu_final):.3f} s")
     if not args.skip_cycles:
-        scene.render.engine = "CYCLES"
-        scene.render.resolution_x, scene.render.resolution_y = width, height
-        scene.cycles.device = "CPU"
-        scene.cycles.use_denoising = False
-        for count in (1, 16):
-            scene.cycles.samples = count
-            start = time.perf_counter()
-            bpy.ops.render.render()
-            print(f"Cycles {width}x{height}, {count} sample{'s' * (count > 1)} (F12, CPU): "
-                  f"{time.perf_counter() - start:.3f} s")
+        from bench_viewport import cycles  # (this folder is on the path: run as a script)
+
+        cycles(scene, width, height)
     return 0
 
 

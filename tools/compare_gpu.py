@@ -34,14 +34,10 @@ def main() -> int:
     import bo2_lighting
     from bo2_lighting.addon.gpu_backend import device
 
-    found = device.probe(device.probe_command(bpy.app.binary_path))
+    found = device.open_context(bpy.app.binary_path)
     if not found.ok:
         print(f"compare_gpu: no GPU context: {found.reason}", file=sys.stderr)
         return 1
-    import gpu
-
-    if hasattr(gpu, "init"):
-        gpu.init()
     sys.path.insert(0, str(ROOT / "tests" / "gpu"))
     import compare
 

@@ -13,8 +13,6 @@ from ..gpu_backend import device
 from ..gpu_backend import frame as gpu_frame
 from . import passes
 
-_initialised: list[bool] = []
-
 
 def refusal(scene) -> str | None:
     """Why a final render of ``scene`` is not drawn on the GPU in this session, or None."""
@@ -30,12 +28,8 @@ def refusal(scene) -> str | None:
         name = renderer()  # the render thread has Blender's GPU context (bl_use_gpu_context)
     if choice == "AUTO" and device.auto_refusal(name):
         return device.auto_refusal(name)
-    if bpy.app.background and not _initialised:
-        import gpu
-
-        if hasattr(gpu, "init"):
-            gpu.init()
-        _initialised.append(True)
+    if bpy.app.background:
+        device.open_context(bpy.app.binary_path)
     return None
 
 

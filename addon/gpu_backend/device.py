@@ -107,3 +107,19 @@ def _run(command: list[str], timeout: float) -> Device:
     last = lines[-1].strip() if lines else ""
     return Device(False, reason=f"Blender stopped while opening a GPU context (exit "
                                f"{done.returncode}){': ' + last if last else ''}")
+
+
+_opened: list[bool] = []
+
+
+def open_context(binary_path: str) -> Device:
+    """Probe this Blender (``probe``) and, when a context can be had, open it in this
+    process once (``gpu.init``, which background mode needs from Blender 5.2)."""
+    found = probe(probe_command(binary_path))
+    if found.ok and not _opened:
+        import gpu
+
+        if hasattr(gpu, "init"):
+            gpu.init()
+        _opened.append(True)
+    return found
