@@ -4,8 +4,12 @@ frame drawn and read back as the render's passes."""
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 import bpy
 
+from ..core import kernels
 from ..core.render import pipeline
 from ..core.render.passes import PASSES
 from ..core.render.visibility import sample_offsets
@@ -20,7 +24,7 @@ def refusal(scene) -> str | None:
     if choice == "CPU":
         return "the CPU was chosen"
     if bpy.app.background:
-        found = device.probe(device.probe_command(bpy.app.binary_path))
+        found = device.probe(device.probe_command(bpy.app.binary_path), probe_cache())
         if not found.ok:
             return f"no GPU context: {found.reason}"
         name = found.renderer
@@ -29,8 +33,15 @@ def refusal(scene) -> str | None:
     if choice == "AUTO" and device.auto_refusal(name):
         return device.auto_refusal(name)
     if bpy.app.background:
-        device.open_context(bpy.app.binary_path)
+        device.open_context(bpy.app.binary_path, probe_cache())
     return None
+
+
+def probe_cache() -> Path:
+    """Where the GPU probe's answer is kept: beside the compiled kernels' folder (the
+    extension's user folder, else the per-user cache)."""
+    return Path(os.environ.get("NUMBA_CACHE_DIR") or kernels.default_cache_dir()).parent \
+        / "gpu_device.json"
 
 
 def renderer() -> str:

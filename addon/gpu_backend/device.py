@@ -1,12 +1,20 @@
-"""Where a frame can be drawn: whether this Blender can open a GPU context, asked once per
-session of a child process (a Blender with neither a display nor EGL aborts the whole process
-when asked for one, so this process never asks first), and the Device setting's choice."""
+"""Where a frame can be drawn: whether this Blender can open a GPU context, asked of a child
+process (a Blender with neither a display nor EGL aborts the whole process when asked for one,
+so this process never asks first) and remembered on disk for this machine, binary and
+environment, and the Device setting's choice."""
 
 from __future__ import annotations
 
+import hashlib
+import json
+import os
+import socket
 import subprocess
 import sys
-from dataclasses import dataclass
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+from pathlib import Path
 
 _MARK = "BO2-GPU"
 # What the child runs: open a context (``gpu.init`` exists and is needed in background mode
@@ -82,13 +90,81 @@ def probe_command(binary_path: str) -> list[str]:
 
 _probed: dict[tuple, Device] = {}
 
+# What decides whether a context can be had besides the binary: the display, the GL/EGL
+# loader's search and Mesa's choices.
+ENVIRONMENT = ("DISPLAY", "WAYLAND_DISPLAY", "XDG_SESSION_TYPE", "LD_LIBRARY_PATH",
+               "__EGL_VENDOR_LIBRARY_FILENAMES", "__GLX_VENDOR_LIBRARY_NAME", "EGL_PLATFORM",
+               "LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER", "MESA_LOADER_DRIVER_OVERRIDE",
+               "CUDA_VISIBLE_DEVICES", "VK_ICD_FILENAMES")
+# An answer on disk is trusted this long (s): a driver installed or removed is seen next day.
+MAX_AGE = 24 * 3600.0
 
-def probe(command: list[str], timeout: float = 120.0) -> Device:
-    """Run ``command`` (``probe_command``) once per session and read what it printed."""
+
+def probe(command: list[str], cache_file: str | os.PathLike | None = None,
+          timeout: float = 120.0) -> Device:
+    """Run ``command`` (``probe_command``) once per session and read what it printed; with
+    ``cache_file`` (JSON), an answer of the last ``MAX_AGE`` seconds for the same host,
+    command, binary and ``ENVIRONMENT`` is read from there instead (the child costs 1-2 s)."""
     key = tuple(command)
     if key not in _probed:
-        _probed[key] = _run(command, timeout)
+        found = _recall(cache_file, _cache_key(command)) if cache_file else None
+        if found is None:
+            found = _run(command, timeout)
+            if cache_file:
+                _remember(cache_file, _cache_key(command), found)
+        _probed[key] = found
     return _probed[key]
+
+
+def _cache_key(command: list[str]) -> str:
+    """The host, the command, the stamps of the programs it runs (the binary; for the ``bpy``
+    module, its file too) and ``ENVIRONMENT``, hashed."""
+    stamps = []
+    module = sys.modules.get("bpy")
+    for path in (command[0], getattr(module, "__file__", None) if command[0] == sys.executable
+                 else None):
+        try:
+            stat = os.stat(path) if path else None
+            stamps.append([path, stat.st_mtime_ns, stat.st_size] if stat else None)
+        except OSError:
+            stamps.append(None)
+    parts = [socket.gethostname(), command, stamps,
+             [os.environ.get(name, "") for name in ENVIRONMENT]]
+    return hashlib.sha256(json.dumps(parts).encode()).hexdigest()
+
+
+def _recall(cache_file, key: str) -> Device | None:
+    try:
+        entry = json.loads(Path(cache_file).read_text()).get(key)
+        if entry and 0 <= time.time() - float(entry["time"]) < MAX_AGE:
+            return Device(**entry["device"])
+    except (OSError, ValueError, TypeError, KeyError, AttributeError):
+        pass  # no answer yet, or an unreadable file: ask the child
+    return None
+
+
+def _remember(cache_file, key: str, found: Device) -> None:
+    """Add the answer to ``cache_file``, replaced atomically; a cache that cannot be
+    written is no error (the next session asks again)."""
+    path = Path(cache_file)
+    try:
+        entries = json.loads(path.read_text())
+        if not isinstance(entries, dict):
+            entries = {}
+    except (OSError, ValueError):
+        entries = {}
+    now = time.time()
+    entries = {k: v for k, v in entries.items()
+               if isinstance(v, dict) and now - float(v.get("time", 0)) < MAX_AGE}
+    entries[key] = {"time": now, "device": asdict(found)}
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
+        with os.fdopen(fd, "w") as fh:
+            json.dump(entries, fh)
+        os.replace(tmp, path)
+    except OSError:
+        pass
 
 
 def _run(command: list[str], timeout: float) -> Device:
@@ -112,10 +188,10 @@ def _run(command: list[str], timeout: float) -> Device:
 _opened: list[bool] = []
 
 
-def open_context(binary_path: str) -> Device:
+def open_context(binary_path: str, cache_file: str | os.PathLike | None = None) -> Device:
     """Probe this Blender (``probe``) and, when a context can be had, open it in this
     process once (``gpu.init``, which background mode needs from Blender 5.2)."""
-    found = probe(probe_command(binary_path))
+    found = probe(probe_command(binary_path), cache_file)
     if found.ok and not _opened:
         import gpu
 
