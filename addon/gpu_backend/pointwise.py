@@ -11,7 +11,8 @@ from . import programs, textures
 
 def run(sources: tuple[str, ...], body: str, inputs: dict[str, np.ndarray],
         outputs: tuple[str, ...], *, defines: dict | None = None, structs: tuple = (),
-        prelude: str = "", blocks: tuple = (), samplers: tuple = (), key=None) -> dict:
+        prelude: str = "", functions: str = "", blocks: tuple = (), samplers: tuple = (),
+        key=None) -> dict:
     """Evaluate ``body`` at each of N points.
 
     sources: ``glsl/`` files declaring the functions ``body`` calls
@@ -19,13 +20,14 @@ def run(sources: tuple[str, ...], body: str, inputs: dict[str, np.ndarray],
              output (same name, zero at first); ``index`` is the point's number
     inputs:  name -> (N, C<=4) float32 (int data: pass its bits with ``.view(np.float32)``)
     outputs: names of the (N, 4) float32 results
+    functions: GLSL after the sources, before ``main`` (what ``body`` calls besides them)
     blocks:  (struct name, member, bytes) uniform buffers; samplers: (type, name, texture)
     key:     what names this program among the compiled ones (default: its text)
     returns: {output name: (N, 4) float32}
     """
     n = len(next(iter(inputs.values())))
     program = programs.Program(
-        "compute", tuple(sources), _main(body, tuple(inputs), outputs),
+        "compute", tuple(sources), functions + _main(body, tuple(inputs), outputs),
         defines=dict(defines or {}), structs=tuple(structs), prelude=prelude,
         blocks=tuple((s, m) for s, m, _ in blocks),
         samplers=tuple((t, name) for t, name, _ in samplers) +
@@ -33,7 +35,8 @@ def run(sources: tuple[str, ...], body: str, inputs: dict[str, np.ndarray],
         images=tuple(("RGBA32F", "FLOAT_2D", f"out_{name}") for name in outputs),
         constants=(("INT", "count"), ("INT", "width")), group=(64, 1))
     shader = programs.compiled(program, key if key is not None else (
-        program.main, program.sources, tuple(sorted(program.defines.items())), prelude))
+        program.main, program.sources, tuple(sorted(program.defines.items())), prelude,
+        tuple(s for s, _ in program.samplers)))
     if not n:
         return {name: np.zeros((0, 4), np.float32) for name in outputs}
     import gpu
