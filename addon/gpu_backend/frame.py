@@ -13,6 +13,7 @@ What the GPU does not draw yet is named by ``unsupported`` (the frame then rende
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -21,7 +22,7 @@ from ..core.formulas import occlusion as occlusion_formulas
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
-from . import dome, images, lightmaps, lights, occlusion, probes, programs, textures
+from . import dome, images, lightmaps, lights, materials, occlusion, probes, programs, textures
 from .uniforms import Struct
 
 BATCH_LIGHTS = 32  # lights shaded per draw (their blocks stay far below 16 KiB)
@@ -29,6 +30,7 @@ DOME_BATCH_LIGHTS = 8  # lights of the first draw when the world's dome shares i
 SHADOW_RECORDS = DOME_BATCH_LIGHTS + dome.MAX_DIRECTIONS  # a draw's ShadowData (15 KiB)
 FRAME = Struct("FrameData", (
     ("view_proj", "mat4", 0),  # world -> clip of the camera
+    ("clip_to_world", "mat4", 0),  # its inverse
     ("world_to_camera", "mat4", 0),
     ("ndc_scale", "vec2", 0),  # the frame's part of the target (1, 1; less with a margin)
     ("sample_offset", "vec2", 0),  # the sample's position in its pixel, top-left origin
@@ -102,9 +104,10 @@ def unsupported(frame: Frame) -> str | None:
     elif (scene.probes is not None and s.ambient_occlusion and s.ao_distance > 0.0
           and s.ao_pass):
         return "the AO pass without indirect light"
-    varying = [m.name for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
-    if varying:
-        return f"materials that vary over their surface ({', '.join(varying[:3])})"
+    varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
+    why = materials.unsupported(varying, frame.attributes)
+    if why:
+        return why
     if frame.fades.any():
         return "transparent materials"
     return None
@@ -117,6 +120,81 @@ def _writes(names: tuple[str, ...]) -> dict:
     compose = " ".join(f"out_{name} = texelFetch(rest_{name}, pixel, 0) + weight * "
                        f"texelFetch(first_{name}, pixel, 0);" for name in names)
     return {f"WRITE_TARGETS({args})": stores, "COMPOSE_TARGETS": compose}
+
+
+@dataclass
+class MaterialCode:
+    """The frame's materials that vary over their surface, as GLSL (``materials``): the
+    fragment shader's generated part, the corner attributes its vertices carry, its images
+    and the key naming it among compiled shaders."""
+
+    code: str
+    streams: int
+    images: int
+    key: str
+
+
+def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
+    """(the code of ``frame``'s varying materials or None, the corner attributes' keys it
+    reads (vertex inputs a0, a1 ...), the images (``Texture``) it reads, in ``images[]``
+    order)."""
+    import hashlib
+
+    mats = frame.scene.materials
+    varying = [(k, m.program) for k, (m, v) in enumerate(zip(mats, frame.tables["varying"],
+                                                            strict=False)) if v]
+    if not varying:
+        return None, [], []
+    keys = [k for k in materials.streams([p for _, p in varying]) if k in frame.attributes]
+    streams = {key: k for k, key in enumerate(keys)}
+    texs, numbers = [], {}
+    for _, program in varying:
+        for op in program.ops:
+            if op.kind == "image" and op.param[0] is not None and id(op.param[0]) not in numbers:
+                numbers[id(op.param[0])] = len(texs)
+                texs.append(op.param[0])
+    derivatives = "".join(f"  mp_a{k} = v_a{k};\n  mp_da{k}[0] = dFdx(v_a{k});\n"
+                          f"  mp_da{k}[1] = dFdy(v_a{k});\n" for k in range(len(keys)))
+    cases = "".join(f"    case {k}: m = material_{k}(p); break;\n" for k, _ in varying)
+    code = "\n".join([
+        materials.attribute_globals(len(keys)),
+        "void material_derivatives()", "{",
+        "  ivec2 px = ivec2(gl_FragCoord.xy);",
+        "  mp_pixel = vec2(float(px.x), float(frame.size.y - 1 - px.y)) + frame.sample_offset;",
+        "  mp_dpos[0] = dFdx(v_position);", "  mp_dpos[1] = dFdy(v_position);",
+        "  mp_uv0 = v_uv;", "  mp_duv[0] = dFdx(v_uv);", "  mp_duv[1] = dFdy(v_uv);",
+        derivatives + "}", "",
+        *(materials.surface_function(program, f"material_{k}", numbers, streams)
+          for k, program in varying),
+        "void material_apply(int material, inout Surface s)", "{",
+        "  MatPoint p = mp_point(s.p, s.n, s.geo, s.v);", "  MatSurface m;",
+        "  switch (material) {", cases + "    default: return;", "  }",
+        "  s.albedo = m.albedo;", "  s.rf0 = m.rf0;", "  s.emission = m.emission;",
+        "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;", "}", ""])
+    return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest()),
+            keys, texs)
+
+
+def _with_materials(program: programs.Program, mat: MaterialCode | None) -> programs.Program:
+    """``program`` (a frame_frag one) with the materials' code, or as it is without."""
+    if mat is None:
+        return program
+    at = program.sources.index("surface")
+    vertex, fragment = program.main
+    return dataclasses.replace(
+        program, sources=program.sources[:at] + ("texture", "nodes", "material_frame")
+        + program.sources[at:], main=(vertex, mat.code + "\n" + fragment),
+        defines={**program.defines, "MATERIALS": 1, "MATERIAL_VERTEX": " ".join(
+            ["v_object = inst;"] + [f"v_a{k} = a{k};" for k in range(mat.streams)])},
+        structs=program.structs + ((images.IMAGE,) if images.IMAGE not in program.structs
+                                   else ()),
+        blocks=program.blocks + (("ImageData", f"images[{max(1, mat.images)}]"),),
+        samplers=program.samplers + (("FLOAT_2D", "mat_texels"), ("FLOAT_2D", "mat_floats"),
+                                     ("FLOAT_2D", "srgb_table"), ("FLOAT_2D", "objects")),
+        inputs=program.inputs + (("INT", "inst"),) + tuple(("VEC4", f"a{k}")
+                                                          for k in range(mat.streams)),
+        varyings=program.varyings + (("INT", "v_object", "flat"),) + tuple(
+            ("VEC4", f"v_a{k}", "smooth") for k in range(mat.streams)))
 
 
 def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
@@ -222,18 +300,21 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
 
 
 def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False,
-           ambient: bool = False, sky: bool = False):
+           ambient: bool = False, sky: bool = False, mat: MaterialCode | None = None):
     """The compiled ``kind`` program ("depth", "center", "dome_grid", "shade", "background",
     "compose") writing the targets ``names``; ``indirect``: with the probes' light
     (``glsl/indirect.glsl``), ``ambient``: its contact occlusion, ``sky``: the world's
-    occlusion through the dome (``glsl/dome.glsl``)."""
+    occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade" with the frame's
+    material programs."""
     if kind == "background":  # ``indirect``: the world is an image
         return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
                                                                    indirect))
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
     ambient, sky = ambient and indirect, sky and indirect
-    return programs.compiled(_program(kind, names, indirect, ambient, sky),
-                             ("frame", kind, names, indirect, ambient, sky))
+    mat = mat if kind == "shade" else None
+    key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key)
+    return programs.compiled(_with_materials(_program(kind, names, indirect, ambient, sky),
+                                             mat), key)
 
 
 @dataclass
@@ -268,6 +349,11 @@ class GPUFrame:
         fmt.attr_add(id="lm_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
         fmt.attr_add(id="uv", comp_type="F32", len=3, fetch_mode="FLOAT")
         fmt.attr_add(id="flags", comp_type="I32", len=1, fetch_mode="INT")
+        self.mat, keys, texs = material_code(frame)
+        if self.mat is not None:
+            fmt.attr_add(id="inst", comp_type="I32", len=1, fetch_mode="INT")
+            for k in range(len(keys)):
+                fmt.attr_add(id=f"a{k}", comp_type="F32", len=4, fetch_mode="FLOAT")
         vbo = gpu.types.GPUVertBuf(fmt, 3 * t)
         vbo.attr_fill("pos", pos.reshape(-1, 3))
         vbo.attr_fill("nor", np.ascontiguousarray(frame.normals[keep], np.float32).reshape(-1, 3))
@@ -290,6 +376,23 @@ class GPUFrame:
             flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
         flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
         vbo.attr_fill("flags", np.repeat(flags, 3))
+        self.mat_resources = None  # (ImageData buffer, samplers) of the material programs
+        if self.mat is not None:
+            vbo.attr_fill("inst", np.repeat(frame.obj[keep].astype(np.int32), 3))
+            for k, key in enumerate(keys):
+                corners = np.zeros((t, 3, 4), np.float32)
+                a = frame.attributes[key][keep]
+                corners[..., :a.shape[2]] = a[..., :4]
+                vbo.attr_fill(f"a{k}", corners.reshape(-1, 4))
+            rows = np.zeros((len(frame.world_to_object), 5, 4), np.float32)
+            rows[:, :3] = np.asarray(frame.world_to_object, np.float64)[:, :3]
+            rows[:, 3:, :3] = frame.texspace
+            records, (floats, codes) = images.pack(texs)
+            self.mat_resources = (
+                gpu.types.GPUUniformBuf(images.IMAGE.pack(records)),
+                (("mat_texels", codes), ("mat_floats", floats),
+                 ("srgb_table", images.srgb_table()),
+                 ("objects", textures.rows(rows.reshape(-1, 4)))))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()
@@ -356,7 +459,8 @@ class GPUFrame:
         view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
         c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
         w, h = camera.width, camera.height
-        base = {"view_proj": view_proj, "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+        base = {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
+                "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
                 "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                 "world": np.append(np.asarray(scene.world.color, np.float32), 1.0),
@@ -369,7 +473,7 @@ class GPUFrame:
         ambient = self.ambient and lit and self._ambient(camera, targets, base)
         sky = self.dome is not None and lit and self._dome(camera, targets, base)
         shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
-                       self.dome is not None)
+                       self.dome is not None, self.mat)
         background = shader("background", targets.names, self.world is not None)
         world_block = self.world and gpu.types.GPUUniformBuf(self._world_block(camera))
         targets.clear_batch()
@@ -405,6 +509,10 @@ class GPUFrame:
                 shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
                                       else targets.textures["first_key"])
                 shade.uniform_sampler("visible", targets.textures["visible"])
+                if self.mat_resources is not None:
+                    shade.uniform_block("images", self.mat_resources[0])
+                    for name, texture in self.mat_resources[1]:
+                        shade.uniform_sampler(name, texture)
                 if ambient:
                     shade.uniform_block("ao", ambient[0])
                     shade.uniform_sampler("ambient", ambient[1])

@@ -28,33 +28,57 @@ def srgb_table():
 def upload(tex) -> tuple[dict, object]:
     """(the ImageData record, the GPU texture of its texels) of texture ``tex``, its mip chain
     filled first."""
+    records, by_codes = pack([tex])
+    return records[0], by_codes[records[0]["info2"][1]]
+
+
+def pack(texs: list) -> tuple[list[dict], tuple]:
+    """Textures ``texs`` in two GPU textures, one of the 8-bit images (RGBA8, their codes)
+    and one of the others (RGBA32F): (their ImageData records, in order, and the two textures
+    (float, 8-bit), a one-texel one where there is none of a kind)."""
     import gpu
 
     from ..core.kernels import textures as texture_kernel
 
-    if tex.pending:
-        tex.fill_mips()
-    flat, rows = tex.packed
-    c = tex.channels
-    if len(rows) > MAX_LEVELS:
-        raise ValueError(f"an image of more than {MAX_LEVELS} mip levels")
-    count = len(flat) // c
-    width = min(max(1, count), ROW_WIDTH)
-    height = -(-count // width)
-    if height > 16384:
-        raise MemoryError(f"the image {tex.name!r} is too large for one GPU texture")
-    data = np.zeros((height * width, 4), np.float32)
-    codes = flat.dtype == np.uint8
-    data[:count, :c] = flat.reshape(-1, c).astype(np.float32) / (255.0 if codes else 1.0)
-    buffer = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
-    texels = gpu.types.GPUTexture((width, height), format="RGBA8" if codes else "RGBA32F",
-                                  data=buffer)
-    levels = np.zeros((len(rows), 4), np.int64)
-    levels[:, 0] = rows[:, 0] // c
-    levels[:, 1:3] = rows[:, 1:3]
-    record = {"levels": levels,
-              "info": [len(rows), c,
-                       texture_kernel.EXTENSIONS.get(tex.extension, texture_kernel.EXTEND),
-                       texture_kernel.FILTERS.get(tex.interpolation, texture_kernel.LINEAR)],
-              "info2": [tex.encoded, int(codes), width, 0]}
-    return record, texels
+    records, parts, used = [], ([], []), [0, 0]
+    for tex in texs:
+        if tex.pending:
+            tex.fill_mips()
+        flat, rows = tex.packed
+        c = tex.channels
+        if len(rows) > MAX_LEVELS:
+            raise ValueError(f"an image of more than {MAX_LEVELS} mip levels")
+        codes = int(flat.dtype == np.uint8)
+        count = len(flat) // c
+        data = np.zeros((count, 4), np.float32)
+        data[:, :c] = flat.reshape(-1, c).astype(np.float32) / (255.0 if codes else 1.0)
+        levels = np.zeros((len(rows), 4), np.int64)
+        levels[:, 0] = rows[:, 0] // c + used[codes]
+        levels[:, 1:3] = rows[:, 1:3]
+        records.append({"levels": levels,
+                        "info": [len(rows), c,
+                                 texture_kernel.EXTENSIONS.get(tex.extension,
+                                                               texture_kernel.EXTEND),
+                                 texture_kernel.FILTERS.get(tex.interpolation,
+                                                            texture_kernel.LINEAR)],
+                        "info2": [tex.encoded, codes, ROW_WIDTH, 0]})
+        parts[codes].append(data)
+        used[codes] += count
+    textures_ = []
+    for codes, chunks in enumerate(parts):
+        count = max(1, used[codes])
+        width = min(count, ROW_WIDTH) if len(texs) == 1 else ROW_WIDTH
+        height = -(-count // width)
+        if height > 16384:
+            names = ", ".join(repr(t.name) for t in texs)
+            raise MemoryError(f"the images {names} are too large for one GPU texture")
+        data = np.zeros((height * width, 4), np.float32)
+        if chunks:
+            data[:used[codes]] = np.concatenate(chunks)
+        buffer = gpu.types.Buffer("FLOAT", data.size, data.reshape(-1))
+        textures_.append(gpu.types.GPUTexture((width, height),
+                                              format="RGBA8" if codes else "RGBA32F",
+                                              data=buffer))
+    if len(texs) == 1:  # one image: its own row width
+        records[0]["info2"][2] = textures_[records[0]["info2"][1]].width
+    return records, tuple(textures_)

@@ -97,6 +97,7 @@ class Program:
 
 
 _compiled: dict[int, object] = {}
+KEEP = 96  # compiled shaders kept (a session editing materials makes new ones)
 
 
 def compiled(program: Program, key) -> object:
@@ -105,6 +106,8 @@ def compiled(program: Program, key) -> object:
     shader = _compiled.get(key)
     if shader is None:
         shader = _compile(program)
+        while len(_compiled) >= KEEP:
+            del _compiled[next(iter(_compiled))]
         _compiled[key] = shader
     return shader
 

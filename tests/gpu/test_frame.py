@@ -187,14 +187,70 @@ def test_more_lights_than_one_batch():
     _check(*_render_both(scene), "41 lights")
 
 
+def _textured(scene):
+    """``scene`` with node-graph materials: an 8-bit image through Generated coordinates and a
+    Mapping on the ground, a float image's height as a Bump on the box, a ramp of Object
+    coordinates mixed by a Layer Weight on the sphere."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+
+    rng = np.random.default_rng(5)
+    noise = rng.uniform(0, 1, (48, 64, 4))
+    codes = (255 * (0.5 + 0.5 * np.sin(np.linspace(0, 9, 64))[None, :, None] * noise)).astype(
+        np.uint8)
+    checker = core_texture.make_texture(codes, srgb=True)
+    heights = core_texture.make_texture(rng.uniform(0, 1, (32, 32, 3)).astype(np.float32),
+                                        srgb=False, interpolation="Cubic")
+    b = program.ProgramBuilder()
+    gen = b.add("texcoord", param=("Generated",))
+    mapped = b.add("mapping", gen, b.const(0.0, 0.0, 0.0), b.const(0.0, 0.0, 0.4),
+                   b.const(6.0, 6.0, 1.0), param=("POINT",))
+    color = b.add("image", mapped, param=(checker, 0))
+    rough = b.add("math", b.add("swizzle", color, param=(3, 4)), b.const(0.8), b.const(0.0),
+                  param=("MULTIPLY", False))
+    ground = b.build(b.add("principled", b.add("swizzle", color, param=(0, 3)), b.const(0.0),
+                           rough, b.const(1.5), b.const(0.5), b.const(1.0, 1.0, 1.0),
+                           b.const(0.0), b.const(0.0, 0.0, 0.0), b.const(0.0), b.const(1.0),
+                           None))
+    b = program.ProgramBuilder()
+    h = b.add("to_float", b.add("image", param=(heights, 0)), param=("color",))
+    bump = b.add("bump", b.const(0.8), b.const(0.3), h, None, b.const(0.1), param=(False,))
+    box = b.build(b.add("bo2", b.const(0.7, 0.3, 0.1), b.const(0.04, 0.04, 0.04),
+                        b.const(0.7), bump, b.const(0.0, 0.0, 0.0), b.const(1.0),
+                        b.const(1.0)))
+    b = program.ProgramBuilder()
+    obj = b.add("texcoord", param=("Object",))
+    z = b.add("swizzle", obj, param=(2, 3))
+    ramp = b.add("ramp", b.add("math", z, b.const(0.7), b.const(0.0), param=("DIVIDE", False)),
+                 param=(np.float32([[0.9, 0.1, 0.1, 1], [0.1, 0.8, 0.2, 1], [0.2, 0.2, 0.9, 1]]),
+                        True))
+    weight = b.add("swizzle", b.add("layer_weight", b.const(0.3), None), param=(1, 2))
+    sphere = b.build(b.add("mix_shader", weight,
+                           b.add("diffuse", b.add("swizzle", ramp, param=(0, 3)), None),
+                           b.add("glossy", b.const(0.9, 0.8, 0.6), b.const(0.3), None)))
+    mats = [Material("ground", ground), Material("box", box, pass_index=3),
+            Material("sphere", sphere)]
+    return dataclasses.replace(scene, materials=mats)
+
+
+@pytest.mark.parametrize("indirect", [False, True])
+def test_node_graph_materials_match_the_cpu(indirect):
+    """Materials that vary over their surface drawn by their GLSL (``gpu_backend.materials``):
+    images at their footprint's level, a bump, procedural colour and mixes."""
+    scene = _textured(scenes.objects_scene(list(scenes.LIGHTS.values()), samples=2))
+    if indirect:
+        scene = scenes.with_probes(scene)
+    frame = pipeline.prepare(RenderJob(scene))
+    assert gpu_frame.unsupported(frame) is None
+    _check(*_render_both(scene), f"node graphs {'with probes' if indirect else ''}")
+
+
 def test_what_the_gpu_does_not_draw_is_named():
     scene = scenes.objects_scene([scenes.LIGHTS["SUN"]])
     b = program.ProgramBuilder()
-    pos = b.add("geometry", param=("position",))
-    scene.materials[1] = Material("Checker", b.build(b.add(
-        "bo2", pos, b.const(0.04, 0.04, 0.04), b.const(0.5), None, b.const(0.0, 0.0, 0.0),
-        b.const(1.0), b.const(1.0))))
+    scene.materials[1] = Material("Glass", b.build(b.add(
+        "bo2", b.const(0.5, 0.5, 0.5), b.const(0.04, 0.04, 0.04), b.const(0.5), None,
+        b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(0.4))))
     frame = pipeline.prepare(RenderJob(scene))
-    assert "Checker" in gpu_frame.unsupported(frame)
-    with pytest.raises(gpu_frame.Unsupported, match="vary over their surface"):
+    assert "transparent" in gpu_frame.unsupported(frame)
+    with pytest.raises(gpu_frame.Unsupported, match="transparent"):
         gpu_frame.GPUFrame(frame)

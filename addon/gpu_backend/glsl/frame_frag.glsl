@@ -9,6 +9,9 @@
  * SURFACE_ONLY (targets that need no light) the lights are left out. */
 void main()
 {
+#ifdef MATERIALS
+  material_derivatives();  /* screen derivatives: before any fragment of the quad stops */
+#endif
   vec4 nearest = texelFetch(visible, ivec2(gl_FragCoord.xy), 0);
   if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
     discard;  /* culled, or another triangle at the same depth drew the pixel */

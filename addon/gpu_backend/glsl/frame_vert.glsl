@@ -12,6 +12,9 @@ void main()
   v_lightmap_uv = lm_uv;
   v_uv = uv;
   v_flags = flags;
+#ifdef MATERIALS
+  MATERIAL_VERTEX
+#endif
   vec4 clip = frame.view_proj * vec4(pos, 1.0);
   clip.xy = clip.xy * frame.ndc_scale + frame.jitter * clip.w;
   gl_Position = clip;

@@ -1,13 +1,18 @@
 /* A visible point's surface: view direction, normals turned towards the camera, material.
  * The GLSL form of core/kernels/shading.surface and the constant material tables of
  * core/render/buffers (Frame.tables): per material four texels of `materials`:
- * (albedo, gloss), (rf0, alpha), (emission, occlusion), (pass index, -, -, -). */
+ * (albedo, gloss), (rf0, alpha), (emission, occlusion), (pass index, -, -, -); with MATERIALS,
+ * the programs of the materials that vary over their surface (material_apply, generated). */
 
 struct Surface {
   vec3 p, n, geo, v;
   vec3 albedo, rf0, emission;
   float gloss, occlusion;
 };
+
+#ifdef MATERIALS
+void material_apply(int material, inout Surface s);
+#endif
 
 Surface surface_at(vec3 p, vec3 normal, vec3 geo, int material)
 {
@@ -28,5 +33,8 @@ Surface surface_at(vec3 p, vec3 normal, vec3 geo, int material)
   s.rf0 = b.rgb;
   s.emission = c.rgb;
   s.occlusion = c.a;
+#ifdef MATERIALS
+  material_apply(material, s);
+#endif
   return s;
 }
