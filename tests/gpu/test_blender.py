@@ -70,17 +70,43 @@ def test_auto_leaves_a_software_rasterizer_to_the_cpu(scene):
         assert any(text.startswith("Rendered on the GPU") for text in said), said
 
 
-def test_what_the_gpu_does_not_draw_renders_on_the_cpu_with_one_message(scene):
+def test_a_node_graph_material_renders_on_the_gpu(scene):
+    """A Principled BSDF whose colour comes from Generated coordinates through a Color Ramp,
+    and whose roughness from a Noise-free Math chain: the GPU draws its program."""
     mat = bpy.data.materials.new("Gradient")
     mat.use_nodes = True
-    nodes = mat.node_tree.nodes
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
     coords = nodes.new("ShaderNodeTexCoord")
-    mat.node_tree.links.new(coords.outputs["Generated"],
-                            nodes["Principled BSDF"].inputs["Base Color"])
+    xyz = nodes.new("ShaderNodeSeparateXYZ")
+    ramp = nodes.new("ShaderNodeValToRGB")
+    ramp.color_ramp.elements[0].color = (0.8, 0.1, 0.05, 1.0)
+    ramp.color_ramp.elements[1].color = (0.05, 0.3, 0.9, 1.0)
+    rough = nodes.new("ShaderNodeMath")
+    rough.operation = "MULTIPLY"
+    rough.inputs[1].default_value = 0.7
+    links.new(coords.outputs["Generated"], xyz.inputs[0])
+    links.new(xyz.outputs["Z"], ramp.inputs["Fac"])
+    links.new(xyz.outputs["X"], rough.inputs[0])
+    bsdf = nodes["Principled BSDF"]
+    links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
+    links.new(rough.outputs["Value"], bsdf.inputs["Roughness"])
+    bpy.data.objects["Sphere"].data.materials.append(mat)
+    gpu_pixels, said = _render(scene, "GPU")
+    assert any(text.startswith("Rendered on the GPU") for text in said), said
+    cpu_pixels, _ = _render(scene, "CPU")
+    value = compare.psnr(gpu_pixels, cpu_pixels)
+    print(f"F12 of a node graph, GPU vs CPU: {value:.1f} dB")
+    assert value >= 40.0
+
+
+def test_what_the_gpu_does_not_draw_renders_on_the_cpu_with_one_message(scene):
+    mat = bpy.data.materials.new("Glass")
+    mat.use_nodes = True
+    mat.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
     bpy.data.objects["Sphere"].data.materials.append(mat)
     _, said = _render(scene, "GPU")
     notes = [text for text in said if text.startswith("Rendered on the CPU")]
-    assert len(notes) == 1 and "Gradient" in notes[0], said
+    assert len(notes) == 1 and "transparent" in notes[0], said
 
 
 def test_the_probe_names_why_there_is_no_gpu():
