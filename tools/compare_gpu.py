@@ -2,12 +2,14 @@
 Combined off by more than 4/255 after the view transform (outside edges), and pictures.
 
 Usage: .venv52/bin/python tools/compare_gpu.py [--scenes room,first_light,...] [--scale 0.5]
-                                               [--out out/gpu]
+                                               [--assets A.glb B.blend ...] [--out out/gpu]
 
 Needs a ``bpy`` whose ``gpu`` module opens a context in background mode (Blender 5.2 LTS).
 Each scene is extracted as F12 extracts it, prepared once, and rendered by
 ``pipeline.render_frame`` (CPU) and ``gpu_backend.frame.render`` (GPU) from the same frame;
-``<out>/<scene>.png`` shows CPU | GPU | the difference x 10 (sRGB).
+``<out>/<scene>.png`` shows CPU | GPU | the difference x 10 (sRGB). ``--assets``: glTF files
+(imported with Blender's importer) or .blend files without a camera, each staged as
+``tools/make_asset_images.py`` stages it (one sun, a framing camera) at 320x240.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenes", default=",".join(SCENES))
     parser.add_argument("--scale", type=float, default=0.5)
+    parser.add_argument("--assets", nargs="*", type=Path, default=[])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "gpu")
     args = parser.parse_args()
 
@@ -54,11 +57,24 @@ def main() -> int:
     kernels.load()
     args.out.mkdir(parents=True, exist_ok=True)
     print(f"GPU: {found.renderer}")
-    for name in args.scenes.split(","):
-        bpy.ops.wm.open_mainfile(filepath=str(ROOT / "demo_blends" / f"{name}.blend"),
-                                 load_ui=False)
+    sys.path.insert(0, str(ROOT / "tools"))
+    from make_asset_images import stage
+
+    jobs = [(name, ROOT / "demo_blends" / f"{name}.blend")
+            for name in args.scenes.split(",") if name]
+    for name, path in jobs + [(p.stem, p) for p in args.assets]:
+        if path.suffix == ".blend":
+            bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
+        else:
+            bpy.ops.wm.read_factory_settings(use_empty=True)
+            bo2_lighting.register()
+            bpy.ops.import_scene.gltf(filepath=str(path))
         scene = bpy.context.scene
-        scene.render.resolution_percentage = round(100 * args.scale)
+        if path in args.assets:
+            scene.render.engine = "BO2_LIGHTING"
+            stage(scene, 320, 240)
+        else:
+            scene.render.resolution_percentage = round(100 * args.scale)
         core, _ = extract.extract_scene(bpy.context.evaluated_depsgraph_get(),
                                         settings.render_settings(scene, "FINAL"),
                                         indirect=scene.bo2.indirect.use)

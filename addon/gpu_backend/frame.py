@@ -101,9 +101,6 @@ def unsupported(frame: Frame) -> str | None:
         why = dome.unsupported(frame) or probes.unsupported(scene.probes)
         if why:
             return why
-    elif (scene.probes is not None and s.ambient_occlusion and s.ao_distance > 0.0
-          and s.ao_pass):
-        return "the AO pass without indirect light"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
     why = materials.unsupported(varying, frame.attributes)
     if why:
@@ -282,17 +279,17 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
         structs += (lightmaps.LIGHTMAPS,)
         blocks += (("LightmapData", "lightmaps"),)
         samplers += (("FLOAT_2D", "lightmap_texels"),)
-        if ambient:
-            defines["AMBIENT"] = 1
-            structs += (occlusion.AO,)
-            blocks += (("AOData", "ao"),)
-            samplers += (("FLOAT_2D", "ambient"),)
         if sky:
             sources += ("dome",)
             defines.update(DOME=1, DOME_SHADING=1)
             structs += (dome.DOME,)
             blocks += (("DomeData", "dome"),)
             samplers += tuple(("FLOAT_2D", name) for name in DOME_TEXTURES)
+    if ambient:
+        defines["AMBIENT"] = 1
+        structs += (occlusion.AO,)
+        blocks += (("AOData", "ao"),)
+        samplers += (("FLOAT_2D", "ambient"),)
     return programs.Program(
         "draw", sources, (vert, programs.source("frame_frag")), defines=defines,
         structs=structs, prelude=prelude, blocks=blocks, samplers=samplers, inputs=vertex_in,
@@ -310,7 +307,8 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
         return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
                                                                    indirect))
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
-    ambient, sky = ambient and indirect, sky and indirect
+    ambient = ambient and kind == "shade" and bool(set(names) & LIT)
+    sky = sky and indirect
     mat = mat if kind == "shade" else None
     key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key)
     return programs.compiled(_with_materials(_program(kind, names, indirect, ambient, sky),
@@ -415,7 +413,8 @@ class GPUFrame:
                           images.srgb_table())
         self.indirect = None
         s = frame.scene.settings
-        self.ambient = (has_indirect(frame) and s.ambient_occlusion and s.ao_distance > 0.0)
+        self.ambient = (frame.scene.probes is not None and s.ambient_occlusion
+                        and s.ao_distance > 0.0 and (s.ao_pass or has_indirect(frame)))
         if has_indirect(frame):
             s = frame.scene.settings
             drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,

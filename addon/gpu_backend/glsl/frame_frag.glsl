@@ -60,17 +60,17 @@ void main()
   vec3 diff_ind = vec3(0.0), gloss_ind = vec3(0.0);
   float ao_out = 1.0;  /* the AO pass: 1 where no contact occlusion is searched */
   vec3 lightmap_e = vec3(0.0), texels = vec3(0.0);  /* the Lightmap passes */
+  vec2 window = vec2(float(pixel.x), float(row)) + frame.sample_offset;
+  float occluded = 1.0;
+#ifdef AMBIENT
+  /* the contact occlusion of the pixel that holds the sample (render_tile's ao_tile) */
+  ivec2 at = clamp(ivec2(floor(window)), ivec2(0), frame.size.xy - 1);
+  occluded = texelFetch(ambient, ivec2(at.x, frame.size.y - 1 - at.y), 0).r;
+  ao_out = occluded;
+#endif
 #ifdef INDIRECT
   if (first_batch) { /* the probes' light (core/render/shading.shade_points) */
-    vec2 window = vec2(float(pixel.x), float(row)) + frame.sample_offset;
     bool baked = v_lightmap >= 0;  /* a lightmap holds the light of its surface */
-    float occluded = 1.0;
-#ifdef AMBIENT
-    /* the contact occlusion of the pixel that holds the sample (render_tile's ao_tile) */
-    ivec2 at = clamp(ivec2(floor(window)), ivec2(0), frame.size.xy - 1);
-    occluded = texelFetch(ambient, ivec2(at.x, frame.size.y - 1 - at.y), 0).r;
-    ao_out = occluded;
-#endif
     float sky = 1.0;
 #ifdef DOME
     float rho = dot(s.albedo, vec3(0.2126, 0.7152, 0.0722));
