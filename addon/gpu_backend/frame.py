@@ -22,6 +22,7 @@ from ..core.formulas import occlusion as occlusion_formulas
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
+from ..core.render.transparency import DITHER_LAYERS
 from . import dome, images, lightmaps, lights, materials, occlusion, probes, programs, textures
 from .uniforms import Struct
 
@@ -39,7 +40,7 @@ FRAME = Struct("FrameData", (
     ("jitter", "vec2", 0),  # the sample's shift, NDC
     ("counts", "ivec4", 0),  # (lights in the batch, specular model, first batch, MODES)
     ("size", "ivec4", 0),  # (width, height, the sample's number, -)
-    ("flags", "ivec4", 0),  # (specular occlusion, -, -, -)
+    ("flags", "ivec4", 0),  # (specular occlusion, peeling: the depth pre-pass, -, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
 ))
 WORLD = Struct("WorldData", (
@@ -65,7 +66,7 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "UV": ("uv", slice(0, 3)), "Specular Color": ("rf0", slice(0, 3)),
            "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
            "Lightmap Texels": ("texels", slice(0, 3))}
-FLAG_CULL, FLAG_HOLDOUT = 1, 2  # a triangle's flags (``glsl/frame_vert.glsl``)
+FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES = 1, 2, 4  # a triangle's flags (``glsl/frame_vert.glsl``)
 # Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
 CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
@@ -105,8 +106,6 @@ def unsupported(frame: Frame) -> str | None:
     why = materials.unsupported(varying, frame.attributes)
     if why:
         return why
-    if frame.fades.any():
-        return "transparent materials"
     return None
 
 
@@ -167,7 +166,8 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
         "  MatPoint p = mp_point(s.p, s.n, s.geo, s.v);", "  MatSurface m;",
         "  switch (material) {", cases + "    default: return;", "  }",
         "  s.albedo = m.albedo;", "  s.rf0 = m.rf0;", "  s.emission = m.emission;",
-        "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;", "}", ""])
+        "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;",
+        "  s.alpha = m.alpha;", "}", ""])
     return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest()),
             keys, texs)
 
@@ -210,13 +210,29 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
     corner = (("VEC2", "corner"),)
     if kind == "depth":
         return programs.Program("draw", (), (vert, programs.source("depth_frag")),
-                                structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
+                                structs=(FRAME,), blocks=frame_block,
+                                samplers=(("FLOAT_2D", "peel_floor"),), inputs=vertex_in,
                                 varyings=varyings, outputs=(("VEC4", "out_visible"),))
+    if kind == "peel":
+        return programs.Program("draw", ("dither", "surface"),
+                                (vert, programs.source("peel_frag")), structs=(FRAME,),
+                                blocks=frame_block, samplers=(("FLOAT_2D", "materials"),
+                                                              ("FLOAT_2D", "visible"),
+                                                              ("FLOAT_2D", "peel_prev")),
+                                inputs=vertex_in, varyings=varyings,
+                                outputs=(("VEC4", "out_floor"),))
+    if kind == "merge":
+        return programs.Program("draw", (), (programs.source("background_vert"),
+                                             programs.source("merge_frag")),
+                                samplers=(("FLOAT_2D", "peel_floor"),
+                                          ("FLOAT_2D", "next_visible")),
+                                inputs=corner, outputs=(("VEC4", "out_visible"),))
     if kind == "central":
         return programs.Program("draw", ("surface",), (vert, programs.source("central_frag")),
                                 structs=(FRAME,), blocks=frame_block,
-                                samplers=(("FLOAT_2D", "materials"),), inputs=vertex_in,
-                                varyings=varyings, outputs=(("VEC4", "out_central"),))
+                                samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "visible")),
+                                inputs=vertex_in, varyings=varyings,
+                                outputs=(("VEC4", "out_central"),))
     if kind == "center":
         return programs.Program("draw", (), (vert, programs.source("center_frag")),
                                 structs=(FRAME,), blocks=frame_block, inputs=vertex_in,
@@ -232,7 +248,8 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                                programs.source("background_frag")),
             defines={**_writes(names), **world.get("defines", {})},
             structs=(FRAME,) + world.get("structs", ()),
-            blocks=frame_block + world.get("blocks", ()), samplers=world.get("samplers", ()),
+            blocks=frame_block + world.get("blocks", ()),
+            samplers=(("FLOAT_2D", "visible"),) + world.get("samplers", ()),
             inputs=corner, outputs=outputs)
     if kind == "compose":
         return programs.Program(
@@ -309,7 +326,7 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
     ambient = ambient and kind == "shade" and bool(set(names) & LIT)
     sky = sky and indirect
-    mat = mat if kind == "shade" else None
+    mat = mat if kind in ("shade", "peel") else None
     key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key)
     return programs.compiled(_with_materials(_program(kind, names, indirect, ambient, sky),
                                              mat), key)
@@ -373,6 +390,7 @@ class GPUFrame:
         if frame.cull is not None:
             flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
         flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
+        flags |= frame.fades[keep].astype(np.int32) * FLAG_FADES
         vbo.attr_fill("flags", np.repeat(flags, 3))
         self.mat_resources = None  # (ImageData buffer, samplers) of the material programs
         if self.mat is not None:
@@ -429,6 +447,8 @@ class GPUFrame:
         maps = frame.shadow_maps[:len(scene_lights)]
         sky = frame.sky if self.indirect is not None else None
         self.dome = None  # (the dome's map numbers in the first draw's ShadowData)
+        self._peeling = None  # (size, textures and framebuffers) of the layers peeled
+        self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
         self.batches = []
         lo = 0
         while lo < max(1, len(scene_lights)):
@@ -467,7 +487,6 @@ class GPUFrame:
         from ..core.kernels import shading as shading_kernel
 
         model = shading_kernel.MODELS[settings.specular_model]
-        depth = shader("depth")
         lit = bool(set(targets.names) & LIT)
         ambient = self.ambient and lit and self._ambient(camera, targets, base)
         sky = self.dome is not None and lit and self._dome(camera, targets, base)
@@ -483,35 +502,26 @@ class GPUFrame:
                     "MODE_FIRST" if k == 0 else "MODE_REST")
             jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
 
-            def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy)):
+            def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy),
+                      **extra):
                 blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{
                     **base, "jitter": jitter, "sample_offset": offset,
                     "counts": [count, model, int(first_batch), MODES[mode]],
-                    "size": [w, h, first_sample + k, 0]}])))
+                    "size": [w, h, first_sample + k, 0], **extra}])))
                 return blocks[-1]
 
-            with targets.prepass.bind():  # the nearest triangle of each pixel, and its depth
-                targets.prepass.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-                gpu.state.depth_mask_set(True)
-                gpu.state.depth_test_set("LESS")
-                gpu.state.blend_set("NONE")
-                depth.bind()
-                depth.uniform_block("frame", block(0, True))
-                self.batch.draw(depth)
+            self._visible(targets.prepass, targets.textures["visible"],
+                          lambda **extra: block(0, True, **extra), first_sample + k)
             fb = targets.first if mode == "MODE_FIRST" else targets.rest
             with fb.bind():  # only that triangle shades (not another at the same depth)
                 gpu.state.depth_mask_set(False)
                 gpu.state.blend_set("ADDITIVE_PREMULT")
-                gpu.state.depth_test_set("EQUAL")
+                gpu.state.depth_test_set("ALWAYS" if self.frame.fades.any() else "EQUAL")
                 shade.bind()
-                shade.uniform_sampler("materials", self.materials)
+                self._bind_materials(shade)
                 shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
                                       else targets.textures["first_key"])
                 shade.uniform_sampler("visible", targets.textures["visible"])
-                if self.mat_resources is not None:
-                    shade.uniform_block("images", self.mat_resources[0])
-                    for name, texture in self.mat_resources[1]:
-                        shade.uniform_sampler(name, texture)
                 if ambient:
                     shade.uniform_block("ao", ambient[0])
                     shade.uniform_sampler("ambient", ambient[1])
@@ -534,10 +544,11 @@ class GPUFrame:
                     self.batch.draw(shade)
             if not settings.film_transparent:
                 with targets.rest.bind():  # a miss adds the world in every sample
-                    gpu.state.depth_test_set("LESS_EQUAL")
+                    gpu.state.depth_test_set("ALWAYS")  # where no surface is (visible)
                     gpu.state.blend_set("ADDITIVE_PREMULT")
                     background.bind()
                     background.uniform_block("frame", block(0, True))
+                    background.uniform_sampler("visible", targets.textures["visible"])
                     if self.world is not None:
                         background.uniform_block("world", world_block)
                         background.uniform_block("images", self.world[0])
@@ -552,32 +563,44 @@ class GPUFrame:
 
     def central(self, camera, offsets) -> dict[str, np.ndarray]:
         """Depth and IndexMA through ``camera`` at the sample of ``offsets`` nearest the
-        pixel centre: {name: (H, W, 1) float32}, row 0 at the top; 1e10 and 0 where no
-        surface is seen (``passes.EMPTY_DEPTH``)."""
+        pixel centre (its surfaces dithered as that sample's): {name: (H, W, 1) float32},
+        row 0 at the top; 1e10 and 0 where no surface is seen (``passes.EMPTY_DEPTH``)."""
         import gpu
 
         offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
-        ox, oy = offsets[int(np.argmin(np.abs(offsets - 0.5).sum(-1)))]
+        k = int(np.argmin(np.abs(offsets - 0.5).sum(-1)))
+        ox, oy = offsets[k]
         w, h = camera.width, camera.height
         c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
-        data = gpu.types.GPUUniformBuf(FRAME.pack([{
-            "view_proj": np.asarray(camera.projection @ camera.world_to_camera, np.float64),
-            "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
-            "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
-            "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)}]))
-        target = gpu.types.GPUTexture((w, h), format="RGBA32F")
+        view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
+        record = {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
+                  "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
+                  "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+                  "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
+                  "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
+                  "sample_offset": (ox, oy), "size": [w, h, k, 0]}
+        blocks = []
+
+        def block(**extra):
+            blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{**record, **extra}])))
+            return blocks[-1]
+
+        target, visible = (gpu.types.GPUTexture((w, h), format="RGBA32F") for _ in range(2))
         z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+        prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
         fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(target,))
         program = shader("central")
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        self._visible(prepass, visible, block, k)
         with fb.bind():
-            fb.clear(color=(float(EMPTY_DEPTH), 0.0, 0.0, 0.0), depth=1.0)
-            gpu.state.depth_test_set("LESS")
-            gpu.state.depth_mask_set(True)
+            fb.clear(color=(float(EMPTY_DEPTH), 0.0, 0.0, 0.0))
+            gpu.state.depth_test_set("ALWAYS")
+            gpu.state.depth_mask_set(False)
             gpu.state.blend_set("NONE")
             program.bind()
-            program.uniform_block("frame", data)
+            program.uniform_block("frame", block())
             program.uniform_sampler("materials", self.materials)
+            program.uniform_sampler("visible", visible)
             self.batch.draw(program)
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
@@ -585,6 +608,74 @@ class GPUFrame:
         image = textures.read(target)[::-1]
         return {"Depth": np.ascontiguousarray(image[..., :1]),
                 "IndexMA": np.ascontiguousarray(image[..., 1:2])}
+
+    def _bind_materials(self, program) -> None:
+        """The material table and the material programs' images and object rows."""
+        program.uniform_sampler("materials", self.materials)
+        if self.mat_resources is not None:
+            program.uniform_block("images", self.mat_resources[0])
+            for name, texture in self.mat_resources[1]:
+                program.uniform_sampler(name, texture)
+
+    def _visible(self, fb, visible, block, sample: int) -> None:
+        """Each pixel's surface at one sample into ``visible`` (``fb``: it and a depth
+        buffer): the depth pre-pass; with surfaces that may be transparent, then the layers
+        peeled where their alpha does not exceed the sample's threshold
+        (``core.render.transparency.dither``). block(**fields): the sample's FrameData."""
+        import gpu
+
+        depth = shader("depth")
+        gpu.state.blend_set("NONE")
+        with fb.bind():  # the nearest triangle of each pixel, and its depth
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            gpu.state.depth_mask_set(True)
+            gpu.state.depth_test_set("LESS")
+            depth.bind()
+            depth.uniform_block("frame", block())
+            depth.uniform_sampler("peel_floor", self.dummy)  # (not read)
+            self.batch.draw(depth)
+        if not self.frame.fades.any():
+            return
+        w, h = visible.width, visible.height
+        if self._peeling is None or self._peeling[0] != (w, h):
+            floors = [gpu.types.GPUTexture((w, h), format="RGBA32F") for _ in range(2)]
+            after = gpu.types.GPUTexture((w, h), format="RGBA32F")
+            after_z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+            self._peeling = ((w, h), [(f, gpu.types.GPUFrameBuffer(color_slots=(f,)))
+                                      for f in floors],
+                             after, gpu.types.GPUFrameBuffer(depth_slot=after_z,
+                                                             color_slots=(after,)))
+        _, floors, after, after_fb = self._peeling
+        peel, merge = shader("peel", mat=self.mat), shader("merge")
+        flags = [int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]
+        for layer in range(DITHER_LAYERS):
+            floor, floor_fb = floors[layer % 2]
+            with floor_fb.bind():  # the pixels whose surface lets the sample through
+                floor_fb.clear(color=(0.0, 0.0, 0.0, 0.0))
+                gpu.state.depth_test_set("NONE")
+                gpu.state.depth_mask_set(False)
+                peel.bind()
+                peel.uniform_block("frame", block(counts=[layer, 0, 0, 0]))
+                self._bind_materials(peel)
+                peel.uniform_sampler("visible", visible)
+                peel.uniform_sampler("peel_prev", floors[(layer + 1) % 2][0] if layer
+                                     else self.dummy)
+                self.batch.draw(peel)
+            with after_fb.bind():  # the nearest surface behind it there
+                after_fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+                gpu.state.depth_test_set("LESS")
+                gpu.state.depth_mask_set(True)
+                depth.bind()
+                depth.uniform_block("frame", block(flags=flags))
+                depth.uniform_sampler("peel_floor", floor)
+                self.batch.draw(depth)
+            with fb.bind():
+                gpu.state.depth_test_set("NONE")
+                gpu.state.depth_mask_set(False)
+                merge.bind()
+                merge.uniform_sampler("peel_floor", floor)
+                merge.uniform_sampler("next_visible", after)
+                self.background.draw(merge)
 
     def _world_block(self, camera) -> bytes:
         """The WorldData of the frame's image world seen through ``camera``."""

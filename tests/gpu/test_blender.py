@@ -99,14 +99,46 @@ def test_a_node_graph_material_renders_on_the_gpu(scene):
     assert value >= 40.0
 
 
-def test_what_the_gpu_does_not_draw_renders_on_the_cpu_with_one_message(scene):
+def test_a_transparent_material_renders_on_the_gpu(scene):
+    """Alpha 0.4 on the sphere, dithered on both devices with the same thresholds."""
     mat = bpy.data.materials.new("Glass")
     mat.use_nodes = True
     mat.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
     bpy.data.objects["Sphere"].data.materials.append(mat)
+    scene.bo2.samples = 8
+    gpu_pixels, said = _render(scene, "GPU")
+    assert any(text.startswith("Rendered on the GPU") for text in said), said
+    cpu_pixels, _ = _render(scene, "CPU")
+    value = compare.psnr(gpu_pixels, cpu_pixels)
+    print(f"F12 of a transparent material, GPU vs CPU: {value:.1f} dB")
+    assert value >= 40.0
+
+
+def test_what_the_gpu_does_not_draw_renders_on_the_cpu_with_one_message(scene):
+    """A material reading more colour attributes than the GPU's vertex inputs hold."""
+    from bo2_lighting.addon.gpu_backend import materials
+
+    sphere = bpy.data.objects["Sphere"]
+    mat = bpy.data.materials.new("Painted")
+    mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    total = None
+    for k in range(materials.MAX_STREAMS + 1):
+        sphere.data.color_attributes.new(f"paint{k}", "FLOAT_COLOR", "CORNER")
+        read = nodes.new("ShaderNodeAttribute")
+        read.attribute_name = f"paint{k}"
+        if total is None:
+            total = read.outputs["Color"]
+            continue
+        add = nodes.new("ShaderNodeVectorMath")
+        links.new(total, add.inputs[0])
+        links.new(read.outputs["Color"], add.inputs[1])
+        total = add.outputs["Vector"]
+    links.new(total, nodes["Principled BSDF"].inputs["Base Color"])
+    sphere.data.materials.append(mat)
     _, said = _render(scene, "GPU")
     notes = [text for text in said if text.startswith("Rendered on the CPU")]
-    assert len(notes) == 1 and "transparent" in notes[0], said
+    assert len(notes) == 1 and "attributes" in notes[0], said
 
 
 def test_the_probe_names_why_there_is_no_gpu():

@@ -15,6 +15,7 @@ from bo2_lighting.addon.core.render.passes import EMPTY_DEPTH
 from bo2_lighting.addon.core.render.visibility import sample_offsets
 from bo2_lighting.addon.core.scene import Light, Material, program
 from bo2_lighting.addon.gpu_backend import frame as gpu_frame
+from bo2_lighting.addon.gpu_backend import materials
 
 CASES = {
     "point": dict(lights=["POINT"]),
@@ -245,12 +246,51 @@ def test_node_graph_materials_match_the_cpu(indirect):
 
 
 def test_what_the_gpu_does_not_draw_is_named():
+    """A material reading more corner attributes than the GPU's vertex inputs hold."""
     scene = scenes.objects_scene([scenes.LIGHTS["SUN"]])
+    cube = scene.meshes[1]
+    names = [f"paint{k}" for k in range(materials.MAX_STREAMS + 1)]
+    scene.meshes[1] = dataclasses.replace(cube, attributes={
+        ("attribute", n): np.full((len(cube.positions), 3, 4), 0.1 * k, np.float32)
+        for k, n in enumerate(names)})
     b = program.ProgramBuilder()
-    scene.materials[1] = Material("Glass", b.build(b.add(
-        "bo2", b.const(0.5, 0.5, 0.5), b.const(0.04, 0.04, 0.04), b.const(0.5), None,
-        b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(0.4))))
+    total = b.const(0.0, 0.0, 0.0)
+    for n in names:
+        paint = b.add("swizzle", b.add("attribute", param=(n,)), param=(0, 3))
+        total = b.add("vector_math", total, paint, total, b.const(1.0), param=("ADD",))
+    scene.materials[1] = Material("Painted", b.build(b.add(
+        "bo2", total, b.const(0.04, 0.04, 0.04), b.const(0.5), None, b.const(0.0, 0.0, 0.0),
+        b.const(1.0), b.const(1.0))))
     frame = pipeline.prepare(RenderJob(scene))
-    assert "transparent" in gpu_frame.unsupported(frame)
-    with pytest.raises(gpu_frame.Unsupported, match="transparent"):
+    assert "attributes" in gpu_frame.unsupported(frame)
+    with pytest.raises(gpu_frame.Unsupported, match="attributes"):
         gpu_frame.GPUFrame(frame)
+
+
+def test_dithered_transparency_matches_the_cpu():
+    """Stochastic transparency: a constant alpha on the box, an alpha from an image on the
+    sphere (and its shadow cut out), in front of each other; the layers peeled per sample as
+    the CPU peels them, with the same thresholds."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+
+    scene = scenes.objects_scene(list(scenes.LIGHTS.values()), samples=8)
+    rng = np.random.default_rng(3)
+    holes = core_texture.make_texture(rng.uniform(0, 1, (16, 16, 4)).astype(np.float32),
+                                      srgb=False, interpolation="Closest")
+    b = program.ProgramBuilder()
+    look = b.add("image", b.add("texcoord", param=("Object",)), param=(holes, 0))
+    alpha = b.add("swizzle", look, param=(3, 4))
+    sphere = b.build(b.add("bo2", b.add("swizzle", look, param=(0, 3)),
+                           b.const(0.04, 0.04, 0.04), b.const(0.6), None,
+                           b.const(0.0, 0.0, 0.0), b.const(1.0), alpha))
+    b = program.ProgramBuilder()
+    box = b.build(b.add("principled", b.const(0.2, 0.5, 0.9), b.const(0.0), b.const(0.4),
+                        b.const(1.5), b.const(0.5), b.const(1.0, 1.0, 1.0), b.const(0.0),
+                        b.const(0.0, 0.0, 0.0), b.const(0.0), b.const(0.35), None))
+    scene.materials[1] = Material("box", box, pass_index=3)
+    scene.materials[2] = Material("sphere", sphere)
+    lifted = scene.meshes[1].positions + np.float32([0.0, 0.0, 0.02])  # its bottom and the
+    scene.meshes[1] = dataclasses.replace(scene.meshes[1], positions=lifted)  # ground: no tie
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.fades.any() and gpu_frame.unsupported(frame) is None
+    _check(*_render_both(scene), "dithered transparency")

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 DITHER_LAYERS = 8  # surfaces a sample may see through; the last one is kept whatever its alpha
-_GOLDEN = 0.6180339887498949
+_GOLDEN32 = 0x9E3779B9  # the golden ratio's fraction, 32-bit fixed point
 
 
 def _hash(px, py, layer: int) -> np.ndarray:
@@ -26,9 +26,12 @@ def _hash(px, py, layer: int) -> np.ndarray:
 def dither_thresholds(px, py, sample: int, layer: int) -> np.ndarray:
     """(N,) float64 in [0, 1): per pixel (px, py) a hashed rotation of the golden-ratio
     sequence over the samples (so each pixel's samples are stratified), hashed anew per
-    layer (``_hash``)."""
+    layer (``_hash``). In 32-bit fixed point (the golden ratio as 0x9E3779B9 / 2^32) and
+    rounded to 24 bits, so that a float32 holds it exactly: the GPU's thresholds
+    (``gpu_backend/glsl/dither.glsl``) are the same numbers."""
     h = _hash(px, py, layer)
-    return np.mod(h.astype(np.float64) / 4294967296.0 + sample * _GOLDEN, 1.0)
+    turn = (h + np.uint64(sample) * np.uint64(_GOLDEN32)) & np.uint64(0xFFFFFFFF)
+    return (turn >> np.uint64(8)).astype(np.float64) / 16777216.0
 
 
 def _ign(x, y) -> np.ndarray:

@@ -4,6 +4,9 @@
  * its strength, plus its sun's disc, times the background's opacity, which is the alpha. */
 void main()
 {
+  if (texelFetch(visible, ivec2(gl_FragCoord.xy), 0).g > 0.0) {
+    discard;  /* a surface (or a holdout) is seen */
+  }
   out_key = vec4(0.0);
   vec4 color = frame.world;
 #ifdef WORLD_IMAGE

@@ -2,8 +2,9 @@
  * view-axis distance and the material's pass index. */
 void main()
 {
-  if ((v_flags & 1) != 0 && !gl_FrontFacing) {
-    discard;
+  vec4 nearest = texelFetch(visible, ivec2(gl_FragCoord.xy), 0);
+  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
+    discard;  /* culled, behind, or peeled (the pre-pass's triangle) */
   }
   if ((v_flags & 2) != 0) { /* a holdout: no surface */
     out_central = vec4(1e10, 0.0, 0.0, 0.0);

@@ -7,7 +7,7 @@
 struct Surface {
   vec3 p, n, geo, v;
   vec3 albedo, rf0, emission;
-  float gloss, occlusion;
+  float gloss, occlusion, alpha;
 };
 
 #ifdef MATERIALS
@@ -33,6 +33,7 @@ Surface surface_at(vec3 p, vec3 normal, vec3 geo, int material)
   s.rf0 = b.rgb;
   s.emission = c.rgb;
   s.occlusion = c.a;
+  s.alpha = b.a;
 #ifdef MATERIALS
   material_apply(material, s);
 #endif
