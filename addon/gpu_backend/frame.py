@@ -97,7 +97,6 @@ def unsupported(frame: Frame) -> str | None:
     """What of ``frame`` the GPU does not draw yet (one phrase), or None."""
     scene = frame.scene
     mats = scene.materials
-    s = scene.settings
     if has_indirect(frame):
         why = dome.unsupported(frame) or probes.unsupported(scene.probes)
         if why:

@@ -25,12 +25,12 @@ def _unit(a):
 
 
 def _rotations(n):
-    q = _unit(RNG.normal(size=(n, 4)).astype(np.float64))
-    w, x, y, z = q.T
-    return np.stack([np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], 1),
-                     np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], 1),
-                     np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], 1)],
-                    1)
+    """(n, 3, 3) random rotations (from unit quaternions)."""
+    w, x, y, z = _unit(RNG.normal(size=(n, 4)).astype(np.float64)).T
+    rows = [[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+            [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+            [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]]
+    return np.stack([np.stack(row, 1) for row in rows], 1)
 
 
 class Field:
