@@ -3,6 +3,7 @@ Combined off by more than 4/255 after the view transform (outside edges), and pi
 
 Usage: .venv52/bin/python tools/compare_gpu.py [--scenes room,first_light,...] [--scale 0.5]
                                                [--assets A.glb B.blend ...] [--out out/gpu]
+                                               [--sheet PNG]
 
 Needs a ``bpy`` whose ``gpu`` module opens a context in background mode (Blender 5.2 LTS).
 Each scene is extracted as F12 extracts it, prepared once, and rendered by
@@ -10,6 +11,7 @@ Each scene is extracted as F12 extracts it, prepared once, and rendered by
 ``<out>/<scene>.png`` shows CPU | GPU | the difference x 10 (sRGB). ``--assets``: glTF files
 (imported with Blender's importer) or .blend files without a camera, each staged as
 ``tools/make_asset_images.py`` stages it (one sun, a framing camera) at 320x240.
+``--sheet``: every picture also in one PNG, one row per scene.
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ def main() -> int:
     parser.add_argument("--scale", type=float, default=0.5)
     parser.add_argument("--assets", nargs="*", type=Path, default=[])
     parser.add_argument("--out", type=Path, default=ROOT / "out" / "gpu")
+    parser.add_argument("--sheet", type=Path)
     args = parser.parse_args()
 
     import bpy
@@ -62,6 +65,7 @@ def main() -> int:
 
     jobs = [(name, ROOT / "demo_blends" / f"{name}.blend")
             for name in args.scenes.split(",") if name]
+    sheet = []
     for name, path in jobs + [(p.stem, p) for p in args.assets]:
         if path.suffix == ".blend":
             bpy.ops.wm.open_mainfile(filepath=str(path), load_ui=False)
@@ -97,6 +101,11 @@ def main() -> int:
         b = compare.srgb(gpu_passes["Combined"][..., :3])
         picture = np.concatenate([a, b, np.clip(10 * np.abs(a - b), 0, 1)], axis=1)
         imaging.write_png(args.out / f"{name}.png", picture)
+        sheet.append(picture)
+    if args.sheet and sheet:
+        width = max(p.shape[1] for p in sheet)
+        imaging.write_png(args.sheet, np.concatenate(
+            [np.pad(p, ((0, 0), (0, width - p.shape[1]), (0, 0))) for p in sheet]))
     return 0
 
 

@@ -127,6 +127,7 @@ class MaterialCode:
     streams: int
     images: int
     key: str
+    constants: np.ndarray  # (K, 4) the rows of mat_const
 
 
 def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
@@ -151,6 +152,7 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
     derivatives = "".join(f"  mp_a{k} = v_a{k};\n  mp_da{k}[0] = dFdx(v_a{k});\n"
                           f"  mp_da{k}[1] = dFdy(v_a{k});\n" for k in range(len(keys)))
     cases = "".join(f"    case {k}: m = material_{k}(p); break;\n" for k, _ in varying)
+    constants = materials.Constants()
     code = "\n".join([
         materials.attribute_globals(len(keys)),
         "void material_derivatives()", "{",
@@ -159,7 +161,7 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
         "  mp_dpos[0] = dFdx(v_position);", "  mp_dpos[1] = dFdy(v_position);",
         "  mp_uv0 = v_uv;", "  mp_duv[0] = dFdx(v_uv);", "  mp_duv[1] = dFdy(v_uv);",
         derivatives + "}", "",
-        *(materials.surface_function(program, f"material_{k}", numbers, streams)
+        *(materials.surface_function(program, f"material_{k}", numbers, streams, constants)
           for k, program in varying),
         "void material_apply(int material, inout Surface s)", "{",
         "  MatPoint p = mp_point(s.p, s.n, s.geo, s.v);", "  MatSurface m;",
@@ -167,8 +169,8 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
         "  s.albedo = m.albedo;", "  s.rf0 = m.rf0;", "  s.emission = m.emission;",
         "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;",
         "  s.alpha = m.alpha;", "}", ""])
-    return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest()),
-            keys, texs)
+    return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest(),
+                         constants.array()), keys, texs)
 
 
 def _with_materials(program: programs.Program, mat: MaterialCode | None) -> programs.Program:
@@ -186,7 +188,8 @@ def _with_materials(program: programs.Program, mat: MaterialCode | None) -> prog
                                    else ()),
         blocks=program.blocks + (("ImageData", f"images[{max(1, mat.images)}]"),),
         samplers=program.samplers + (("FLOAT_2D", "mat_texels"), ("FLOAT_2D", "mat_floats"),
-                                     ("FLOAT_2D", "srgb_table"), ("FLOAT_2D", "objects")),
+                                     ("FLOAT_2D", "srgb_table"), ("FLOAT_2D", "objects"),
+                                     ("FLOAT_2D", "mat_consts")),
         inputs=program.inputs + (("INT", "inst"),) + tuple(("VEC4", f"a{k}")
                                                           for k in range(mat.streams)),
         varyings=program.varyings + (("INT", "v_object", "flat"),) + tuple(
@@ -407,7 +410,8 @@ class GPUFrame:
                 gpu.types.GPUUniformBuf(images.IMAGE.pack(records)),
                 (("mat_texels", codes), ("mat_floats", floats),
                  ("srgb_table", images.srgb_table()),
-                 ("objects", textures.rows(rows.reshape(-1, 4)))))
+                 ("objects", textures.rows(rows.reshape(-1, 4))),
+                 ("mat_consts", textures.rows(self.mat.constants))))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
         corner_fmt = gpu.types.GPUVertFormat()

@@ -7,12 +7,16 @@ the screen derivatives of an image's vector (its mip level), and ``filter width`
 Bump's height ("bx<k>", "by<k>"). As on the CPU (``core.scene.material``), an image read at a
 moved point keeps the level found at the shaded one, and a Bump there gives its normal input.
 
+The values a program holds (its constants, ramp and curve tables) are data, not code: rows
+of ``mat_const(k)`` (``Constants``), so that a value changed in a material keeps its shader
+(only a changed graph compiles anew).
+
 What the generated code calls besides ``nodes.glsl`` is given by its environment (the frame,
 ``glsl/material_frame.glsl``; the tests): ``mp_moved(p, axis, step)``, ``mp_object(p, k)``
 (row k of the object's world_to_object, then its texture space's start and size),
-``mp_image(t, uv, lod)`` and ``mp_camera(position)``; the active UV map and the corner
-attributes by their value at the point and their change along the two axes whose mix
-``MatPoint.shift`` holds (``MP_ATTRIBUTES``).
+``mp_image(t, uv, lod)``, ``mp_camera(position)`` and ``mat_const(k)``; the active UV map and
+the corner attributes by their value at the point and their change along the two axes whose
+mix ``MatPoint.shift`` holds (``attribute_globals``).
 """
 
 from __future__ import annotations
@@ -81,9 +85,23 @@ def glsl_float(v: float) -> str:
     return text if any(c in text for c in ".en") else text + ".0"
 
 
-def _vec4(values) -> str:
-    vals = [glsl_float(v) for v in values] + ["0.0"] * (4 - len(values))
-    return f"vec4({', '.join(vals[:4])})"
+class Constants:
+    """The rows (vec4) the programs' ``mat_const(k)`` read, gathered while emitting."""
+
+    def __init__(self) -> None:
+        self.rows: list[np.ndarray] = []
+
+    def add(self, values) -> int:
+        """Append ``values`` (up to 4, the rest 0) as a row; its number."""
+        row = np.zeros(4, np.float32)
+        v = np.asarray(values, np.float32).reshape(-1)[:4]
+        row[:len(v)] = v
+        self.rows.append(row)
+        return len(self.rows) - 1
+
+    def array(self) -> np.ndarray:
+        """(K, 4) float32, at least one row."""
+        return np.array(self.rows or [np.zeros(4, np.float32)], np.float32)
 
 
 def widths(program: Program) -> list[int]:
@@ -114,9 +132,9 @@ class _Emitter:
     """Emits one program's GLSL (module docstring)."""
 
     def __init__(self, program: Program, name: str, images: dict[int, int],
-                 streams_: dict[tuple, int]):
+                 streams_: dict[tuple, int], constants: Constants):
         self.program, self.name = program, name
-        self.images, self.streams = images, streams_
+        self.images, self.streams, self.constants = images, streams_, constants
         self.widths = widths(program)
         self.helpers: list[str] = []
         self.lines: list[str] = []
@@ -211,17 +229,17 @@ class _Emitter:
             tex = op.param[0]
             vec = [f"r{op.args[0]}_{c}" for c in ("c", "x", "y")] if op.args else [
                 f"vec4(mp_uv(p_{c}), 0.0)" for c in ("c", "x", "y")]
-            w, h = tex.size
+            size = f"images[{self.images[id(tex)]}].levels[0]"
             self.lines.append(
                 f"  float lod{reg} = n_footprint_lod(({vec[1]} - {vec[0]}).xy, "
-                f"({vec[2]} - {vec[0]}).xy, {glsl_float(w)}, {glsl_float(h)});")
+                f"({vec[2]} - {vec[0]}).xy, float({size}.z), float({size}.y));")
         expr = self.value(op, a, p, reg, ctx)
         self.lines.append(f"  vec4 {target} = {expr};")
 
     def value(self, op, a, p, reg, ctx) -> str:  # noqa: C901 - one case per operation
         kind, param = op.kind, op.param
         if kind == "const":
-            return _vec4(param)
+            return f"mat_const({self.constants.add(param)})"
         if kind == "uv":
             read = (f"mp_uv({p})" if param[0] == "" else
                     self.stream(("uv", param[0]), p) or "vec4(0.0)")
@@ -288,8 +306,8 @@ class _Emitter:
         if kind in ("curves", "float_curve"):
             table, lo, hi, extrapolate = param
             table = np.asarray(table, np.float32).reshape(len(table), -1)
-            span = glsl_float(hi - lo if hi != lo else 1.0)
-            rel = f"(({a[1]} - {glsl_float(lo)}) / {span})"
+            span = self.constants.add([lo, hi - lo if hi != lo else 1.0])
+            rel = f"(({a[1]} - mat_const({span}).x) / mat_const({span}).y)"
             parts = [f"{self.ramp((reg, k), table[:, k:k + 1], True, extrapolate)}"
                      f"({rel}.{'xyz'[k]}).x" for k in range(table.shape[1])]
             out = f"vec4({', '.join(parts)}{', 0.0' * (4 - len(parts))})"
@@ -336,8 +354,7 @@ class _Emitter:
 
         if kind in ("principled", "bo2"):
             alpha_reg = op.args[NODES[kind].index("alpha")]
-            alpha = self.program.ops[alpha_reg]
-            opaque = "true" if alpha.kind == "const" and alpha.param[0] >= 1.0 else "false"
+            opaque = "false"  # (an alpha of 1 mixes nothing in: the same numbers)
             if kind == "principled":
                 has, n = normal(10)
                 c = (f"n_principled({a[0]}.xyz, {a[1]}.x, {a[2]}.x, {a[3]}.x, {a[4]}.x, "
@@ -376,20 +393,25 @@ class _Emitter:
         tag = "_".join(str(k) for k in (key if isinstance(key, tuple) else (key,)))
         name = f"ramp_{self.name}_{tag}"
         size = len(table)
-        rows = ", ".join(_vec4(row) for row in table)
+        first = len(self.constants.rows)
+        for row in table:
+            self.constants.add(row)
+
+        def row(i: str) -> str:
+            return f"mat_const({first} + {i})"
+
         lines = [f"vec4 {name}(float f)", "{",
-                 f"  const vec4 table[{size}] = vec4[{size}]({rows});",
                  f"  vec2 at = n_ramp_at(f, {size});",
                  "  int i = int(at.x);",
-                 "  vec4 out_ = table[i];"]
+                 f"  vec4 out_ = {row('i')};"]
         if interpolate:
             lines.append(f"  if (at.y > 0.0) {{ out_ = (1.0 - at.y) * out_ + at.y * "
-                         f"table[min(i + 1, {size - 1})]; }}")
+                         f"{row(f'min(i + 1, {size - 1})')}; }}")
         if extrapolate and size > 1:
-            lines.append(f"  if (f < 0.0) {{ out_ = table[0] + (table[0] - table[1]) * (-f) * "
-                         f"{float(size - 1)}; }}")
-            lines.append(f"  if (f > 1.0) {{ out_ = table[{size - 1}] + (table[{size - 1}] - "
-                         f"table[{size - 2}]) * (f - 1.0) * {float(size - 1)}; }}")
+            lines.append(f"  if (f < 0.0) {{ out_ = {row('0')} + ({row('0')} - {row('1')}) * "
+                         f"(-f) * {float(size - 1)}; }}")
+            lines.append(f"  if (f > 1.0) {{ out_ = {row(str(size - 1))} + ({row(str(size - 1))}"
+                         f" - {row(str(size - 2))}) * (f - 1.0) * {float(size - 1)}; }}")
         lines += ["  return out_;", "}", ""]
         self.helpers.append("\n".join(lines))
         return name
@@ -403,11 +425,12 @@ class _Emitter:
 
 
 def surface_function(program: Program, name: str, images: dict[int, int],
-                     streams_: dict[tuple, int]) -> str:
+                     streams_: dict[tuple, int], constants: Constants) -> str:
     """GLSL of ``MatSurface name(MatPoint p_c)``: the talk's parameters of ``program`` at a
     point (``core.scene.material.evaluate``). images: id of a ``Texture`` -> its number in
-    ``images[]``; streams_: a corner attribute's key -> its number (``mp_a<k>``)."""
-    e = _Emitter(program, name, images, streams_)
+    ``images[]``; streams_: a corner attribute's key -> its number (``mp_a<k>``); constants:
+    where its values go."""
+    e = _Emitter(program, name, images, streams_, constants)
     roots = [program.surface] + ([program.occlusion] if program.occlusion is not None else [])
     e.body(roots)
     occlusion = ("1.0" if program.occlusion is None else
@@ -422,10 +445,10 @@ def surface_function(program: Program, name: str, images: dict[int, int],
 
 
 def value_function(program: Program, regs: list[int], name: str, images: dict[int, int],
-                   streams_: dict[tuple, int]) -> str:
+                   streams_: dict[tuple, int], constants: Constants) -> str:
     """GLSL of ``vec4 name(MatPoint p_c, int which)``: register ``regs[which]``'s value at a
     point (how the tests read single operations)."""
-    e = _Emitter(program, name, images, streams_)
+    e = _Emitter(program, name, images, streams_, constants)
     e.body(list(regs))
     cases = [f"    case {k}: return {e.v(r, 'c')};" for k, r in enumerate(regs)]
     return "\n".join(e.helpers + [f"vec4 {name}(MatPoint p_c, int which)", "{", *e.lines,

@@ -10,7 +10,7 @@ from bo2_lighting.addon.core.formulas import texture as core_texture
 from bo2_lighting.addon.core.scene import material
 from bo2_lighting.addon.core.scene import node_math as nm
 from bo2_lighting.addon.core.scene.program import ProgramBuilder
-from bo2_lighting.addon.gpu_backend import images, materials, pointwise
+from bo2_lighting.addon.gpu_backend import images, materials, pointwise, textures
 
 RNG = np.random.default_rng(11)
 N = 400  # points per case
@@ -120,6 +120,11 @@ MatPoint mp_moved(MatPoint p, int axis, float step)
 }
 vec4 mp_object(MatPoint p, int k) { return mp_rows[k]; }
 vec3 mp_camera(vec3 q) { return (W2C * vec4(q, 1.0)).xyz; }
+vec4 mat_const(int k)
+{
+  int w = textureSize(mat_consts, 0).x;
+  return texelFetch(mat_consts, ivec2(k % w, k / w), 0);
+}
 """
 IMAGE_ENVIRONMENT = """
 vec4 mp_image(int t, vec2 uv, float lod, int associate)
@@ -152,8 +157,9 @@ def _run(program, regs, field: Field, texture=None, surface=False) -> np.ndarray
     (5, N, 4): albedo, rf0, emission, (gloss, alpha, occlusion) and the normal)."""
     streams = {key: k for k, key in enumerate(STREAMS)}
     tex_images = {id(texture): 0} if texture is not None else {}
+    constants = materials.Constants()
     if surface:
-        code = materials.surface_function(program, "mat", tex_images, streams)
+        code = materials.surface_function(program, "mat", tex_images, streams, constants)
         call = """MatSurface s = mat(p);
           int which = index / N_POINTS;
           res = which == 0 ? vec4(s.albedo, 0.0) : which == 1 ? vec4(s.rf0, 0.0) :
@@ -161,18 +167,20 @@ def _run(program, regs, field: Field, texture=None, surface=False) -> np.ndarray
                 which == 3 ? vec4(s.gloss, s.alpha, s.occlusion, 0.0) : vec4(s.normal, 0.0);"""
         repeat = 5
     else:
-        code = materials.value_function(program, list(regs), "value", tex_images, streams)
+        code = materials.value_function(program, list(regs), "value", tex_images, streams,
+                                        constants)
         call = "res = value(p, index / N_POINTS);"
         repeat = len(regs)
     functions = (_w2c() + materials.attribute_globals(len(STREAMS)) + ENVIRONMENT
                  + (IMAGE_ENVIRONMENT if texture is not None else "") + code)
-    extra = {}
+    extra = {"samplers": (("FLOAT_2D", "mat_consts", textures.rows(constants.array())),)}
     if texture is not None:
         record, texels = images.upload(texture)
         extra = {"structs": (images.IMAGE,),
                  "blocks": (("ImageData", "images[1]", images.IMAGE.pack([record])),),
-                 "samplers": (("FLOAT_2D", "img_texels", texels),
-                              ("FLOAT_2D", "srgb_table", images.srgb_table()))}
+                 "samplers": extra["samplers"] + (
+                     ("FLOAT_2D", "img_texels", texels),
+                     ("FLOAT_2D", "srgb_table", images.srgb_table()))}
     out = pointwise.run(("texture", "nodes") if texture is not None else ("nodes",),
                         SETUP + call, field.inputs(repeat), ("res",), functions=functions,
                         defines={"N_POINTS": field.n}, **extra)["res"]
@@ -452,3 +460,26 @@ def test_closures_resolve_to_the_talks_parameters(kind):
                             ("gloss", gpu[3, :, 0], cpu.gloss), ("alpha", gpu[3, :, 1], cpu.alpha),
                             ("normal", gpu[4, :, :3], normal)):
         assert np.abs(got - want).max() <= 2e-4 * max(1.0, np.abs(want).max()), name
+
+
+def test_a_changed_value_keeps_the_shader():
+    """Two materials that differ in their values alone (a colour, a ramp's table, a curve's
+    range) give the same GLSL: a tweak in the viewport compiles nothing."""
+    def build(color, table, lo):
+        b = ProgramBuilder()
+        f = b.add("swizzle", b.add("attribute", param=("s0",)), param=(0, 1))
+        ramp = b.add("ramp", f, param=(np.asarray(table, np.float32), True))
+        curve = b.add("float_curve", f, f, param=(np.float32([[0.0], [1.0]]), lo, 1.0, False))
+        surface = b.add("bo2", b.add("swizzle", ramp, param=(0, 3)), b.const(*color), curve,
+                        None, b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(1.0))
+        return b.build(surface)
+
+    codes, rows = [], []
+    for color, table, lo in (((0.04,) * 3, [[0, 0, 0, 1], [1, 1, 1, 1]], 0.0),
+                             ((0.5, 0.2, 0.1), [[1, 0, 0, 1], [0, 0, 1, 1]], 0.25)):
+        constants = materials.Constants()
+        codes.append(materials.surface_function(build(color, table, lo), "m", {}, {},
+                                                constants))
+        rows.append(constants.array())
+    assert codes[0] == codes[1]
+    assert not np.array_equal(rows[0], rows[1])

@@ -31,6 +31,12 @@ vec4 mp_object(MatPoint p, int k)
   return texel_at(objects, textureSize(objects, 0).x, 5 * p.object + k);
 }
 
+vec4 mat_const(int k)
+{
+  int w = textureSize(mat_consts, 0).x;
+  return texelFetch(mat_consts, ivec2(k % w, k / w), 0);
+}
+
 vec3 mp_camera(vec3 position)
 {
   return (frame.world_to_camera * vec4(position, 1.0)).xyz;

@@ -27,6 +27,7 @@ MatPoint mp_moved(MatPoint p, int axis, float step);
 vec4 mp_object(MatPoint p, int k);
 vec3 mp_camera(vec3 position);
 vec4 mp_image(int t, vec2 uv, float lod, int associate);
+vec4 mat_const(int k);  /* row k of the programs' values (materials.Constants) */
 
 /* The active UV map at a point: its value and change per axis, set by the environment */
 vec3 mp_uv0;
