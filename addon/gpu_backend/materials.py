@@ -353,7 +353,6 @@ class _Emitter:
             return ("true" if has else "false"), (self.normal(op, k, ctx) if has else zero)
 
         if kind in ("principled", "bo2"):
-            alpha_reg = op.args[NODES[kind].index("alpha")]
             opaque = "false"  # (an alpha of 1 mixes nothing in: the same numbers)
             if kind == "principled":
                 has, n = normal(10)
