@@ -57,7 +57,8 @@ MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
 # (``core.render.passes.PASSES`` names), and the groups drawn at once (a framebuffer holds
 # six targets: the key and five)
 TARGETS = ("combined", "diffuse", "specular", "diff_ind", "gloss_ind", "emit", "surface",
-           "normal", "position", "uv", "rf0", "ao", "lightmap", "texels")
+           "normal", "position", "uv", "rf0", "ao", "lightmap", "texels", "reflections",
+           "volumes")
 PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0, 3)),
            "GlossDir": ("specular", slice(0, 3)), "DiffInd": ("diff_ind", slice(0, 3)),
            "GlossInd": ("gloss_ind", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
@@ -72,8 +73,10 @@ CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
           ("emit", "surface", "normal", "position", "uv"),
           ("rf0", "ao", "lightmap", "texels"))
-# the targets that need the lights or the indirect light (the others: the surface alone)
-LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind", "ao", "lightmap", "texels"}
+# the targets that need the lights or the indirect light (the others: the surface alone);
+# the probes' influence views ("reflections", "volumes") are no pass: the viewport's alone
+LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind", "ao", "lightmap", "texels",
+       "reflections", "volumes"}
 DOME_TEXTURES = ("dome_grid", "dome_points", "dome_normals")  # dome_grid_frag's outputs
 
 
@@ -114,7 +117,9 @@ def _writes(names: tuple[str, ...]) -> dict:
     stores = " ".join(f"out_{name} = v_{name};" for name in names)
     compose = " ".join(f"out_{name} = texelFetch(rest_{name}, pixel, 0) + weight * "
                        f"texelFetch(first_{name}, pixel, 0);" for name in names)
-    return {f"WRITE_TARGETS({args})": stores, "COMPOSE_TARGETS": compose}
+    return {f"WRITE_TARGETS({args})": stores, "COMPOSE_TARGETS": compose,
+            "WRITE_ZEROS": " ".join(f"out_{name} = vec4(0.0);" for name in names),
+            "WRITE_COMBINED(c)": "out_combined = c;" if "combined" in names else ""}
 
 
 @dataclass

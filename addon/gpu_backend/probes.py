@@ -57,14 +57,20 @@ def defines() -> dict:
 
 
 def prelude() -> str:
-    """The cube faces' axes (``cubemap.FACES``) as GLSL constants."""
+    """The cube faces' axes (``cubemap.FACES``) and the influence views' colours
+    (``core.render.viewport.PALETTE``, ``WORLD_GREY``) as GLSL constants."""
+    from ..core.render.viewport import PALETTE, WORLD_GREY
+
     faces = np.asarray(cubemap.FACES, np.float64)
 
-    def table(name, rows):
-        items = ", ".join(f"vec3({a:.1f}, {b:.1f}, {c:.1f})" for a, b, c in rows)
-        return f"const vec3 {name}[6] = vec3[6]({items});\n"
+    def table(name, rows, digits=1):
+        items = ", ".join(f"vec3({a:.{digits}f}, {b:.{digits}f}, {c:.{digits}f})"
+                          for a, b, c in rows)
+        return f"const vec3 {name}[{len(rows)}] = vec3[{len(rows)}]({items});\n"
 
-    return table("CUBE_U", faces[:, 1]) + table("CUBE_V", faces[:, 2])
+    return (table("CUBE_U", faces[:, 1]) + table("CUBE_V", faces[:, 2])
+            + table("PALETTE", np.asarray(PALETTE, np.float64), 9)
+            + f"const float WORLD_GREY = {float(WORLD_GREY):.9f};\n")
 
 
 @dataclass

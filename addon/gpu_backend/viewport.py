@@ -18,7 +18,8 @@ VIEWS = {"COMBINED": ("combined", 0), "ALBEDO": ("surface", 3), "GLOSS": ("surfa
          "GLOSSY_DIRECT": ("specular", 3), "DIFFUSE_INDIRECT": ("diff_ind", 3),
          "GLOSSY_INDIRECT": ("gloss_ind", 3), "SPECULAR_COLOR": ("rf0", 3),
          "AMBIENT_OCCLUSION": ("ao", 3), "LIGHTMAP": ("lightmap", 3),
-         "LIGHTMAP_TEXELS": ("texels", 3)}
+         "LIGHTMAP_TEXELS": ("texels", 3), "REFLECTION_PROBES": ("reflections", 3),
+         "IRRADIANCE_VOLUMES": ("volumes", 3)}
 
 
 def _resolve_program(mode: int) -> programs.Program:

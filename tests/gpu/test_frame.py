@@ -294,3 +294,31 @@ def test_dithered_transparency_matches_the_cpu():
     frame = pipeline.prepare(RenderJob(scene))
     assert frame.fades.any() and gpu_frame.unsupported(frame) is None
     _check(*_render_both(scene), "dithered transparency")
+
+
+def test_every_look_dev_view_matches_the_cpu():
+    """The viewport's look-dev views drawn on the GPU (``gpu_backend.viewport``) against
+    ``viewport.view_pixels`` of the CPU's passes, the probes' influence views among them:
+    at least 40 dB outside edge pixels (where the CPU colours the averaged position)."""
+    from bo2_lighting.addon.core.render import viewport as cpu_viewport
+    from bo2_lighting.addon.gpu_backend import textures
+    from bo2_lighting.addon.gpu_backend import viewport as gpu_viewport
+
+    scene = scenes.with_probes(scenes.objects_scene(list(scenes.LIGHTS.values()), width=240,
+                                                    height=136, samples=2))
+    samples = scene.settings.samples
+    cpu = pipeline.render_frame(RenderJob(scene))
+    frame = pipeline.prepare(RenderJob(scene))
+    edge = compare.edges(cpu["Depth"][..., 0], cpu["Normal"])
+    drawing = gpu_viewport.ViewportDrawing()
+    assert set(gpu_viewport.VIEWS) == set(cpu_viewport.VIEWS)
+    report = {}
+    for view in gpu_viewport.VIEWS:
+        for _ in range(samples):
+            texture = drawing.draw(frame, scene.camera, view, samples)
+        gpu = textures.read(texture)[::-1]
+        want = cpu_viewport.view_pixels(cpu, view, scene)
+        value = compare.psnr(gpu[~edge][..., :3], want[~edge][..., :3])
+        report[view] = round(float(value), 1)
+    print(f"look-dev views, GPU vs CPU: {report}")
+    assert min(report.values()) >= 40.0, report

@@ -27,6 +27,6 @@ void main()
   }
   color = vec4(radiance * world.params.y, world.params.y);
 #endif
-  WRITE_TARGETS(color, vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
-                vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
+  WRITE_ZEROS
+  WRITE_COMBINED(color)
 }

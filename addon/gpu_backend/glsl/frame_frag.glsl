@@ -21,9 +21,7 @@ void main()
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   out_key = vec4(0.0);
   if ((v_flags & 2) != 0) { /* a holdout: nothing, alpha 0, and no sample reuses it */
-    WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
-                  vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
-                  vec4(0.0), vec4(0.0));
+    WRITE_ZEROS
     return;
   }
   if (mode == MODE_FIRST) {
@@ -35,9 +33,7 @@ void main()
     vec4 first = texelFetch(first_key, pixel, 0);
     if (first.g > 0.0 && int(first.r) * 4096 + int(first.g) - 1 == v_tri) {
       out_key = vec4(first_batch ? 1.0 : 0.0, 0.0, 0.0, 0.0);
-      WRITE_TARGETS(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
-                    vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0),
-                    vec4(0.0), vec4(0.0));
+      WRITE_ZEROS
       return;
     }
   }
@@ -109,6 +105,11 @@ void main()
   }
 #endif
   vec3 emit = first_batch ? s.emission : vec3(0.0);
+  vec3 reflections_view = vec3(0.2), volumes_view = vec3(0.2);  /* no probes: the world's */
+#ifdef INDIRECT
+  reflections_view = influence_colour(0, s.p);
+  volumes_view = influence_colour(1, s.p);
+#endif
   WRITE_TARGETS(vec4((((diffuse + specular) + diff_ind) + gloss_ind) + emit,
                      first_batch ? 1.0 : 0.0),
                 vec4(diffuse, 0.0), vec4(specular, 0.0), vec4(diff_ind, 0.0),
@@ -117,5 +118,7 @@ void main()
                 first_batch ? vec4(s.n, 1.0) : vec4(0.0),
                 first_batch ? vec4(s.p, 0.0) : vec4(0.0), first_batch ? vec4(v_uv, 0.0) : vec4(0.0),
                 first_batch ? vec4(s.rf0, 0.0) : vec4(0.0), vec4(first_batch ? ao_out : 0.0),
-                vec4(lightmap_e, 0.0), vec4(texels, 0.0));
+                vec4(lightmap_e, 0.0), vec4(texels, 0.0),
+                first_batch ? vec4(reflections_view, 0.0) : vec4(0.0),
+                first_batch ? vec4(volumes_view, 0.0) : vec4(0.0));
 }

@@ -411,3 +411,29 @@ void indirect_light(vec3 p, vec3 n, vec3 v, vec3 albedo, vec3 rf0, float gloss, 
   }
   specular = acc * env_brdf(gloss, n_dot_v, rf0);
 }
+
+/* The influence views (core/render/viewport.probe_influence): each reflection probe's (kind 0)
+ * or irradiance volume's (1) colour by its weight at p, the world's grey where they leave
+ * weight. */
+vec3 influence_colour(int kind, vec3 p)
+{
+  int count = kind == 0 ? indirect.counts.x : indirect.counts.y;
+  vec3 colour = vec3(0.0);
+  float total = 0.0;
+  for (int k = 0; k < count; k++) {
+    float w;
+    if (kind == 0) {
+      w = clamp((reflections[k].radius - length(p - reflections[k].position)) /
+                reflections[k].fade, 0.0, 1.0);
+    }
+    else {
+      w = volume_weight(k, p);
+    }
+    colour += w * PALETTE[k % PALETTE.length()];
+    total += w;
+  }
+  if (total > 1.0) {
+    colour /= total;
+  }
+  return colour + max(1.0 - total, 0.0) * WORLD_GREY;
+}
