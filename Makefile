@@ -44,8 +44,14 @@ test: venv venv45 build lint
 	$(VENV45)/bin/pytest tests/blender
 	@$(MAKE) --no-print-directory test52
 
-# The core and Blender tests on 5.2 LTS (Python 3.13, numpy 2.3), and the GPU backend's (the
-# only bpy whose gpu module opens a context in background mode; required where EGL is found).
+# The Blender tests on 5.2 LTS (Python 3.13, numpy 2.3), the GPU backend's (the only bpy
+# whose gpu module opens a context in background mode; required where EGL is found), and the
+# share of tests/core that depends on the Python: the kernels, compiled by Python 3.13's
+# numba, and the GPU backend's own (the rest is pure Python, run in the 5.0 leg).
+CORE52 = tests/core/test_kernels.py tests/core/test_kernels_indirect.py \
+         tests/core/test_kernels_shading.py tests/core/test_kernels_textures.py \
+         tests/core/test_gpu_backend_imports.py tests/core/test_gpu_probe_cache.py
+
 test52:
 	@ok() { [ -n "$$1" ] && "$$1" -c 'import ssl, sys; assert sys.version_info[:2] == (3, 13)' >/dev/null 2>&1; }; \
 	py="$(PY313)"; \
@@ -54,7 +60,7 @@ test52:
 	if ok "$$py"; then \
 	  egl=$$( (ldconfig -p || /sbin/ldconfig -p) 2>/dev/null | grep -q 'libEGL.so.1 ' && echo 1); \
 	  $(MAKE) --no-print-directory venv52 PY313="$$py" && \
-	  BO2_REQUIRE_GPU=$$egl $(VENV52)/bin/pytest tests/core tests/blender tests/gpu; \
+	  BO2_REQUIRE_GPU=$$egl $(VENV52)/bin/pytest $(CORE52) tests/blender tests/gpu; \
 	else \
 	  echo "make test: skipped the Blender 5.2 LTS tests: no working Python 3.13 (PY313, python3.13 on PATH, $(PY313_SCRIPT))"; \
 	fi

@@ -149,7 +149,8 @@ def loaded() -> bool:
 
 def load(notify=None) -> None:
     """Check numba (``check``) and import every kernel module, compiling what the cache does not
-    hold; ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while (here, or in
+    hold (the modules side by side, one child process per core: ``_compile_apart``);
+    ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while (here, or in
     ``prepare``'s worker, which this waits for). Cheap once loaded."""
     check()
     if loaded():
@@ -162,8 +163,11 @@ def load(notify=None) -> None:
         worker.join(0.05)
     if loaded():
         return
-    if notify is not None and not is_cached():
+    missing = [m for m in MODULES if not _cached(m)]
+    if notify is not None and missing:
         notify(FIRST_RUN_MESSAGE)
+    if len(missing) > 1:  # side by side in child processes, then imported from the cache
+        _compile_apart(missing, _cores())
     for module in MODULES:
         importlib.import_module(f"{__name__}.{module}")
 
