@@ -5,6 +5,7 @@ environment, and the Device setting's choice."""
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -92,10 +93,11 @@ _probed: dict[tuple, Device] = {}
 
 # What decides whether a context can be had besides the binary: the display, the GL/EGL
 # loader's search and Mesa's choices.
-ENVIRONMENT = ("DISPLAY", "WAYLAND_DISPLAY", "XDG_SESSION_TYPE", "LD_LIBRARY_PATH",
-               "__EGL_VENDOR_LIBRARY_FILENAMES", "__GLX_VENDOR_LIBRARY_NAME", "EGL_PLATFORM",
-               "LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER", "MESA_LOADER_DRIVER_OVERRIDE",
-               "CUDA_VISIBLE_DEVICES", "VK_ICD_FILENAMES")
+ENVIRONMENT = ("DISPLAY", "WAYLAND_DISPLAY", "XDG_SESSION_TYPE", "XDG_RUNTIME_DIR",
+               "LD_LIBRARY_PATH", "__EGL_VENDOR_LIBRARY_FILENAMES", "__GLX_VENDOR_LIBRARY_NAME",
+               "EGL_PLATFORM", "LIBGL_ALWAYS_SOFTWARE", "GALLIUM_DRIVER",
+               "MESA_LOADER_DRIVER_OVERRIDE", "DRI_PRIME", "__NV_PRIME_RENDER_OFFLOAD",
+               "CUDA_VISIBLE_DEVICES", "VK_ICD_FILENAMES", "VK_DRIVER_FILES")
 # An answer on disk is trusted this long (s): a driver installed or removed is seen next day.
 MAX_AGE = 24 * 3600.0
 
@@ -104,16 +106,27 @@ def probe(command: list[str], cache_file: str | os.PathLike | None = None,
           timeout: float = 120.0) -> Device:
     """Run ``command`` (``probe_command``) once per session and read what it printed; with
     ``cache_file`` (JSON), an answer of the last ``MAX_AGE`` seconds for the same host,
-    command, binary and ``ENVIRONMENT`` is read from there instead (the child costs 1-2 s)."""
+    command, binary and ``ENVIRONMENT`` is read from there instead (the child costs 1-2 s).
+    A child that could not run or did not end in time is asked again next session, and a
+    kept "yes" is not trusted when the X display it was given is gone."""
     key = tuple(command)
     if key not in _probed:
         found = _recall(cache_file, _cache_key(command)) if cache_file else None
         if found is None:
-            found = _run(command, timeout)
-            if cache_file:
+            found, answered = _run(command, timeout)
+            if cache_file and answered:
                 _remember(cache_file, _cache_key(command), found)
         _probed[key] = found
     return _probed[key]
+
+
+def _display_gone() -> bool:
+    """Whether ``DISPLAY`` names a local X server whose socket is not there."""
+    display = os.environ.get("DISPLAY", "")
+    if not display.startswith(":"):
+        return False
+    number = display[1:].split(".")[0]
+    return number.isdigit() and not Path(f"/tmp/.X11-unix/X{number}").exists()
 
 
 def _cache_key(command: list[str]) -> str:
@@ -137,10 +150,18 @@ def _recall(cache_file, key: str) -> Device | None:
     try:
         entry = json.loads(Path(cache_file).read_text()).get(key)
         if entry and 0 <= time.time() - float(entry["time"]) < MAX_AGE:
-            return Device(**entry["device"])
+            found = Device(**entry["device"])
+            return None if found.ok and _display_gone() else found
     except (OSError, ValueError, TypeError, KeyError, AttributeError):
         pass  # no answer yet, or an unreadable file: ask the child
     return None
+
+
+def _fresh(entry, now: float) -> bool:
+    try:
+        return now - float(entry["time"]) < MAX_AGE
+    except (TypeError, ValueError, KeyError):
+        return False
 
 
 def _remember(cache_file, key: str, found: Device) -> None:
@@ -154,35 +175,42 @@ def _remember(cache_file, key: str, found: Device) -> None:
     except (OSError, ValueError):
         entries = {}
     now = time.time()
-    entries = {k: v for k, v in entries.items()
-               if isinstance(v, dict) and now - float(v.get("time", 0)) < MAX_AGE}
+    entries = {k: v for k, v in entries.items() if _fresh(v, now)}
     entries[key] = {"time": now, "device": asdict(found)}
+    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
         with os.fdopen(fd, "w") as fh:
             json.dump(entries, fh)
         os.replace(tmp, path)
+        tmp = None
     except OSError:
         pass
+    finally:
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 
 
-def _run(command: list[str], timeout: float) -> Device:
+def _run(command: list[str], timeout: float) -> tuple[Device, bool]:
+    """(what the child says, whether that is its answer to keep: not when it could not run
+    or did not end in time)."""
     try:
         done = subprocess.run(command, capture_output=True, text=True, timeout=timeout,
                               stdin=subprocess.DEVNULL)
     except (OSError, subprocess.SubprocessError) as exc:
-        return Device(False, reason=f"the GPU probe could not run: {exc}")
+        return Device(False, reason=f"the GPU probe could not run: {exc}"), False
     for line in done.stdout.splitlines():
         parts = line.split("\t")
         if parts[0] == _MARK:
             if parts[1] == "OK":
-                return Device(True, parts[2], parts[3] if len(parts) > 3 else "")
-            return Device(False, reason=parts[2] if len(parts) > 2 else "unknown")
+                return Device(True, parts[2], parts[3] if len(parts) > 3 else ""), True
+            return Device(False, reason=parts[2] if len(parts) > 2 else "unknown"), True
     lines = [s for s in done.stderr.splitlines() if s.strip() and "EGL Error" not in s]
     last = lines[-1].strip() if lines else ""
     return Device(False, reason=f"Blender stopped while opening a GPU context (exit "
-                               f"{done.returncode}){': ' + last if last else ''}")
+                               f"{done.returncode}){': ' + last if last else ''}"), True
 
 
 _opened: list[bool] = []

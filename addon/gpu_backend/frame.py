@@ -322,11 +322,11 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
 
 def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False,
            ambient: bool = False, sky: bool = False, mat: MaterialCode | None = None):
-    """The compiled ``kind`` program ("depth", "center", "dome_grid", "shade", "background",
-    "compose") writing the targets ``names``; ``indirect``: with the probes' light
-    (``glsl/indirect.glsl``), ``ambient``: its contact occlusion, ``sky``: the world's
-    occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade" with the frame's
-    material programs."""
+    """The compiled ``kind`` program ("depth", "center", "central", "dome_grid", "shade",
+    "peel", "merge", "background", "compose") writing the targets ``names``; ``indirect``:
+    with the probes' light (``glsl/indirect.glsl``), ``ambient``: its contact occlusion,
+    ``sky``: the world's occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade"
+    and "peel" with the frame's material programs."""
     if kind == "background":  # ``indirect``: the world is an image
         return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
                                                                    indirect))
@@ -732,6 +732,7 @@ class GPUFrame:
             gpu.state.color_mask_set(False, False, False, False)
             depth.bind()
             depth.uniform_block("frame", frame_data)
+            depth.uniform_sampler("peel_floor", self.dummy)  # (not read)
             self.batch.draw(depth)
             gpu.state.color_mask_set(True, True, True, True)
             gpu.state.depth_mask_set(False)

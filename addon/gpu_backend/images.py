@@ -11,7 +11,8 @@ from . import textures
 from .uniforms import Struct
 
 MAX_LEVELS = 16  # a 32768-pixel image has 16 levels
-ROW_WIDTH = 4096  # texels per row of an image's texture (16384 rows: 64 M texels)
+ROW_WIDTH = 4096  # texels per row of an image's texture
+MAX_TEXELS = ROW_WIDTH * 16384  # of one texture: 16384 rows (the 8-bit images, the others)
 IMAGE = Struct("ImageData", (
     ("levels", "ivec4", MAX_LEVELS),  # per level: (first texel, height, width, -)
     ("info", "ivec4", 0),  # (levels, channels, extension, filter): kernels.textures' codes
@@ -69,7 +70,7 @@ def pack(texs: list) -> tuple[list[dict], tuple]:
         count = max(1, used[codes])
         width = min(count, ROW_WIDTH) if len(texs) == 1 else ROW_WIDTH
         height = -(-count // width)
-        if height > 16384:
+        if height * width > MAX_TEXELS:
             names = ", ".join(repr(t.name) for t in texs)
             raise MemoryError(f"the images {names} are too large for one GPU texture")
         data = np.zeros((height * width, 4), np.float32)

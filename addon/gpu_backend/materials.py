@@ -14,9 +14,9 @@ of ``mat_const(k)`` (``Constants``), so that a value changed in a material keeps
 What the generated code calls besides ``nodes.glsl`` is given by its environment (the frame,
 ``glsl/material_frame.glsl``; the tests): ``mp_moved(p, axis, step)``, ``mp_object(p, k)``
 (row k of the object's world_to_object, then its texture space's start and size),
-``mp_image(t, uv, lod)``, ``mp_camera(position)`` and ``mat_const(k)``; the active UV map and
-the corner attributes by their value at the point and their change along the two axes whose
-mix ``MatPoint.shift`` holds (``attribute_globals``).
+``mp_image(t, uv, lod, associate)``, ``mp_camera(position)`` and ``mat_const(k)``; the
+active UV map and the corner attributes by their value at the point and their change along
+the two axes whose mix ``MatPoint.shift`` holds (``attribute_globals``).
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ import numpy as np
 from ..core.scene import node_math as nm
 from ..core.scene.nodes import NODES
 from ..core.scene.program import Program
+from . import images
 
 MAX_IMAGES = 24  # images of every material together (ImageData records: 7 KiB)
 MAX_STREAMS = 5  # corner attributes besides the active UV map (vertex inputs of 16)
@@ -56,10 +57,16 @@ def streams(programs: list[Program]) -> list[tuple]:
 
 def unsupported(programs: list[Program], frame_attributes) -> str | None:
     """Why the GPU cannot draw these programs together (one phrase), or None."""
-    images = {id(op.param[0]) for p in programs for op in p.ops
-              if op.kind == "image" and op.param[0] is not None}
-    if len(images) > MAX_IMAGES:
+    found = {id(op.param[0]): op.param[0] for p in programs for op in p.ops
+             if op.kind == "image" and op.param[0] is not None}
+    if len(found) > MAX_IMAGES:
         return f"materials with more than {MAX_IMAGES} images"
+    for codes in (True, False):  # level 0 and its mip chain: 4/3 of its pixels
+        texels = sum(int(np.prod(t.size)) * 4 // 3 for t in found.values() if t.codes == codes)
+        if texels > images.MAX_TEXELS:
+            kind = "8-bit" if codes else "float"
+            return (f"{kind} material images of {texels >> 20} M texels with their mip levels "
+                    f"({images.MAX_TEXELS >> 20} M at most)")
     present = [k for k in streams(programs) if k in frame_attributes]
     if len(present) > MAX_STREAMS:
         return f"materials reading more than {MAX_STREAMS} UV maps and attributes"
@@ -138,7 +145,7 @@ class _Emitter:
         self.widths = widths(program)
         self.helpers: list[str] = []
         self.lines: list[str] = []
-        self.points: set[str] = {"c"}
+        self._rows: dict = {}  # what was emitted once for every context: a key -> its text
 
     # what is needed where
     def _cone(self, reg: int) -> set[int]:
@@ -227,7 +234,7 @@ class _Emitter:
             return
         if kind == "image" and op.param[0] is not None and ctx == "c":
             tex = op.param[0]
-            vec = [f"r{op.args[0]}_{c}" for c in ("c", "x", "y")] if op.args else [
+            vec = [self.v(op.args[0], c) for c in ("c", "x", "y")] if op.args else [
                 f"vec4(mp_uv(p_{c}), 0.0)" for c in ("c", "x", "y")]
             size = f"images[{self.images[id(tex)]}].levels[0]"
             self.lines.append(
@@ -239,7 +246,7 @@ class _Emitter:
     def value(self, op, a, p, reg, ctx) -> str:  # noqa: C901 - one case per operation
         kind, param = op.kind, op.param
         if kind == "const":
-            return f"mat_const({self.constants.add(param)})"
+            return f"mat_const({self.row(('const', reg), param)})"
         if kind == "uv":
             read = (f"mp_uv({p})" if param[0] == "" else
                     self.stream(("uv", param[0]), p) or "vec4(0.0)")
@@ -306,7 +313,7 @@ class _Emitter:
         if kind in ("curves", "float_curve"):
             table, lo, hi, extrapolate = param
             table = np.asarray(table, np.float32).reshape(len(table), -1)
-            span = self.constants.add([lo, hi - lo if hi != lo else 1.0])
+            span = self.row(("span", reg), [lo, hi - lo if hi != lo else 1.0])
             rel = f"(({a[1]} - mat_const({span}).x) / mat_const({span}).y)"
             parts = [f"{self.ramp((reg, k), table[:, k:k + 1], True, extrapolate)}"
                      f"({rel}.{'xyz'[k]}).x" for k in range(table.shape[1])]
@@ -387,30 +394,44 @@ class _Emitter:
             return f"n_add(n_scaled({regs[1]}, 1.0 - {f}), n_scaled({regs[2]}, {f}))"
         raise Unsupported(f"the {kind} node")
 
+    def row(self, key, values) -> int:
+        """The number of a constants row holding ``values``, added once per ``key`` (an
+        operation is emitted once per point context)."""
+        if key not in self._rows:
+            self._rows[key] = self.constants.add(values)
+        return self._rows[key]
+
     def ramp(self, key, table: np.ndarray, interpolate: bool, extrapolate: bool) -> str:
-        """A helper function looking ``table`` (S, C) up at a float (``nm.ramp_lookup``)."""
+        """A helper function looking ``table`` (S, C) up at a float (``nm.ramp_lookup``),
+        defined once per ``key``."""
         tag = "_".join(str(k) for k in (key if isinstance(key, tuple) else (key,)))
         name = f"ramp_{self.name}_{tag}"
+        if ("ramp", key) in self._rows:
+            return name
+        self._rows[("ramp", key)] = name
         size = len(table)
         first = len(self.constants.rows)
         for row in table:
             self.constants.add(row)
 
-        def row(i: str) -> str:
+        def entry(i: str) -> str:
             return f"mat_const({first} + {i})"
 
         lines = [f"vec4 {name}(float f)", "{",
+                 "  f = n_finite(f);  /* a non-finite position reads the first entry */",
                  f"  vec2 at = n_ramp_at(f, {size});",
                  "  int i = int(at.x);",
-                 f"  vec4 out_ = {row('i')};"]
+                 f"  vec4 out_ = {entry('i')};"]
         if interpolate:
             lines.append(f"  if (at.y > 0.0) {{ out_ = (1.0 - at.y) * out_ + at.y * "
-                         f"{row(f'min(i + 1, {size - 1})')}; }}")
+                         f"{entry(f'min(i + 1, {size - 1})')}; }}")
         if extrapolate and size > 1:
-            lines.append(f"  if (f < 0.0) {{ out_ = {row('0')} + ({row('0')} - {row('1')}) * "
-                         f"(-f) * {float(size - 1)}; }}")
-            lines.append(f"  if (f > 1.0) {{ out_ = {row(str(size - 1))} + ({row(str(size - 1))}"
-                         f" - {row(str(size - 2))}) * (f - 1.0) * {float(size - 1)}; }}")
+            first_, second = entry("0"), entry("1")
+            last, before = entry(str(size - 1)), entry(str(size - 2))
+            lines.append(f"  if (f < 0.0) {{ out_ = {first_} + ({first_} - {second}) * (-f) * "
+                         f"{float(size - 1)}; }}")
+            lines.append(f"  if (f > 1.0) {{ out_ = {last} + ({last} - {before}) * (f - 1.0) * "
+                         f"{float(size - 1)}; }}")
         lines += ["  return out_;", "}", ""]
         self.helpers.append("\n".join(lines))
         return name

@@ -104,7 +104,9 @@ def compiled(program: Program, key) -> object:
     """The ``gpu`` shader of ``program``, compiled on first use and kept under ``key`` (a
     hashable naming the program and what its defines depend on)."""
     shader = _compiled.get(key)
-    if shader is None:
+    if shader is not None:
+        _compiled[key] = _compiled.pop(key)  # the most recently used last: kept longest
+    else:
         shader = _compile(program)
         while len(_compiled) >= KEEP:
             del _compiled[next(iter(_compiled))]

@@ -74,3 +74,30 @@ def test_an_unwritable_folder_is_no_error(child, tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("")
     assert device.probe(command, blocker / "gpu_device.json").ok and runs() == 1
+
+
+def test_a_child_that_could_not_run_is_asked_again(tmp_path, monkeypatch):
+    monkeypatch.setattr(device, "_probed", {})
+    cache = tmp_path / "gpu_device.json"
+    found = device.probe([str(tmp_path / "no-such-blender")], cache)
+    assert not found.ok and "could not run" in found.reason
+    assert not cache.exists()
+
+
+def test_a_damaged_entry_is_no_error(child, tmp_path, monkeypatch):
+    command, runs = child
+    cache = tmp_path / "gpu_device.json"
+    cache.write_text(json.dumps({"other": {"time": "soon"}, "x": 3}))
+    assert device.probe(command, cache).ok and runs() == 1
+    _new_session(monkeypatch)
+    assert device.probe(command, cache).ok and runs() == 1
+
+
+def test_a_kept_yes_for_a_display_that_is_gone_is_asked_again(child, tmp_path, monkeypatch):
+    command, runs = child
+    cache = tmp_path / "gpu_device.json"
+    monkeypatch.setenv("DISPLAY", ":4321")  # no such X server's socket
+    device.probe(command, cache)
+    _new_session(monkeypatch)
+    device.probe(command, cache)
+    assert runs() == 2

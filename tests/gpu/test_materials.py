@@ -256,6 +256,23 @@ def test_math_at_its_edges():
     _check(_whole(b, regs), regs, field, ops, rtol=5e-4, allowed=0.01)
 
 
+def test_modulo_is_cs_fmod():
+    """Modulo where the float32 quotient rounds to an integer (1 mod 0.1, 5.5 mod 1.1), by an
+    infinite divisor, of negative numbers: C's fmod at every point."""
+    field = Field()
+    a, b = field.streams[("attribute", "s0")][0][:, 0], field.streams[("attribute", "s0")][0][:, 1]
+    pairs = [(1.0, 0.1), (5.5, 1.1), (-5.5, 1.1), (0.3, 0.1), (7.0, -0.7), (2.5, np.inf),
+             (-1.0, 0.1), (1e-3, 1e-4)]
+    for k, (x, y) in enumerate(pairs):
+        a[k::len(pairs)], b[k::len(pairs)] = x, y
+    b_ = ProgramBuilder()
+    x, y, z = _inputs(b_, 1, 1, 1)
+    regs = [b_.add("math", x, y, z, param=("MODULO", False)),
+            b_.add("vector_math", b_.add("to_vector", x), b_.add("to_vector", y), z, z,
+                   param=("MODULO",))]
+    _check(_whole(b_, regs), regs, field, ["math", "vector math"], rtol=1e-6, atol=1e-7)
+
+
 def test_vector_math():
     field = Field()
     b = ProgramBuilder()
@@ -400,11 +417,16 @@ def test_bump_from_the_heights_at_moved_points():
                    param=("SINE", False))
     width = b.const(0.1)
     other = _inputs(b, 1)[0]
+    ramp = b.add("ramp", height, param=(np.float32([[0, 0, 0, 1], [0.3, 0.6, 1, 1],
+                                                   [1, 1, 1, 1]]), True))
+    ramped = b.add("to_float", ramp, param=("color",))
     regs = [b.add("bump", strength, distance, height, None, width, param=(False,)),
             b.add("bump", strength, distance, height, None, b.const(1.0), param=(True,)),
-            b.add("bump", strength, distance, other, None, width, param=(False,))]
-    _check(_whole(b, regs), regs, field, ["bump", "bump inverted, 1 px", "bump of attribute"],
-           rtol=2e-3, atol=2e-3, allowed=0.01)
+            b.add("bump", strength, distance, other, None, width, param=(False,)),
+            b.add("bump", strength, distance, ramped, None, width, param=(False,))]
+    _check(_whole(b, regs), regs, field, ["bump", "bump inverted, 1 px", "bump of attribute",
+                                          "bump of a ramp"], rtol=2e-3, atol=2e-3,
+           allowed=0.01)
 
 
 @pytest.mark.parametrize("dtype,channels,extension,interpolation", [
@@ -423,9 +445,12 @@ def test_image_at_the_level_of_its_footprint(dtype, channels, extension, interpo
     uv = b.add("uv", param=("",))
     mapped = b.add("mapping", uv, b.const(0.1, 0.2, 0.0), b.const(0.0, 0.0, 0.3),
                    b.const(3.0, 2.0, 1.0), param=("POINT",))
-    regs = [b.add("image", param=(tex, 0)), b.add("image", mapped, param=(tex, 1))]
-    _check(_whole(b, regs), regs, field, ["active UV", "mapped"], rtol=1e-3, atol=1e-4,
-           allowed=0.01, texture=tex)
+    curve = b.add("curves", b.const(1.0), mapped, param=(
+        np.float32([[0.0, 0.0, 0.0], [0.6, 0.5, 0.4], [1.0, 1.0, 1.0]]), -1.0, 3.0, True))
+    regs = [b.add("image", param=(tex, 0)), b.add("image", mapped, param=(tex, 1)),
+            b.add("image", curve, param=(tex, 0))]
+    _check(_whole(b, regs), regs, field, ["active UV", "mapped", "through curves"], rtol=1e-3,
+           atol=1e-4, allowed=0.01, texture=tex)
 
 
 CLOSURES = {

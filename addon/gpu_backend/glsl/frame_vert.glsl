@@ -1,6 +1,7 @@
 /* The frame's geometry through the camera, shifted by the sample's jitter (in NDC). A
  * triangle's flags: 1 culled when seen from behind (its material's Backface Culling), 2 a
- * holdout (it hides what is behind and is drawn as nothing). */
+ * holdout (it hides what is behind and is drawn as nothing), 4 its material may be
+ * transparent (peel_frag.glsl). */
 void main()
 {
   v_position = pos;

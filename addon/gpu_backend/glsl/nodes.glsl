@@ -89,9 +89,33 @@ float n_safe_log(float a, float b)
   return n_finite(log(a) / log(b));
 }
 
+/* C's fmod (np.fmod), exact: the sign of a, less than |b|; a for an infinite b */
 float n_fmod(float a, float b)
 {
-  return b != 0.0 ? a - b * trunc(a / b) : 0.0;
+  if (b == 0.0 || isinf(a) || isnan(a) || isnan(b)) {
+    return 0.0;
+  }
+  if (isinf(b)) {
+    return a;
+  }
+  float q = trunc(a / b);
+  /* a - b q exactly (an exact result: fmod's is representable), with b q as the rounded
+   * product plus its error (Dekker's two-product; `precise`: no contraction or
+   * reassociation) */
+  precise float p = b * q;
+  precise float tb = 4097.0 * b, tq = 4097.0 * q;
+  precise float bh = tb - (tb - b), qh = tq - (tq - q);
+  precise float bl = b - bh, ql = q - qh;
+  precise float err = ((bh * qh - p) + bh * ql + bl * qh) + bl * ql;
+  precise float r = (a - p) - err;
+  float s = a < 0.0 ? -1.0 : 1.0, m = abs(b);
+  if (r != 0.0 && (r < 0.0) != (a < 0.0)) {  /* the quotient rounded away from zero */
+    r += s * m;
+  }
+  else if (abs(r) >= m) {  /* towards zero */
+    r -= s * m;
+  }
+  return r;
 }
 
 vec4 n_fmod(vec4 a, vec4 b)
@@ -179,13 +203,14 @@ float n_math(int op, float a, float b, float c)
     case 33: return acos(clamp(a, -1.0, 1.0));
     case 34: return atan(a);
     case 35: /* np.arctan2: +-pi on the negative axis by the zero's sign, atan(0, 0) = 0 */
-      if (a == 0.0) {
-        return b < 0.0 ? ((floatBitsToUint(a) & 0x80000000u) != 0u ? -N_PI : N_PI) : a;
+      if (a == 0.0) {  /* b of -0.0 counts as negative */
+        bool negative = b < 0.0 || (b == 0.0 && (floatBitsToUint(b) & 0x80000000u) != 0u);
+        return negative ? ((floatBitsToUint(a) & 0x80000000u) != 0u ? -N_PI : N_PI) : a;
       }
       return atan(a, b);
     case 36: return sinh(a);
     case 37: return cosh(a);
-    case 38: return tanh(a);
+    case 38: return tanh(clamp(a, -10.0, 10.0));  /* exp(+-2a) overflows in some drivers' */
     case 39: return a * (N_PI / 180.0);
     case 40: return a * (180.0 / N_PI);
   }
