@@ -298,12 +298,8 @@ class _Emitter:
             return f"n_combine({COLOR_MODELS[param[0]]}, {a[0]}.x, {a[1]}.x, {a[2]}.x)"
         if kind == "mapping":
             return f"n_mapping({MAPPING_KINDS[param[0]]}, {a[0]}, {a[1]}, {a[2]}, {a[3]})"
-        if kind == "invert":
-            return f"n_invert({a[0]}, {a[1]})"
-        if kind == "gamma":
-            return f"n_gamma({a[0]}, {a[1]})"
-        if kind == "bright_contrast":
-            return f"n_bright_contrast({a[0]}, {a[1]}, {a[2]})"
+        if kind in ("invert", "gamma", "bright_contrast"):  # n_<kind> of its inputs as they are
+            return f"n_{kind}({', '.join(a)})"
         if kind == "hsv":
             return f"n_hsv({a[0]}.x, {a[1]}.x, {a[2]}.x, {a[3]}.x, {a[4]})"
         if kind == "ramp":

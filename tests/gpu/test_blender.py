@@ -50,15 +50,20 @@ def _render(scene, choice):
     return pixels, sink.texts()
 
 
-def test_f12_on_the_gpu_matches_the_cpu(scene):
-    scene.bo2.indirect.use = True
+def _gpu_matches_cpu(scene, what: str) -> None:
+    """F12 with Device GPU renders on the GPU, Device CPU on the CPU, 40 dB or more apart."""
     gpu_pixels, said = _render(scene, "GPU")
     assert any(text.startswith("Rendered on the GPU") for text in said), said
     cpu_pixels, said_cpu = _render(scene, "CPU")
     assert not any("GPU" in text for text in said_cpu), said_cpu
     value = compare.psnr(gpu_pixels, cpu_pixels)
-    print(f"F12 GPU vs CPU: {value:.1f} dB")
+    print(f"{what}: {value:.1f} dB")
     assert value >= 40.0
+
+
+def test_f12_on_the_gpu_matches_the_cpu(scene):
+    scene.bo2.indirect.use = True
+    _gpu_matches_cpu(scene, "F12 GPU vs CPU")
 
 
 def test_auto_leaves_a_software_rasterizer_to_the_cpu(scene):
@@ -91,12 +96,7 @@ def test_a_node_graph_material_renders_on_the_gpu(scene):
     links.new(ramp.outputs["Color"], bsdf.inputs["Base Color"])
     links.new(rough.outputs["Value"], bsdf.inputs["Roughness"])
     bpy.data.objects["Sphere"].data.materials.append(mat)
-    gpu_pixels, said = _render(scene, "GPU")
-    assert any(text.startswith("Rendered on the GPU") for text in said), said
-    cpu_pixels, _ = _render(scene, "CPU")
-    value = compare.psnr(gpu_pixels, cpu_pixels)
-    print(f"F12 of a node graph, GPU vs CPU: {value:.1f} dB")
-    assert value >= 40.0
+    _gpu_matches_cpu(scene, "F12 of a node graph, GPU vs CPU")
 
 
 def test_a_transparent_material_renders_on_the_gpu(scene):
@@ -106,12 +106,7 @@ def test_a_transparent_material_renders_on_the_gpu(scene):
     mat.node_tree.nodes["Principled BSDF"].inputs["Alpha"].default_value = 0.4
     bpy.data.objects["Sphere"].data.materials.append(mat)
     scene.bo2.samples = 8
-    gpu_pixels, said = _render(scene, "GPU")
-    assert any(text.startswith("Rendered on the GPU") for text in said), said
-    cpu_pixels, _ = _render(scene, "CPU")
-    value = compare.psnr(gpu_pixels, cpu_pixels)
-    print(f"F12 of a transparent material, GPU vs CPU: {value:.1f} dB")
-    assert value >= 40.0
+    _gpu_matches_cpu(scene, "F12 of a transparent material, GPU vs CPU")
 
 
 def test_what_the_gpu_does_not_draw_renders_on_the_cpu_with_one_message(scene):
