@@ -9,8 +9,9 @@ EGL or a display: ``gpu_backend.device`` probes it first). Prints, each the medi
 - the first GPU image of the session at the viewport size, shader compiles included;
 - a full viewport image (one sample, read back) after a material tweak (the material table
   uploaded again), a camera move (contact and world occlusion drawn again), an object move
-  (the frame prepared anew: buffers and shadow maps, on the CPU), beside the CPU path's one
-  sample with the same preparation kept;
+  (the frame prepared anew: its buffers on the CPU, its shadow maps' depths and pyramids drawn
+  on the GPU), beside the CPU path's one sample with the same preparation kept (its shadow
+  maps built on the CPU);
 - a final frame at ``--final`` with the scene's samples and every pass read back, GPU and CPU;
 - Cycles at the viewport size, 1 and 16 samples (CPU), for scale.
 Prints figures only; what a frame needs that the GPU does not draw yet is named instead.
@@ -117,7 +118,7 @@ def main() -> int:
         one_sample(drawn, moved(k), targets)
 
     def object_move(k):
-        fresh = pipeline.prepare(RenderJob(core))
+        fresh = pipeline.prepare(RenderJob(core), on_gpu=True)
         one_sample(gpu_frame.GPUFrame(fresh), cam, targets)
 
     def cpu_sample(k, prepared=frame, camera=cam):
@@ -137,7 +138,7 @@ def main() -> int:
     samples = max(1, int(final.settings.samples))
 
     def gpu_final(k):
-        prepared = pipeline.prepare(RenderJob(final))
+        prepared = pipeline.prepare(RenderJob(final), on_gpu=True)
         gpu_frame.render(prepared, sample_offsets(samples, final.settings.filter_width))
 
     def cpu_final(k):

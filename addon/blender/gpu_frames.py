@@ -76,10 +76,10 @@ def render(job, view_layer) -> tuple[object, dict | str]:
         return None, (f"a frame of {cam.width} x {cam.height} (it needs "
                       f"{need / (1 << 30):.1f} GiB of GPU memory, more than "
                       f"{gpu_frame.GPU_BUDGET >> 30} GiB)")
-    frame = pipeline.prepare(job)
+    frame = pipeline.prepare(job, on_gpu=True)
     why = gpu_frame.unsupported(frame)
     if why:
-        return frame, why
+        return pipeline.cpu_maps(job, frame), why
     s = job.scene.settings
     wanted = [name for name in PASSES if name == "Combined" or passes.enabled(view_layer, name)]
     return frame, gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)),

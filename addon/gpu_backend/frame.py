@@ -458,13 +458,20 @@ class GPUFrame:
         self._peeling = None  # (size, textures and framebuffers) of the layers peeled
         self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
         self.batches = []
+        casters = None  # the shadow casters, for maps the core left to the GPU to draw
+        if any(m is not None and m.on_gpu for m in frame.shadow_maps):
+            from .shadow_depths import Casters
+
+            casts = frame.positions if frame.casts is None else frame.positions[frame.casts]
+            casters = Casters(casts)
         lo = 0
         while lo < max(1, len(scene_lights)):
             size = DOME_BATCH_LIGHTS if sky is not None and lo == 0 else BATCH_LIGHTS
             group = scene_lights[lo:lo + size]
             extra = sky.maps if sky is not None and lo == 0 else []
             shadow_set = lights.shadow_set(maps[lo:lo + size] + list(extra),
-                                           jitter=[True] * len(group) + [False] * len(extra))
+                                           jitter=[True] * len(group) + [False] * len(extra),
+                                           casters=casters)
             if extra:
                 self.dome = shadow_set.index[len(group):]
             self.batches.append(_Batch(

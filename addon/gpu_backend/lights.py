@@ -24,7 +24,8 @@ FP_SLOTS = 24  # room for the filter's float constants (kernels.shadows.P_SIZE_A
 SHADOW = Struct("ShadowData", (
     ("fp", "vec4", FP_SLOTS // 4),  # kernels.shadows.P_* in order
     ("kind", "int", 0),  # kernels.shadows.CUBE, PERSPECTIVE, ORTHO
-    ("ints", "ivec4", 0),  # (-, resolution, first layer in shadow_depth, cascades)
+    ("ints", "ivec4", 0),  # (faces whose pyramid tops give the least depth: maps drawn on
+                           # the GPU, 0: fp's; resolution, first layer in shadow_depth, cascades)
     ("ints2", "ivec4", 0),  # (first row in shadow_mips, pyramid levels, jitter, -)
     ("basis", "vec4", 3),  # rows R, U, F (perspective and sun maps)
     ("rects", "vec4", MAX_CASCADES),  # sun cascades (cx, cy, half side, z_min)
@@ -89,44 +90,73 @@ class ShadowSet:
                 ("FLOAT_2D", "shadow_rotations", self.rotations))
 
 
-def shadow_set(maps: list, *, jitter=True) -> ShadowSet:
-    """Upload ``maps`` (``core.render.shadows.ShadowMap`` or None each) for the filter;
-    ``jitter``: whether each map's taps turn per point (one bool, or one per map)."""
+def shadow_set(maps: list, *, jitter=True, casters=None) -> ShadowSet:
+    """Upload ``maps`` (``core.render.shadows.ShadowMap`` or None each) for the filter, or
+    draw them here when the core left them to a GPU (``ShadowMap.on_gpu``: every map of a set
+    alike) from ``casters`` (``shadow_depths.Casters``); ``jitter``: whether each map's taps
+    turn per point (one bool, or one per map)."""
+    import gpu
+
     from ..core.kernels import shadows as filter_kernel
 
     if filter_kernel.P_SIZE_ALL > FP_SLOTS:
         raise ValueError(f"the filter has {filter_kernel.P_SIZE_ALL} constants: raise FP_SLOTS")
     turns = [jitter] * len(maps) if isinstance(jitter, bool) else list(jitter)
-    records, index, depths, mip_rows = [], [], [], []
+    kept = [m for m in maps if m is not None and len(m.depth)]
+    drawn = {m.on_gpu for m in kept}
+    if len(drawn) > 1:
+        raise ValueError("a set of shadow maps mixes maps drawn here and on the CPU")
+    on_gpu = drawn == {True}
+    if on_gpu and casters is None:
+        raise ValueError("shadow maps left to the GPU need the frame's casters")
+    records, index, depths, mip_rows, layers, rows = [], [], [], [], [], []
     layer = row = 0
-    side = max([m.resolution for m in maps if m is not None and len(m.depth)], default=1)
+    side = max([m.resolution for m in kept], default=1)
     for m, turn in zip(maps, turns, strict=True):
         if m is None or not len(m.depth):
             index.append(-1)
             continue
-        depth, mips, offsets, sides, basis, rects, _, fp, ip = shadow_filter.packed(m)
+        offsets, sides, basis, rects, _, fp, ip = shadow_filter.constants(m)
         res, faces = m.resolution, len(m.depth)
         if len(sides) > MAX_LEVELS:
             raise ValueError(f"a shadow map of {res} texels has more than {MAX_LEVELS} levels")
-        padded = np.full((faces, side, side), np.inf, np.float32)
-        padded[:, :res, :res] = depth.reshape(faces, res, res)
-        depths.append(padded)
-        mip_rows.append(mips.reshape(-1, 3))
+        if on_gpu:
+            count = int(offsets[-1]) + faces if len(offsets) else 0
+        else:
+            depth, mips = shadow_filter.packed(m)[:2]
+            padded = np.full((faces, side, side), np.inf, np.float32)
+            padded[:, :res, :res] = depth.reshape(faces, res, res)
+            depths.append(padded)
+            mip_rows.append(mips.reshape(-1, 3))
+            count = len(mip_rows[-1])
         index.append(len(records))
+        layers.append(layer)
+        rows.append(row)
         records.append({
             "fp": fp, "kind": ip[filter_kernel.I_KIND],
-            "ints": [0, res, layer, len(rects)],
+            "ints": [faces if on_gpu else 0, res, layer, len(rects)],
             "ints2": [row, len(sides), int(turn), 0],
             "basis": np.pad(basis, ((0, 0), (0, 1))),
             "rects": rects, "offsets": offsets, "sides": sides})
         layer += faces
-        row += len(mip_rows[-1])
-    depth = np.concatenate(depths) if depths else np.full((1, 1, 1), np.inf, np.float32)
-    mips = np.concatenate(mip_rows) if mip_rows else np.zeros((1, 3), np.float32)
+        row += count
     rot = np.stack([shadow_filter.FILTER_TABLES["rot_cos"],
                     shadow_filter.FILTER_TABLES["rot_sin"]], -1)[None]
-    return ShadowSet(index, SHADOW.pack(records), max(1, len(records)), textures.layers(depth),
-                     textures.rows(mips, MIPS_WIDTH), textures.image(rot))
+    if on_gpu:
+        from . import shadow_depths
+
+        depth = gpu.types.GPUTexture((side, side), layers=layer, format="R32F")
+        width = min(max(1, row), MIPS_WIDTH)
+        mips = gpu.types.GPUTexture((width, -(-max(1, row) // width)), format="RGBA32F")
+        shadow_depths.draw_depths(kept, casters, depth, layers)
+        shadow_depths.draw_pyramids(kept, casters, depth, layers, rows, mips)
+    else:
+        depth = textures.layers(np.concatenate(depths) if depths
+                                else np.full((1, 1, 1), np.inf, np.float32))
+        mips = textures.rows(np.concatenate(mip_rows) if mip_rows
+                             else np.zeros((1, 3), np.float32), MIPS_WIDTH)
+    return ShadowSet(index, SHADOW.pack(records), max(1, len(records)), depth, mips,
+                     textures.image(rot))
 
 
 def light_block(lights: list, shadow_index: list[int]) -> bytes:

@@ -44,6 +44,7 @@ class Program:
     inputs:    vertex attributes (type, name); varyings: (type, name, "smooth" or "flat")
     outputs:   fragment outputs (type, name), in slot order
     group:     a compute shader's local group size (x, y)
+    depth_write: the fragment stage writes gl_FragDepth: "ANY", "LESS" or "GREATER"; None not
     """
 
     kind: str
@@ -60,6 +61,7 @@ class Program:
     varyings: tuple = ()
     outputs: tuple = ()
     group: tuple[int, int] = (8, 8)
+    depth_write: str | None = None
 
     def create_info(self):
         import gpu
@@ -90,6 +92,8 @@ class Program:
             info.vertex_out(iface)
         for slot, (kind, name) in enumerate(self.outputs):
             info.fragment_out(slot, kind, name)
+        if self.depth_write is not None:
+            info.depth_write(self.depth_write)
         vertex, fragment = self.main
         info.vertex_source(vertex)
         info.fragment_source(body + "\n" + fragment)

@@ -95,6 +95,25 @@ def test_geometry_and_light_changes_prepare_again(session):
         assert session.stats["prepares"] == count + 1
 
 
+def test_a_drawer_gets_shadow_maps_to_draw_and_a_refusal_renders_here(session):
+    """With a drawer (the GPU), the frame's shadow maps are left to it (``ShadowMap.on_gpu``);
+    a frame it refuses, or one rendered after the drawer is gone, gets its maps built here."""
+    session.drawer = lambda frame: None
+    session.update(scene(), viewport.CHANGES)
+    assert session.wait(60)
+    frame, _ = session.frame()
+    assert frame.shadow_maps and all(m.on_gpu for m in frame.shadow_maps if m is not None)
+    assert session.image() is None  # nothing rendered here
+    session.drawer = lambda frame: "a refusal"
+    session.update(scene(), {"settings"})
+    assert session.wait(60) and session.refusal == "a refusal"
+    np.testing.assert_allclose(session.image().pixels[::-1, :, 0], expected(), rtol=3e-3)
+    session.drawer = None
+    session.update(scene(albedo=0.3), {"materials"})
+    assert session.wait(60)
+    np.testing.assert_allclose(session.image().pixels[::-1, :, 0], expected(0.3), rtol=3e-3)
+
+
 def test_a_world_lit_anew_keeps_the_dome(session):
     """The viewport's dome of shadow maps (``core.render.sky``) looks every way, so that a world
     turned, lit anew or darkened needs no new maps (an F12 of a black world builds none)."""

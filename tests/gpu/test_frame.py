@@ -29,9 +29,11 @@ CASES = {
 }
 
 
-def _render_both(scene):
+def _render_both(scene, on_gpu=True):
+    """The CPU's frame, and the GPU's: its shadow maps drawn there (``on_gpu``) as F12 and
+    the viewport draw them, else the CPU's maps uploaded (frames with transparent casters)."""
     cpu = pipeline.render_frame(RenderJob(scene))
-    frame = pipeline.prepare(RenderJob(scene))
+    frame = pipeline.prepare(RenderJob(scene), on_gpu=on_gpu)
     gpu = gpu_frame.render(frame, sample_offsets(scene.settings.samples,
                                                  scene.settings.filter_width))
     return cpu, gpu
@@ -72,6 +74,12 @@ def test_frame_matches_the_cpu(name):
     lights = [scenes.LIGHTS[k] for k in case.pop("lights")]
     scene = scenes.objects_scene(lights, **case)
     _check(*_render_both(scene), name)
+
+
+def test_frame_with_the_cpus_shadow_maps_matches_the_cpu():
+    """The maps built on the CPU and uploaded (what a frame with transparent casters uses)."""
+    scene = scenes.objects_scene(list(scenes.LIGHTS.values()))
+    _check(*_render_both(scene, on_gpu=False), "cpu_maps")
 
 
 INDIRECT_CASES = {

@@ -29,7 +29,7 @@ from .job import Cancelled, RenderJob
 from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH, Film, tile_passes
 from .shading import background_radiance, has_indirect, shade_points
 from .shadow_filter import pixel_seeds
-from .shadow_maps import build_shadow_maps, shadow_map_count
+from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
 from .visibility import (
     dither_sample,
     draw_samples,
@@ -141,7 +141,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
 
 
 def prepare(job: RenderJob, *, shadow_maps: list | None = None,
-            fit_shadows: bool = True) -> Frame:
+            fit_shadows: bool = True, on_gpu: bool = False) -> Frame:
     """The job's scene prepared: its buffers (``buffers.prepare_buffers``) and every light's
     shadow map (``shadow_maps.build_shadow_maps``).
 
@@ -149,11 +149,21 @@ def prepare(job: RenderJob, *, shadow_maps: list | None = None,
                  geometry and lights) instead of building them
     fit_shadows: fit sun cascades to this camera's view; False covers every caster with one
                  cascade (for views in every direction, e.g. a probe's six faces)
+    on_gpu:      leave the maps' depths to a GPU (``shadows.ShadowMap.on_gpu``); ``cpu_maps``
+                 builds them here if the GPU does not draw the frame after all
     """
     if shadow_maps is not None:
         return prepare_buffers(job, shadow_maps=shadow_maps)
     frame = prepare_buffers(job, shadow_maps=[None] * shadow_map_count(job.scene))
-    frame.shadow_maps = build_shadow_maps(job, frame, fit_shadows=fit_shadows)
+    frame.shadow_maps = build_shadow_maps(job, frame, fit_shadows=fit_shadows, on_gpu=on_gpu)
+    return frame
+
+
+def cpu_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True) -> Frame:
+    """``frame`` with its shadow maps' depths built here where ``prepare`` left them to a GPU
+    (the same frame when none was)."""
+    if drawn_on_gpu(frame.shadow_maps):
+        frame.shadow_maps = build_shadow_maps(job, frame, fit_shadows=fit_shadows)
     return frame
 
 

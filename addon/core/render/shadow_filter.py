@@ -44,7 +44,7 @@ import numpy as np
 
 from .shadows import MIP_FIRST_LEVEL, ShadowMap, mip_layout
 
-__all__ = ["packed", "pixel_seeds", "shadow_visibility", "FILTER_TABLES"]
+__all__ = ["constants", "packed", "pixel_seeds", "shadow_visibility", "FILTER_TABLES"]
 
 NORMAL_OFFSET_TEXELS = 1.0  # receiver moved along its normal by this many texels (world size)
 DEPTH_BIAS_TEXELS = 0.05  # constant depth bias, texels (world size at the receiver)
@@ -99,17 +99,17 @@ def _cascades(sm: ShadowMap) -> np.ndarray:
     return np.ascontiguousarray(np.column_stack([rects, z_min]), np.float32)
 
 
-def packed(sm: ShadowMap) -> tuple:
-    """The map's arrays and constants as the visibility kernel (and the GPU's filter) take them,
-    built once: depth (F*res*res,), mips (M*3,), pyramid offsets and sides (L,), basis (3, 3),
-    cascades (C, 4), cube faces (4, 6), fparams (``kernels.shadows.P_*``), iparams (``I_*``)."""
-    if sm.kernel_args is not None:
-        return sm.kernel_args
+def constants(sm: ShadowMap) -> tuple:
+    """The map's constants as the visibility kernel (and the GPU's filter) take them: pyramid
+    offsets and sides (L,), basis (3, 3), cascades (C, 4), cube faces (4, 6), fparams
+    (``kernels.shadows.P_*``), iparams (``I_*``). A map drawn on a GPU (``on_gpu``) has the
+    pyramid's layout of its resolution and no least depth (the GPU reads it from the pyramid)."""
     from ..kernels import shadows as kernels
 
     res = sm.resolution
     kind = {"CUBE": kernels.CUBE, "PERSPECTIVE": kernels.PERSPECTIVE, "ORTHO": kernels.ORTHO}
-    offsets, sides = mip_layout(res, sm.depth.shape[0]) if len(sm.mips) else ([], [])
+    offsets, sides = (mip_layout(res, sm.depth.shape[0]) if len(sm.mips) or sm.on_gpu
+                      else ([], []))
     ortho = sm.kind == "ORTHO"
     inv = np.float32(2.0 / res)
     fp = np.zeros(kernels.P_SIZE_ALL, np.float32)
@@ -138,10 +138,19 @@ def packed(sm: ShadowMap) -> tuple:
     ip = np.zeros(kernels.I_SIZE, np.int64)
     ip[kernels.I_KIND], ip[kernels.I_RES], ip[kernels.I_LEVELS] = kind[sm.kind], res, len(sides)
     ip[kernels.I_MIP_FIRST], ip[kernels.I_REFINEMENTS] = MIP_FIRST_LEVEL, SEARCH_REFINEMENTS
+    return (np.asarray(offsets, np.int64), np.asarray(sides, np.int64),
+            np.ascontiguousarray(sm.basis[0], np.float32), _cascades(sm), _FACES, fp, ip)
+
+
+def packed(sm: ShadowMap) -> tuple:
+    """The map's arrays and constants as the visibility kernel takes them, built once: depth
+    (F*res*res,), mips (M*3,), then ``constants``."""
+    if sm.kernel_args is not None:
+        return sm.kernel_args
+    if sm.on_gpu:
+        raise ValueError("this shadow map is drawn on a GPU: the CPU has no depths to filter")
     packed = (sm.depth.reshape(-1), np.ascontiguousarray(sm.mips.reshape(-1), np.float32),
-              np.asarray(offsets, np.int64), np.asarray(sides, np.int64),
-              np.ascontiguousarray(sm.basis[0], np.float32),
-              _cascades(sm), _FACES, fp, ip)
+              *constants(sm))
     sm.kernel_args = packed
     return packed
 

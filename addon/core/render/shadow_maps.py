@@ -28,6 +28,11 @@ def shadow_map_count(scene: Scene, sky: bool | None = None) -> int:
     return len(scene.lights) + max(0, int(dome))
 
 
+def drawn_on_gpu(maps: list) -> bool:
+    """Whether any of ``maps`` leaves its depths to a GPU (``shadows.ShadowMap.on_gpu``)."""
+    return any(m is not None and m.on_gpu for m in maps)
+
+
 def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np.ndarray:
     """(count,) bool: the dome directions whose shadow maps are built, those the world sends
     light from (``sky.radiance_weights`` of ``world_sh``, by default the scene's probes'; every
@@ -41,7 +46,8 @@ def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np
 
 def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
                       sky: bool | None = None, world_sh: np.ndarray | None = None,
-                      every_direction: bool = False, focus: tuple | None = None) -> list:
+                      every_direction: bool = False, focus: tuple | None = None,
+                      on_gpu: bool = False) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
     then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
     fitted as the lights' are; None towards directions the world sends no light from,
@@ -53,6 +59,8 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     focus:       without ``fit_shadows``, the world box whose shadows matter
                  (``shadows.shadow_map_jobs``)
     sky, world_sh: as ``shadow_map_count`` and ``dome_lit``
+    on_gpu:      leave the depths to a GPU (``shadows.ShadowMap.on_gpu``): only the maps'
+                 frames, fits and constants are computed here
     """
     scene = frame.scene
     count = shadow_map_count(scene, sky)
@@ -73,11 +81,12 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     for light in scene.lights:
         job.poll()
         plans.append(shadows.shadow_map_jobs(light, positions, view, focus=focus,
-                                             resolution=s.shadow_resolution, cutout=cutout))
+                                             resolution=s.shadow_resolution, cutout=cutout,
+                                             on_gpu=on_gpu))
     dome = count - len(scene.lights)
     lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
     key = None if cutout is not None or not lit.any() else _dome_key(
-        positions, view, focus, s.sky_resolution, lit)
+        positions, view, focus, s.sky_resolution, lit, on_gpu)
     kept = _domes.get(key) if key is not None else None
     if kept is None:
         view_range = (shadows.camera_depth_range(view, positions)
@@ -86,8 +95,8 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
             job.poll()
             plans.append(shadows.shadow_map_jobs(
                 light, positions, view, resolution=s.sky_resolution, cutout=cutout,
-                max_filter=sky_light.MAX_FILTER, view_range=view_range, focus=focus)
-                if on else ([], lambda done: None))
+                max_filter=sky_light.MAX_FILTER, view_range=view_range, focus=focus,
+                on_gpu=on_gpu) if on else ([], lambda done: None))
     done = iter(list(job.ordered([work for works, _ in plans for work in works],
                                  threading.Event())))
     maps = [finish([next(done) for _ in works]) for works, finish in plans]
@@ -102,12 +111,14 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
 _domes = Cache("dome shadow maps", kept=2)
 
 
-def _dome_key(positions: np.ndarray, view, focus, resolution: int, lit: np.ndarray) -> tuple:
+def _dome_key(positions: np.ndarray, view, focus, resolution: int, lit: np.ndarray,
+              on_gpu: bool) -> tuple:
     """What the dome's maps depend on: the casters' triangles, the view they are fitted to
-    (None: all casters, or ``focus``), their resolution and the lit directions."""
+    (None: all casters, or ``focus``), their resolution, the lit directions and who draws
+    their depths."""
     digest = hashlib.blake2b(np.ascontiguousarray(positions).view(np.uint8), digest_size=16)
     camera = None if view is None else (
         np.asarray(view.world_to_camera, np.float64).tobytes(),
         np.asarray(view.projection, np.float64).tobytes(), view.width, view.height)
     where = None if focus is None else np.asarray(focus, np.float64).tobytes()
-    return (digest.hexdigest(), camera, where, int(resolution), lit.tobytes())
+    return (digest.hexdigest(), camera, where, int(resolution), lit.tobytes(), on_gpu)

@@ -90,6 +90,9 @@ class ShadowMap:
                 light (perspective) or light-space depth (cascades), the least and the greatest
                 value of ``depth``, metres; bounds the blocker search and proves points fully lit
                 or fully shadowed without taps (about 6% of the maps' memory)
+    on_gpu:     the depths are left to a GPU to draw from the casters (``gpu_backend.
+                shadow_depths``): ``depth`` is a zero-stride (F, res, res) view of +inf, ``mips``
+                is empty and ``min_depth`` unknown (0); the CPU's filter refuses such a map
     kernel_args: the arrays and constants the visibility kernel takes
                 (``shadow_filter.packed``), once
     """
@@ -110,6 +113,7 @@ class ShadowMap:
     min_depth: float = 0.0
     max_filter: float = 0.0
     mips: np.ndarray = field(default_factory=lambda: np.zeros((0, 3), np.float32))
+    on_gpu: bool = False
     kernel_args: tuple | None = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -126,8 +130,8 @@ class ShadowMap:
 
     @property
     def nbytes(self) -> int:
-        """Bytes held by the depth maps and their pyramid."""
-        return int(self.depth.nbytes + self.mips.nbytes)
+        """Bytes held by the depth maps and their pyramid (in this process)."""
+        return 0 if self.on_gpu else int(self.depth.nbytes + self.mips.nbytes)
 
 
 # --------------------------------------------------------------------------------------------
@@ -194,7 +198,13 @@ def _flatten_pyramids(pyramids: list[list[np.ndarray]]) -> np.ndarray:
     return np.concatenate(rows) if rows else np.zeros((0, 3), np.float32)
 
 
-def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
+def _gpu_depth(faces: int, res: int) -> np.ndarray:
+    """The ``depth`` of a map left to a GPU: (faces, res, res) +inf, no memory."""
+    return np.broadcast_to(np.float32(np.inf), (faces, res, res))
+
+
+def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None,
+                      on_gpu: bool = False):
     """A point, spot or area light's maps: one job per face, and the function that assembles
     the faces' results into the ShadowMap (``shadow_map_jobs``)."""
     origin = np.asarray(light.position, np.float64)
@@ -232,6 +242,11 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
         return depth, _pyramid(dist, depth), float(dist.min())
 
     def finish(faces: list) -> ShadowMap:
+        if on_gpu:
+            return ShadowMap(kind=kind, light_kind=light.kind,
+                             depth=_gpu_depth(len(basis), res), view_proj=view_proj,
+                             basis=basis.copy(), origin=origin, tan_half=float(tan_half),
+                             near=near, light_size=max(size, 0.0), on_gpu=True)
         return ShadowMap(
             kind=kind,
             light_kind=light.kind,
@@ -246,6 +261,8 @@ def _perspective_jobs(light: Light, tris: np.ndarray, res: int, cutout=None):
             min_depth=min((m for _, _, m in faces), default=np.inf),
         )
 
+    if on_gpu:
+        return [], finish
     return [lambda f=f: face(f) for f in range(len(basis))], finish
 
 
@@ -338,7 +355,7 @@ def _fit_cascades(camera: Camera, basis: np.ndarray, tris: np.ndarray, res: int,
 
 def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=None,
               max_filter: float = 0.0, view_range: tuple | None = None,
-              focus: tuple | None = None):
+              focus: tuple | None = None, on_gpu: bool = False):
     """The sun's cascades: one job per cascade, and the function that assembles them."""
     basis = _frame(light.direction)
     # Blender's largest angle is pi (in float32, a little above): keep the half angle below
@@ -410,8 +427,11 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
         return d, _pyramid(d, d)
 
     def finish(cascades: list) -> ShadowMap:
-        depth = (np.stack([d for d, _ in cascades]) if cascades
-                 else np.empty((0, res, res), np.float32))
+        if on_gpu:
+            depth = _gpu_depth(len(rects), res)
+        else:
+            depth = (np.stack([d for d, _ in cascades]) if cascades
+                     else np.empty((0, res, res), np.float32))
         return ShadowMap(
             kind="ORTHO",
             light_kind="SUN",
@@ -423,17 +443,20 @@ def _sun_jobs(light: Light, tris: np.ndarray, camera: Camera, res: int, cutout=N
             light_size=tan_half,
             splits=splits,
             mips=_flatten_pyramids([pyramid for _, pyramid in cascades]),
-            min_depth=float(depth.min()) if depth.size else np.inf,
+            min_depth=0.0 if on_gpu else float(depth.min()) if depth.size else np.inf,
             max_filter=max_filter,
+            on_gpu=on_gpu,
         )
 
+    if on_gpu:
+        return [], finish
     return [lambda c=c: cascade(c) for c in range(len(rects))], finish
 
 
 def shadow_map_jobs(
     light: Light, triangles: np.ndarray, camera: Camera | None, *, resolution: int = 1024,
     cutout=None, max_filter: float = 0.0, view_range: tuple | None = None,
-    focus: tuple | None = None,
+    focus: tuple | None = None, on_gpu: bool = False,
 ) -> tuple[list[Callable[[], object]], Callable[[list], ShadowMap | None]]:
     """The work of ``build_shadow_map`` as independent jobs (one per cube face or cascade, to
     run on any threads) and the function that assembles their results, in order, into the
@@ -444,16 +467,20 @@ def shadow_map_jobs(
     ``camera_depth_range`` of ``camera`` and these triangles, when known (many suns);
     focus: without a camera, the world box (lo (3,), hi (3,)) whose shadows matter (the
     region probe captures see): a sun's one cascade covers it rather than every caster (a
-    far terrain would leave a few texels to the whole of a room)."""
+    far terrain would leave a few texels to the whole of a room); on_gpu: leave the depths
+    to a GPU (``ShadowMap.on_gpu``: no jobs), unless casters are transparent (``cutout``) or
+    the map is under ``2 ** MIP_FIRST_LEVEL`` texels (then built here as usual)."""
     if not light.shadow:
         return [], lambda results: None
     res = max(1, int(resolution))
     tris = np.asarray(triangles)  # float32 as the frame holds them (no copy), or float64
     tris = np.ascontiguousarray(tris.reshape(-1, 3, 3),
                                 tris.dtype if tris.dtype == np.float32 else np.float64)
+    on_gpu = on_gpu and cutout is None and res >= 1 << MIP_FIRST_LEVEL
     if light.kind == "SUN":
-        return _sun_jobs(light, tris, camera, res, cutout, max_filter, view_range, focus)
-    return _perspective_jobs(light, tris, res, cutout)
+        return _sun_jobs(light, tris, camera, res, cutout, max_filter, view_range, focus,
+                         on_gpu)
+    return _perspective_jobs(light, tris, res, cutout, on_gpu)
 
 
 def _rasterize_casters(clip, res: int, cutout, face: int, weights: bool):

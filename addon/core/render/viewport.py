@@ -27,7 +27,7 @@ from . import pipeline
 from .buffers import Frame, with_camera, with_materials
 from .job import Cancelled, RenderJob, Warnings
 from .passes import EMPTY_DEPTH
-from .shadow_maps import build_shadow_maps, shadow_map_count
+from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
 from .visibility import sample_offsets
 
 # What ``Session.update`` may be told changed.
@@ -317,7 +317,9 @@ class Session:
         must be built again, ``preview`` is first called with a frame that has the previous
         ones (the first image after a change comes before the slow part)."""
         old = self._frame
-        rebuild = old is None or bool(changed & {"geometry", "lights"})
+        on_gpu = self.drawer is not None  # the drawer draws the shadow maps' depths too
+        rebuild = old is None or bool(changed & {"geometry", "lights"}) or (
+            not on_gpu and drawn_on_gpu(old.shadow_maps))
         if not rebuild and changed & {"materials", "settings"}:
             new, was = scene.settings, old.scene.settings
             if (new.shadow_resolution, new.sky_directions, new.sky_resolution) != (
@@ -333,7 +335,8 @@ class Session:
         if rebuild:
             self._frame = None
             maps = [None] * shadow_map_count(scene)
-            if old is not None and len(old.shadow_maps) == len(maps):
+            if old is not None and len(old.shadow_maps) == len(maps) and (
+                    on_gpu or not drawn_on_gpu(old.shadow_maps)):
                 maps = old.shadow_maps
             job = self._job(scene, should_stop)
             quick = pipeline.prepare(job, shadow_maps=maps)
@@ -341,7 +344,7 @@ class Session:
             preview(quick)  # with the previous shadow maps (none at first): the slow part next
             # the dome towards every direction: a world turned or lit anew keeps it
             frame = dataclasses.replace(quick, shadow_maps=build_shadow_maps(
-                job, quick, fit_shadows=False, every_direction=True))
+                job, quick, fit_shadows=False, every_direction=True, on_gpu=on_gpu))
             self.stats["prepares"] += 1
         else:
             if frame is None:
@@ -408,6 +411,11 @@ class Session:
                 if self.on_image is not None:
                     self.on_image()
                 return
+            if drawn_on_gpu(frame.shadow_maps):  # rendered here: the depths built here
+                frame = dataclasses.replace(frame, shadow_maps=build_shadow_maps(
+                    self._job(scene, should_stop), frame, fit_shadows=False,
+                    every_direction=True))
+                self._frame = frame
         else:
             with self._cond:
                 self._drawn, self._refusal = None, None

@@ -264,11 +264,29 @@ float footprint_min(Setup f, int s, float radius)
   return mn(best, mip_at(s, mip_row(s, f.m, level, b, d)).x);
 }
 
+/* The least distance of the map's casters from the light (cascades: depth along the sun):
+ * P_MIN_DEPTH, or for a map drawn on the GPU (ints.x faces) the least of its pyramid's tops,
+ * one item per face: the same number, a minimum being exact. */
+float min_depth(int s)
+{
+  int faces = shadows[s].ints.x;
+  if (faces == 0) {
+    return fp(s, P_MIN_DEPTH);
+  }
+  int top = shadows[s].ints2.y - 1;
+  int first = shadows[s].offsets[top >> 2][top & 3];
+  float best = mip_at(s, first).x;
+  for (int k = 1; k < faces; k++) {
+    best = mn(best, mip_at(s, first + k).x);
+  }
+  return best;
+}
+
 float search_radius(Setup f, int s)
 {
   float size = fp(s, P_SIZE);
   bool ortho = shadows[s].kind == MAP_ORTHO;
-  float d_near = fp(s, P_MIN_DEPTH);
+  float d_near = min_depth(s);
   float d_r;
   if (ortho) {
     d_r = f.w0;

@@ -1,0 +1,9 @@
+/* A shadow map's face: the casters through the face's projection, row 0 of the map at the top
+ * (the CPU's maps: core/kernels/raster.py), and a sun's depth along its direction. */
+void main()
+{
+  vec4 clip = view_proj * vec4(pos, 1.0);
+  clip.y = -clip.y;
+  v_along = dot(along.xyz, pos);
+  gl_Position = clip;
+}
