@@ -36,12 +36,12 @@ def upload(tex) -> tuple[dict, object]:
 def pack(texs: list) -> tuple[list[dict], tuple]:
     """Textures ``texs`` in two GPU textures, one of the 8-bit images (RGBA8, their codes)
     and one of the others (RGBA32F): (their ImageData records, in order, and the two textures
-    (float, 8-bit), a one-texel one where there is none of a kind)."""
-    import gpu
-
+    (float, 8-bit), a one-texel one where there is none of a kind). The upload of the last
+    ``KEPT_UPLOADS`` sets of texel arrays is kept: a frame made again after a material tweak
+    reuses it."""
     from ..core.kernels import textures as texture_kernel
 
-    records, parts, used = [], ([], []), [0, 0]
+    records, flats, used = [], [], [0, 0]
     for tex in texs:
         if tex.pending:
             tex.fill_mips()
@@ -50,9 +50,6 @@ def pack(texs: list) -> tuple[list[dict], tuple]:
         if len(rows) > MAX_LEVELS:
             raise ValueError(f"an image of more than {MAX_LEVELS} mip levels")
         codes = int(flat.dtype == np.uint8)
-        count = len(flat) // c
-        data = np.zeros((count, 4), np.float32)
-        data[:, :c] = flat.reshape(-1, c).astype(np.float32) / (255.0 if codes else 1.0)
         levels = np.zeros((len(rows), 4), np.int64)
         levels[:, 0] = rows[:, 0] // c + used[codes]
         levels[:, 1:3] = rows[:, 1:3]
@@ -63,8 +60,35 @@ def pack(texs: list) -> tuple[list[dict], tuple]:
                                  texture_kernel.FILTERS.get(tex.interpolation,
                                                             texture_kernel.LINEAR)],
                         "info2": [tex.encoded, codes, ROW_WIDTH, 0]})
+        flats.append((flat, c, codes))
+        used[codes] += len(flat) // c
+    key = tuple((id(flat), c) for flat, c, _ in flats)
+    kept = _uploads.pop(key, None)
+    if kept is None:
+        kept = (flats, _upload(texs, flats, used))
+    _uploads[key] = kept  # the most recently used last
+    while len(_uploads) > KEPT_UPLOADS:
+        del _uploads[next(iter(_uploads))]
+    textures_ = kept[1]
+    if len(texs) == 1:  # one image: its own row width
+        records[0]["info2"][2] = textures_[records[0]["info2"][1]].width
+    return records, textures_
+
+
+KEPT_UPLOADS = 4
+# (texel arrays' ids and channels) -> (those arrays, kept alive so the ids stay theirs; the two
+# GPU textures)
+_uploads: dict[tuple, tuple] = {}
+
+
+def _upload(texs: list, flats: list, used: list[int]) -> tuple:
+    import gpu
+
+    parts = ([], [])
+    for flat, c, codes in flats:
+        data = np.zeros((len(flat) // c, 4), np.float32)
+        data[:, :c] = flat.reshape(-1, c).astype(np.float32) / (255.0 if codes else 1.0)
         parts[codes].append(data)
-        used[codes] += count
     textures_ = []
     for codes, chunks in enumerate(parts):
         count = max(1, used[codes])
@@ -80,6 +104,4 @@ def pack(texs: list) -> tuple[list[dict], tuple]:
         textures_.append(gpu.types.GPUTexture((width, height),
                                               format="RGBA8" if codes else "RGBA32F",
                                               data=buffer))
-    if len(texs) == 1:  # one image: its own row width
-        records[0]["info2"][2] = textures_[records[0]["info2"][1]].width
-    return records, tuple(textures_)
+    return tuple(textures_)

@@ -144,3 +144,21 @@ def test_each_helper_compiles_once_in_its_types(tmp_path):
                          timeout=600)
     assert run.returncode == 0, run.stderr
     assert run.stdout.splitlines() == ["done"]
+
+
+def test_a_hung_compile_child_is_stopped(monkeypatch):
+    """A child that does not end within ``CHILD_TIMEOUT`` is killed (its module then compiles
+    on import, as without children), so the first render never waits on it forever."""
+    children = []
+    popen = subprocess.Popen
+
+    def recorded(*args, **kwargs):
+        children.append(popen(*args, **kwargs))
+        return children[-1]
+
+    monkeypatch.setattr(kernels, "_CHILD", "import time; time.sleep(120)")
+    monkeypatch.setattr(kernels, "CHILD_TIMEOUT", 0.5)
+    monkeypatch.setattr(kernels.subprocess, "Popen", recorded)
+    kernels._compile_apart(["shading", "raster", "shadows"], 2)
+    assert len(children) == 3 and all(child.returncode is not None and child.returncode < 0
+                                      for child in children)

@@ -508,3 +508,22 @@ def test_a_changed_value_keeps_the_shader():
         rows.append(constants.array())
     assert codes[0] == codes[1]
     assert not np.array_equal(rows[0], rows[1])
+
+
+def test_images_are_uploaded_once_while_their_texels_stay():
+    """A frame made again (a material tweak) finds its images' GPU textures kept; the same
+    image sampled another way shares them; an image with new texels is uploaded anew."""
+    from bo2_lighting.addon.gpu_backend import images
+
+    a = core_texture.make_texture(RNG.uniform(0, 1, (16, 8, 4)).astype(np.float32),
+                                  srgb=False)
+    b = core_texture.make_texture((RNG.uniform(0, 1, (8, 8, 3)) * 255).astype(np.uint8),
+                                  srgb=True)
+    records, first = images.pack([a, b])
+    again, second = images.pack([a, b.sampled_as("MIRROR", "Closest")])
+    assert second[0] is first[0] and second[1] is first[1]
+    assert again[1]["info"][2:] != records[1]["info"][2:]  # the sampling is the record's
+    edited = core_texture.make_texture(RNG.uniform(0, 1, (16, 8, 4)).astype(np.float32),
+                                       srgb=False)
+    _, third = images.pack([edited, b])
+    assert third[0] is not first[0]

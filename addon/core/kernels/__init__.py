@@ -246,20 +246,28 @@ importlib.import_module(package + ".addon.core.kernels." + module)
 def _compile_apart(modules: list[str], jobs: int) -> None:
     """Compile ``modules`` into the cache in up to ``jobs`` child processes at once (the
     compiler holds Python's lock, so threads would take turns). Without a Python to run
-    (``sys.executable`` is not one), nothing: the import compiles instead."""
+    (``sys.executable`` is not one), nothing: the import compiles instead; so does a module
+    whose child fails or is still at it after ``CHILD_TIMEOUT`` seconds (it is stopped)."""
     if jobs < 2 or "python" not in Path(sys.executable or "").name.lower():
         return
     package = __name__.removesuffix(".addon.core.kernels")
     folder = str(Path(__file__).resolve().parents[4])  # kernels, core, addon, the package
-    todo, running = list(modules), []
+    todo, running = list(modules), []  # running: (child, when it started)
     while todo or running:
         while todo and len(running) < jobs:
             args = json.dumps([sys.path, package, folder, todo.pop(0)])
-            running.append(subprocess.Popen([sys.executable, "-c", _CHILD, args],
-                                            stdout=subprocess.DEVNULL,
-                                            stderr=subprocess.DEVNULL))
+            running.append((subprocess.Popen([sys.executable, "-c", _CHILD, args],
+                                             stdout=subprocess.DEVNULL,
+                                             stderr=subprocess.DEVNULL), time.monotonic()))
         time.sleep(0.05)
-        running = [p for p in running if p.poll() is None]
+        for child, started in running:
+            if child.poll() is None and time.monotonic() - started > CHILD_TIMEOUT:
+                child.kill()
+                child.wait()
+        running = [(child, started) for child, started in running if child.poll() is None]
+
+
+CHILD_TIMEOUT = 900.0  # seconds a child may take to compile one module (about 60 s on 2 cores)
 
 
 if "NUMBA_CACHE_DIR" not in os.environ:  # until the host configures its own folder
