@@ -279,6 +279,33 @@ def test_penumbra_grows_with_light_size():
     assert widths[1] > 2.0 * widths[0]
 
 
+@pytest.mark.parametrize("kind", ["POINT", "SUN"])
+def test_the_pyramid_skips_blocker_searches_without_changing_a_bit(kind):
+    """Soft-shadowed points whose whole search region the pyramid proves lit or dark skip
+    the blocker search (``how``: HOW_PROVEN): much of an open ground and of a wide umbra;
+    with the test off every such point searches, and the results are the same bits."""
+    from bo2_lighting.addon.core.kernels import shadows as filter_kernel
+
+    light = (Light("POINT", np.ones(3), position=np.array([0.0, 0.0, 3.0]), radius=0.2)
+             if kind == "POINT" else
+             Light("SUN", np.ones(3), direction=np.array([0.0, 0.0, -1.0]),
+                   radius=np.radians(10.0)))
+    scene = np.concatenate([ground(), quad([0, 0, 1.0], [SOFT_HALF, 0, 0], [0, SOFT_HALF, 0])])
+    sm = shadows.build_shadow_map(light, scene, look_at([0.0, -6.0, 6.0], [1.0, 0.0, 0.0]),
+                                  resolution=512)
+    rng = np.random.default_rng(3)
+    p = np.column_stack([rng.uniform(-2.5, 2.5, (4000, 2)), np.zeros(4000)]).astype(np.float32)
+    n = np.tile(np.float32([0.0, 0.0, 1.0]), (len(p), 1))
+    how = np.empty(len(p), np.uint8)
+    vis = shadow_filter.shadow_visibility(sm, p, n, how=how)
+    searched = shadow_filter.shadow_visibility(sm, p, n, skip=False)
+    assert np.array_equal(vis.view(np.uint32), searched.view(np.uint32))
+    proven = how == filter_kernel.HOW_PROVEN
+    soft = proven | (how == filter_kernel.HOW_SEARCHED)
+    assert proven.sum() > 0.2 * soft.sum() and (soft & ~proven).any()
+    assert set(np.unique(vis[proven])) <= {0.0, 1.0} and (vis[proven] == 0.0).any()
+
+
 @pytest.mark.parametrize("angle_deg", [4.0, 8.0])
 def test_sun_penumbra_width(angle_deg):
     angle = np.radians(angle_deg)

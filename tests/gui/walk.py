@@ -17,6 +17,7 @@ import traceback
 from pathlib import Path
 
 import bpy
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 import panel_walk  # noqa: E402
@@ -418,6 +419,10 @@ def walk():
     check("Scene World on restores the scene's world and probes", live.shading.world is None
           and back is not None and abs(float(back.pixels.mean()) - float(own.mean())) < 1e-4)
 
+    # 6b. Device GPU: the viewport drawn on the GPU (Mesa's software GL here), the shadow
+    # maps' depths drawn there too; an object moved redraws them
+    yield from gpu_view(scene, live)
+
     # 7. Look-dev under the studio light, on the material chart (an open scene)
     bpy.ops.wm.open_mainfile(filepath=str(CHART))
     yield 3.0
@@ -463,6 +468,52 @@ def walk():
     yield 1.0
     tab_check("World tab (nodes)", "world",
               {"World.sun_threshold", "World.sun_angle", "World.use_sun_shadow"})
+
+
+def gpu_view(scene, live):
+    """Device GPU in Rendered shading: the frame drawn there with its shadow maps (their
+    depths left to the GPU), then the table moved: its shadow drawn anew, on the GPU."""
+    scene.bo2.device = "GPU"
+
+    def drawn(timeout):
+        start = time.perf_counter()
+        while time.perf_counter() - start < timeout:
+            redraw()
+            yield 1.0
+            frame = live.session.frame()
+            if live.gpu_failure or (frame is not None and live.gpu is not None
+                                    and not live.session.busy and not live.gpu_busy):
+                break
+        return time.perf_counter() - start
+
+    seconds = yield from drawn(300)
+    frame = live.session.frame()
+    maps = [m for m in frame[0].shadow_maps if m is not None] if frame else []
+    check("Device GPU draws the viewport on the GPU, its shadow maps too",
+          frame is not None and not live.gpu_failure and "GPU" in live.status()
+          and maps and all(m.on_gpu for m in maps),
+          f"after {seconds:.1f} s: {live.status()}; maps drawn on the GPU: "
+          f"{sum(m.on_gpu for m in maps)} of {len(maps)}")
+    screenshot("viewport_gpu")
+    table = bpy.data.objects.get("Table top")
+    if table is None:
+        scene.bo2.device = "AUTO"
+        return
+    table.location.x -= 0.6
+    table.location.z += 0.3
+    seconds = yield from drawn(300)
+    moved = live.session.frame()
+    screenshot("viewport_gpu_table_moved")
+    before, after = (bpy.data.images.load(str(OUT / shots[k])) for k in (-2, -1))
+    diff = float(np.abs(np.asarray(before.pixels[:]) - np.asarray(after.pixels[:])).mean())
+    check("a moved object's shadow is drawn anew on the GPU",
+          moved is not None and moved[0] is not frame[0] and not live.gpu_failure
+          and all(m.on_gpu for m in moved[0].shadow_maps if m is not None) and diff > 1e-3,
+          f"after {seconds:.1f} s: {live.status()}; mean change {diff:.4f}")
+    table.location.x += 0.6
+    table.location.z -= 0.3
+    scene.bo2.device = "AUTO"
+    yield from drawn(300)
 
 
 def bake_all(operator, running):

@@ -25,8 +25,13 @@ _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 CUBE, PERSPECTIVE, ORTHO = 0, 1, 2
 
 # integer constants of a map (``iparams``)
-I_KIND, I_RES, I_LEVELS, I_JITTER, I_MIP_FIRST, I_REFINEMENTS = range(6)
-I_SIZE = 6
+I_KIND, I_RES, I_LEVELS, I_JITTER, I_MIP_FIRST, I_REFINEMENTS, I_SKIP = range(7)
+I_SIZE = 7  # I_SKIP: 1, the search region's pyramid test may skip the blocker search
+
+# how each point was decided (``visibility``'s ``how``): not queried (inactive, outside the
+# maps), the search region proven lit or dark by the pyramid (no blocker search), a blocker
+# search then PCF, the one-texel PCF of hard shadows
+HOW_NONE, HOW_PROVEN, HOW_SEARCHED, HOW_HARD = range(4)
 
 # float32 constants of a map (``fparams``)
 (P_TAN, P_HALF_RES, P_NEAR, P_NEAR2, P_OFFSET, P_TEXEL, P_INV, P_SIZE, P_MIN_DEPTH,
@@ -475,24 +480,25 @@ def _pcf(fr, fp, ip, depth, mips, offsets, sides, rects, faces, radius, disc, re
 def _pcss(fr, fp, ip, depth, mips, offsets, sides, rects, faces, r_search, r_min,
           blocker_disc, pcf_disc, pcf_reach):
     """Percentage-closer soft shadows (Fernando 2005) of the point: the pyramid test of the
-    search region, the blocker search, then PCF with the penumbra radius."""
+    search region (``I_SKIP``), the blocker search, then PCF with the penumbra radius;
+    (visibility, HOW_PROVEN or HOW_SEARCHED)."""
     res = ip[I_RES]
     fres = np.float32(res)
     c0, c1, r0, r1 = _footprint(fr, fp, r_search, np.float32(1.0))
     inside = c0 >= 0 and r0 >= 0 and c1 < fres and r1 < fres
-    if inside:
+    if inside and ip[I_SKIP] != 0:
         span = fp[P_MAX_SLOPE] * (r_search + fr[F_TEXEL])
         cap = fr[F_W0] + fp[P_MAX_SLOPE] * (r_min + fr[F_TEXEL])
         lit, dark = _block_test(fr, ip, mips, offsets, sides, c0, c1, r0, r1,
                                 fr[F_W0] - span, fr[F_W0] + span, cap)
         if dark:
-            return np.float32(0.0)
+            return np.float32(0.0), HOW_PROVEN
         if lit:
-            return np.float32(1.0)
+            return np.float32(1.0), HOW_PROVEN
     count, acc = _taps(fr, fp, ip, depth, rects, faces, r_search, blocker_disc, True,
                        not inside)
     if count == 0:
-        return np.float32(1.0)
+        return np.float32(1.0), HOW_SEARCHED
     mean = acc / np.float32(count)
     size = fp[P_SIZE]
     if ip[I_KIND] == ORTHO:
@@ -501,7 +507,7 @@ def _pcss(fr, fp, ip, depth, mips, offsets, sides, rects, faces, r_search, r_min
         radius = size * (np.float32(1.0) - mean) / _mx(mean, np.float32(1e-6))
     radius = _mn(_mx(radius, r_min), r_search)
     return _pcf(fr, fp, ip, depth, mips, offsets, sides, rects, faces, radius, pcf_disc,
-                pcf_reach)
+                pcf_reach), HOW_SEARCHED
 
 
 _VIS = nb.void(
@@ -511,24 +517,26 @@ _VIS = nb.void(
     nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[::1],  # discs, reaches
     nb.float32[::1], nb.float32[::1],  # rotation cos, sin
     nb.float32[:, ::1], nb.float32[:, ::1], nb.uint32[:, ::1],  # points, normals, seeds,
-    nb.boolean[::1], nb.float32[::1],  # active; out
+    nb.boolean[::1], nb.float32[::1], nb.uint8[::1],  # active; out, how
 )
 
 
 @nb.njit(_VIS, **_OPTIONS)
 def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker_disc,
                pcf_disc, hard_disc, reaches, rot_cos, rot_sin, points, normals, seeds, active,
-               out):
+               out, how):
     """Fraction of the light that reaches each point (``shadow_filter.shadow_visibility``):
     ``out`` (N,) for points (N, 3) and normals (N, 3) where ``active`` (N,) (elsewhere 1),
     each point's disc turned by the hash of its three ``seeds`` (N, 3); points outside every
-    map, and points with non-finite coordinates, are lit (1)."""
+    map, and points with non-finite coordinates, are lit (1). ``how`` (N,): how each point
+    was decided (``HOW_*``)."""
     fr = np.zeros(F_SIZE, np.float32)
     ortho = ip[I_KIND] == ORTHO
     for i in range(points.shape[0]):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
         nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
         out[i] = np.float32(1.0)
+        how[i] = HOW_NONE
         if not active[i] or not np.isfinite(px + py + pz + nx + ny + nz):
             continue
         if ortho:
@@ -553,9 +561,10 @@ def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker
         if fp[P_SIZE] > 0:
             r_search = _search_radius(fr, fp, ip, mips, offsets, sides)
             if r_search > np.float32(1.5) * r_min:  # else too small a light: hard shadows
-                out[i] = _pcss(fr, fp, ip, depth, mips, offsets, sides, rects, faces,
-                               _mx(r_search, r_min), r_min, blocker_disc, pcf_disc,
-                               reaches[1])
+                out[i], how[i] = _pcss(fr, fp, ip, depth, mips, offsets, sides, rects, faces,
+                                       _mx(r_search, r_min), r_min, blocker_disc, pcf_disc,
+                                       reaches[1])
                 continue
+        how[i] = HOW_HARD
         out[i] = _pcf(fr, fp, ip, depth, mips, offsets, sides, rects, faces, r_min,
                       hard_disc, reaches[2])

@@ -138,6 +138,7 @@ def constants(sm: ShadowMap) -> tuple:
     ip = np.zeros(kernels.I_SIZE, np.int64)
     ip[kernels.I_KIND], ip[kernels.I_RES], ip[kernels.I_LEVELS] = kind[sm.kind], res, len(sides)
     ip[kernels.I_MIP_FIRST], ip[kernels.I_REFINEMENTS] = MIP_FIRST_LEVEL, SEARCH_REFINEMENTS
+    ip[kernels.I_SKIP] = 1
     return (np.asarray(offsets, np.int64), np.asarray(sides, np.int64),
             np.ascontiguousarray(sm.basis[0], np.float32), _cascades(sm), _FACES, fp, ip)
 
@@ -167,6 +168,7 @@ FILTER_TABLES = {"blocker_disc": _BLOCKER_DISC, "pcf_disc": _PCF_DISC, "hard_dis
 def shadow_visibility(
     shadow_map: ShadowMap, points: np.ndarray, normals: np.ndarray, *, jitter: bool = True,
     where: np.ndarray | None = None, seeds: np.ndarray | None = None,
+    how: np.ndarray | None = None, skip: bool = True,
 ) -> np.ndarray:
     """Fraction of the light that reaches each point (PCF, Reeves 1987; PCSS, Fernando 2005).
 
@@ -179,6 +181,11 @@ def shadow_visibility(
     where:      (N,) bool: only these points are queried (the others get 1), or None for all
     seeds:      (N, 3) uint32 words hashed into each point's rotation (``pixel_seeds``), or
                 None: the position's float32 bits
+    how:        (N,) uint8 filled with how each point was decided (``kernels.shadows.HOW_*``:
+                e.g. the share of soft-shadowed points whose blocker search the pyramid
+                skipped), or None
+    skip:       let the pyramid prove a search region lit or dark (False: every soft-shadowed
+                point searches; the same results, for measuring the saving)
     returns:    (N,) float32 in [0, 1], 1 = fully lit; points outside every map, and points
                 with non-finite coordinates, are lit
     """
@@ -195,14 +202,19 @@ def shadow_visibility(
     depth, mips, offsets, sides, basis, rects, faces, fp, ip = packed(shadow_map)
     ip = ip.copy()
     ip[kernels.I_JITTER] = bool(jitter)
+    ip[kernels.I_SKIP] = bool(skip)
     active = (np.ones(len(p), bool) if where is None else
               np.require(np.asarray(where, bool), bool, ["C", "W"]))
     bits = p.view(np.uint32) if seeds is None else np.require(seeds, np.uint32, ["C"])
     if bits.shape != p.shape:
         raise ValueError(f"seeds {bits.shape} do not match points {p.shape}")
+    if how is None:
+        how = np.empty(len(p), np.uint8)
+    elif how.shape != (len(p),) or how.dtype != np.uint8:
+        raise ValueError(f"how {how.shape} {how.dtype}: expected ({len(p)},) uint8")
     kernels.visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, _BLOCKER_DISC,
                        _PCF_DISC, _PCF_DISC_HARD, _REACHES, _ROT_COS, _ROT_SIN, p, n, bits,
-                       active, out)
+                       active, out, how)
     return out
 
 
