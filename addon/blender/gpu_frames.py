@@ -4,7 +4,6 @@ frame drawn and read back as the render's passes."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import bpy
@@ -40,8 +39,7 @@ def refusal(scene) -> str | None:
 def probe_cache() -> Path:
     """Where the GPU probe's answer is kept: beside the compiled kernels' folder (the
     extension's user folder, else the per-user cache)."""
-    return Path(os.environ.get("NUMBA_CACHE_DIR") or kernels.default_cache_dir()).parent \
-        / "gpu_device.json"
+    return kernels.user_cache("gpu_device.json")
 
 
 def renderer() -> str:

@@ -68,3 +68,34 @@ def test_it_is_kept_per_content_and_left_out_with_volumes():
     off = ground_scene()
     off.settings.implicit_bounce = False
     assert bounce.attach(off).probes.bounce is None
+
+
+def test_the_next_session_reuses_the_bake_from_disk(tmp_path, monkeypatch):
+    """A baked volume is kept on disk under its content and the engine's code: a new session
+    (the memory cache emptied) loads it bit for bit instead of baking; a damaged file is baked
+    anew and replaced; only the last ``KEPT_ON_DISK`` files stay."""
+    monkeypatch.setattr(bounce.kernels, "user_cache", lambda name: tmp_path / name)
+    scene = ground_scene(albedo=0.4)
+    baked = bounce.attach(scene).probes.bounce
+    files = list((tmp_path / "bounce").glob("*.npz"))
+    assert len(files) == 1 and files[0].name.startswith(bounce.key(scene))
+    bounce._volumes.clear()
+
+    def no_bake(*args):
+        raise AssertionError("baked again")
+
+    with monkeypatch.context() as m:
+        m.setattr(bounce, "_bake", no_bake)
+        loaded = bounce.attach(scene).probes.bounce
+    for name in ("local_to_world", "sh", "validity"):
+        assert np.array_equal(getattr(loaded, name), getattr(baked, name)), name
+    assert (loaded.resolution, loaded.influence, loaded.facing_bias, loaded.falloff) == (
+        baked.resolution, baked.influence, baked.facing_bias, baked.falloff)
+    bounce._volumes.clear()
+    files[0].write_bytes(b"not a volume")
+    again = bounce.attach(scene).probes.bounce
+    assert np.array_equal(again.sh, baked.sh) and files[0].stat().st_size > 100
+    monkeypatch.setattr(bounce, "KEPT_ON_DISK", 1)
+    bounce.attach(ground_scene(albedo=0.3))
+    assert [p.name.split("-")[0] for p in (tmp_path / "bounce").glob("*.npz")] == [
+        bounce.key(ground_scene(albedo=0.3))]

@@ -14,7 +14,9 @@ The grid spans the objects' bounding boxes, but those of objects over ``WIDE`` t
 median object's size (a ground reaching to the horizon would spread it thin), grown by
 ``MARGIN`` of its size, with at most ``MAX_SAMPLES`` samples at equal spacing. It is kept
 per content (``key``: geometry, materials, lights, world) for the last two scenes: a
-frame of the same scene reuses it.
+frame of the same scene reuses it. The last ``KEPT_ON_DISK`` volumes are also kept in the
+engine's cache folder (``kernels.user_cache``), each under its content and this engine's code
+(``code_digest``), so the first frame of the next session reuses the bake too.
 
 Chosen over two others (docs/probes.md): reflective dome maps miss what is nearer than a map's
 texel, and a screen-space bounce misses the ground the camera does not see under an object;
@@ -26,11 +28,16 @@ it reaches, the dome's visibility is not brightened by the multi-bounce fit
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
+import os
 from collections.abc import Callable
+from pathlib import Path
 
 import numpy as np
 
+from .. import kernels
+from ..files import atomic
 from ..formulas.texture import Texture
 from ..lighting.probes import IrradianceVolume, sends_light
 from ..render.job import Cancelled, RenderJob
@@ -49,6 +56,7 @@ FACE_SIZE = 16  # texels of each capture's cube face (as a volume bake's)
 FADE = 0.25  # local units outside the box over which its weight fades
 FACING = 1.0  # the look-up's facing bias: samples behind a surface weigh less, none is cut
 _volumes = Cache("bounce without probes", kept=2)  # key -> the baked volume
+KEPT_ON_DISK = 16  # baked volumes kept in the cache folder, the most recently used
 
 
 def spec(scene: Scene) -> bake.ProbeSpec | None:
@@ -136,8 +144,8 @@ def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
     """``scene`` with the implicit bounce in its probes (``Probes.bounce``) when they hold no
     volume; unchanged without probes (no indirect light), without geometry, or under a black
     world (a scene lit by its lamps alone keeps its frame time: no bake). The volume is baked
-    when this content has none yet (``bake_missing``; False: only one kept is used, as a
-    viewport's redraws do)."""
+    when this content has none yet, in this session or on disk (``bake_missing``; False:
+    only one this session keeps is used, as a viewport's redraws do)."""
     probes = scene.probes
     if probes is None or probes.volumes or not scene.meshes \
             or not scene.settings.implicit_bounce or not sends_light(probes):
@@ -150,6 +158,68 @@ def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
     if volume is None:
         if not bake_missing:
             return scene
-        volume = _bake(scene, where, should_stop)
+        volume = _load(k)
+        if volume is None:
+            volume = _bake(scene, where, should_stop)
+            _save(k, volume)
         _volumes.put(k, volume)
     return dataclasses.replace(scene, probes=dataclasses.replace(probes, bounce=volume))
+
+
+@functools.cache
+def code_digest() -> str:
+    """A digest of the core's Python sources: a volume baked by other code is baked anew."""
+    root = Path(__file__).resolve().parents[1]
+    h = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        h.update(path.relative_to(root).as_posix().encode())
+        h.update(path.read_bytes())
+    return h.hexdigest()[:16]
+
+
+def _file(k: str) -> Path:
+    return kernels.user_cache("bounce") / f"{k}-{code_digest()}.npz"
+
+
+def _save(k: str, volume: IrradianceVolume) -> None:
+    """Keep ``volume`` on disk (written whole; the oldest beyond ``KEPT_ON_DISK`` removed). A
+    folder that cannot be written only costs the next session a bake."""
+    path = _file(k)
+    arrays = {"local_to_world": volume.local_to_world, "resolution": volume.resolution,
+              "sh": volume.sh, "params": [volume.influence, volume.normal_bias,
+                                          volume.view_bias, volume.falloff,
+                                          np.nan if volume.facing_bias is None
+                                          else volume.facing_bias]}
+    if volume.validity is not None:
+        arrays["validity"] = volume.validity
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        atomic.write_atomically(path, lambda tmp: np.savez(tmp, **arrays))
+        kept = sorted(path.parent.glob("*.npz"), key=lambda p: p.stat().st_mtime, reverse=True)
+        for old in kept[KEPT_ON_DISK:]:
+            old.unlink(missing_ok=True)
+    except OSError:
+        pass
+
+
+def _load(k: str) -> IrradianceVolume | None:
+    """The volume kept on disk for content ``k``, or None (none, or a file that cannot be
+    read: baked anew)."""
+    path = _file(k)
+    try:
+        with np.load(path, allow_pickle=False) as data:
+            influence, normal_bias, view_bias, falloff, facing = (float(v)
+                                                                  for v in data["params"])
+            volume = IrradianceVolume(
+                "Implicit bounce", np.array(data["local_to_world"], np.float64),
+                tuple(int(r) for r in data["resolution"]), np.array(data["sh"], np.float32),
+                influence=influence,
+                validity=np.array(data["validity"], np.float32) if "validity" in data else None,
+                normal_bias=normal_bias, view_bias=view_bias,
+                facing_bias=None if np.isnan(facing) else facing, falloff=falloff)
+        if volume.sh.shape != (*volume.resolution, 9, 3) or not np.isfinite(volume.sh).all():
+            return None
+        os.utime(path)  # the most recently used
+        return volume
+    except (OSError, KeyError, ValueError, TypeError, EOFError):
+        return None

@@ -54,7 +54,7 @@ LOADING_MESSAGE = "Loading BO2 kernels"
 MODULES = ("raster", "shadows", "textures", "lightmap", "indirect", "shading", "occlusion")
 
 __all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
-           "is_cached", "load", "prepare", "status"]
+           "is_cached", "load", "prepare", "status", "user_cache"]
 
 
 class KernelsUnavailable(RuntimeError):
@@ -128,6 +128,12 @@ def default_cache_dir() -> Path:
     else:
         base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
     return base / "bo2_lighting" / "kernels"
+
+
+def user_cache(name: str) -> Path:
+    """A file or folder ``name`` of the engine's other caches, beside the compiled kernels'
+    folder (``configure``; by default ``default_cache_dir``)."""
+    return Path(os.environ.get("NUMBA_CACHE_DIR") or default_cache_dir()).parent / name
 
 
 def configure(cache_dir: str | os.PathLike) -> None:
@@ -289,7 +295,9 @@ def _cached(module: str) -> bool:
     folder = os.environ.get("NUMBA_CACHE_DIR")
     if not folder:
         return False
-    source = Path(__file__).resolve().parent / f"{module}.py"
+    # the folder as numba names it: the module's path as imported, symbolic links kept (an
+    # extension folder reached through a linked config folder)
+    source = Path(os.path.dirname(os.path.abspath(__file__))) / f"{module}.py"
     here = os.path.dirname(os.path.abspath(source))
     sub = Path(folder) / f"kernels_{hashlib.sha1(here.encode()).hexdigest()}"
     try:
