@@ -347,6 +347,11 @@ class _Batch:
     shadow_block: object
 
 
+# [key, shadow sets, what the key's ids name] of the last GPUFrame: the drawn or uploaded
+# shadow maps of a frame whose geometry and maps are the same objects (``with_materials``)
+_kept_shadows: list = []
+
+
 class GPUFrame:
     """``frame`` on the GPU: its geometry, material table, lights and shadow maps uploaded
     once; ``draw`` renders it through any camera. Raises ``Unsupported`` for a frame the GPU
@@ -458,8 +463,13 @@ class GPUFrame:
         self._peeling = None  # (size, textures and framebuffers) of the layers peeled
         self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
         self.batches = []
+        # the shadow maps of the frame before, when this one has the same (a material tweak)
+        key = (id(frame.positions), id(frame.casts), sky is not None,
+               tuple(id(m) for m in frame.shadow_maps))
+        kept = _kept_shadows[1] if _kept_shadows and _kept_shadows[0] == key else None
+        sets = [] if kept is None else kept
         casters = None  # the shadow casters, for maps the core left to the GPU to draw
-        if any(m is not None and m.on_gpu for m in frame.shadow_maps):
+        if kept is None and any(m is not None and m.on_gpu for m in frame.shadow_maps):
             from .shadow_depths import Casters
 
             casts = frame.positions if frame.casts is None else frame.positions[frame.casts]
@@ -469,9 +479,11 @@ class GPUFrame:
             size = DOME_BATCH_LIGHTS if sky is not None and lo == 0 else BATCH_LIGHTS
             group = scene_lights[lo:lo + size]
             extra = sky.maps if sky is not None and lo == 0 else []
-            shadow_set = lights.shadow_set(maps[lo:lo + size] + list(extra),
-                                           jitter=[True] * len(group) + [False] * len(extra),
-                                           casters=casters)
+            if kept is None:
+                sets.append(lights.shadow_set(
+                    maps[lo:lo + size] + list(extra),
+                    jitter=[True] * len(group) + [False] * len(extra), casters=casters))
+            shadow_set = sets[len(self.batches)]
             if extra:
                 self.dome = shadow_set.index[len(group):]
             self.batches.append(_Batch(
@@ -479,6 +491,8 @@ class GPUFrame:
                 shadow_set, gpu.types.GPUUniformBuf(
                     _padded(shadow_set.block, lights.SHADOW, SHADOW_RECORDS))))
             lo += size
+        # kept with what the key names, so that no id is another object's while kept
+        _kept_shadows[:] = [key, sets, (frame.positions, frame.casts, list(frame.shadow_maps))]
 
     def draw(self, camera, offsets, targets: Targets, first_sample: int = 0) -> None:
         """Add the samples at ``offsets`` ((S, 2) positions in the pixel, top-left origin;

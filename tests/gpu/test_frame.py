@@ -330,3 +330,20 @@ def test_every_look_dev_view_matches_the_cpu():
         report[view] = round(float(value), 1)
     print(f"look-dev views, GPU vs CPU: {report}")
     assert min(report.values()) >= 40.0, report
+
+
+def test_a_material_tweak_keeps_the_drawn_shadow_maps():
+    """A frame made again for new materials (``with_materials``: the same geometry and maps)
+    reuses the shadow maps the GPU drew for the frame before; new maps are drawn anew."""
+    from bo2_lighting.addon.core.render.buffers import with_materials
+
+    scene = scenes.objects_scene([scenes.LIGHTS["POINT"], scenes.LIGHTS["SUN"]])
+    frame = pipeline.prepare(RenderJob(scene), on_gpu=True)
+    first = gpu_frame.GPUFrame(frame)
+    tweaked = with_materials(frame, frame.scene)
+    assert tweaked is not None and tweaked is not frame
+    again = gpu_frame.GPUFrame(tweaked)
+    assert [b.shadows for b in again.batches] == [b.shadows for b in first.batches]
+    assert all(a.shadows is b.shadows for a, b in zip(again.batches, first.batches))
+    fresh = gpu_frame.GPUFrame(pipeline.prepare(RenderJob(scene), on_gpu=True))
+    assert all(a.shadows is not b.shadows for a, b in zip(fresh.batches, first.batches))
