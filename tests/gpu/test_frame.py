@@ -343,7 +343,7 @@ def test_a_material_tweak_keeps_the_drawn_shadow_maps():
     tweaked = with_materials(frame, frame.scene)
     assert tweaked is not None and tweaked is not frame
     again = gpu_frame.GPUFrame(tweaked)
-    assert [b.shadows for b in again.batches] == [b.shadows for b in first.batches]
-    assert all(a.shadows is b.shadows for a, b in zip(again.batches, first.batches))
+    assert len(again.batches) == len(first.batches)
+    assert all(a.shadows is b.shadows for a, b in zip(again.batches, first.batches, strict=True))
     fresh = gpu_frame.GPUFrame(pipeline.prepare(RenderJob(scene), on_gpu=True))
-    assert all(a.shadows is not b.shadows for a, b in zip(fresh.batches, first.batches))
+    assert all(a.shadows is not b.shadows for a, b in zip(fresh.batches, first.batches, strict=True))
