@@ -346,4 +346,5 @@ def test_a_material_tweak_keeps_the_drawn_shadow_maps():
     assert len(again.batches) == len(first.batches)
     assert all(a.shadows is b.shadows for a, b in zip(again.batches, first.batches, strict=True))
     fresh = gpu_frame.GPUFrame(pipeline.prepare(RenderJob(scene), on_gpu=True))
-    assert all(a.shadows is not b.shadows for a, b in zip(fresh.batches, first.batches, strict=True))
+    assert all(a.shadows is not b.shadows
+               for a, b in zip(fresh.batches, first.batches, strict=True))
