@@ -17,7 +17,7 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core.files import atomic
+from ..core.system import atomic
 from . import bake_files, lightmaps, probes
 
 

@@ -33,7 +33,7 @@ from pathlib import Path
 
 import bpy
 
-from ..core.files import atomic
+from ..core.system import atomic
 from . import interrupt, props
 
 LIGHTMAPS = "lightmaps"  # sub-folder of the lightmaps

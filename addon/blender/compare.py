@@ -27,10 +27,10 @@ from pathlib import Path
 
 import bpy
 
-from ..core.files import atomic
 from ..core.render.passes import PASSES
 from ..core.review import compare as core
 from ..core.review import imaging
+from ..core.system import atomic
 from . import images, interrupt, passes, worlds
 from . import settings as settings_of
 

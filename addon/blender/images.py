@@ -18,9 +18,10 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core.files import atomic, exr
+from ..core.files import exr
 from ..core.formulas import texture
 from ..core.render.job import Warnings
+from ..core.system import atomic
 from ..core.system.cache import Cache
 from .passes import blender_name, channel_ids
 

@@ -16,8 +16,8 @@ from pathlib import Path
 import bpy
 import numpy as np
 
-from ..core.files import atomic
 from ..core.formulas import texture
+from ..core.system import atomic
 from . import images, node_groups
 
 LIBRARY_NAME = "BO2 Lighting"

@@ -16,10 +16,10 @@ from pathlib import Path
 
 import bpy
 
-from ..core.files import atomic
 from ..core.review import compare as core_compare
 from ..core.review import flip
 from ..core.review import report as core
+from ..core.system import atomic
 from . import compare, images, passes
 from . import settings as settings_of
 

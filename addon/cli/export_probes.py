@@ -120,7 +120,7 @@ def run(args) -> int:
                             "probes' own local axes to it",
                     "units": "metres; radiance SH of sh.basis (docs/sh.md)",
                     "format": args.format, "world": world_entry, "probes": entries}
-        from ..core.files import atomic
+        from ..core.system import atomic
 
         atomic.write_text(out / "probes.json", json.dumps(manifest, indent=1) + "\n")
     except OSError as exc:

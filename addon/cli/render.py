@@ -10,7 +10,7 @@ import time
 from pathlib import Path
 
 from ..blender import headless, interrupt
-from ..core.files import atomic
+from ..core.system import atomic
 from . import CommandError, load_blend, patterns, too_many_samples, usage_error
 from .terminal import BatchProgress, quiet_blender
 

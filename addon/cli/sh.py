@@ -55,8 +55,9 @@ def _read(path: Path) -> np.ndarray:
 def run(args) -> int:
     """Print the 9 RGB SH coefficients of the radiance of a lat-long (equirectangular) image;
     with ``-o`` / ``--header`` write them, and the tinted scalar SH, for an engine."""
-    from ..core.files import atomic, engine_export, gpu_textures
+    from ..core.files import engine_export, gpu_textures
     from ..core.formulas import sh
+    from ..core.system import atomic
 
     path = Path(args.image)
     if why := overwrites_input([path], [o for o in (args.output, args.header) if o]):

@@ -37,11 +37,11 @@ from pathlib import Path
 import numpy as np
 
 from .. import kernels
-from ..files import atomic
 from ..formulas.texture import Texture
 from ..lighting.probes import IrradianceVolume, sends_light
 from ..render.job import Cancelled, RenderJob
 from ..scene import Scene, World
+from ..system import atomic
 from ..system.cache import Cache
 from . import bake, capture
 

@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ..formulas import cubemap, sh
+from ..system.atomic import write_atomically, write_text
 from . import bake_file, gpu_textures
-from .atomic import write_atomically, write_text
 
 __all__ = ["AXES", "FORMATS", "chain_metadata", "cube_sh", "sh_header", "sh_record", "write_chain"]
 

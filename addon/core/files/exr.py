@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import write_atomically
+from ..system.atomic import write_atomically
 
 __all__ = ["ExrError", "Part", "read", "rgb", "write"]
 

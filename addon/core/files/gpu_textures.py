@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from ..formulas import cubemap
-from .atomic import write_atomically
+from ..system.atomic import write_atomically
 
 __all__ = ["Y_UP", "from_gpu_faces", "gpu_face_directions", "to_gpu_faces", "write_dds",
            "write_ktx2"]

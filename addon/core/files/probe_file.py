@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .atomic import replace_all
+from ..system.atomic import replace_all
 from .bake_file import BakeFileError, content_digest, read_parts, write_parts
 
 __all__ = ["FORMAT", "read", "size_bound", "write", "write_all"]

@@ -21,8 +21,8 @@ import zlib
 
 import numpy as np
 
-from ..files.atomic import write_bytes
 from ..formulas.texture import linear_to_srgb
+from ..system.atomic import write_bytes
 
 # ---------------------------------------------------------------------------------------------
 # Colour map

@@ -30,7 +30,7 @@ from urllib.parse import quote
 
 import numpy as np
 
-from ..files.atomic import write_text
+from ..system.atomic import write_text
 from . import compare, flip, imaging, report_page
 
 VARIANTS = {"bo2": "BO2 Lighting", "bo2_old": "BO2 Lighting, the talk's old methods"}

@@ -1,3 +1,4 @@
 """What the core needs of the machine it runs on: its memory and the process's limit on it, in
-words (``machine``), and the bounded caches that keep work between renders (``cache``).
+words (``machine``), the bounded caches that keep work between renders (``cache``), and files
+written whole or not at all (``atomic``).
 """
