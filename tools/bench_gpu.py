@@ -76,7 +76,7 @@ def main() -> int:
 
     core = extracted(width, height, "VIEWPORT")
     start = time.perf_counter()
-    frame = pipeline.prepare(RenderJob(core))
+    frame = pipeline.prepare(RenderJob(core), on_gpu=True)  # the viewport's GPU frame
     prepare_s = time.perf_counter() - start
     why = gpu_frame.unsupported(frame)
     if why:
@@ -121,13 +121,16 @@ def main() -> int:
         fresh = pipeline.prepare(RenderJob(core), on_gpu=True)
         one_sample(gpu_frame.GPUFrame(fresh), cam, targets)
 
-    def cpu_sample(k, prepared=frame, camera=cam):
+    cpu_frame = pipeline.cpu_maps(RenderJob(core), pipeline.prepare(RenderJob(core),
+                                                                    on_gpu=True))
+
+    def cpu_sample(k, prepared=cpu_frame, camera=cam):
         view = prepared if camera is cam else with_camera(prepared, camera)
         pipeline.render_frame(RenderJob(view.scene), frame=view, offsets=offsets[:1])
 
     rows = [("material tweak", material_tweak, lambda k: cpu_sample(
-                k, with_materials(frame, frame.scene) or frame)),
-            ("camera move", camera_move, lambda k: cpu_sample(k, frame, moved(k))),
+                k, with_materials(cpu_frame, cpu_frame.scene) or cpu_frame)),
+            ("camera move", camera_move, lambda k: cpu_sample(k, cpu_frame, moved(k))),
             ("object move", object_move, lambda k: cpu_sample(
                 k, pipeline.prepare(RenderJob(core))))]
     for name, gpu_fn, cpu_fn in rows:

@@ -372,9 +372,13 @@ class Viewport:
         return "  |  ".join(parts)
 
     def close(self) -> None:
-        """Stop the render thread."""
+        """Stop the render thread; the last viewport closed lets go of the GPU memory kept
+        for the next frame."""
         self.session.close()
         _live.discard(self)
+        self.gpu = None
+        if not _live:
+            gpu_frame.release()
 
 
 def _renderer() -> str:

@@ -14,6 +14,7 @@ What the GPU does not draw yet is named by ``unsupported`` (the frame then rende
 from __future__ import annotations
 
 import dataclasses
+import threading
 from dataclasses import dataclass
 
 import numpy as np
@@ -347,9 +348,19 @@ class _Batch:
     shadow_block: object
 
 
-# [key, shadow sets, what the key's ids name] of the last GPUFrame: the drawn or uploaded
-# shadow maps of a frame whose geometry and maps are the same objects (``with_materials``)
+# [(key, shadow sets, what the key's ids name)] of the last GPUFrame: the drawn or uploaded
+# shadow maps of a frame whose geometry and maps are the same objects (``with_materials``);
+# ``release`` empties it
 _kept_shadows: list = []
+_kept_lock = threading.Lock()
+
+
+def release() -> None:
+    """Let go of the GPU memory kept for the next frame (the last frame's shadow maps, the
+    material images' uploads): when the viewport closes and after a final frame."""
+    with _kept_lock:
+        _kept_shadows.clear()
+    images.release()
 
 
 class GPUFrame:
@@ -466,7 +477,9 @@ class GPUFrame:
         # the shadow maps of the frame before, when this one has the same (a material tweak)
         key = (id(frame.positions), id(frame.casts), sky is not None,
                tuple(id(m) for m in frame.shadow_maps))
-        kept = _kept_shadows[1] if _kept_shadows and _kept_shadows[0] == key else None
+        with _kept_lock:
+            last = _kept_shadows[0] if _kept_shadows else None
+        kept = last[1] if last is not None and last[0] == key else None
         sets = [] if kept is None else kept
         casters = None  # the shadow casters, for maps the core left to the GPU to draw
         if kept is None and any(m is not None and m.on_gpu for m in frame.shadow_maps):
@@ -492,7 +505,9 @@ class GPUFrame:
                     _padded(shadow_set.block, lights.SHADOW, SHADOW_RECORDS))))
             lo += size
         # kept with what the key names, so that no id is another object's while kept
-        _kept_shadows[:] = [key, sets, (frame.positions, frame.casts, list(frame.shadow_maps))]
+        with _kept_lock:
+            _kept_shadows[:] = [(key, sets, (frame.positions, frame.casts,
+                                             list(frame.shadow_maps)))]
 
     def draw(self, camera, offsets, targets: Targets, first_sample: int = 0) -> None:
         """Add the samples at ``offsets`` ((S, 2) positions in the pixel, top-left origin;
@@ -905,14 +920,17 @@ def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
     wanted (``PASS_OF`` and ``CENTRAL``; default all), Combined always."""
     cam = frame.scene.camera
     wanted = set(PASS_OF) | set(CENTRAL) if passes is None else set(passes) | {"Combined"}
-    drawn = GPUFrame(frame)
-    out = {}
-    for names in GROUPS:
-        if not any(PASS_OF[p][0] in names for p in wanted if p in PASS_OF):
-            continue
-        targets = Targets(cam.width, cam.height, names)
-        drawn.draw(cam, offsets, targets)
-        out.update({p: image for p, image in targets.passes().items() if p in wanted})
-    if wanted & set(CENTRAL):
-        out.update(drawn.central(cam, offsets))
-    return out
+    try:
+        drawn = GPUFrame(frame)
+        out = {}
+        for names in GROUPS:
+            if not any(PASS_OF[p][0] in names for p in wanted if p in PASS_OF):
+                continue
+            targets = Targets(cam.width, cam.height, names)
+            drawn.draw(cam, offsets, targets)
+            out.update({p: image for p, image in targets.passes().items() if p in wanted})
+        if wanted & set(CENTRAL):
+            out.update(drawn.central(cam, offsets))
+        return out
+    finally:
+        release()  # a final frame's maps and images are not drawn again

@@ -4,6 +4,8 @@ mip chain as rows of a texture (one texel per pixel; 8-bit images keep their cod
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..core.formulas import texture as core_texture
@@ -63,12 +65,14 @@ def pack(texs: list) -> tuple[list[dict], tuple]:
         flats.append((flat, c, codes))
         used[codes] += len(flat) // c
     key = tuple((id(flat), c) for flat, c, _ in flats)
-    kept = _uploads.pop(key, None)
+    with _lock:
+        kept = _uploads.pop(key, None)
     if kept is None:
         kept = (flats, _upload(texs, flats, used))
-    _uploads[key] = kept  # the most recently used last
-    while len(_uploads) > KEPT_UPLOADS:
-        del _uploads[next(iter(_uploads))]
+    with _lock:
+        _uploads[key] = kept  # the most recently used last
+        while len(_uploads) > KEPT_UPLOADS:
+            del _uploads[next(iter(_uploads))]
     textures_ = kept[1]
     if len(texs) == 1:  # one image: its own row width
         records[0]["info2"][2] = textures_[records[0]["info2"][1]].width
@@ -79,6 +83,13 @@ KEPT_UPLOADS = 4
 # (texel arrays' ids and channels) -> (those arrays, kept alive so the ids stay theirs; the two
 # GPU textures)
 _uploads: dict[tuple, tuple] = {}
+_lock = threading.Lock()
+
+
+def release() -> None:
+    """Let go of the kept uploads (``pack``)."""
+    with _lock:
+        _uploads.clear()
 
 
 def _upload(texs: list, flats: list, used: list[int]) -> tuple:

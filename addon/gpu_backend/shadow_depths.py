@@ -94,6 +94,7 @@ def draw_depths(maps: list, casters: Casters, depth, first_layers: list[int]) ->
     gpu.state.depth_test_set(_DEPTH_STATE[0])
     gpu.state.depth_mask_set(_DEPTH_STATE[1])
     gpu.state.blend_set(_DEPTH_STATE[2])
+    gpu.state.face_culling_set("NONE")  # casters are two-sided (Blender's default state)
     try:
         for m, first in zip(maps, first_layers, strict=True):
             ortho = m.kind == "ORTHO"

@@ -104,14 +104,17 @@ def test_a_drawer_gets_shadow_maps_to_draw_and_a_refusal_renders_here(session):
     frame, _ = session.frame()
     assert frame.shadow_maps and all(m.on_gpu for m in frame.shadow_maps if m is not None)
     assert session.image() is None  # nothing rendered here
-    session.drawer = lambda frame: "a refusal"
-    session.update(scene(), {"settings"})
-    assert session.wait(60) and session.refusal == "a refusal"
-    np.testing.assert_allclose(session.image().pixels[::-1, :, 0], expected(), rtol=3e-3)
-    session.drawer = None
+    session.drawer = None  # the drawer gone: the maps of the frame kept are built here
     session.update(scene(albedo=0.3), {"materials"})
     assert session.wait(60)
     np.testing.assert_allclose(session.image().pixels[::-1, :, 0], expected(0.3), rtol=3e-3)
+    session.drawer = lambda frame: None
+    session.update(scene(), {"geometry"})
+    assert session.wait(60) and session.frame() is not None
+    session.drawer = lambda frame: "a refusal"  # refused: rendered here, its maps built here
+    session.update(scene(), {"geometry"})
+    assert session.wait(60) and session.refusal == "a refusal"
+    np.testing.assert_allclose(session.image().pixels[::-1, :, 0], expected(), rtol=3e-3)
 
 
 def test_a_world_lit_anew_keeps_the_dome(session):

@@ -475,14 +475,16 @@ def gpu_view(scene, live):
     depths left to the GPU), then the table moved: its shadow drawn anew, on the GPU."""
     scene.bo2.device = "GPU"
 
-    def drawn(timeout):
+    def drawn(timeout, other=None):
+        """Wait until the GPU has drawn every sample of a frame (not ``other``)."""
         start = time.perf_counter()
         while time.perf_counter() - start < timeout:
             redraw()
             yield 1.0
             frame = live.session.frame()
-            if live.gpu_failure or (frame is not None and live.gpu is not None
-                                    and not live.session.busy and not live.gpu_busy):
+            if live.gpu_failure or (frame is not None and frame[0] is not other
+                                    and live.gpu is not None and not live.session.busy
+                                    and not live.gpu_busy):
                 break
         return time.perf_counter() - start
 
@@ -496,12 +498,12 @@ def gpu_view(scene, live):
           f"{sum(m.on_gpu for m in maps)} of {len(maps)}")
     screenshot("viewport_gpu")
     table = bpy.data.objects.get("Table top")
-    if table is None:
+    if table is None or frame is None:
         scene.bo2.device = "AUTO"
         return
     table.location.x -= 0.6
     table.location.z += 0.3
-    seconds = yield from drawn(300)
+    seconds = yield from drawn(300, other=frame[0])
     moved = live.session.frame()
     screenshot("viewport_gpu_table_moved")
     before, after = (bpy.data.images.load(str(OUT / shots[k])) for k in (-2, -1))

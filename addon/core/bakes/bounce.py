@@ -27,10 +27,13 @@ it reaches, the dome's visibility is not brightened by the multi-bounce fit
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import hashlib
 import os
+import zipfile
+import zlib
 from collections.abc import Callable
 from pathlib import Path
 
@@ -104,13 +107,17 @@ def _world_key(world: World) -> object:
 
 
 def key(scene: Scene) -> str:
-    """A digest of what the bounce depends on: every triangle's place and material, the
-    materials' programs, the lights, the world and the settings that change a capture."""
+    """A digest of what the bounce depends on: every triangle's place, normals, texture
+    coordinates, attributes and material, the materials' programs, the lights, the world and
+    the settings that change a capture."""
     h = hashlib.sha256()
     for m in scene.meshes:
         h.update(np.ascontiguousarray(m.positions, np.float32).view(np.uint8))
+        h.update(np.ascontiguousarray(m.normals, np.float32).view(np.uint8))
         h.update(np.asarray(m.material, np.int32).tobytes())
-        h.update(repr((m.shadow, m.volume_probes)).encode())
+        h.update(repr((m.shadow, m.volume_probes, _digest_value(m.uvs),
+                       _digest_value(m.world_to_object), _digest_value(m.texspace),
+                       sorted((k, _digest_value(v)) for k, v in m.attributes.items()))).encode())
     for mat in scene.materials:
         h.update(repr([(op.kind, op.args, _digest_value(op.param))
                        for op in mat.program.ops]).encode())
@@ -168,9 +175,10 @@ def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
 
 @functools.cache
 def code_digest() -> str:
-    """A digest of the core's Python sources: a volume baked by other code is baked anew."""
+    """A digest of the core's Python sources and of the NumPy and numba that run them: a
+    volume baked by other code is baked anew."""
     root = Path(__file__).resolve().parents[1]
-    h = hashlib.sha256()
+    h = hashlib.sha256(f"numpy {np.__version__} numba {kernels.NUMBA_VERSION}".encode())
     for path in sorted(root.rglob("*.py")):
         h.update(path.relative_to(root).as_posix().encode())
         h.update(path.read_bytes())
@@ -217,9 +225,11 @@ def _load(k: str) -> IrradianceVolume | None:
                 validity=np.array(data["validity"], np.float32) if "validity" in data else None,
                 normal_bias=normal_bias, view_bias=view_bias,
                 facing_bias=None if np.isnan(facing) else facing, falloff=falloff)
-        if volume.sh.shape != (*volume.resolution, 9, 3) or not np.isfinite(volume.sh).all():
-            return None
-        os.utime(path)  # the most recently used
-        return volume
-    except (OSError, KeyError, ValueError, TypeError, EOFError):
+    except (OSError, KeyError, ValueError, TypeError, EOFError, zipfile.BadZipFile,
+            zlib.error):
         return None
+    if volume.sh.shape != (*volume.resolution, 9, 3) or not np.isfinite(volume.sh).all():
+        return None
+    with contextlib.suppress(OSError):  # the most recently used (a read-only cache: as it is)
+        os.utime(path)
+    return volume

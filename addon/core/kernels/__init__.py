@@ -257,7 +257,8 @@ def _compile_apart(modules: list[str], jobs: int) -> None:
     if jobs < 2 or "python" not in Path(sys.executable or "").name.lower():
         return
     package = __name__.removesuffix(".addon.core.kernels")
-    folder = str(Path(__file__).resolve().parents[4])  # kernels, core, addon, the package
+    # kernels, core, addon, the package: as imported (numba names its cache folder by it)
+    folder = str(Path(os.path.abspath(__file__)).parents[4])
     todo, running = list(modules), []  # running: (child, when it started)
     while todo or running:
         while todo and len(running) < jobs:

@@ -312,12 +312,12 @@ class Session:
         return self._closed or self._updates != number
 
     def _prepared(self, scene: Scene, changed: frozenset, should_stop,
-                  preview: Callable[[Frame], None]) -> Frame:
+                  preview: Callable[[Frame], None], on_gpu: bool) -> Frame:
         """The frame of ``scene``, keeping what ``changed`` leaves valid. When the shadow maps
         must be built again, ``preview`` is first called with a frame that has the previous
-        ones (the first image after a change comes before the slow part)."""
+        ones (the first image after a change comes before the slow part). ``on_gpu``: a
+        drawer takes the frame, and draws its shadow maps' depths too."""
         old = self._frame
-        on_gpu = self.drawer is not None  # the drawer draws the shadow maps' depths too
         rebuild = old is None or bool(changed & {"geometry", "lights"}) or (
             not on_gpu and drawn_on_gpu(old.shadow_maps))
         if not rebuild and changed & {"materials", "settings"}:
@@ -398,7 +398,8 @@ class Session:
 
         drawer = self.drawer
         frame = self._prepared(scene, changed, should_stop,
-                               preview if drawer is None else lambda frame: None)
+                               preview if drawer is None else lambda frame: None,
+                               drawer is not None)
         if drawer is not None:
             refusal = drawer(frame)
             with self._cond:
