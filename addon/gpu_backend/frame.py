@@ -435,11 +435,7 @@ class GPUFrame:
                  ("mat_consts", textures.rows(self.mat.constants))))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
-        corner_fmt = gpu.types.GPUVertFormat()
-        corner_fmt.attr_add(id="corner", comp_type="F32", len=2, fetch_mode="FLOAT")
-        corners = gpu.types.GPUVertBuf(corner_fmt, 3)
-        corners.attr_fill("corner", np.float32([[-1, -1], [3, -1], [-1, 3]]))
-        self.background = gpu.types.GPUBatch(type="TRIS", buf=corners)
+        self.background = textures.full_screen()
         tab = frame.tables
         table = np.zeros((max(1, len(tab["albedo"])), 4, 4), np.float32)
         table[:len(tab["albedo"]), 0] = np.column_stack([tab["albedo"], tab["gloss"]])

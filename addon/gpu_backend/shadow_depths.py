@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.render.shadows import MIP_FIRST_LEVEL, mip_layout
-from . import programs
+from . import programs, textures
 from .textures import ROW_WIDTH as MIPS_WIDTH
 
 _DEPTH_STATE = ("LESS_EQUAL", True, "NONE")  # depth test, depth writes, blending
@@ -62,11 +62,7 @@ class Casters:
         vbo.attr_fill("pos", tris)
         self.count = len(tris) // 3
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
-        corners = gpu.types.GPUVertFormat()
-        corners.attr_add(id="corner", comp_type="F32", len=2, fetch_mode="FLOAT")
-        screen = gpu.types.GPUVertBuf(corners, 3)
-        screen.attr_fill("corner", np.float32([[-1, -1], [3, -1], [-1, 3]]))
-        self.screen = gpu.types.GPUBatch(type="TRIS", buf=screen)
+        self.screen = textures.full_screen()
 
 
 def _column_major(matrix: np.ndarray) -> list[float]:

@@ -53,3 +53,15 @@ def read(texture, channels: int = 4) -> np.ndarray:
 def read_rows(texture, count: int, channels: int = 4) -> np.ndarray:
     """The first ``count`` items (count, channels) of a ``rows`` texture."""
     return read(texture, 4).reshape(-1, 4)[:count, :channels]
+
+
+def full_screen():
+    """A batch of one triangle covering the viewport (``corner``: NDC x, y), for passes that
+    shade every pixel (``background_vert.glsl``)."""
+    import gpu
+
+    fmt = gpu.types.GPUVertFormat()
+    fmt.attr_add(id="corner", comp_type="F32", len=2, fetch_mode="FLOAT")
+    corners = gpu.types.GPUVertBuf(fmt, 3)
+    corners.attr_fill("corner", np.float32([[-1, -1], [3, -1], [-1, 3]]))
+    return gpu.types.GPUBatch(type="TRIS", buf=corners)

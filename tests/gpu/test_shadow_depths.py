@@ -5,7 +5,7 @@ least depth the filter reads, and the filter's visibility through them."""
 import numpy as np
 import pytest
 import scenes
-from test_stages import RNG, SHADOW_LIGHTS, _casters, _unit
+from test_stages import SHADOW_LIGHTS, _casters, gpu_visibility, shadow_points
 
 from bo2_lighting.addon.core.render import shadow_filter, shadows
 from bo2_lighting.addon.core.scene import Camera
@@ -76,26 +76,13 @@ def test_filter_through_gpu_maps_matches_the_cpu(name):
     at the same points and seeds: the same shadows but at points whose taps meet an edge
     texel the two rasterizers decide differently."""
     cpu, _, drawn = _maps(SHADOW_LIGHTS[name], 512)
-    n = 20000
-    pts = np.column_stack([RNG.uniform(-3, 3, n), RNG.uniform(-3, 3, n), np.zeros(n)])
-    pts[:n // 4, 2] = 1.3
-    pts[:n // 4, :2] = RNG.uniform(-0.5, 0.5, (n // 4, 2))
-    pts = pts.astype(np.float32)
-    normals = np.tile(np.float32([0, 0, 1]), (n, 1))
-    normals[n // 2:] = _unit(np.array([[0.3, 0.2, 1.0]]))
-    seeds = RNG.integers(0, 2**32, (n, 3), dtype=np.uint32)
+    pts, normals, seeds = shadow_points()
     reference = shadow_filter.shadow_visibility(cpu, pts, normals, seeds=seeds)
     assert 0.05 < (reference < 1).mean() < 0.95
-    out = pointwise.run(("shadow_filter",), """
-      vis = vec4(shadow_visibility(0, p.xyz, n.xyz, floatBitsToUint(seed.xyz)));""",
-        {"p": pts, "n": normals, "seed": seeds.view(np.float32)}, ("vis",),
-        defines=lights.filter_defines(), structs=(lights.SHADOW,),
-        prelude=lights.filter_prelude(),
-        blocks=(("ShadowData", "shadows[1]", drawn.block),),
-        samplers=drawn.samplers())["vis"][:, 0]
+    out = gpu_visibility(drawn, pts, normals, seeds)
     diff = np.abs(out - reference)
     print(f"{name}: mean difference {diff.mean():.2e}, points off by > 1/16: "
-          f"{(diff > 1 / 16).sum()} of {n}")
+          f"{(diff > 1 / 16).sum()} of {len(pts)}")
     assert diff.mean() < 1e-3 and (diff > 1 / 16).mean() < 2e-3
 
 

@@ -120,6 +120,27 @@ SHADOW_LIGHTS = {
 }
 
 
+def shadow_points(n: int = 20000):
+    """(n, 3) points on the ground, the box's top and a slope, their normals, rotation seeds."""
+    pts = np.column_stack([RNG.uniform(-3, 3, n), RNG.uniform(-3, 3, n), np.zeros(n)])
+    pts[:n // 4, 2] = 1.3  # on the box's top, and a slope
+    pts[:n // 4, :2] = RNG.uniform(-0.5, 0.5, (n // 4, 2))
+    normals = np.tile(np.float32([0, 0, 1]), (n, 1))
+    normals[n // 2:] = _unit(np.array([[0.3, 0.2, 1.0]]))
+    return pts.astype(np.float32), normals, RNG.integers(0, 2**32, (n, 3), dtype=np.uint32)
+
+
+def gpu_visibility(shadow_set, pts, normals, seeds) -> np.ndarray:
+    """The GPU filter's visibility of map 0 of ``shadow_set`` at the points."""
+    return pointwise.run(("shadow_filter",), """
+      vis = vec4(shadow_visibility(0, p.xyz, n.xyz, floatBitsToUint(seed.xyz)));""",
+        {"p": pts, "n": normals, "seed": seeds.view(np.float32)}, ("vis",),
+        defines=lights.filter_defines(), structs=(lights.SHADOW,),
+        prelude=lights.filter_prelude(),
+        blocks=(("ShadowData", "shadows[1]", shadow_set.block),),
+        samplers=shadow_set.samplers())["vis"][:, 0]
+
+
 @pytest.mark.parametrize("name", list(SHADOW_LIGHTS))
 def test_shadow_filter_matches_the_kernel(name):
     """PCF and PCSS with the pyramid tests (``shadow_filter``), every map kind: the GPU reads
@@ -129,24 +150,10 @@ def test_shadow_filter_matches_the_kernel(name):
                  scenes.perspective(1.5, 16 / 9), 320, 180)
     light = SHADOW_LIGHTS[name]
     smap = shadows.build_shadow_map(light, _casters(), cam, resolution=512)
-    n = 20000
-    pts = np.column_stack([RNG.uniform(-3, 3, n), RNG.uniform(-3, 3, n), np.zeros(n)])
-    pts[:n // 4, 2] = 1.3  # on the box's top, and a slope
-    pts[:n // 4, :2] = RNG.uniform(-0.5, 0.5, (n // 4, 2))
-    pts = pts.astype(np.float32)
-    normals = np.tile(np.float32([0, 0, 1]), (n, 1))
-    normals[n // 2:] = _unit(np.array([[0.3, 0.2, 1.0]]))
-    seeds = RNG.integers(0, 2**32, (n, 3), dtype=np.uint32)
+    pts, normals, seeds = shadow_points()
     cpu = shadow_filter.shadow_visibility(smap, pts, normals, seeds=seeds)
     assert 0.05 < (cpu < 1).mean() < 0.95 and ((cpu > 0) & (cpu < 1)).sum() > 100
-    shadow_set = lights.shadow_set([smap])
-    out = pointwise.run(("shadow_filter",), """
-      vis = vec4(shadow_visibility(0, p.xyz, n.xyz, floatBitsToUint(seed.xyz)));""",
-        {"p": pts, "n": normals, "seed": seeds.view(np.float32)}, ("vis",),
-        defines=lights.filter_defines(), structs=(lights.SHADOW,),
-        prelude=lights.filter_prelude(),
-        blocks=(("ShadowData", "shadows[1]", shadow_set.block),),
-        samplers=shadow_set.samplers())["vis"][:, 0]
+    out = gpu_visibility(lights.shadow_set([smap]), pts, normals, seeds)
     diff = np.abs(out - cpu)
     assert diff.mean() < 1e-4 and (diff > 1 / 16).mean() < 1e-3
 
