@@ -108,7 +108,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         frame = None
         sink = Warnings(self._forward)
         try:
-            kernels.load(lambda message: self.update_stats("BO2 Lighting", message))
+            kernels.load(lambda message: self.update_stats("BO2 Lighting", message),
+                         kernels.FRAME_MODULES)
             self.update_stats("BO2 Lighting", "Reading scene")
             settings = settings_of.render_settings(
                 scene, "PREVIEW" if self.is_preview else "FINAL", depsgraph.view_layer)

@@ -57,10 +57,11 @@ def usage_error(message: str):
     _Parser(prog="bo2").error(message)
 
 
-def load_blend(path: Path):
+def load_blend(path: Path, bakes: bool = False):
     """Open the .blend file ``path`` with the add-on registered, Blender silenced, and load the
-    compiled kernels (saying so on stderr when they compile); returns its scene. CommandError
-    for a missing, unreadable or corrupt file, or numba missing."""
+    compiled kernels a frame needs (``bakes``: the lightmap bakes' too), saying so on stderr
+    when they compile; returns its scene. CommandError for a missing, unreadable or corrupt
+    file, or numba missing."""
     from ..blender import interrupt
     from ..core import kernels
     from .terminal import quiet_blender
@@ -74,7 +75,8 @@ def load_blend(path: Path):
     for message in adoption.notices:  # bakes of earlier versions, adopted on load
         print(f"bo2: note: {message}", file=sys.stderr)
     try:
-        kernels.load(lambda message: print(f"bo2: {message}", file=sys.stderr, flush=True))
+        kernels.load(lambda message: print(f"bo2: {message}", file=sys.stderr, flush=True),
+                     kernels.MODULES if bakes else kernels.FRAME_MODULES)
     except kernels.KernelsUnavailable as exc:
         raise CommandError(str(exc)) from None
     return scene

@@ -14,7 +14,7 @@ from .terminal import progress_bar, quiet_blender, stderr_copy
 
 def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
-    scene = load_blend(Path(args.scene))
+    scene = load_blend(Path(args.scene), bakes=True)
     from ..blender import bake, bake_files, lightmaps, probes
     from ..core.render.job import Cancelled, Warnings
 

@@ -107,6 +107,7 @@ import importlib
 from bo2_lighting.addon.core import kernels
 kernels.load()
 several = {("raster", "project"), ("raster", "survivors"), ("raster", "_permute"),
+           ("raster", "_permute_row"),
            ("raster", "_rejection"), ("textures", "sample"), ("textures", "_value"),
            ("raster", "extent"), ("raster", "distances"), ("raster", "clipped_depths"),
            ("raster", "sample_survivors"), ("raster", "ortho_depths"),
@@ -160,5 +161,36 @@ def test_a_hung_compile_child_is_stopped(monkeypatch):
     monkeypatch.setattr(kernels, "CHILD_TIMEOUT", 0.5)
     monkeypatch.setattr(kernels.subprocess, "Popen", recorded)
     kernels._compile_apart(["shading", "raster", "shadows"], 2)
-    assert len(children) == 3 and all(child.returncode is not None and child.returncode < 0
+    assert len(children) == 2 and all(child.returncode is not None and child.returncode < 0
                                       for child in children)
+
+
+def test_children_share_the_modules_to_end_together():
+    """One child per core, each starting numba once, the modules dealt longest first to the
+    child with the least to do."""
+    shares = kernels._shares(list(kernels.FRAME_MODULES), 2)
+    assert shares == [["raster", "shading", "occlusion"], ["shadows", "textures", "indirect"]]
+    assert kernels._shares(["shading", "lightmap"], 4) == [["lightmap"], ["shading"]]
+    assert sorted(sum(kernels._shares(list(kernels.MODULES), 3), [])) == sorted(kernels.MODULES)
+
+
+# The render's start on an empty cache: the frame's modules first, ready while the lightmap
+# bakes' one still compiles; then a lightmap bake's load waits for it
+FRAME_FIRST = """
+import sys
+from bo2_lighting.addon.core import kernels
+print("started", kernels.prepare(2))
+kernels.load(None, kernels.FRAME_MODULES)
+print("frame", all(kernels._cached(m) for m in kernels.FRAME_MODULES),
+      f"{kernels.__name__}.lightmap" in sys.modules)
+kernels.load(None, ("lightmap",))
+print("lightmap", kernels._cached("lightmap"), kernels.loaded())
+"""
+
+
+def test_a_frame_waits_for_its_own_modules_only(tmp_path):
+    env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    run = subprocess.run([sys.executable, "-c", FRAME_FIRST], env=env, capture_output=True,
+                         text=True, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines() == ["started True", "frame True False", "lightmap True True"]

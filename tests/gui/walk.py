@@ -476,9 +476,15 @@ def gpu_view(scene, live):
     anew there."""
     scene.bo2.device = "GPU"
 
-    def drawn(timeout, prepared_anew=False):
-        """Wait until the GPU has drawn every sample of a frame (``prepared_anew``: one whose
-        shadow maps were left to the GPU, as a moved object's frame is)."""
+    def changed(frame, before):
+        """Whether ``frame``'s geometry is not ``before``'s (an object moved since)."""
+        return (frame is not before and (frame.positions.shape != before.positions.shape
+                                         or not np.array_equal(frame.positions, before.positions)))
+
+    def drawn(timeout, replaces=None):
+        """Wait until the GPU has drawn every sample of a frame (``replaces``: a frame prepared
+        before; wait for one of other geometry whose shadow maps were left to the GPU, as a
+        moved object's frame is)."""
         start = time.perf_counter()
         while time.perf_counter() - start < timeout:
             redraw()
@@ -486,8 +492,9 @@ def gpu_view(scene, live):
             frame = live.session.frame()
             if live.gpu_failure or (
                     frame is not None and live.gpu is not None and not live.session.busy
-                    and not live.gpu_busy and (not prepared_anew or any(
-                        m is not None and m.on_gpu for m in frame[0].shadow_maps))):
+                    and not live.gpu_busy and (replaces is None or (
+                        changed(frame[0], replaces) and any(
+                            m is not None and m.on_gpu for m in frame[0].shadow_maps)))):
                 break
         return time.perf_counter() - start
 
@@ -506,7 +513,7 @@ def gpu_view(scene, live):
         return
     table.location.x -= 0.6
     table.location.z += 0.3
-    seconds = yield from drawn(300, prepared_anew=True)
+    seconds = yield from drawn(300, replaces=frame[0])
     moved = live.session.frame()
     screenshot("viewport_gpu_table_moved")
     before, after = (bpy.data.images.load(str(OUT / shots[k])) for k in (-2, -1))

@@ -299,6 +299,9 @@ def steps(job: RenderJob, targets: list[Target], settings: Settings | None, resu
 def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list
            ) -> Iterator[float]:
     """``steps``, a fraction after every short piece of work."""
+    from .. import kernels as all_kernels
+
+    all_kernels.load(modules=("lightmap",))  # (compiled by ``kernels.prepare`` after a frame's)
     from ..kernels import lightmap as kernels
 
     settings = settings or Settings()

@@ -29,7 +29,6 @@ import importlib
 import importlib.metadata
 import json
 import os
-import pickle
 import platform
 import subprocess
 import sys
@@ -50,11 +49,18 @@ def bundled_numba(system: str = sys.platform, machine: str = platform.machine())
 NUMBA_VERSION = bundled_numba()
 FIRST_RUN_MESSAGE = "Compiling BO2 kernels (first run only)"
 LOADING_MESSAGE = "Loading BO2 kernels"
-# Longest to compile first, so that side-by-side compiles end together
-MODULES = ("raster", "shadows", "textures", "lightmap", "indirect", "shading", "occlusion")
+# The modules a frame needs; "lightmap" serves the lightmap bakes alone
+FRAME_MODULES = ("raster", "shadows", "textures", "indirect", "shading", "occlusion")
+MODULES = (*FRAME_MODULES, "lightmap")
+# Seconds each module takes to compile on one core, numba's start-up left out (numba 0.68.1,
+# 2 cores at 2.2 GHz; "lightmap" with the "indirect" and "shading" it imports): the shares of
+# the children that compile side by side (``_shares``)
+COMPILE_SECONDS = {"raster": 13.5, "shadows": 6.5, "textures": 6.0, "indirect": 4.0,
+                   "shading": 3.0, "occlusion": 1.4, "lightmap": 12.0}
 
-__all__ = ["FIRST_RUN_MESSAGE", "KernelsUnavailable", "check", "configure", "default_cache_dir",
-           "is_cached", "load", "prepare", "status", "user_cache"]
+__all__ = ["FIRST_RUN_MESSAGE", "FRAME_MODULES", "MODULES", "KernelsUnavailable", "check",
+           "configure", "default_cache_dir", "is_cached", "load", "prepare", "status",
+           "user_cache"]
 
 
 class KernelsUnavailable(RuntimeError):
@@ -148,37 +154,41 @@ def configure(cache_dir: str | os.PathLike) -> None:
         numba.config.CACHE_DIR = str(path)
 
 
-def loaded() -> bool:
-    """Whether every kernel module is imported (ready to run)."""
-    return all(f"{__name__}.{module}" in sys.modules for module in MODULES)
+def loaded(modules=MODULES) -> bool:
+    """Whether every module of ``modules`` is imported (ready to run)."""
+    return all(f"{__name__}.{module}" in sys.modules for module in modules) and (
+        _worker is None or not _worker.is_alive() or set(modules) <= _ready)
 
 
-def load(notify=None) -> None:
-    """Check numba (``check``) and import every kernel module, compiling what the cache does not
-    hold (the modules side by side, one child process per core: ``_compile_apart``);
-    ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while (here, or in
-    ``prepare``'s worker, which this waits for). Cheap once loaded."""
+def load(notify=None, modules=MODULES) -> None:
+    """Check numba (``check``) and import ``modules`` (a render: ``FRAME_MODULES``),
+    compiling what the cache does not hold (side by side, one child process per core:
+    ``_compile_apart``); ``notify(FIRST_RUN_MESSAGE)`` is called first when that takes a while
+    (here, or in ``prepare``'s worker, which this waits for until it has ``modules``). Cheap
+    once loaded."""
     check()
-    if loaded():
-        return
     worker, said = _worker, False
-    while worker is not None and worker.is_alive():  # to its end: a module is in sys.modules
+    # a module is in sys.modules from its import's start: the worker's are ready at its word
+    while worker is not None and worker.is_alive() and not set(modules) <= _ready:
         if notify is not None and not said and status() == FIRST_RUN_MESSAGE:  # while it runs
             notify(FIRST_RUN_MESSAGE)
             said = True
         worker.join(0.05)
-    if loaded():
+    if all(f"{__name__}.{module}" in sys.modules for module in modules):
+        for module in modules:  # (waits for an import under way on another thread)
+            _imported(module)
         return
-    missing = [m for m in MODULES if not _cached(m)]
+    missing = [m for m in modules if not _cached(m)]
     if notify is not None and missing:
         notify(FIRST_RUN_MESSAGE)
     if len(missing) > 1:  # side by side in child processes, then imported from the cache
         _compile_apart(missing, _cores())
-    for module in MODULES:
-        importlib.import_module(f"{__name__}.{module}")
+    for module in modules:
+        _imported(module)
 
 
 _worker: threading.Thread | None = None
+_ready: set[str] = set()  # the modules the worker has imported
 _status = ""
 _start = threading.Lock()
 
@@ -191,10 +201,10 @@ def status() -> str:
 
 def prepare(jobs: int | None = None) -> bool:
     """Make the kernels ready off the calling thread, once per session: compile the modules
-    the cache lacks in ``jobs`` child processes side by side (default: one per core), then
-    import every module on a background thread. ``load`` waits for it; a failure is left for
-    ``load`` to report. Returns whether a worker was started (not when numba is unusable or
-    everything is loaded)."""
+    the cache lacks in ``jobs`` child processes side by side (default: one per core), the
+    frame's first, importing each group on a background thread as it is ready. ``load``
+    waits for it; a failure is left for ``load`` to report. Returns whether a worker was
+    started (not when numba is unusable or everything is loaded)."""
     global _status, _worker
     with _start:
         if _worker is not None or loaded():
@@ -220,52 +230,65 @@ def _cores() -> int:
 def _prepare(jobs: int) -> None:
     global _status
     try:
-        missing = [m for m in MODULES if not _cached(m)]
-        if missing:
-            _status = FIRST_RUN_MESSAGE
-            _compile_apart(missing, jobs)
-        _status = LOADING_MESSAGE
-        for module in MODULES:
-            importlib.import_module(f"{__name__}.{module}")
+        for group in (FRAME_MODULES, MODULES[len(FRAME_MODULES):]):
+            missing = [m for m in group if not _cached(m)]
+            if missing:
+                _status = FIRST_RUN_MESSAGE
+                _compile_apart(missing, jobs)
+            _status = LOADING_MESSAGE
+            for module in group:
+                _imported(module)
+                _ready.add(module)
     except Exception:  # noqa: BLE001, S110 - ``load`` meets the same failure and reports it
         pass
     finally:
         _status = ""
 
 
-# A child process that compiles one kernel module into the cache, imported under the name the
+# A child process that compiles kernel modules into the cache, imported under the name the
 # package has here (numba's cache refers to it): the packages above it stand in as empty ones,
 # the one holding it as its folder (Blender's ``bl_ext.<repository>``)
 _CHILD = """
 import importlib, json, sys, types
-paths, package, folder, module = json.loads(sys.argv[1])
+paths, package, folder, modules = json.loads(sys.argv[1])
 sys.path[:0] = paths
 parts = package.split(".")
 for k in range(1, len(parts)):
     stub = types.ModuleType(".".join(parts[:k]))
     stub.__path__ = [folder] if k == len(parts) - 1 else []
     sys.modules[stub.__name__] = stub
-importlib.import_module(package + ".addon.core.kernels." + module)
+kernels = importlib.import_module(package + ".addon.core.kernels")
+for module in modules:
+    kernels._imported(module)
 """
+
+
+def _shares(modules: list[str], jobs: int) -> list[list[str]]:
+    """``modules`` dealt to at most ``jobs`` children, each next longest to the child with
+    the least to do (``COMPILE_SECONDS``), so that they end together; each child starts
+    numba once."""
+    shares: list[list[str]] = [[] for _ in range(min(jobs, len(modules)))]
+    for module in sorted(modules, key=lambda m: -COMPILE_SECONDS.get(m, 10.0)):
+        min(shares, key=lambda s: sum(COMPILE_SECONDS.get(m, 10.0) for m in s)).append(module)
+    return shares
 
 
 def _compile_apart(modules: list[str], jobs: int) -> None:
     """Compile ``modules`` into the cache in up to ``jobs`` child processes at once (the
-    compiler holds Python's lock, so threads would take turns). Without a Python to run
-    (``sys.executable`` is not one), nothing: the import compiles instead; so does a module
-    whose child fails or is still at it after ``CHILD_TIMEOUT`` seconds (it is stopped)."""
+    compiler holds Python's lock, so threads would take turns; ``_shares``). Without a Python
+    to run (``sys.executable`` is not one), nothing: the import compiles instead; so do the
+    modules of a child that fails or is still at it after ``CHILD_TIMEOUT`` seconds (it is
+    stopped)."""
     if jobs < 2 or "python" not in Path(sys.executable or "").name.lower():
         return
     package = __name__.removesuffix(".addon.core.kernels")
     # kernels, core, addon, the package: as imported (numba names its cache folder by it)
     folder = str(Path(os.path.abspath(__file__)).parents[4])
-    todo, running = list(modules), []  # running: (child, when it started)
-    while todo or running:
-        while todo and len(running) < jobs:
-            args = json.dumps([sys.path, package, folder, todo.pop(0)])
-            running.append((subprocess.Popen([sys.executable, "-c", _CHILD, args],
-                                             stdout=subprocess.DEVNULL,
-                                             stderr=subprocess.DEVNULL), time.monotonic()))
+    running = [(subprocess.Popen([sys.executable, "-c", _CHILD,
+                                  json.dumps([sys.path, package, folder, share])],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
+                time.monotonic()) for share in _shares(modules, jobs)]
+    while running:
         time.sleep(0.05)
         for child, started in running:
             if child.poll() is None and time.monotonic() - started > CHILD_TIMEOUT:
@@ -274,7 +297,7 @@ def _compile_apart(modules: list[str], jobs: int) -> None:
         running = [(child, started) for child, started in running if child.poll() is None]
 
 
-CHILD_TIMEOUT = 900.0  # seconds a child may take to compile one module (about 60 s on 2 cores)
+CHILD_TIMEOUT = 900.0  # seconds a child may take to compile its modules (about 25 s on 2 cores)
 
 
 if "NUMBA_CACHE_DIR" not in os.environ:  # until the host configures its own folder
@@ -287,28 +310,39 @@ def is_cached() -> bool:
     return all(_cached(module) for module in MODULES)
 
 
-def _cached(module: str) -> bool:
-    """Whether the cache holds code of ``module``'s source as it is now, for this Python: an
-    index of numba's folder for this source folder (its name and the SHA-1 of its path) whose
-    stamp is the source's, as numba checks it: the SHA-256 of its content (numba 0.68), its
-    modification time and size (0.62). A module's kernels compile together; functions it no
-    longer has leave old indexes."""
+def _marker(module: str) -> Path | None:
+    """The file that says ``module``'s kernels are all in the cache: in numba's folder for the
+    kernels' source folder (its name and the SHA-1 of its path as imported, symbolic links
+    kept, as numba names it), named by the module's content, numba's version and Python's.
+    None without a cache folder or a readable source."""
     folder = os.environ.get("NUMBA_CACHE_DIR")
-    if not folder:
-        return False
-    # the folder as numba names it: the module's path as imported, symbolic links kept (an
-    # extension folder reached through a linked config folder)
-    source = Path(os.path.dirname(os.path.abspath(__file__))) / f"{module}.py"
-    here = os.path.dirname(os.path.abspath(source))
-    sub = Path(folder) / f"kernels_{hashlib.sha1(here.encode()).hexdigest()}"
+    here = os.path.dirname(os.path.abspath(__file__))
     try:
-        stat = source.stat()
-        stamps = (hashlib.sha256(source.read_bytes()).digest(), (stat.st_mtime, stat.st_size))
-        for index in sub.glob(f"{module}.*.py{sys.version_info[0]}{sys.version_info[1]}.nbi"):
-            with open(index, "rb") as fh:
-                pickle.load(fh)  # numba's version
-                if pickle.loads(fh.read())[0] in stamps:
-                    return True
-    except Exception:  # noqa: BLE001 - an unreadable index: not cached
-        return False
-    return False
+        digest = hashlib.sha256(Path(here, f"{module}.py").read_bytes()).hexdigest()[:20]
+    except OSError:
+        return None
+    if not folder:
+        return None
+    sub = Path(folder) / f"kernels_{hashlib.sha1(here.encode()).hexdigest()}"
+    return sub / (f"{module}.{digest}.numba{NUMBA_VERSION}"
+                  f".py{sys.version_info[0]}{sys.version_info[1]}.ready")
+
+
+def _cached(module: str) -> bool:
+    """Whether the cache holds every kernel of ``module``'s source as it is now, for this
+    numba and Python (``_marker``; numba writes its index per kernel as each compiles, so a
+    compile cut short leaves some)."""
+    marker = _marker(module)
+    return marker is not None and marker.is_file()
+
+
+def _imported(module: str) -> None:
+    """Import ``module`` (compiling what the cache lacks) and mark it whole in the cache."""
+    importlib.import_module(f"{__name__}.{module}")
+    marker = _marker(module)
+    if marker is not None and not marker.is_file():
+        try:
+            marker.parent.mkdir(parents=True, exist_ok=True)
+            marker.touch()
+        except OSError:  # a read-only cache: the next session compiles again
+            pass

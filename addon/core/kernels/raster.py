@@ -148,7 +148,7 @@ def resolve(keys, ibits, slot, table, orig, clipped, sub_bary, sub_index, width,
                 bary_out[p, i] = q[i] * inv
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _affine(rows, k, corners, t, c):
     """Row ``k`` of the affine map ``rows`` (K, 4) at corner ``c`` of triangle ``t`` of
     ``corners`` (T, 3, 3), in float64: ((r0 x + r1 y) + r2 z) + r3."""
@@ -366,6 +366,17 @@ def _permute(rows, order):
             rows[r, j] = buf[j]
 
 
+@nb.njit(**_OPTIONS)
+def _permute_row(row, order):
+    """``row`` (N,) replaced by row[order] (``_permute`` of one row: a reshaped view would
+    compile numba's shape-error formatting, seconds on a cold cache)."""
+    buf = np.empty(row.shape[0], row.dtype)
+    for j in range(order.shape[0]):
+        buf[j] = row[order[j]]
+    for j in range(order.shape[0]):
+        row[j] = buf[j]
+
+
 _EDGES = nb.void(
     nb.int64[::1], nb.int64[::1], _I3, _I3, _D3, _D3, _D3, _D3, nb.int64[::1],  # keep, order;
     # xi, yi, px, py, zn, inv_w (3, M), area2 (M,)
@@ -447,12 +458,12 @@ def edges(keep, order, xi, yi, px, py, zn, inv_w, area2, unit, qmax, err_ab, err
     _permute(ea_abs, order)
     _permute(half, order)
     _permute(table, order)
-    _permute(off_lo.reshape(1, -1), order)
-    _permute(off_hi.reshape(1, -1), order)
-    _permute(za.reshape(1, -1), order)
-    _permute(zb.reshape(1, -1), order)
-    _permute(zc.reshape(1, -1), order)
-    _permute(tame.reshape(1, -1), order)
+    _permute_row(off_lo, order)
+    _permute_row(off_hi, order)
+    _permute_row(za, order)
+    _permute_row(zb, order)
+    _permute_row(zc, order)
+    _permute_row(tame, order)
 
 
 @nb.njit(nb.int64(nb.float32[:, :, ::1], nb.float32, nb.float32, nb.float32, nb.float32,
@@ -527,7 +538,7 @@ def reduction(dist, lo_depth, hi_depth, out):
             out[i, j, 0], out[i, j, 1], out[i, j, 2] = lo_d, lo, hi
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _row_span(e, sign, y):
     """The window x range (lo, hi) where all three edge functions ``e`` (3, 3), turned by
     ``sign`` to be >= 0 inside, hold on window row y."""
@@ -544,7 +555,7 @@ def _row_span(e, sign, y):
     return lo, hi
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _covered(lo, hi, offset, size):
     """The pixels [start, stop) of a row or column of ``size`` whose sample at ``offset`` (0.5:
     the centre) lies in [lo, hi], reaching ``_REACH`` further; (0, 0) if none (or a NaN)."""
@@ -555,7 +566,7 @@ def _covered(lo, hi, offset, size):
     return np.int64(first), np.int64(last) + 1
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _span_min(xs, ys, zs, e, out):
     """Draw one triangle of map corners (xs, ys) and values zs (3,) into ``out``: at each
     covered texel centre the value interpolated over the map, kept where it is less than the
@@ -607,7 +618,7 @@ def ortho_depths(points, rows, out):
         _span_min(xs, ys, zs, e, out)
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _near_polygon(corners, dist, poly):
     """The part of one triangle in front of a plane (Sutherland and Hodgman 1974): its
     ``corners`` (3, K) float64 and their signed distances ``dist`` (3,) to the plane (>= 0 in
@@ -619,7 +630,8 @@ def _near_polygon(corners, dist, poly):
     for c in range(3):
         d = (c + 1) % 3
         if dist[c] >= 0.0:
-            poly[count] = corners[c]
+            for k in range(corners.shape[1]):  # (a loop: a row assignment compiles numba's
+                poly[count, k] = corners[c, k]  # shape-error formatting, seconds)
             count += 1
         if (dist[c] >= 0.0) != (dist[d] >= 0.0):
             f = dist[c] / (dist[c] - dist[d])
@@ -629,7 +641,7 @@ def _near_polygon(corners, dist, poly):
     return count
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _window_edges(poly, fan, w_at, width, height, v, e):
     """Corners 0, fan + 1, fan + 2 of a clipped polygon of clip coordinates (x, y at 0, 1; w
     at ``w_at``) as window-space homogeneous corners ``v`` (3, 3) (x w, y w, w; y down) and
@@ -655,7 +667,7 @@ def _window_edges(poly, fan, w_at, width, height, v, e):
     return v[0, 0] * e[0, 0] + v[0, 1] * e[0, 1] + v[0, 2] * e[0, 2], lo_r, hi_r
 
 
-@nb.njit(inline="always", **_OPTIONS)
+@nb.njit(**_OPTIONS)
 def _inverse_w(e, det):
     """The sign that turns the edge functions ``e`` (3, 3) of ``_window_edges`` to be >= 0
     inside, and the plane 1 / w = a x + b y + c0 over the window: (sign, a, b, c0)."""

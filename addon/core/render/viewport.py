@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .. import kernels
 from ..lighting import world_probes
 from ..scene import Camera, Scene
 from . import pipeline
@@ -286,6 +287,7 @@ class Session:
                 (scene, changed, world_light), self._pending = self._pending, None
                 number, self._busy = self._updates, True
             try:
+                kernels.load(None, kernels.FRAME_MODULES)  # (waits for ``kernels.prepare``'s)
                 if world_light:
                     lit = world_probes.world_probes(scene.world)
                     scene = dataclasses.replace(scene, probes=lit)
