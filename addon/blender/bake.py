@@ -159,6 +159,7 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
             return cycles_cube(scene, position, size, near, far, kind)
     job = bake.Bake(specs, core_scene.world, grab,
                     bounces=b.bounces,
+                    converge=b.converge,
                     face_size=face_size,
                     volume_face_size=b.volume_face_size,
                     surfaces=captures.surfaces)
@@ -177,7 +178,8 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
         with interrupt.writing():
             probe_file.write_all([
                 (path, bake.metadata(b, backend, job.bounces, stamp,
-                                     time.perf_counter() - start, version()), b.coeffs, b.chains)
+                                     time.perf_counter() - start, version(),
+                                     job.converge and job.bounces >= 3), b.coeffs, b.chains)
                 for b, (_, path) in zip(job.results, targets, strict=True)])
     except (OSError, bake_file.BakeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)

@@ -127,6 +127,12 @@ class BO2ProbeSettings(bpy.types.PropertyGroup):
                     "own bounce, 3 matches Cycles' default of 4 diffuse bounces",
         default=3, min=1, max=16,
     )
+    converge: bpy.props.BoolProperty(
+        name="Converge Bounces",
+        description="Add the bounces after the last, estimated from the last three as a "
+                    "geometric series (3 bounces or more), at no extra bake time",
+        default=False,
+    )
     samples: bpy.props.IntProperty(
         name="Bake Samples",
         description="Anti-aliasing samples per pixel of the captures (BO2 backend; Cycles uses "

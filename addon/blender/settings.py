@@ -99,6 +99,7 @@ class BakeSettings:
     face_size:        texels of a reflection probe's cube face
     volume_face_size: texels of a volume sample's capture face
     bounces:          bounces of the BO2 backend (Cycles' captures hold them all: 1)
+    converge:         the bounces after the last estimated (``core.bakes.series``)
     cycles_samples:   samples of the Cycles backend's captures
     """
 
@@ -107,6 +108,7 @@ class BakeSettings:
     volume_face_size: int
     bounces: int
     cycles_samples: int
+    converge: bool = False
 
 
 def bake_settings(scene, backend: str) -> BakeSettings:
@@ -115,7 +117,8 @@ def bake_settings(scene, backend: str) -> BakeSettings:
     return BakeSettings(backend=backend, face_size=int(s.face_size),
                         volume_face_size=int(s.volume_face_size),
                         bounces=1 if backend == "CYCLES" else max(1, int(s.bounces)),
-                        cycles_samples=int(s.cycles_samples))
+                        cycles_samples=int(s.cycles_samples),
+                        converge=backend == "BO2" and bool(s.converge))
 
 
 def lightmap_settings(scene) -> lightmap.Settings:

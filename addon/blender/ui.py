@@ -153,6 +153,7 @@ class RENDER_PT_bo2_bake(_RenderSubPanel, bpy.types.Panel):
         col = layout.column()
         col.active = backend == "BO2"
         col.prop(settings, "bounces")
+        col.prop(settings, "converge")
         col.prop(settings, "samples")
         col = layout.column()
         col.active = backend == "CYCLES"

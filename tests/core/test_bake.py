@@ -152,3 +152,31 @@ def test_world_probes_are_keyed_on_content():
     # a world of one colour: its probe says so (its chains are not sampled)
     np.testing.assert_allclose(world_probes(World(color=np.ones(3))).world_color, 1.0)
     assert world_probes(a).world_color is None
+
+
+@pytest.mark.parametrize("bounces", [3, 5])
+def test_converged_bounces_reach_the_closed_boxs_limit(bounces):
+    """A closed box: the bounces after the last, estimated from the last increments' ratio
+    (rho exactly here), complete the geometric series to its limit E / (1 - rho); the
+    reflection probe's chains alike."""
+    emission, rho = 1.0, 0.5
+
+    def capture(position, size, near, far, probes, kind):
+        incoming = probes.volumes[0].sh[0, 0, 0, 0, 0] / C00 if probes.volumes else 0.0
+        return constant_cube(size, emission + rho * incoming)
+
+    job = bake.Bake([volume((1, 1, 1)), sphere()], World(color=np.zeros(3, np.float32)),
+                    capture, bounces=bounces, converge=True, face_size=8, volume_face_size=4)
+    list(job.steps())
+    limit = emission / (1 - rho)
+    volume_result, reflection = job.results
+    np.testing.assert_allclose(volume_result.coeffs[0, 0], C00 * limit, rtol=1e-4)
+    np.testing.assert_allclose(reflection.coeffs[0, 0], C00 * limit, rtol=1e-4)
+    for levels in reflection.chains.values():
+        for level in levels:
+            np.testing.assert_allclose(level, limit, rtol=1e-4)
+    two = bake.Bake([volume((1, 1, 1))], World(color=np.zeros(3, np.float32)), capture,
+                    bounces=2, converge=True, volume_face_size=4)
+    list(two.steps())  # two bounces: the first holds the direct light, nothing to go by
+    np.testing.assert_allclose(two.results[0].coeffs[0, 0], C00 * emission * (1 + rho),
+                               rtol=1e-4)

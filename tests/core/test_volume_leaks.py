@@ -200,6 +200,41 @@ def test_bounces_in_a_closed_white_box_converge_to_the_geometric_series():
     assert (gaps > 0).all() and (gaps[1:] < gaps[:-1]).all()
 
 
+def test_converged_bounces_match_many_explicit_ones_in_a_lit_room():
+    """A closed room of albedo 0.7 lit by a small emissive panel under its ceiling (so the
+    light is uneven and each bounce's ratio varies over the room): three bounces with the
+    rest estimated (``series``) are within 3% of 24 explicit bounces (0.7^24 < 2e-4 of the
+    light left out) at every volume sample, five within 1%; three alone fall a third short
+    on average."""
+    walls = cube((-2.0, -1.5, 0.0), (2.0, 1.5, 2.5), inward=True)
+    panel = cube((-0.3, -0.3, 2.3), (0.3, 0.3, 2.35))
+    tris = np.concatenate([walls, panel])
+    scene = scene_of(tris, Material.talk(albedo=(0.7, 0.7, 0.7), rf0=(0.0, 0.0, 0.0),
+                                         gloss=0.0))
+    glow = Material.talk(albedo=(0.0, 0.0, 0.0), rf0=(0.0, 0.0, 0.0), gloss=0.0,
+                         emission=(20.0, 20.0, 20.0))
+    mesh = dataclasses.replace(scene.meshes[0], material=np.repeat(
+        np.array([0, 1], np.int32), [len(walls), len(panel)]))
+    scene = dataclasses.replace(scene, meshes=[mesh], materials=[scene.materials[0], glow])
+    grab = capture.Capture(RenderJob(scene))
+    room = np.diag([1.8, 1.3, 1.0, 1.0])
+    room[2, 3] = 1.1
+    spec = bake.ProbeSpec("Room", "irradiance", room, 1.0, resolution=(3, 3, 3),
+                          clip_start=0.01, clip_end=10.0)
+
+    def baked(bounces, converge):
+        job = bake.Bake([spec], World(color=np.zeros(3, np.float32)), grab.cube,
+                        bounces=bounces, converge=converge, volume_face_size=8)
+        for _ in job.steps():
+            pass
+        return job.results[0].coeffs[:, 0, 0]
+
+    many, three = baked(24, False), baked(3, False)
+    np.testing.assert_allclose(baked(3, True), many, rtol=0.03)
+    np.testing.assert_allclose(baked(5, True), many, rtol=0.01)
+    assert (three < 0.9 * many).all() and three.mean() < 0.7 * many.mean()
+
+
 def test_surfaces_build_no_shadow_maps():
     """The validity rays need the geometry only: a Capture asked for surfaces builds no shadow
     map (a Cycles bake renders its own light), and a cube map rendered afterwards has its

@@ -16,7 +16,9 @@ and by the world's seen light where they leave weight, so bounce n adds light th
 n times and the sum converges (a closed box: the geometric series of its albedo). Within a
 bounce the volumes are captured first, and the reflection probes' captures take their diffuse
 light from this bounce's volumes: a surface a metal reflects has as many diffuse bounces as
-the same surface in a frame.
+the same surface in a frame. After the first bounce the volumes' captures are half the size
+(``Bake.later_face_size``); with ``Bake.converge`` the bounces after the last are estimated
+from the last three (``series``).
 
 Irradiance volumes without leaks, as EEVEE's (``VolumeSettings``): before the first bounce,
 each sample's surroundings are looked at (``SurfacesFn``); a sample that sees mostly back faces
@@ -46,7 +48,7 @@ from ..lighting.probes import (
 from ..lighting.world_probes import filtered, world_probes
 from ..render.job import Warnings
 from ..scene import World
-from . import capture
+from . import capture, series
 
 __all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate", "escape",
            "metadata"]
@@ -160,6 +162,9 @@ class ProbeSpec:
             self.name, m, res, coeffs.reshape(*res, 9, 3), float(self.influence),
             None if validity is None else np.asarray(validity, np.float32).reshape(res),
             float(v.normal_bias), float(v.view_bias), float(v.facing_bias), float(self.falloff))
+
+
+LATER_FACE_SIZE = 16
 
 
 @dataclass
@@ -298,6 +303,9 @@ class Bake:
     """A bake of ``specs`` in the scene whose ``world`` is given, through ``capture``.
 
     bounces:          light bounces (>= 1; see the module docstring)
+    converge:         the bounces after the last estimated from the last ones (``series``;
+                      with 3 bounces or more: the first holds the direct light, whose ratio
+                      to the second says little of the later ones')
     face_size:        cube face size of reflection probes' captures, texels
     volume_face_size: cube face size of irradiance volumes' captures, texels
     results:          filled by ``steps()`` once every bounce is done
@@ -307,10 +315,18 @@ class Bake:
     world: World
     capture: CaptureFn
     bounces: int = 1
+    converge: bool = False
     face_size: int = 128
     volume_face_size: int = 16
     surfaces: SurfacesFn | None = None
     results: list[BakedProbe] = field(default_factory=list)
+
+    @property
+    def later_face_size(self) -> int:
+        """The face size of the volumes' captures after the first bounce: half the first's,
+        at least ``LATER_FACE_SIZE`` (what those bounces add is smooth; a capture's cost
+        below that size is mostly fixed)."""
+        return min(self.volume_face_size, max(LATER_FACE_SIZE, self.volume_face_size // 2))
 
     def _clip(self, spec: ProbeSpec) -> tuple[float, float]:
         near = max(float(spec.clip_start), 1e-3)
@@ -342,12 +358,14 @@ class Bake:
         # the volumes first: a bounce's reflection probes see the surfaces lit by this
         # bounce's volumes, as a frame does (the same number of diffuse bounces)
         order = sorted(range(len(self.specs)), key=lambda k: self.specs[k].kind != "irradiance")
-        for _ in range(max(1, self.bounces)):
+        history: list[list[BakedProbe]] = []  # the last three bounces' results
+        for bounce in range(max(1, self.bounces)):
             found: dict[int, BakedProbe] = {}
             baked = world_probes(self.world)
             for k in order:
                 spec = self.specs[k]
-                size = self.face_size if spec.kind == "reflection" else self.volume_face_size
+                size = (self.face_size if spec.kind == "reflection"
+                        else self.volume_face_size if bounce == 0 else self.later_face_size)
                 pos, ratios, moved = placed.get(k, (spec.points, None, 0))
                 seen = lighting if spec.kind == "irradiance" else replace(
                     lighting, volumes=list(baked.volumes))
@@ -367,23 +385,55 @@ class Bake:
                     dilated, validity = dilate(coeffs.reshape(*res, 9, 3), ratios.reshape(res),
                                                spec.volume)
                     coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
-                result = BakedProbe(spec, coeffs, chains, size, validity, moved)
+                result = BakedProbe(spec, coeffs, chains, self.face_size if spec.kind ==
+                                    "reflection" else self.volume_face_size, validity, moved)
                 found[k] = result
                 probe = spec.probe(result.coeffs, chains, validity)
                 (baked.reflection if spec.kind == "reflection" else baked.volumes).append(probe)
             results = [found[k] for k in range(len(self.specs))]
+            history = [*history[-2:], results]
             lighting = baked
+        if self.converge and len(history) == 3:
+            results = _converged(*history)
         self.results = results
 
 
+def _converged(before: list[BakedProbe], previous: list[BakedProbe],
+               last: list[BakedProbe]) -> list[BakedProbe]:
+    """The bake after every bounce, from its last bounces' results: each probe's SH and
+    chains plus their last increment continued as a geometric series (``series``; the ratio
+    of the last two increments of the volumes' SH DC terms, summed per channel, or of the
+    reflection probes' without volumes: theirs run a bounce ahead, lit by the same bounce's
+    volumes)."""
+    volumes = [k for k, r in enumerate(last) if r.spec.kind == "irradiance"]
+
+    def dc(results):
+        return sum(results[k].coeffs[:, 0].sum(0, dtype=np.float64)
+                   for k in (volumes or range(len(results))))
+
+    k = series.tail_factor(dc(last) - dc(previous), dc(previous) - dc(before))
+    k32 = k.astype(np.float32)
+    out = []
+    for a, b in zip(last, previous, strict=True):
+        chains = None if a.chains is None else {
+            name: [hi + np.maximum(hi - lo, 0.0) * k32
+                   for hi, lo in zip(levels, b.chains[name], strict=True)]
+            for name, levels in a.chains.items()}
+        out.append(replace(a, coeffs=a.coeffs + (a.coeffs - b.coeffs) * k32, chains=chains))
+    return out
+
+
 def metadata(baked: BakedProbe, backend: str, bounces: int, bake_time: str, seconds: float,
-             version: str) -> dict:
+             version: str, converged: bool = False) -> dict:
     """The metadata of a probe file (``probe_file.write``): what the bake depends on
-    (``ProbeSpec.describe``), how it was made and when."""
+    (``ProbeSpec.describe``), how it was made and when (``converged``: the bounces after the
+    last estimated, ``Bake.converge``)."""
     meta = {**baked.spec.describe(), "face_size": baked.face_size,
             "filters": dict(FILTERS) if baked.chains else {}, "backend": backend,
             "bounces": bounces, "bake_time": bake_time, "bake_seconds": round(seconds, 3),
             "version": version}
+    if converged:
+        meta["converged"] = True
     if baked.validity is not None:
         meta["invalid_samples"] = np.flatnonzero(baked.validity < 0.5).tolist()
         meta["escaped_samples"] = int(baked.escaped)

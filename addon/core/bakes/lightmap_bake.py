@@ -41,6 +41,7 @@ from ..render.job import Cancelled, RenderJob
 from ..render.shadow_maps import shadow_map_count
 from ..render.surfaces import surface_params
 from ..scene import Scene
+from . import series
 from .capture import face_camera
 
 __all__ = ["bake", "bake_bytes", "geometry_key", "light_key", "ray_offset", "steps"]
@@ -484,18 +485,15 @@ def _scaled(steps, at):
 def _converged(previous: list[np.ndarray], last: list[np.ndarray],
                before: list[np.ndarray] | None) -> list[np.ndarray]:
     """The irradiance after every bounce, from the last gathers' (per target, (M, 3)): the
-    last increment d_n continues as a geometric series of the ratio r = d_n / d_(n-1) of the
-    last two increments (their sums, per channel; at most 0.9), E + d_n r / (1 - r) (the
-    series' tail, as a progressive radiosity's ambient term, Cohen et al. 1988). With only
-    two gathers, r is the ratio of the second to the first."""
+    last increment continued by its geometric series (``series``; the ratio of the last two
+    increments' sums per channel). With only two gathers, the ratio is the second's to the
+    first's."""
     d_last = [a - b for a, b in zip(last, previous, strict=True)]
     d_prev = ([b - c for b, c in zip(previous, before, strict=True)] if before is not None
               else previous)
-    top = sum(d.sum(0, dtype=np.float64) for d in d_last)
-    bottom = sum(d.sum(0, dtype=np.float64) for d in d_prev)
-    ratio = np.clip(np.where(bottom > 0.0, top / np.where(bottom > 0.0, bottom, 1.0), 0.0),
-                    0.0, 0.9)
-    return [e + np.maximum(d, 0.0) * (ratio / (1.0 - ratio)).astype(np.float32)
+    k = series.tail_factor(sum(d.sum(0, dtype=np.float64) for d in d_last),
+                           sum(d.sum(0, dtype=np.float64) for d in d_prev))
+    return [e + np.maximum(d, 0.0) * k.astype(np.float32)
             for e, d in zip(last, d_last, strict=True)]
 
 
