@@ -1,9 +1,10 @@
 """Build ``office.blend``: a small office lit by a desk lamp, full of objects (docs/probes.md).
 
 An indirect-light test room built unlike the others: 4 x 3.2 m, 2.6 m high, 15 cm walls, a
-small window behind the desk with an overcast sky, a desk lamp (a spot light close above the
-desk) as the main light and a weak ceiling light; a desk, a chair, two shelves of books, boxes
-and a cabinet (about 80 objects), a chrome mug and a brass lamp shade as metals. Probes as an
+small window behind the desk with an overcast sky, a desk lamp (a spot light just under a
+brass shade, 36 cm above the desk) as the main light and a weak ceiling light; a desk, a
+chair, two shelves of books, boxes and a cabinet (about 90 objects), a chrome mug and the
+brass lamp shade as metals. Probes as an
 artist places them: one Volume light probe scaled roughly to the room (a little beyond the
 walls, not aligned to them) at 5 x 4 x 3, and one Sphere light probe above the desk with its
 default influence. The metals' materials have a Metallic of 1 (``tools/measure_indirect.py``
@@ -93,9 +94,9 @@ def build(out: Path) -> None:
     shade.name = "Lamp shade"
     bpy.ops.object.shade_smooth()
     shade.data.materials.append(brass)
-    slab("Lamp arm", (-1.62, 0.38, 0.76), (-1.58, 0.42, 1.14), grey)
+    slab("Lamp arm", (-1.77, 0.38, 0.76), (-1.73, 0.42, 1.24), grey)  # beside the light
 
-    # the desk lamp inside its shade, pointing down; a weak ceiling light; an overcast sky
+    # the desk lamp just under its shade, pointing down; a weak ceiling light; an overcast sky
     light("SPOT", "Desk lamp", (-1.6, 0.4, 1.12), (0, 0, 0), energy=100.0,
           spot_size=math.radians(110), spot_blend=0.4, shadow_soft_size=0.03,
           color=(1.0, 0.85, 0.65))

@@ -20,6 +20,7 @@ import bpy
 import numpy as np
 
 from .. import version
+from ..core import kernels
 from ..core.bakes import bake, capture, lightmap_bake
 from ..core.files import bake_file, lightmap_file, probe_file
 from ..core.formulas import cubemap
@@ -98,6 +99,14 @@ def enclosing_objects(scene, depsgraph, position) -> list[str]:
     return sorted(names)
 
 
+def kernels_ready(modules):
+    """A bake's first steps: 0.0 while the kernels ``modules`` compile in the background
+    (``kernels.prepare``: the UI stays live), then their load."""
+    while kernels.status() and not kernels.loaded(modules):
+        yield 0.0
+    kernels.load(None, modules)
+
+
 def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1] that
     returns the number of probes written.
@@ -111,6 +120,7 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     warnings = Warnings() if warnings is None else warnings
     if not objs:
         raise BakeError("No Sphere or Volume light probes to bake")
+    yield from kernels_ready(kernels.FRAME_MODULES)
     folder = probes.writable_folder(scene)
     start = time.perf_counter()
     rs = settings_of.render_settings(scene, "PROBE_BAKE")
@@ -178,8 +188,8 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
         with interrupt.writing():
             probe_file.write_all([
                 (path, bake.metadata(b, backend, job.bounces, stamp,
-                                     time.perf_counter() - start, version(),
-                                     job.converge and job.bounces >= 3), b.coeffs, b.chains)
+                                     time.perf_counter() - start, version(), job.converged),
+                 b.coeffs, b.chains)
                 for b, (_, path) in zip(job.results, targets, strict=True)])
     except (OSError, bake_file.BakeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
@@ -373,6 +383,7 @@ def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str =
     warnings = Warnings() if warnings is None else warnings
     if not objs:
         raise BakeError("No static mesh objects to bake lightmaps for")
+    yield from kernels_ready(kernels.MODULES)
     probes.writable_folder(scene)
     start = time.perf_counter()
     rs = settings_of.render_settings(scene, "LIGHTMAP_BAKE")

@@ -14,7 +14,7 @@ from .terminal import progress_bar, quiet_blender, stderr_copy
 
 def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
-    scene = load_blend(Path(args.scene), bakes=True)
+    scene = load_blend(Path(args.scene), bakes=args.lightmaps is not None)
     from ..blender import bake, bake_files, lightmaps, probes
     from ..core.render.job import Cancelled, Warnings
 

@@ -16,9 +16,8 @@ and by the world's seen light where they leave weight, so bounce n adds light th
 n times and the sum converges (a closed box: the geometric series of its albedo). Within a
 bounce the volumes are captured first, and the reflection probes' captures take their diffuse
 light from this bounce's volumes: a surface a metal reflects has as many diffuse bounces as
-the same surface in a frame. After the first bounce the volumes' captures are half the size
-(``Bake.later_face_size``); with ``Bake.converge`` the bounces after the last are estimated
-from the last three (``series``).
+the same surface in a frame. With ``Bake.converge`` the bounces after the last are
+estimated from the last three (``series``).
 
 Irradiance volumes without leaks, as EEVEE's (``VolumeSettings``): before the first bounce,
 each sample's surroundings are looked at (``SurfacesFn``); a sample that sees mostly back faces
@@ -164,9 +163,6 @@ class ProbeSpec:
             float(v.normal_bias), float(v.view_bias), float(v.facing_bias), float(self.falloff))
 
 
-LATER_FACE_SIZE = 16
-
-
 @dataclass
 class BakedProbe:
     """One probe's bake: SH ``coeffs`` (K, 9, 3) float32 per capture point and, for a
@@ -305,7 +301,7 @@ class Bake:
     bounces:          light bounces (>= 1; see the module docstring)
     converge:         the bounces after the last estimated from the last ones (``series``;
                       with 3 bounces or more: the first holds the direct light, whose ratio
-                      to the second says little of the later ones')
+                      to the second says little of the later ones)
     face_size:        cube face size of reflection probes' captures, texels
     volume_face_size: cube face size of irradiance volumes' captures, texels
     results:          filled by ``steps()`` once every bounce is done
@@ -322,11 +318,10 @@ class Bake:
     results: list[BakedProbe] = field(default_factory=list)
 
     @property
-    def later_face_size(self) -> int:
-        """The face size of the volumes' captures after the first bounce: half the first's,
-        at least ``LATER_FACE_SIZE`` (what those bounces add is smooth; a capture's cost
-        below that size is mostly fixed)."""
-        return min(self.volume_face_size, max(LATER_FACE_SIZE, self.volume_face_size // 2))
+    def converged(self) -> bool:
+        """Whether the bounces after the last are estimated (``converge`` with 3 bounces or
+        more)."""
+        return self.converge and self.bounces >= 3
 
     def _clip(self, spec: ProbeSpec) -> tuple[float, float]:
         near = max(float(spec.clip_start), 1e-3)
@@ -359,13 +354,12 @@ class Bake:
         # bounce's volumes, as a frame does (the same number of diffuse bounces)
         order = sorted(range(len(self.specs)), key=lambda k: self.specs[k].kind != "irradiance")
         history: list[list[BakedProbe]] = []  # the last three bounces' results
-        for bounce in range(max(1, self.bounces)):
+        for _ in range(max(1, self.bounces)):
             found: dict[int, BakedProbe] = {}
             baked = world_probes(self.world)
             for k in order:
                 spec = self.specs[k]
-                size = (self.face_size if spec.kind == "reflection"
-                        else self.volume_face_size if bounce == 0 else self.later_face_size)
+                size = self.face_size if spec.kind == "reflection" else self.volume_face_size
                 pos, ratios, moved = placed.get(k, (spec.points, None, 0))
                 seen = lighting if spec.kind == "irradiance" else replace(
                     lighting, volumes=list(baked.volumes))
@@ -385,15 +379,15 @@ class Bake:
                     dilated, validity = dilate(coeffs.reshape(*res, 9, 3), ratios.reshape(res),
                                                spec.volume)
                     coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
-                result = BakedProbe(spec, coeffs, chains, self.face_size if spec.kind ==
-                                    "reflection" else self.volume_face_size, validity, moved)
+                result = BakedProbe(spec, coeffs, chains, size, validity, moved)
                 found[k] = result
                 probe = spec.probe(result.coeffs, chains, validity)
                 (baked.reflection if spec.kind == "reflection" else baked.volumes).append(probe)
             results = [found[k] for k in range(len(self.specs))]
-            history = [*history[-2:], results]
+            if self.converged:
+                history = [*history[-2:], results]
             lighting = baked
-        if self.converge and len(history) == 3:
+        if self.converged:
             results = _converged(*history)
         self.results = results
 

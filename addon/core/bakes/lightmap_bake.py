@@ -302,7 +302,7 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
     """``steps``, a fraction after every short piece of work."""
     from .. import kernels as all_kernels
 
-    all_kernels.load(modules=("lightmap",))  # (compiled by ``kernels.prepare`` after a frame's)
+    all_kernels.load(modules=all_kernels.MODULES)  # (the lightmaps' after a frame's)
     from ..kernels import lightmap as kernels
 
     settings = settings or Settings()

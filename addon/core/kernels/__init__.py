@@ -13,7 +13,8 @@ and 3.14); the macOS Intel zip bundles numba 0.62.1 with llvmlite 0.45.1, the la
 wheels for it (``bundled_numba``). Another extension can bring another numba into Blender's
 shared site-packages, so ``check()`` says exactly what was found.
 
-Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``occlusion``
+Modules: ``indirect`` (SH irradiance, normalized prefiltered reflections), ``lightmap`` (the
+lightmap bakes' texels, rays and filters), ``occlusion``
 (ground-truth-based ambient occlusion), ``raster``
 (projection, set-up, scan conversion with the depth test, resolve; shadow-map pyramids),
 ``shading`` (direct light: incidence and the talk's BRDF; the shaded points' surface; the
@@ -167,6 +168,8 @@ def load(notify=None, modules=MODULES) -> None:
     (here, or in ``prepare``'s worker, which this waits for until it has ``modules``). Cheap
     once loaded."""
     check()
+    if loaded(modules) and _worker is not None and not _worker.is_alive():
+        return
     worker, said = _worker, False
     # a module is in sys.modules from its import's start: the worker's are ready at its word
     while worker is not None and worker.is_alive() and not set(modules) <= _ready:
@@ -214,9 +217,10 @@ def prepare(jobs: int | None = None) -> bool:
         except KernelsUnavailable:
             return False
         _status = LOADING_MESSAGE
-        _worker = threading.Thread(target=_prepare, args=(jobs or _cores(),),
-                                   name="bo2-kernels", daemon=True)
-        _worker.start()
+        worker = threading.Thread(target=_prepare, args=(jobs or _cores(),),
+                                  name="bo2-kernels", daemon=True)
+        worker.start()
+        _worker = worker
         return True
 
 
@@ -230,7 +234,8 @@ def _cores() -> int:
 def _prepare(jobs: int) -> None:
     global _status
     try:
-        for group in (FRAME_MODULES, MODULES[len(FRAME_MODULES):]):
+        later = tuple(m for m in MODULES if m not in FRAME_MODULES)
+        for group in (FRAME_MODULES, later):
             missing = [m for m in group if not _cached(m)]
             if missing:
                 _status = FIRST_RUN_MESSAGE
@@ -238,7 +243,9 @@ def _prepare(jobs: int) -> None:
             _status = LOADING_MESSAGE
             for module in group:
                 _imported(module)
-                _ready.add(module)
+            if group is later:
+                _status = ""  # (before the word that every module is ready)
+            _ready.update(group)
     except Exception:  # noqa: BLE001, S110 - ``load`` meets the same failure and reports it
         pass
     finally:
@@ -259,7 +266,10 @@ for k in range(1, len(parts)):
     sys.modules[stub.__name__] = stub
 kernels = importlib.import_module(package + ".addon.core.kernels")
 for module in modules:
-    kernels._imported(module)
+    try:
+        kernels._imported(module)
+    except Exception:  # the parent meets it again, and reports it
+        pass
 """
 
 
@@ -284,10 +294,14 @@ def _compile_apart(modules: list[str], jobs: int) -> None:
     package = __name__.removesuffix(".addon.core.kernels")
     # kernels, core, addon, the package: as imported (numba names its cache folder by it)
     folder = str(Path(os.path.abspath(__file__)).parents[4])
-    running = [(subprocess.Popen([sys.executable, "-c", _CHILD,
-                                  json.dumps([sys.path, package, folder, share])],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL),
-                time.monotonic()) for share in _shares(modules, jobs)]
+    running = []
+    for share in _shares(modules, jobs):
+        try:
+            running.append((subprocess.Popen(
+                [sys.executable, "-c", _CHILD, json.dumps([sys.path, package, folder, share])],
+                stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL), time.monotonic()))
+        except OSError:  # (no process to spare: the ones started go on, the import does
+            break        # the rest)
     while running:
         time.sleep(0.05)
         for child, started in running:
@@ -302,6 +316,8 @@ CHILD_TIMEOUT = 900.0  # seconds a child may take to compile its modules (about 
 
 if "NUMBA_CACHE_DIR" not in os.environ:  # until the host configures its own folder
     os.environ["NUMBA_CACHE_DIR"] = str(default_cache_dir())
+    if "numba" in sys.modules:  # (another extension imported it first)
+        sys.modules["numba"].config.CACHE_DIR = os.environ["NUMBA_CACHE_DIR"]
 
 
 def is_cached() -> bool:
@@ -313,36 +329,55 @@ def is_cached() -> bool:
 def _marker(module: str) -> Path | None:
     """The file that says ``module``'s kernels are all in the cache: in numba's folder for the
     kernels' source folder (its name and the SHA-1 of its path as imported, symbolic links
-    kept, as numba names it), named by the module's content, numba's version and Python's.
-    None without a cache folder or a readable source."""
+    kept, as numba names it), named by what numba's cache entries depend on: the module's
+    content, modification time and size (numba 0.62 checks those), numba's and Python's
+    versions and the host's processor. None without a writable cache folder (numba then caches
+    elsewhere) or a readable source."""
     folder = os.environ.get("NUMBA_CACHE_DIR")
+    if not folder or not os.access(folder, os.W_OK):
+        return None
     here = os.path.dirname(os.path.abspath(__file__))
+    source = Path(here, f"{module}.py")
     try:
-        digest = hashlib.sha256(Path(here, f"{module}.py").read_bytes()).hexdigest()[:20]
+        stat = source.stat()
+        key = hashlib.sha256(source.read_bytes())
     except OSError:
         return None
-    if not folder:
-        return None
+    key.update(f"{stat.st_mtime} {stat.st_size} {_processor()}".encode())
     sub = Path(folder) / f"kernels_{hashlib.sha1(here.encode()).hexdigest()}"
-    return sub / (f"{module}.{digest}.numba{NUMBA_VERSION}"
+    return sub / (f"{module}.{key.hexdigest()[:20]}.numba{NUMBA_VERSION}"
                   f".py{sys.version_info[0]}{sys.version_info[1]}.ready")
+
+
+def _processor() -> str:
+    """The host's processor as numba compiles for it (its name and features)."""
+    try:
+        from llvmlite import binding
+        from numba.core import config
+    except Exception:  # noqa: BLE001 - no numba: no marker matters
+        return ""
+    return (f"{config.CPU_NAME or binding.get_host_cpu_name()} "
+            f"{config.CPU_FEATURES or binding.get_host_cpu_features().flatten()}")
 
 
 def _cached(module: str) -> bool:
     """Whether the cache holds every kernel of ``module``'s source as it is now, for this
-    numba and Python (``_marker``; numba writes its index per kernel as each compiles, so a
-    compile cut short leaves some)."""
+    numba, Python and processor (``_marker``; numba writes its index per kernel as each
+    compiles, so a compile cut short leaves some)."""
     marker = _marker(module)
     return marker is not None and marker.is_file()
 
 
 def _imported(module: str) -> None:
-    """Import ``module`` (compiling what the cache lacks) and mark it whole in the cache."""
-    importlib.import_module(f"{__name__}.{module}")
-    marker = _marker(module)
+    """Import ``module`` (compiling what the cache lacks); an import made here marks it whole
+    in the cache (``_marker``)."""
+    name = f"{__name__}.{module}"
+    first = name not in sys.modules
+    importlib.import_module(name)
+    marker = _marker(module) if first else None
     if marker is not None and not marker.is_file():
         try:
             marker.parent.mkdir(parents=True, exist_ok=True)
             marker.touch()
-        except OSError:  # a read-only cache: the next session compiles again
+        except OSError:  # (the marker is a saving only)
             pass
