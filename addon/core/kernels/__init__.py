@@ -369,12 +369,15 @@ def _cached(module: str) -> bool:
 
 
 def _imported(module: str) -> None:
-    """Import ``module`` (compiling what the cache lacks); an import made here marks it whole
-    in the cache (``_marker``)."""
-    name = f"{__name__}.{module}"
-    first = name not in sys.modules
-    importlib.import_module(name)
-    marker = _marker(module) if first else None
+    """Import ``module``, compiling what the cache lacks (the module marks itself whole in
+    the cache at its end: ``mark_cached``)."""
+    importlib.import_module(f"{__name__}.{module}")
+
+
+def mark_cached(name: str) -> None:
+    """Called at the end of each kernel module ``name`` (its ``__name__``): every kernel of it
+    is compiled or loaded, so the cache holds them all (``_marker``)."""
+    marker = _marker(name.rpartition(".")[2])
     if marker is not None and not marker.is_file():
         try:
             marker.parent.mkdir(parents=True, exist_ok=True)

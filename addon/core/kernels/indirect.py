@@ -21,6 +21,8 @@ import math
 import numba as nb
 import numpy as np
 
+from . import mark_cached
+
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 NONE, BO1, BO2 = 0, 1, 2  # normalizations
@@ -402,3 +404,6 @@ def volume_blend(grid, res, positions, validity, has_validity, points, normals, 
             if b != 0.0:
                 for j in range(k):
                     out[i, j] += b * samples[rows[c], j]
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded

@@ -23,6 +23,7 @@ import math
 import numba as nb
 import numpy as np
 
+from . import mark_cached
 from .indirect import sample_chain
 from .shading import triangle_normal
 
@@ -571,3 +572,6 @@ def dilate_pass(image, have, out, grown):
                 grown[y, x] = True
                 count += 1
     return count
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded

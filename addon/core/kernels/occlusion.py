@@ -19,6 +19,8 @@ import math
 import numba as nb
 import numpy as np
 
+from . import mark_cached
+
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 SLICES = 2  # per pixel; a 4 x 4 block holds 16 times as many
@@ -197,3 +199,6 @@ def blur(ao, depth, normals, rx, ry, rec, tolerance, out):
                     total += ao[a, b]
                     weight += 1.0
             out[i, j] = total / weight if weight > 0.0 else ao[ci, cj]
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded

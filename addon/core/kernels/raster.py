@@ -24,6 +24,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from . import mark_cached
+
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 EMPTY = np.uint64(0xFFFF_FFFF_FFFF_FFFF)
 _FAR_COLUMN = 2.0**39  # the bound of a horizontal edge: beyond any image
@@ -950,3 +952,6 @@ def clipped_depths(points, rows, near):
                 lo = min(lo, d)
                 hi = max(hi, d)
     return lo, hi
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded

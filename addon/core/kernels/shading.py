@@ -14,6 +14,8 @@ import math
 import numba as nb
 import numpy as np
 
+from . import mark_cached
+
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 POINT, SPOT, SUN, AREA = 0, 1, 2, 3
@@ -312,3 +314,6 @@ def compose(out, cols, n, p, uv, has_uv, diffuse, specular, diff_ind, gloss_ind,
         out[i, cols[3] + 1] = uv[i, 1] if has_uv[i] else zero
         out[i, cols[3] + 2] = one if has_uv[i] else zero
         out[i, cols[11]] = gloss[i]
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded

@@ -19,6 +19,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from . import mark_cached
+
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 # map kinds
@@ -568,3 +570,6 @@ def visibility(depth, mips, offsets, sides, basis, rects, faces, fp, ip, blocker
         how[i] = HOW_HARD
         out[i] = _pcf(fr, fp, ip, depth, mips, offsets, sides, rects, faces, r_min,
                       hard_disc, reaches[2])
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
+from . import mark_cached
+
 _OPTIONS = {"cache": True, "nogil": True, "error_model": "numpy"}
 
 
@@ -383,3 +385,6 @@ def footprint_lod(step_x, step_y, width, height, lod):
             lod[i] = np.inf
         else:
             lod[i] = 0.5 * np.log2(max(rho2, 1e-60))
+
+
+mark_cached(__name__)  # every kernel above is compiled or loaded
