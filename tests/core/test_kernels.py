@@ -79,12 +79,16 @@ def test_default_cache_folder_is_per_user(monkeypatch, tmp_path):
 LOAD = ("import sys; from bo2_lighting.addon.core import kernels; "
         "kernels.load(lambda m: print(m)); print('cached', kernels.is_cached())")
 
-# The extension's start: compiled in child processes, then loaded here from their cache (numba
-# counts a cache hit, and no compile, for every kernel)
+# The extension's start: compiled in child processes, a frame's modules first, then loaded
+# here from their cache (numba counts a cache hit, and no compile, for every kernel)
 PREPARE = """
+import sys
 from bo2_lighting.addon.core import kernels
 print("started", kernels.prepare(2))
-kernels.load(print)
+kernels.load(print, kernels.FRAME_MODULES)  # a render: the frame's modules, compiled first
+print("frame", all(kernels._cached(m) for m in kernels.FRAME_MODULES),
+      f"{kernels.__name__}.lightmap" in sys.modules)
+kernels.load(print)  # a lightmap bake: waits for the lightmap bakes' module, still compiling
 print("cached", kernels.is_cached(), "status", repr(kernels.status()))
 import importlib
 hits = misses = 0
@@ -131,8 +135,9 @@ def test_kernels_compile_once_into_the_cache_folder(tmp_path):
     first = subprocess.run([sys.executable, "-c", PREPARE], env=env, capture_output=True,
                            text=True, timeout=600)
     assert first.returncode == 0, first.stderr
-    assert first.stdout.splitlines() == ["started True", kernels.FIRST_RUN_MESSAGE,
-                                         "cached True status ''", "hits True misses 0"]
+    assert first.stdout.splitlines() == [
+        "started True", kernels.FIRST_RUN_MESSAGE, "frame True False",
+        kernels.FIRST_RUN_MESSAGE, "cached True status ''", "hits True misses 0"]
     assert list(tmp_path.rglob("*.nbi")) and list(tmp_path.rglob("*.nbc"))
     second = subprocess.run([sys.executable, "-c", LOAD], env=env, capture_output=True,
                             text=True, timeout=600)
@@ -173,24 +178,3 @@ def test_children_share_the_modules_to_end_together():
     assert kernels._shares(["shading", "lightmap"], 4) == [["lightmap"], ["shading"]]
     assert sorted(sum(kernels._shares(list(kernels.MODULES), 3), [])) == sorted(kernels.MODULES)
 
-
-# The render's start on an empty cache: the frame's modules first, ready while the lightmap
-# bakes' one still compiles; then a lightmap bake's load waits for it
-FRAME_FIRST = """
-import sys
-from bo2_lighting.addon.core import kernels
-print("started", kernels.prepare(2))
-kernels.load(None, kernels.FRAME_MODULES)
-print("frame", all(kernels._cached(m) for m in kernels.FRAME_MODULES),
-      f"{kernels.__name__}.lightmap" in sys.modules)
-kernels.load(None, ("lightmap",))
-print("lightmap", kernels._cached("lightmap"), kernels.loaded())
-"""
-
-
-def test_a_frame_waits_for_its_own_modules_only(tmp_path):
-    env = {"NUMBA_CACHE_DIR": str(tmp_path), "PATH": "/usr/bin:/bin"}
-    run = subprocess.run([sys.executable, "-c", FRAME_FIRST], env=env, capture_output=True,
-                         text=True, timeout=600)
-    assert run.returncode == 0, run.stderr
-    assert run.stdout.splitlines() == ["started True", "frame True False", "lightmap True True"]
