@@ -168,7 +168,7 @@ def load(notify=None, modules=MODULES) -> None:
     (here, or in ``prepare``'s worker, which this waits for until it has ``modules``). Cheap
     once loaded."""
     check()
-    if loaded(modules) and _worker is not None and not _worker.is_alive():
+    if loaded(modules):  # (an import under way on another thread: the caller's import waits)
         return
     worker, said = _worker, False
     # a module is in sys.modules from its import's start: the worker's are ready at its word
