@@ -75,6 +75,13 @@ class BO2IndirectSettings(bpy.types.PropertyGroup):
         "on the first frame of each content and kept",
         default=True,
     )
+    use_wall_extrapolation: bpy.props.BoolProperty(
+        name="Extrapolate to Walls",
+        description="Past a Volume probe's outermost samples, up to its box's faces, "
+        "extrapolate their light rather than hold it (a wall half a cell beyond the samples "
+        "then gets the light at the wall, not the light a sample sees inside the room)",
+        default=False,
+    )
     use_ambient_occlusion: bpy.props.BoolProperty(
         name="Ambient Occlusion",
         description="Contact occlusion of probe and world light: the frame's own surfaces "
@@ -301,6 +308,13 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "the bonus slides)",
         items=_items("specular_model"),
         default="reference",
+    )
+    use_layered_diffuse: bpy.props.BoolProperty(
+        name="Layered Diffuse",
+        description="Weight a Principled BSDF's diffuse by one less its specular's albedo "
+        "toward the eye, as Cycles and EEVEE layer it (the talk adds the two; the BO2 "
+        "Material group always adds them)",
+        default=False,
     )
     shadow_resolution: bpy.props.EnumProperty(
         name="Shadow Resolution",

@@ -69,6 +69,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         shade_every_sample=bool(s.shade_every_sample),
         filter_width=float(r.filter_size),
         specular_model=str(s.specular_model),
+        layered_diffuse=bool(s.use_layered_diffuse),
         env_brdf=str(ind.env_brdf),
         normalization=str(ind.normalization),
         prefilter=str(ind.prefilter),
@@ -80,6 +81,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         sky_directions=int(ind.sky_directions),
         sky_resolution=int(ind.sky_resolution),
         implicit_bounce=bool(ind.use_implicit_bounce),
+        volume_extrapolation=bool(ind.use_wall_extrapolation),
         threads=int(r.threads),  # Blender's Threads setting (Auto: one per core)
         border=None if whole else render_border(scene, width, height),
     )

@@ -75,6 +75,7 @@ class RENDER_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         layout.prop(settings, "shade_every_sample")
         layout.prop(context.scene.render, "filter_size", text="Filter Width")
         layout.prop(settings, "specular_model")
+        layout.prop(settings, "use_layered_diffuse")
         layout.prop(settings, "shadow_resolution")
         layout.prop(context.scene.render, "film_transparent")
         col = layout.column(heading="Threads")
@@ -119,6 +120,7 @@ class RENDER_PT_bo2_indirect(_Switched, _RenderSubPanel, bpy.types.Panel):
         sub.active = settings.sky_directions != "0"
         sub.prop(settings, "sky_resolution", text="Resolution")
         col.prop(settings, "use_implicit_bounce")
+        col.prop(settings, "use_wall_extrapolation")
         col.prop(settings, "use_ambient_occlusion")
         sub = col.column()
         sub.active = settings.use_ambient_occlusion

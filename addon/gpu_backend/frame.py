@@ -41,7 +41,8 @@ FRAME = Struct("FrameData", (
     ("jitter", "vec2", 0),  # the sample's shift, NDC
     ("counts", "ivec4", 0),  # (lights in the batch, specular model, first batch, MODES)
     ("size", "ivec4", 0),  # (width, height, the sample's number, -)
-    ("flags", "ivec4", 0),  # (specular occlusion, peeling: the depth pre-pass, -, -)
+    ("flags", "ivec4", 0),  # (specular occlusion, peeling: the depth pre-pass, layered
+    #                          diffuse, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
 ))
 WORLD = Struct("WorldData", (
@@ -174,7 +175,7 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
         "  switch (material) {", cases + "    default: return;", "  }",
         "  s.albedo = m.albedo;", "  s.rf0 = m.rf0;", "  s.emission = m.emission;",
         "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;",
-        "  s.alpha = m.alpha;", "}", ""])
+        "  s.alpha = m.alpha;", "  s.layer = m.layer;", "}", ""])
     return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest(),
                          constants.array()), keys, texs)
 
@@ -441,7 +442,7 @@ class GPUFrame:
         table[:len(tab["albedo"]), 0] = np.column_stack([tab["albedo"], tab["gloss"]])
         table[:len(tab["albedo"]), 1] = np.column_stack([tab["rf0"], tab["alpha"]])
         table[:len(tab["albedo"]), 2] = np.column_stack([tab["emission"], tab["occlusion"]])
-        table[:len(tab["albedo"]), 3, 0] = tab["pass_index"]
+        table[:len(tab["albedo"]), 3, :2] = np.column_stack([tab["pass_index"], tab["layer"]])
         self.materials = textures.image(table.reshape(1, -1, 4))
         self.world = None  # (ImageData record's buffer, texels, sRGB table) of an image world
         world = frame.scene.world
@@ -456,7 +457,7 @@ class GPUFrame:
         if has_indirect(frame):
             s = frame.scene.settings
             drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,
-                                        s.env_brdf)
+                                        s.env_brdf, s.volume_extrapolation)
             block, texels = lightmaps.upload(frame.lightmaps or [])
             self.indirect = ([(member.partition("[")[0], gpu.types.GPUUniformBuf(raw))
                               for _, member, raw in drawn.blocks()]
@@ -523,7 +524,8 @@ class GPUFrame:
                 "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                 "world": np.append(np.asarray(scene.world.color, np.float32), 1.0),
-                "flags": [int(settings.specular_occlusion), 0, 0, 0]}
+                "flags": [int(settings.specular_occlusion), 0, int(settings.layered_diffuse),
+                          0]}
         from ..core.kernels import shading as shading_kernel
 
         model = shading_kernel.MODELS[settings.specular_model]

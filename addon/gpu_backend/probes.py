@@ -23,7 +23,8 @@ INDIRECT = Struct("IndirectData", (
     ("world_color", "vec4", 0),  # a world of one colour: RGB, 1; else 0
     ("counts", "ivec4", 0),  # (reflection probes, volumes, normalization, environment BRDF)
     ("flags", "ivec4", 0),  # (the bounce volume's index or -1, -, -, -)
-    ("limits", "vec4", 0),  # (eps, largest normalization ratio, smallest n.v of the BRDF, -)
+    ("limits", "vec4", 0),  # (eps, largest normalization ratio, smallest n.v of the BRDF,
+    #                          1: volumes extrapolated to their boxes' faces)
     ("fit", "vec4", 3),  # env_brdf.FIT_A0 + FIT_A1 (10)
 ))
 REFLECTION = Struct("ReflectionData", (
@@ -53,7 +54,9 @@ SAMPLERS = (("FLOAT_2D", "chains"), ("FLOAT_2D", "volume_sh"), ("FLOAT_2D", "env
 
 def defines() -> dict:
     """The defines ``glsl/indirect.glsl`` reads."""
-    return {"ROW_WIDTH": textures.ROW_WIDTH}
+    low, high = core_probes.EXTRAPOLATION
+    return {"ROW_WIDTH": textures.ROW_WIDTH, "EXTRAPOLATION_LOW": repr(float(low)),
+            "EXTRAPOLATION_HIGH": repr(float(high))}
 
 
 def prelude() -> str:
@@ -119,9 +122,11 @@ def _volume_record(vol, row: int) -> dict:
                        float(vol.validity is not None), 0.0]}
 
 
-def indirect_set(probes, normalization: str, prefilter: str, env_model: str) -> IndirectSet:
+def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
+                 extrapolate: bool = False) -> IndirectSet:
     """Upload ``probes`` (``core.lighting.probes.Probes``) for ``glsl/indirect.glsl`` with the
-    frame's normalization, prefilter and environment BRDF (``RenderSettings``' names)."""
+    frame's normalization, prefilter, environment BRDF and volume extrapolation
+    (``RenderSettings``' names)."""
     from ..core.kernels import indirect as indirect_kernel
 
     why = unsupported(probes)
@@ -173,7 +178,7 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str) -> 
                    indirect_kernel.ENV_MODELS[env_model]],
         "flags": [len(probes.volumes) if probes.bounce is not None else -1, 0, 0, 0],
         "limits": [core_probes.EPS, core_probes.MAX_NORMALIZATION,
-                   formulas_env_brdf.N_DOT_V_MIN, 0.0],
+                   formulas_env_brdf.N_DOT_V_MIN, float(extrapolate)],
         "fit": np.array(formulas_env_brdf.FIT_A0 + formulas_env_brdf.FIT_A1)}])
     return IndirectSet(
         indirect, REFLECTION.pack(records, MAX_REFLECTIONS + 1),

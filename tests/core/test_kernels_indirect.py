@@ -187,14 +187,11 @@ def test_quadrature_is_not_a_shading_model():
                     env_brdf="truth")
 
 
-def volume_sh_numpy(vol, points, normals=None):
-    """The NumPy form of ``IrradianceVolume.sample_sh`` (no biases): trilinear weights of the
-    eight samples around each point, times validity and the facing weight; where those leave
+def _blend_numpy(vol, pts, f, normals):
+    """The blend of the eight samples around grid coordinates ``f`` (N, 3), within
+    [0, res - 1]: trilinear weights times validity and the facing weight; where those leave
     nothing, trilinear over the valid samples, or over all."""
     res = np.asarray(vol.resolution)
-    pts = np.asarray(points, np.float32)
-    q = vol._local(pts)
-    f = np.clip((q + 1.0) * 0.5 * res - 0.5, 0.0, res - 1.0)
     i0 = np.minimum(np.floor(f).astype(np.int64), res - 2).clip(0)
     t = (f - i0).astype(np.float32)
     i1 = np.minimum(i0 + 1, res - 1)
@@ -225,22 +222,50 @@ def volume_sh_numpy(vol, points, normals=None):
     return sum(blend[c][:, None, None] * vol.sh[idx] for c, idx in enumerate(corners))
 
 
-@pytest.mark.parametrize("facing_bias", [None, 0.0, 0.5, 1.0])
-def test_volume_look_up_kernel_matches_numpy(facing_bias):
+def volume_sh_numpy(vol, points, normals=None, extrapolate=False):
+    """The NumPy form of ``IrradianceVolume.sample_sh`` (no biases): the blend at the point
+    clamped to the outermost samples; with ``extrapolate``, between them and the box's faces,
+    scaled by 1 plus, per axis past them, the distance past (in cells) times the DC
+    luminance's change from one cell inward, over the DC luminance (the scale within
+    ``probes.EXTRAPOLATION``)."""
+    res = np.asarray(vol.resolution)
+    pts = np.asarray(points, np.float32)
+    grid = (vol._local(pts) + 1.0) * 0.5 * res - 0.5
+    f = np.clip(grid, 0.0, res - 1.0)
+    past = np.where(res > 1, np.clip(grid, -0.5, res - 0.5) - f, 0.0)
+    base = _blend_numpy(vol, pts, f, normals)
+    luma = lambda sh: sh[:, 0] @ np.float32([0.2126, 0.7152, 0.0722])  # noqa: E731
+    extra = np.zeros(len(pts))
+    for a in range(3):
+        g = f.copy()
+        g[:, a] -= np.sign(past[:, a])
+        extra += np.abs(past[:, a]) * (luma(base) - luma(_blend_numpy(vol, pts, g, normals)))
+    low, high = cp.EXTRAPOLATION if extrapolate else (1.0, 1.0)
+    y = luma(base)
+    scale = np.where(y > 0, np.clip(1.0 + extra / np.where(y > 0, y, 1.0), low, high), 1.0)
+    return base * scale[:, None, None]
+
+
+@pytest.mark.parametrize("facing_bias,extrapolate", [
+    (None, False), (0.0, False), (0.5, False), (1.0, False), (None, True), (0.5, True)])
+def test_volume_look_up_kernel_matches_numpy(facing_bias, extrapolate):
     rng = np.random.default_rng(5)
     m = np.diag([2.0, 1.5, 1.0, 1.0])
     m[:3, 3] = (0.3, -0.2, 1.0)
     res = (4, 3, 5)
     validity = (rng.random(res) > 0.3).astype(np.float32)
     validity[0, 0, 0] = 0.0
-    vol = cp.IrradianceVolume("v", m, res, rng.normal(size=(*res, 9, 3)).astype(np.float32),
-                              0.5, validity, facing_bias=facing_bias)
+    coeffs = rng.normal(size=(*res, 9, 3)).astype(np.float32)
+    coeffs[..., 0, :] += 2.0  # light's DC terms are positive: the extrapolation scales them
+    vol = cp.IrradianceVolume("v", m, res, coeffs, 0.5, validity, facing_bias=facing_bias)
     points = (rng.uniform(-1.3, 1.3, size=(2000, 3)) * (2.0, 1.5, 1.0)
               + (0.3, -0.2, 1.0)).astype(np.float32)
     normals = rng.normal(size=(2000, 3)).astype(np.float32)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    np.testing.assert_allclose(vol.sample_sh(points, normals),
-                               volume_sh_numpy(vol, points, normals), rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(vol.sample_sh(points, normals, extrapolate=extrapolate),
+                               volume_sh_numpy(vol, points, normals, extrapolate),
+                               rtol=1e-4, atol=1e-5)
     plain = cp.IrradianceVolume("v", m, res, vol.sh, 0.5)
-    np.testing.assert_allclose(plain.sample_sh(points), volume_sh_numpy(plain, points),
+    np.testing.assert_allclose(plain.sample_sh(points, extrapolate=extrapolate),
+                               volume_sh_numpy(plain, points, extrapolate=extrapolate),
                                rtol=1e-4, atol=1e-5)

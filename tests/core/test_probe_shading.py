@@ -52,8 +52,15 @@ def test_volume_trilinear_blend_and_influence():
     vol = cp.IrradianceVolume("V", np.diag([2.0, 1.0, 1.0, 1.0]), res, coeffs, influence=1.0)
     # samples at local x = -0.5 and +0.5, world x = -1 and +1
     pts = np.array([[-1, 0, 0], [0, 0, 0], [1, 0, 0], [2.5, 0, 0], [3.5, 0, 0]], np.float32)
-    got = vol.sample_sh(pts)[:, 0, 0]
-    np.testing.assert_allclose(got, [1.0, 2.0, 3.0, 3.0, 3.0], rtol=1e-6)
+    # trilinear between the samples, held beyond them
+    np.testing.assert_allclose(vol.sample_sh(pts)[:, 0, 0], [1.0, 2.0, 3.0, 3.0, 3.0], rtol=1e-6)
+    # extrapolated to the box's face (x = 2), held beyond it
+    np.testing.assert_allclose(vol.sample_sh(pts, extrapolate=True)[:, 0, 0],
+                               [1.0, 2.0, 3.0, 4.0, 4.0], rtol=1e-6)
+    # toward x = -2 the field 2 + x falls to 0: it stops at half the sample's
+    edge = np.array([[-1.25, 0, 0], [-1.5, 0, 0], [-2.0, 0, 0]], np.float32)
+    np.testing.assert_allclose(vol.sample_sh(edge, extrapolate=True)[:, 0, 0], [0.75, 0.5, 0.5],
+                               rtol=1e-6)
     # weight 1 inside the box (|x| <= 2); outside, Blender's rule: Distance in local units
     # (x is scaled by 2: 1 local unit = 2 m), fading linearly over all of it (Falloff 1)
     np.testing.assert_allclose(vol.weight(pts), [1, 1, 1, 0.75, 0.25], atol=1e-6)
@@ -64,6 +71,31 @@ def test_volume_trilinear_blend_and_influence():
     np.testing.assert_allclose(vol.weight(far), [1, 0.5, 0, 1, 0.5], atol=1e-6)
     positions = cp.volume_sample_positions(vol.local_to_world, res)
     np.testing.assert_allclose(positions.reshape(-1, 3), [[-1, 0, 0], [1, 0, 0]], atol=1e-12)
+
+
+def test_volume_look_up_reproduces_a_linear_field_up_to_the_box():
+    """Light of one directional shape whose strength varies linearly in space (SH = (a + b . x)
+    times a fixed SH) is read back exactly anywhere in the box, up to its faces half a cell
+    beyond the outermost samples, and beyond the box as at its nearest point."""
+    rng = np.random.default_rng(11)
+    m = np.diag([2.0, 1.0, 1.5, 1.0])
+    m[:3, 3] = (0.5, -1.0, 0.25)
+    res = (5, 3, 4)
+    positions = cp.volume_sample_positions(m, res)
+    shape = rng.uniform(-0.3, 0.3, (9, 3))
+    shape[0] = (1.0, 0.8, 0.6)
+    b = rng.uniform(-0.15, 0.15, 3)
+    field = lambda x: (2.0 + (x - m[:3, 3]) @ b)[:, None, None] * shape  # noqa: E731
+    coeffs = field(positions.reshape(-1, 3)).reshape(*res, 9, 3).astype(np.float32)
+    vol = cp.IrradianceVolume("V", m, res, coeffs)
+    local = rng.uniform(-1.0, 1.0, (500, 3))
+    inside = local @ m[:3, :3].T + m[:3, 3]
+    np.testing.assert_allclose(vol.sample_sh(inside, extrapolate=True), field(inside), rtol=1e-4,
+                               atol=1e-6)
+    beyond = local * rng.uniform(1.0, 2.0, (500, 1)) / np.abs(local).max(1, keepdims=True)
+    face = np.clip(beyond, -1.0, 1.0) @ m[:3, :3].T + m[:3, 3]
+    np.testing.assert_allclose(vol.sample_sh(beyond @ m[:3, :3].T + m[:3, 3], extrapolate=True),
+                               field(face), rtol=1e-4, atol=1e-6)
 
 
 def test_reflection_probe_weight_falls_off_at_its_radius():

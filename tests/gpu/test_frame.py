@@ -76,6 +76,26 @@ def test_frame_matches_the_cpu(name):
     _check(*_render_both(scene), name)
 
 
+def _principled(base, roughness) -> Material:
+    b = program.ProgramBuilder()
+    c = b.const
+    surface = b.add("principled", c(*base), c(0.0), c(roughness), c(1.5), c(0.5),
+                    c(1.0, 1.0, 1.0), c(0.0), c(0.0, 0.0, 0.0), c(0.0), c(1.0), None)
+    return Material("paint", b.build(surface))
+
+
+def test_layered_diffuse_frame_matches_the_cpu():
+    """Principled BSDFs with Layered Diffuse: their albedo weighted toward the eye alike."""
+    scene = scenes.objects_scene([scenes.LIGHTS["SPOT"], scenes.LIGHTS["SUN"]])
+    scene.materials[:2] = [_principled((0.6, 0.6, 0.6), 0.3), _principled((0.7, 0.2, 0.1), 0.6)]
+    scene.settings = dataclasses.replace(scene.settings, layered_diffuse=True)
+    cpu, gpu = _render_both(scene)
+    plain = pipeline.render_frame(RenderJob(dataclasses.replace(
+        scene, settings=dataclasses.replace(scene.settings, layered_diffuse=False))))
+    assert (cpu["Albedo"] < plain["Albedo"] - 1e-3).any()  # the layer took its share
+    _check(cpu, gpu, "layered_diffuse")
+
+
 def test_frame_with_the_cpus_shadow_maps_matches_the_cpu():
     """The maps built on the CPU and uploaded (what a frame with transparent casters uses)."""
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()))

@@ -197,14 +197,17 @@ def _probes(world_color: bool, volumes: bool):
     return p
 
 
-@pytest.mark.parametrize("world_color,volumes,normalization,env_model", [
-    (False, False, "none", "bo2"), (False, False, "bo1", "table"), (True, False, "bo2", "fit"),
-    (False, True, "bo2", "bo1"), (True, True, "bo2", "bo2"), (False, True, "bo1", "table"),
+@pytest.mark.parametrize("world_color,volumes,normalization,env_model,extrapolate", [
+    (False, False, "none", "bo2", False), (False, False, "bo1", "table", False),
+    (True, False, "bo2", "fit", False), (False, True, "bo2", "bo1", False),
+    (True, True, "bo2", "bo2", True), (False, True, "bo1", "table", True),
 ])
-def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, env_model):
-    """The SH irradiance of volumes, bounce and world (with the sky's share), and the
-    normalized prefiltered reflections of overlapping probes with parallax proxies times the
-    environment BRDF (``probes.indirect``): relative difference below 2e-5."""
+def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, env_model,
+                                           extrapolate):
+    """The SH irradiance of volumes (held or extrapolated past their outermost samples),
+    bounce and world (with the sky's share), and the normalized prefiltered reflections of
+    overlapping probes with parallax proxies times the environment BRDF (``probes.indirect``):
+    relative difference below 2e-5."""
     from bo2_lighting.addon.core.lighting import probes as cp
     from bo2_lighting.addon.gpu_backend import probes as gpu_probes
 
@@ -217,8 +220,9 @@ def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, 
     gloss = RNG.uniform(0, 1, n).astype(np.float32)
     sky = RNG.uniform(0, 1, n).astype(np.float32)
     diffuse, specular = cp.indirect(probes, pts, normal, view, albedo, rf0, gloss,
-                                    normalization, "bo2", env_model, sky=lambda k: sky[k])
-    drawn = gpu_probes.indirect_set(probes, normalization, "bo2", env_model)
+                                    normalization, "bo2", env_model, sky=lambda k: sky[k],
+                                    extrapolate=extrapolate)
+    drawn = gpu_probes.indirect_set(probes, normalization, "bo2", env_model, extrapolate)
     out = pointwise.run(("direct", "indirect"), """
       vec3 psh[9];
       pixel_sh(p.xyz, n.xyz, v.xyz, p.w, psh);

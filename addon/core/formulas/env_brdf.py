@@ -59,6 +59,7 @@ __all__ = [
     "a0r",
     "a1vf",
     "bo1_environment_fresnel",
+    "diffuse_layering",
     "environment_brdf",
     "environment_brdf_bo2",
     "fit_parts",
@@ -335,6 +336,28 @@ def environment_brdf_bo2(gloss, n_dot_v, rf0):
     a0 = tx * np.minimum(ty, np.exp2(-9.28 * nv)) + tz
     a1 = tw
     return np.clip(a0 + f0 * (a1 - a0), 0.0, 1.0).astype(np.float32)
+
+
+def diffuse_layering(layer, gloss, n_dot_v, rf0):
+    """The weight of a diffuse under a specular layer, as Cycles' Principled BSDF layers them:
+    one less the specular's directional albedo toward the eye (its largest channel), which is
+    the environment BRDF, here BO2's (``environment_brdf_bo2``):
+
+        w = 1 - layer max_c EnvironmentBRDF(g, n.v, rf0_c)
+
+    so that the surface reflects no more than it receives. ``layer`` (N,) is the share of the
+    albedo under the layer (``Closure.layer``: 1 for a Principled BSDF, 0 for a Diffuse BSDF or
+    the BO2 Material group, which adds its two lobes as the talk does).
+
+    layer, gloss, n_dot_v: (N,);  rf0: (N, 3)
+    returns: (N,) float32 in [0, 1]
+
+    Reference: Cycles' ``closure_layering_weight`` (intern/cycles/kernel/closure/
+    bsdf_util.h), which scales the closures under a layer by one less the layer's largest
+    albedo channel.
+    """
+    e = environment_brdf_bo2(np.asarray(gloss)[:, None], np.asarray(n_dot_v)[:, None], rf0)
+    return np.clip(1.0 - np.asarray(layer) * e.max(axis=1), 0.0, 1.0).astype(np.float32)
 
 
 # --------------------------------------------------------------------------------------------

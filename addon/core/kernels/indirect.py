@@ -342,68 +342,116 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
             specular[i, c] = acc[c] * brdf[c]
 
 
-@nb.njit(nb.void(nb.float32[:, ::1], nb.int64[::1], nb.float32[:, ::1], nb.float32[::1],
-                 nb.boolean, nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean, nb.float32,
-                 nb.float32[:, ::1], nb.float32[:, ::1]), **_OPTIONS)
-def volume_blend(grid, res, positions, validity, has_validity, points, normals, facing,
-                 facing_bias, samples, out):
-    """An irradiance volume's look-up (``IrradianceVolume.sample_sh``, whose NumPy form the
-    tests hold it to): ``out`` (N, K) the blend of the eight samples around each point at
-    continuous grid coordinates ``grid`` (N, 3) (clamped to [0, res - 1]) of a volume of ``res``
-    (3,) samples, x-major, at world ``positions`` (S, 3) with ``validity`` (S,) and rows
-    ``samples`` (S, K): trilinear weights, times validity, times the facing weight
+@nb.njit(**_OPTIONS)
+def _blend(f, res, positions, validity, has_validity, point, normal, facing, facing_bias,
+           samples, acc, rows, w_plain, w_kept):
+    """Add to ``acc`` (K,) the blend of the eight samples around grid coordinates ``f`` (3,)
+    (within [0, res - 1]): trilinear weights, times validity, times the facing weight
     max(0, unit(sample - point) . normal + facing_bias) when ``facing``; where those leave
     nothing, trilinear over the valid samples, or over all."""
+    k = acc.shape[0]
+    i0 = np.empty(3, np.int64)
+    t = np.empty(3, np.float32)
+    for a in range(3):
+        j = min(int(math.floor(f[a])), res[a] - 2)
+        j = max(j, 0)
+        i0[a] = j
+        t[a] = f[a] - j
+    kept_sum = 0.0
+    valid_sum = 0.0
+    plain_sum = 0.0
+    for c in range(8):
+        w = 1.0
+        idx = np.int64(0)
+        for a in range(3):
+            bit = (c >> a) & 1
+            j = min(i0[a] + bit, res[a] - 1)
+            idx = idx * res[a] + j
+            w *= t[a] if bit else 1.0 - t[a]
+        rows[c] = idx
+        w_plain[c] = w
+        v = validity[idx] if has_validity else 1.0
+        kept = w * v
+        if facing:
+            dx = positions[idx, 0] - point[0]
+            dy = positions[idx, 1] - point[1]
+            dz = positions[idx, 2] - point[2]
+            length = max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
+            dot = (dx * normal[0] + dy * normal[1] + dz * normal[2]) / length
+            kept *= max(dot + facing_bias, 0.0)
+        w_kept[c] = kept
+        kept_sum += kept
+        valid_sum += w * v
+        plain_sum += w
+    for c in range(8):
+        if kept_sum > 1e-6:
+            b = w_kept[c] / kept_sum
+        elif has_validity and valid_sum > 1e-6:
+            b = w_plain[c] * validity[rows[c]] / valid_sum
+        else:
+            b = w_plain[c] / max(plain_sum, 1e-30)
+        if b != 0.0:
+            for j in range(k):
+                acc[j] += b * samples[rows[c], j]
+
+
+@nb.njit(**_OPTIONS)
+def _luminance(row):
+    """Rec. 709 luminance of an SH row's DC term (its first three entries, RGB)."""
+    return 0.2126 * row[0] + 0.7152 * row[1] + 0.0722 * row[2]
+
+
+@nb.njit(nb.void(nb.float32[:, ::1], nb.int64[::1], nb.float32[:, ::1], nb.float32[::1],
+                 nb.boolean, nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean, nb.float32,
+                 nb.float32[:, ::1], nb.float32, nb.float32, nb.float32[:, ::1]), **_OPTIONS)
+def volume_blend(grid, res, positions, validity, has_validity, points, normals, facing,
+                 facing_bias, samples, low, high, out):
+    """An irradiance volume's look-up (``IrradianceVolume.sample_sh``, whose NumPy form the
+    tests hold it to): ``out`` (N, K) at continuous grid coordinates ``grid`` (N, 3) of a
+    volume of ``res`` (3,) samples, x-major, at world ``positions`` (S, 3) with ``validity``
+    (S,) and rows ``samples`` (S, K), K = 3 m with the DC term first (SH (m, 3) flattened).
+
+    Within the outermost samples: ``_blend`` at the point. Between them and the box's faces
+    (half a cell beyond), the blend at the clamped point, scaled by the ratio of its DC term's
+    luminance extrapolated (along each such axis, the difference to the blend one cell inward
+    times the distance past the samples in cells, at most 1/2) to its own, the ratio kept
+    within [``low``, ``high``] (both 1: held); beyond the box, held."""
     n, k = out.shape
     w_plain = np.empty(8, np.float32)
     w_kept = np.empty(8, np.float32)
     rows = np.empty(8, np.int64)
+    f = np.empty(3, np.float32)
+    g = np.empty(3, np.float32)
+    past = np.empty(3, np.float32)
+    inward = np.empty(k, np.float32)
     for i in range(n):
-        i0 = np.empty(3, np.int64)
-        t = np.empty(3, np.float32)
+        outside = False
         for a in range(3):
-            j = min(int(math.floor(grid[i, a])), res[a] - 2)
-            j = max(j, 0)
-            i0[a] = j
-            t[a] = grid[i, a] - j
-        kept_sum = 0.0
-        valid_sum = 0.0
-        plain_sum = 0.0
-        for c in range(8):
-            w = 1.0
-            idx = np.int64(0)
-            for a in range(3):
-                bit = (c >> a) & 1
-                j = min(i0[a] + bit, res[a] - 1)
-                idx = idx * res[a] + j
-                w *= t[a] if bit else 1.0 - t[a]
-            rows[c] = idx
-            w_plain[c] = w
-            v = validity[idx] if has_validity else 1.0
-            kept = w * v
-            if facing:
-                dx = positions[idx, 0] - points[i, 0]
-                dy = positions[idx, 1] - points[i, 1]
-                dz = positions[idx, 2] - points[i, 2]
-                length = max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
-                dot = (dx * normals[i, 0] + dy * normals[i, 1] + dz * normals[i, 2]) / length
-                kept *= max(dot + facing_bias, 0.0)
-            w_kept[c] = kept
-            kept_sum += kept
-            valid_sum += w * v
-            plain_sum += w
+            f[a] = min(max(grid[i, a], 0.0), res[a] - 1.0)
+            past[a] = 0.0
+            if res[a] > 1:
+                past[a] = min(max(grid[i, a], -0.5), res[a] - 0.5) - f[a]
+                outside = outside or past[a] != 0.0
+        row = out[i]
+        row[:] = 0.0
+        _blend(f, res, positions, validity, has_validity, points[i], normals[i], facing,
+               facing_bias, samples, row, rows, w_plain, w_kept)
+        luma = _luminance(row)
+        if not outside or luma <= 0.0 or (low == 1.0 and high == 1.0):
+            continue
+        extra = 0.0
+        for a in range(3):
+            if past[a] == 0.0:
+                continue
+            g[:] = f
+            g[a] = f[a] + (1.0 if past[a] < 0.0 else -1.0)
+            inward[:] = 0.0
+            _blend(g, res, positions, validity, has_validity, points[i], normals[i], facing,
+                   facing_bias, samples, inward, rows, w_plain, w_kept)
+            extra += abs(past[a]) * (luma - _luminance(inward))
+        scale = min(max(1.0 + extra / luma, low), high)
         for j in range(k):
-            out[i, j] = 0.0
-        for c in range(8):
-            if kept_sum > 1e-6:
-                b = w_kept[c] / kept_sum
-            elif has_validity and valid_sum > 1e-6:
-                b = w_plain[c] * validity[rows[c]] / valid_sum
-            else:
-                b = w_plain[c] / max(plain_sum, 1e-30)
-            if b != 0.0:
-                for j in range(k):
-                    out[i, j] += b * samples[rows[c], j]
+            row[j] *= scale
 
 
 mark_cached(__name__)  # every kernel above is compiled or loaded

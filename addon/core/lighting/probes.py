@@ -66,6 +66,9 @@ NORMALIZATIONS = tuple(c.id for c in CHOICES["normalization"])
 PREFILTERS = tuple(c.id for c in CHOICES["prefilter"])
 MAX_NORMALIZATION = 16.0
 EPS = 1e-6
+EXTRAPOLATION = (0.5, 1.5)
+"""A volume's look-up past its outermost samples: the SH at the clamped point is scaled by at
+least and at most these factors (``IrradianceVolume.sample_sh``)."""
 # the fraction of the world's light that reaches the points of these indices: (k,) -> (k,)
 SkyFn = Callable[[np.ndarray], np.ndarray]
 
@@ -152,12 +155,15 @@ class IrradianceVolume:
         return np.clip(fac * (1.0 - dist / self.influence), 0.0, 1.0).astype(np.float32)
 
     def sample_sh(self, points: np.ndarray, normals: np.ndarray | None = None,
-                  view: np.ndarray | None = None) -> np.ndarray:
+                  view: np.ndarray | None = None, extrapolate: bool = False) -> np.ndarray:
         """(N, 9, 3) SH at world points (N, 3): the blend of the eight samples around each
-        (clamped at the box), trilinear, times each sample's validity and, given the unit
-        shading ``normals`` and directions to the eye ``view`` (N, 3), its facing weight, at
-        the point moved by the normal and view biases. Where every weight is 0: trilinear over
-        the valid samples, or over all when none is."""
+        (clamped to the outermost samples), trilinear, times each sample's validity and, given
+        the unit shading ``normals`` and directions to the eye ``view`` (N, 3), its facing
+        weight, at the point moved by the normal and view biases. Where every weight is 0:
+        trilinear over the valid samples, or over all when none is. With ``extrapolate``, up to
+        the box's faces (half a cell beyond the outermost samples) the SH at the clamped point
+        scaled by its luminance's linear extrapolation (within ``EXTRAPOLATION``), held beyond
+        the box (``kernels.indirect.volume_blend``)."""
         res = np.asarray(self.resolution)
         pts = np.asarray(points, np.float32)
         if normals is not None:
@@ -167,7 +173,7 @@ class IrradianceVolume:
                 pts = pts + np.float32(self.view_bias) * step * view
         q = self._local(pts)
         # sample i sits at local (i + 0.5) / res * 2 - 1 (volume_sample_positions)
-        f = np.clip((q + 1.0) * 0.5 * res - 0.5, 0.0, res - 1.0).astype(np.float32)
+        f = np.clip((q + 1.0) * 0.5 * res - 0.5, -1.0, res).astype(np.float32)
         facing = normals is not None and self.facing_bias is not None
         if self._positions is None:
             self._positions = np.ascontiguousarray(volume_sample_positions(
@@ -182,7 +188,8 @@ class IrradianceVolume:
                                  np.float32).reshape(-1), self.validity is not None,
             np.ascontiguousarray(pts, np.float32), n, facing,
             np.float32(self.facing_bias if facing else 0.0),
-            np.ascontiguousarray(self.sh, np.float32).reshape(-1, 27), out)
+            np.ascontiguousarray(self.sh, np.float32).reshape(-1, 27),
+            *np.float32(EXTRAPOLATION if extrapolate else (1.0, 1.0)), out)
         return out.reshape(-1, 9, 3)
 
 
@@ -236,12 +243,13 @@ def sends_light(probes: Probes) -> bool:
 
 
 def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = None,
-              view: np.ndarray | None = None, sky: SkyFn | None = None) -> np.ndarray:
+              view: np.ndarray | None = None, sky: SkyFn | None = None,
+              extrapolate: bool = False) -> np.ndarray:
     """SH at each point (N, 3), (N, 9, 3): the volumes' blend (``sample_sh``, with the unit
     shading ``normals`` and directions to the eye ``view`` (N, 3)), the world where they leave
     weight, times the fraction of its light that reaches the point (``sky`` of the indices of
     those points; None: all of it); (9, 3), the world's, when no volume reaches any point and
-    there is no ``sky``."""
+    there is no ``sky``. ``extrapolate``: as ``sample_sh``'s."""
     n = len(points)
     total = np.zeros(n, np.float32)
     acc = None
@@ -253,7 +261,7 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
                 acc = np.zeros((n, 9, 3), np.float32)
             acc[k] += w[k, None, None] * vol.sample_sh(
                 points[k], None if normals is None else normals[k],
-                None if view is None else view[k])
+                None if view is None else view[k], extrapolate)
             total[k] += w[k]
     world_sh = np.asarray(probes.world_sh, np.float32)
     if acc is None and sky is None and probes.bounce is None:
@@ -269,7 +277,7 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
         if k.size:
             acc[k] += w[k, None, None] * probes.bounce.sample_sh(
                 points[k], None if normals is None else normals[k],
-                None if view is None else view[k])
+                None if view is None else view[k], extrapolate)
     if sky is not None:
         k = np.flatnonzero(share > 0.0)
         if k.size:
@@ -322,6 +330,7 @@ def indirect(
     env_brdf: str = "bo2",
     sky: SkyFn | None = None,
     baked: tuple[np.ndarray, np.ndarray] | None = None,
+    extrapolate: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.
 
@@ -335,6 +344,7 @@ def indirect(
                  (k,) -> (k,) in [0, 1] (``sky.visibility``), or None: all of it
     baked:       (indices (K,), SH (K, 9, 3)): these points' SH is given (their lightmaps',
                  ``lightmap.as_sh``) rather than looked up in the volumes, or None
+    extrapolate: volumes' light extrapolated up to their boxes' faces (``sample_sh``)
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
     from ..kernels import indirect as kernels
@@ -352,7 +362,8 @@ def indirect(
     normals3 = np.broadcast_to(np.asarray(normals, np.float32), (n, 3))
     view3 = np.broadcast_to(np.asarray(view, np.float32), (n, 3))
     if baked is None:
-        pixel_sh = np.asarray(_pixel_sh(probes, points, normals3, view3, sky), np.float32)
+        pixel_sh = np.asarray(_pixel_sh(probes, points, normals3, view3, sky, extrapolate),
+                              np.float32)
         pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
                                         else pixel_sh[None])
     else:
@@ -363,7 +374,7 @@ def indirect(
         if rest.size:
             pixel_sh[rest] = _pixel_sh(probes, np.asarray(points)[rest], normals3[rest],
                                        view3[rest], None if sky is None else
-                                       (lambda k: sky(rest[k])))
+                                       (lambda k: sky(rest[k])), extrapolate)
     chains, offsets, sides, levels = packed_chains(probes, prefilter)
     shs = [p.sh for p in probes.reflection] + [probes.world_sh]
     tinted = [sh.to_tinted(np.asarray(c, np.float64)) for c in shs]

@@ -92,7 +92,8 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
         diff_ind, gloss_ind = probes.indirect(scene.probes, p, n, v, mat.albedo, mat.rf0,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf,
                                               sky=seen,
-                                              baked=None if baked is None else baked[:2])
+                                              baked=None if baked is None else baked[:2],
+                                              extrapolate=s.volume_extrapolation)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]

@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 
+from ..formulas import env_brdf
 from ..scene import Material, material, nodes
 from .buffers import Frame
 
@@ -66,10 +67,23 @@ def face_normals(frame: Frame, tri) -> np.ndarray:
 
 
 def surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
-               shifts=True) -> material.SurfaceParams:
+                   shifts=True) -> material.SurfaceParams:
     """The talk's parameters at the points on triangles ``tri`` (N,): constants from the
     tables, programs evaluated per material over its points. The normal is the shading
-    normal ``n`` unless a program changes it."""
+    normal ``n`` unless a program changes it. With ``RenderSettings.layered_diffuse``, the
+    albedo under a specular layer is weighted by one less that layer's albedo toward ``v``
+    (``env_brdf.diffuse_layering``)."""
+    s = _surface_params(frame, tri, bary, p, n, geo, v, sx, sy, shifts)
+    if not frame.scene.settings.layered_diffuse or s.layer is None or not s.layer.any():
+        return s
+    v = v() if callable(v) else v
+    n_dot_v = np.einsum("nc,nc->n", s.normal, v)
+    keep = env_brdf.diffuse_layering(s.layer, s.gloss, n_dot_v, s.rf0)
+    return dataclasses.replace(s, albedo=(s.albedo * keep[:, None]).astype(np.float32))
+
+
+def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
+                    shifts) -> material.SurfaceParams:
     mid = frame.material[tri]
     t = frame.tables
     mats = frame.scene.materials or [Material()]
@@ -81,6 +95,7 @@ def surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         return s if s.normal is not None else dataclasses.replace(s, normal=n)
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
     emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
+    layer = t["layer"][mid, 0]
     normal = n
     occlusion = t["occlusion"][mid, 0] if (t["occlusion"] < 1.0).any() else None
     for m in varying:
@@ -91,14 +106,15 @@ def surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         pts = material_points(frame, tri[sel], bary[sel], *rows, shifts)
         s = material.evaluate(mats[m].program, pts)
         albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
-        gloss[sel], alpha[sel] = s.gloss, s.alpha
+        gloss[sel], alpha[sel], layer[sel] = s.gloss, s.alpha, s.layer
         if s.normal is not None:
             normal = normal.copy() if normal is n else normal
             normal[sel] = s.normal
         if s.occlusion is not None:
             occlusion = np.ones(len(tri), np.float32) if occlusion is None else occlusion
             occlusion[sel] = s.occlusion
-    return material.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal, occlusion)
+    return material.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal, occlusion,
+                                  layer)
 
 
 def surface_alpha(frame: Frame, tri, bary, sx, sy) -> np.ndarray:

@@ -291,6 +291,8 @@ class RenderSettings:
                     (supersamples textures, highlights and shadow edges; slower)
     filter_width:   Blackman-Harris pixel filter width in pixels (Cycles' default 1.5)
     specular_model: the direct specular terms, an id of ``CHOICES["specular_model"]``
+    layered_diffuse: a Principled BSDF's diffuse weighted by one less its specular's albedo
+                    toward the eye (``env_brdf.diffuse_layering``), as Cycles layers it
     env_brdf:       environment BRDF of indirect specular, of ``CHOICES["env_brdf"]``
     normalization:  environment map normalization, of ``CHOICES["normalization"]``
     prefilter:      prefiltered chain of the reflections, of ``CHOICES["prefilter"]``
@@ -306,6 +308,8 @@ class RenderSettings:
     sky_resolution: size of each of the dome's shadow maps, texels
     implicit_bounce: a scene without a volume probe gets the light that bounces off its
                     surfaces from a coarse volume baked on demand (``bounce``)
+    volume_extrapolation: volumes' light extrapolated past their outermost samples up to
+                    their boxes' faces (``IrradianceVolume.sample_sh``), not held
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
     threads:        tiles and shadow-map faces rendered at once (the kernels release the
                     GIL); 0 = one per CPU core
@@ -319,6 +323,7 @@ class RenderSettings:
     shade_every_sample: bool = False
     filter_width: float = 1.5
     specular_model: str = "reference"
+    layered_diffuse: bool = False
     env_brdf: str = "bo2"
     normalization: str = "bo2"
     prefilter: str = "bo2"
@@ -331,6 +336,7 @@ class RenderSettings:
     sky_directions: int = 32
     sky_resolution: int = 256
     implicit_bounce: bool = True
+    volume_extrapolation: bool = False
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None

@@ -44,7 +44,9 @@ __all__ = ["Points", "SurfaceParams", "evaluate"]
 @dataclass
 class SurfaceParams:
     """The talk's parameters at N points: albedo, rf0, emission (N, 3); gloss, alpha (N,);
-    normal (N, 3) unit shading normal or None (the geometry's); occlusion (N,) or None."""
+    normal (N, 3) unit shading normal or None (the geometry's); occlusion (N,) or None; layer
+    (N,) the share of the albedo under a specular layer (``Closure.layer``; the albedo is
+    weighted by ``env_brdf.diffuse_layering`` where the view is known: ``surface_params``)."""
 
     albedo: np.ndarray
     rf0: np.ndarray
@@ -53,6 +55,7 @@ class SurfaceParams:
     alpha: np.ndarray
     normal: np.ndarray | None = None
     occlusion: np.ndarray | None = None
+    layer: np.ndarray | None = None
 
 
 class Points:
@@ -227,4 +230,5 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
         rf0=out(np.clip(c.rf0 if opaque else c.rf0 * inv, 0.0, 1.0), 3),
         gloss=out(np.clip(gloss, 0.0, 1.0), 1)[:, 0],
         emission=out(c.emission if opaque else c.emission * inv, 3),
-        alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion)
+        alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion,
+        layer=out(np.clip(c.layer if opaque else c.layer * inv, 0.0, 1.0), 1)[:, 0])

@@ -57,7 +57,8 @@ class Closure:
     albedo, rf0, emission: (N, 3); spec: (N, 1) weight of closures with a specular lobe;
     gloss: (N, 1) spec-weighted gloss; normal: (N, 3) weighted normal and nweight (N, 1) the
     weight of closures with one; transparent: (N, 1) transparent weight; weight: (N, 1) weight
-    of the other closures
+    of the other closures; layer: (N, 1) weight of the closures whose diffuse lies under their
+    specular (Principled BSDF: Cycles weights its diffuse by one less the specular's albedo)
     """
 
     albedo: np.ndarray
@@ -69,13 +70,14 @@ class Closure:
     nweight: np.ndarray
     transparent: np.ndarray
     weight: np.ndarray
+    layer: np.ndarray
 
     def scaled(self, w) -> Closure:
         return Closure(*(getattr(self, f) * w for f in _CLOSURE_FIELDS))
 
 
 _CLOSURE_FIELDS = ("albedo", "rf0", "spec", "gloss", "emission", "normal", "nweight",
-                   "transparent", "weight")
+                   "transparent", "weight", "layer")
 _Z1 = np.zeros((1, 1), np.float32)
 _Z3 = np.zeros((1, 3), np.float32)
 _ONE = np.ones((1, 1), np.float32)
@@ -84,11 +86,11 @@ for _shared in (_Z1, _Z3, _ONE):  # shared by every closure: never written (copi
 
 
 def _closure(albedo=_Z3, rf0=_Z3, spec=_Z1, gloss=_Z1, emission=_Z3, normal=None,
-             transparent=None) -> Closure:
+             transparent=None, layer=_Z1) -> Closure:
     nweight = _Z1 if normal is None else _ONE
     weight = _ONE if transparent is None else _Z1
     return Closure(albedo, rf0, spec, gloss * spec, emission, _Z3 if normal is None else normal,
-                   nweight, _Z1 if transparent is None else transparent, weight)
+                   nweight, _Z1 if transparent is None else transparent, weight, layer)
 
 
 def principled_to_talk(base, metallic, roughness, ior, level, tint, transmission):
@@ -409,7 +411,8 @@ def _op_principled(ev, op, pts):
     albedo, rf0, gloss = principled_to_talk(base[:, :3], metallic, rough, ior, level,
                                             tint[:, :3], trans)
     normal = ev.normal_arg(op, 10, pts) if op.args[10] is not None else None
-    return _with_alpha(_closure(albedo, rf0, _ONE, gloss, ecol[:, :3] * estr, normal), alpha)
+    return _with_alpha(_closure(albedo, rf0, _ONE, gloss, ecol[:, :3] * estr, normal,
+                                layer=_ONE), alpha)
 
 
 def _op_bo2(ev, op, pts):

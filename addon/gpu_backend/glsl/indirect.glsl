@@ -12,7 +12,8 @@
  * chains (RGBA32F rows: every level of every chain with its one-texel border, RGB),
  * volume_sh (RGBA32F rows: 9 per volume sample, RGB, the sample's validity in the first's A),
  * env_table (RG32F: the ground-truth table, gloss rows x n.v columns; its axes in
- * env_axes, row 0 gloss, row 1 n.v). ROW_WIDTH: texels per row of the rows textures. */
+ * env_axes, row 0 gloss, row 1 n.v). ROW_WIDTH: texels per row of the rows textures;
+ * EXTRAPOLATION_LOW, EXTRAPOLATION_HIGH: probes.EXTRAPOLATION. */
 
 #define NORM_NONE 0
 #define NORM_BO1 1
@@ -21,6 +22,7 @@
 #define ENV_BO1 1
 #define ENV_BO2 2
 #define ENV_FIT 3
+#define LUMINANCE vec3(0.2126, 0.7152, 0.0722)
 
 vec4 row_at(sampler2D rows, int k)
 {
@@ -230,14 +232,11 @@ float volume_weight(int k, vec3 p)
   return clamp(fac * (1.0 - dist / influence), 0.0, 1.0);
 }
 
-/* IrradianceVolume.sample_sh (kernels.indirect.volume_blend) of volume k at p, normal n, view v. */
-void volume_sh_at(int k, vec3 p, vec3 n, vec3 v, out vec3 out_sh[9])
+/* kernels.indirect._blend: add the blend of volume k's eight samples around grid
+ * coordinates f (within [0, res - 1]) at p, normal n, to acc. */
+void volume_blend_at(int k, vec3 f, vec3 p, vec3 n, inout vec3 acc[9])
 {
   ivec3 res = volumes[k].res.xyz;
-  p = p + volumes[k].params.z * n + volumes[k].params.w * v;
-  vec3 q = vec3(dot(volumes[k].to_local[0], vec4(p, 1.0)), dot(volumes[k].to_local[1], vec4(p, 1.0)),
-                dot(volumes[k].to_local[2], vec4(p, 1.0)));
-  vec3 f = clamp((q + 1.0) * 0.5 * vec3(res) - 0.5, vec3(0.0), vec3(res - 1));
   bool facing = volumes[k].facing.y != 0.0;
   bool has_validity = volumes[k].facing.z != 0.0;
   ivec3 i0;
@@ -278,9 +277,6 @@ void volume_sh_at(int k, vec3 p, vec3 n, vec3 v, out vec3 out_sh[9])
     valid_sum += w * validity[c];
     plain_sum += w;
   }
-  for (int j = 0; j < 9; j++) {
-    out_sh[j] = vec3(0.0);
-  }
   for (int c = 0; c < 8; c++) {
     float b;
     if (kept_sum > 1e-6) {
@@ -294,9 +290,57 @@ void volume_sh_at(int k, vec3 p, vec3 n, vec3 v, out vec3 out_sh[9])
     }
     if (b != 0.0) {
       for (int j = 0; j < 9; j++) {
-        out_sh[j] += b * row_at(volume_sh, rows[c] + j).rgb;
+        acc[j] += b * row_at(volume_sh, rows[c] + j).rgb;
       }
     }
+  }
+}
+
+/* IrradianceVolume.sample_sh (kernels.indirect.volume_blend) of volume k at p, normal n, view v:
+ * within the outermost samples their blend; up to the box's faces, held or (indirect.limits.w)
+ * scaled by the extrapolated luminance of its DC term. */
+void volume_sh_at(int k, vec3 p, vec3 n, vec3 v, out vec3 out_sh[9])
+{
+  ivec3 res = volumes[k].res.xyz;
+  p = p + volumes[k].params.z * n + volumes[k].params.w * v;
+  vec3 q = vec3(dot(volumes[k].to_local[0], vec4(p, 1.0)), dot(volumes[k].to_local[1], vec4(p, 1.0)),
+                dot(volumes[k].to_local[2], vec4(p, 1.0)));
+  vec3 grid = (q + 1.0) * 0.5 * vec3(res) - 0.5;
+  vec3 f = clamp(grid, vec3(0.0), vec3(res - 1));
+  vec3 past = vec3(0.0);
+  for (int a = 0; a < 3; a++) {
+    if (res[a] > 1) {
+      past[a] = clamp(grid[a], -0.5, float(res[a]) - 0.5) - f[a];
+    }
+  }
+  for (int j = 0; j < 9; j++) {
+    out_sh[j] = vec3(0.0);
+  }
+  volume_blend_at(k, f, p, n, out_sh);
+  if (past == vec3(0.0) || indirect.limits.w == 0.0) {
+    return;
+  }
+  float luma = dot(out_sh[0], LUMINANCE);
+  if (luma <= 0.0) {
+    return;
+  }
+  float extra = 0.0;
+  vec3 inward[9];
+  for (int a = 0; a < 3; a++) {
+    if (past[a] == 0.0) {
+      continue;
+    }
+    vec3 g = f;
+    g[a] += past[a] < 0.0 ? 1.0 : -1.0;
+    for (int j = 0; j < 9; j++) {
+      inward[j] = vec3(0.0);
+    }
+    volume_blend_at(k, g, p, n, inward);
+    extra += abs(past[a]) * (luma - dot(inward[0], LUMINANCE));
+  }
+  float scale = clamp(1.0 + extra / luma, EXTRAPOLATION_LOW, EXTRAPOLATION_HIGH);
+  for (int j = 0; j < 9; j++) {
+    out_sh[j] *= scale;
   }
 }
 

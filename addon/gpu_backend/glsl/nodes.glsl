@@ -19,7 +19,7 @@ struct MatPoint {
 /* The talk's parameters a material gives at a point (core/scene/material.SurfaceParams) */
 struct MatSurface {
   vec3 albedo, rf0, emission, normal;
-  float gloss, alpha, occlusion;
+  float gloss, alpha, occlusion, layer;
 };
 
 /* Given by the environment (gpu_backend/materials.py) */
@@ -728,7 +728,7 @@ float n_roughness_to_gloss(float roughness)
 /* A shader socket's value (nodes.Closure), every field weighted */
 struct Clo {
   vec3 albedo, rf0, emission, normal;
-  float spec, gloss, nweight, transparent, weight;
+  float spec, gloss, nweight, transparent, weight, layer;
 };
 
 Clo n_closure(vec3 albedo, vec3 rf0, float spec, float gloss, vec3 emission, bool has_normal,
@@ -744,6 +744,7 @@ Clo n_closure(vec3 albedo, vec3 rf0, float spec, float gloss, vec3 emission, boo
   c.nweight = has_normal ? 1.0 : 0.0;
   c.transparent = is_transparent ? transparent : 0.0;
   c.weight = is_transparent ? 0.0 : 1.0;
+  c.layer = 0.0;
   return c;
 }
 
@@ -758,6 +759,7 @@ Clo n_scaled(Clo c, float w)
   c.nweight *= w;
   c.transparent *= w;
   c.weight *= w;
+  c.layer *= w;
   return c;
 }
 
@@ -772,6 +774,7 @@ Clo n_add(Clo a, Clo b)
   a.nweight += b.nweight;
   a.transparent += b.transparent;
   a.weight += b.weight;
+  a.layer += b.layer;
   return a;
 }
 
@@ -795,14 +798,16 @@ Clo n_principled(vec3 base, float metallic, float roughness, float ior, float le
   vec3 dielectric = clamp(f0 * 2.0 * level * tint, 0.0, 1.0);
   vec3 albedo = base * (1.0 - metallic) * (1.0 - clamp(transmission, 0.0, 1.0));
   vec3 rf0 = dielectric + (base - dielectric) * metallic;
-  return n_closure(max(albedo, 0.0), max(rf0, 0.0), 1.0, n_roughness_to_gloss(roughness),
-                   emission, has_normal, normal, 0.0, false);
+  Clo c = n_closure(max(albedo, 0.0), max(rf0, 0.0), 1.0, n_roughness_to_gloss(roughness),
+                    emission, has_normal, normal, 0.0, false);
+  c.layer = 1.0;
+  return c;
 }
 
 /* The talk's parameters of a closure (core/scene/material.evaluate): albedo, rf0, emission,
- * gloss, alpha and the shading normal (n where no closure has one). */
+ * gloss, alpha, the shading normal (n where no closure has one) and the layered share. */
 void n_resolve(Clo c, vec3 n, out vec3 albedo, out vec3 rf0, out vec3 emission,
-               out float gloss, out float alpha, out vec3 normal)
+               out float gloss, out float alpha, out vec3 normal, out float layer)
 {
   alpha = clamp(1.0 - c.transparent, 0.0, 1.0);
   float inv = alpha >= 1.0 ? 1.0 : (alpha > 0.0 ? 1.0 / alpha : 0.0);
@@ -811,6 +816,7 @@ void n_resolve(Clo c, vec3 n, out vec3 albedo, out vec3 rf0, out vec3 emission,
   rf0 = n_finite(vec4(clamp(c.rf0 * inv, 0.0, 1.0), 0.0)).xyz;
   emission = n_finite(vec4(c.emission * inv, 0.0)).xyz;
   gloss = n_finite(gloss);
+  layer = clamp(n_finite(c.layer * inv), 0.0, 1.0);
   normal = n;
   if (c.nweight > 0.0) {
     float rest = max(c.weight - c.nweight, 0.0);
