@@ -36,7 +36,8 @@ object of these scenes is static: the figures over all geometry are the static s
 and prints their bake time and files' size. ``--no-leak-fixes`` bakes the volumes without
 validity, escape and dilation and looks them up without biases (the behaviour before them).
 ``--set NAME=VALUE`` sets one of the scene's BO2 settings first, by its path in ``scene.bo2``
-(``--set indirect.use_ambient_occlusion=False``, ``--set "indirect.sky_directions='64'"``).
+(``--set indirect.use_ambient_occlusion=False``, ``--set "indirect.sky_directions='64'"``);
+``--probe-set NAME=VALUE`` one of every Volume light probe's (``--probe-set normal_bias=0.0``).
 
 ``--before-after`` measures each scene twice against one Cycles render: as it is (``after/``)
 and with ``--no-leak-fixes`` and ``--before-bounces`` bounces (``before/``, 1 by default, the
@@ -167,6 +168,11 @@ def measure(blend: Path, out: Path, args, bounces: int = 0, leak_fixes: bool = T
     for item in [*args.set, *settings]:  # NAME=VALUE of BO2 settings, as Python literals
         name, _, value = item.partition("=")
         props.set_setting(scene, name, ast.literal_eval(value))
+    for item in args.probe_set:  # NAME=VALUE of every Volume probe's data
+        name, _, value = item.partition("=")
+        for obj in scene.objects:
+            if obj.type == "LIGHT_PROBE" and obj.data.type == "VOLUME":
+                setattr(obj.data, name, ast.literal_eval(value))
     for mat in bpy.data.materials:
         nodes = mat.node_tree.nodes if mat.node_tree else []
         if any(n.type == "BSDF_PRINCIPLED" and n.inputs["Metallic"].default_value >= 0.5
@@ -355,6 +361,8 @@ def main() -> int:
     parser.add_argument("--docs", action="store_true")
     parser.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
                         help="a BO2 setting of the scene, e.g. use_specular_occlusion=False")
+    parser.add_argument("--probe-set", action="append", default=[], metavar="NAME=VALUE",
+                        help="a setting of every Volume light probe, e.g. normal_bias=0.0")
     args = parser.parse_args()
     bo2_lighting.register()
     for blend in args.blends or BLENDS:
