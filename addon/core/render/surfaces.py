@@ -76,7 +76,6 @@ def surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
     s = _surface_params(frame, tri, bary, p, n, geo, v, sx, sy, shifts)
     if not frame.scene.settings.layered_diffuse or s.layer is None or not s.layer.any():
         return s
-    v = v() if callable(v) else v
     n_dot_v = np.einsum("nc,nc->n", s.normal, v)
     keep = env_brdf.diffuse_layering(s.layer, s.gloss, n_dot_v, s.rf0)
     return dataclasses.replace(s, albedo=(s.albedo * keep[:, None]).astype(np.float32))
