@@ -175,7 +175,7 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
         "  switch (material) {", cases + "    default: return;", "  }",
         "  s.albedo = m.albedo;", "  s.rf0 = m.rf0;", "  s.emission = m.emission;",
         "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;",
-        "  s.alpha = m.alpha;", "  s.layer = m.layer;", "}", ""])
+        "  s.alpha = m.alpha;", "  s.layer = m.layer;", "  s.layer_f0 = m.layer_f0;", "}", ""])
     return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest(),
                          constants.array()), keys, texs)
 
@@ -442,7 +442,8 @@ class GPUFrame:
         table[:len(tab["albedo"]), 0] = np.column_stack([tab["albedo"], tab["gloss"]])
         table[:len(tab["albedo"]), 1] = np.column_stack([tab["rf0"], tab["alpha"]])
         table[:len(tab["albedo"]), 2] = np.column_stack([tab["emission"], tab["occlusion"]])
-        table[:len(tab["albedo"]), 3, :2] = np.column_stack([tab["pass_index"], tab["layer"]])
+        table[:len(tab["albedo"]), 3, :3] = np.column_stack([tab["pass_index"], tab["layer"],
+                                                             tab["layer_f0"]])
         self.materials = textures.image(table.reshape(1, -1, 4))
         self.world = None  # (ImageData record's buffer, texels, sRGB table) of an image world
         world = frame.scene.world

@@ -456,7 +456,7 @@ def surface_function(program: Program, name: str, images: dict[int, int],
         f"MatSurface {name}(MatPoint p_c)", "{", *e.lines,
         "  MatSurface s;",
         f"  n_resolve(r{program.surface}_c, p_c.normal, s.albedo, s.rf0, s.emission, s.gloss, "
-        "s.alpha, s.normal, s.layer);",
+        "s.alpha, s.normal, s.layer, s.layer_f0);",
         f"  s.occlusion = {occlusion};", "  return s;", "}", ""])
 
 

@@ -127,15 +127,18 @@ def test_ignis_box_renders_and_is_close_to_cycles_direct(addon):
     assert np.median(rel) < 0.25
 
 
-@pytest.mark.parametrize("roughness", [0.2, 0.5])
-def test_principled_diffuse_is_layered_under_its_specular_as_in_cycles(addon, roughness):
+@pytest.mark.parametrize("roughness,metallic", [(0.2, 0.0), (0.5, 0.0), (0.5, 0.5)])
+def test_principled_diffuse_is_layered_under_its_specular_as_in_cycles(addon, roughness,
+                                                                       metallic):
     """With Layered Diffuse, a Principled BSDF's diffuse colour, BO2's Albedo pass against
     Cycles' DiffCol (which carries its weight under the specular layer,
     ``closure_layering_weight``) on a sphere seen by an orthographic camera, where
     n.v = sqrt(1 - r^2): within 2.5% down to n.v = 0.5 and
     7% at n.v 0.25-0.4, where the talk's environment BRDF (Schlick's Fresnel, no multiple
     scattering) takes less than Cycles' GGX layer. Unlayered, the diffuse would be 7% too bright
-    at n.v 0.5-0.7 and 20% at the rim; by default (the talk's sum) the Albedo is the base's."""
+    at n.v 0.5-0.7 and 20% at the rim; by default (the talk's sum) the Albedo is the base's
+    times one less Metallic. Half metallic, the metal lies beside the diffuse, not above it:
+    the diffuse's layer is the dielectric's alone."""
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = RES
     scene.render.resolution_percentage = 100
@@ -145,7 +148,9 @@ def test_principled_diffuse_is_layered_under_its_specular_as_in_cycles(addon, ro
     set_world_color(scene)
     bpy.ops.mesh.primitive_uv_sphere_add(segments=128, ring_count=64, radius=1.0)
     bpy.ops.object.shade_smooth()
-    bpy.context.object.data.materials.append(principled("Paint", (0.8, 0.8, 0.8), roughness))
+    mat = principled("Paint", (0.8, 0.8, 0.8), roughness)
+    mat.node_tree.nodes["Principled BSDF"].inputs["Metallic"].default_value = metallic
+    bpy.context.object.data.materials.append(mat)
     add_ortho_camera(scene, 2.2, height=5.0)
     talk = render_passes(scene, "BO2_LIGHTING", ["Albedo"])["Albedo"][..., 0]
     scene.bo2.use_layered_diffuse = True
@@ -157,8 +162,9 @@ def test_principled_diffuse_is_layered_under_its_specular_as_in_cycles(addon, ro
     for lo, hi, bound in ((0.9, 1.0, 0.025), (0.5, 0.7, 0.025), (0.25, 0.4, 0.07)):
         ring = (n_dot_v >= lo) & (n_dot_v < hi)
         ratio = ours[ring].mean() / cycles[ring].mean()
-        print(f"roughness {roughness}, n.v {lo}-{hi}: BO2 {ours[ring].mean():.4f}, "
-              f"Cycles {cycles[ring].mean():.4f}, unlayered 0.8")
+        print(f"roughness {roughness}, metallic {metallic}, n.v {lo}-{hi}: BO2 "
+              f"{ours[ring].mean():.4f}, Cycles {cycles[ring].mean():.4f}, unlayered "
+              f"{0.8 * (1 - metallic):.2f}")
         assert abs(ratio - 1.0) <= bound, (lo, ratio)
         # by default the talk's model: the diffuse added to the specular, unweighted
-        np.testing.assert_allclose(talk[ring], 0.8, rtol=1e-3)
+        np.testing.assert_allclose(talk[ring], 0.8 * (1.0 - metallic), rtol=1e-3)

@@ -231,7 +231,7 @@ def _surface(frame, tri, p, n, geo, bary=None):
         bary = np.stack([1 - v - w, v, w], 1).astype(np.float32)
     zero = np.zeros(len(tri), np.float32)
     s = surface_params(frame, np.asarray(tri, np.int64), bary, p, n, geo, n, zero, zero,
-                            shifts=False)
+                       shifts=False, layered=False)
     # what the surface reflects of the light it gets, diffusely and specularly (a gather reads
     # its radiance as a diffuse surface's, so a metal reflects its colour): the specular layer
     # takes rf0 and the diffuse one the rest, as a layered BSDF conserves energy
@@ -262,7 +262,8 @@ def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Bvh,
     radiance = emission + albedo * e / np.float32(np.pi)
     if scene.probes is not None:
         diffuse, _ = probe_light.indirect(scene.probes, p, n, n, albedo,
-                                          np.zeros_like(albedo), np.zeros(len(p), np.float32))
+                                          np.zeros_like(albedo), np.zeros(len(p), np.float32),
+                                          extrapolate=scene.settings.volume_extrapolation)
         radiance += diffuse
     out[tri] = radiance.reshape(-1, 3, 3)
     return out

@@ -338,26 +338,30 @@ def environment_brdf_bo2(gloss, n_dot_v, rf0):
     return np.clip(a0 + f0 * (a1 - a0), 0.0, 1.0).astype(np.float32)
 
 
-def diffuse_layering(layer, gloss, n_dot_v, rf0):
+def diffuse_layering(layer, layer_f0, gloss, n_dot_v):
     """The weight of a diffuse under a specular layer, as Cycles' Principled BSDF layers them:
-    one less the specular's directional albedo toward the eye (its largest channel), which is
-    the environment BRDF, here BO2's (``environment_brdf_bo2``):
+    one less the specular's directional albedo toward the eye, which is the environment BRDF,
+    here BO2's (``environment_brdf_bo2``), of the layer's largest rf0 channel f0:
 
-        w = 1 - layer max_c EnvironmentBRDF(g, n.v, rf0_c)
+        w = 1 - saturate(layer a0 + layer_f0 (a1 - a0))
 
-    so that the surface reflects no more than it receives. ``layer`` (N,) is the share of the
-    albedo under the layer (``Closure.layer``: 1 for a Principled BSDF, 0 for a Diffuse BSDF or
+    with a0 and a1 its parts (``a0r``, ``a1vf``: the BRDF is saturate(a0 + rf0 (a1 - a0))), so
+    that a mix of closures
+    mixes ``layer`` and ``layer_f0 = layer f0`` (``Closure``: 1 and the dielectric's rf0 for a
+    Principled BSDF, whose metal lies beside its diffuse, not above it; 0 for a Diffuse BSDF or
     the BO2 Material group, which adds its two lobes as the talk does).
 
-    layer, gloss, n_dot_v: (N,);  rf0: (N, 3)
+    layer, layer_f0, gloss, n_dot_v: (N,)
     returns: (N,) float32 in [0, 1]
 
     Reference: Cycles' ``closure_layering_weight`` (intern/cycles/kernel/closure/
     bsdf_util.h), which scales the closures under a layer by one less the layer's largest
     albedo channel.
     """
-    e = environment_brdf_bo2(np.asarray(gloss)[:, None], np.asarray(n_dot_v)[:, None], rf0)
-    return np.clip(1.0 - np.asarray(layer) * e.max(axis=1), 0.0, 1.0).astype(np.float32)
+    g, nv = _clamped(gloss, n_dot_v)
+    a0, a1 = a0r(g, nv), a1vf(g)
+    e = np.clip(np.asarray(layer) * a0 + np.asarray(layer_f0) * (a1 - a0), 0.0, 1.0)
+    return (1.0 - e).astype(np.float32)
 
 
 # --------------------------------------------------------------------------------------------

@@ -67,17 +67,19 @@ def face_normals(frame: Frame, tri) -> np.ndarray:
 
 
 def surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
-                   shifts=True) -> material.SurfaceParams:
+                   shifts=True, layered=True) -> material.SurfaceParams:
     """The talk's parameters at the points on triangles ``tri`` (N,): constants from the
     tables, programs evaluated per material over its points. The normal is the shading
-    normal ``n`` unless a program changes it. With ``RenderSettings.layered_diffuse``, the
-    albedo under a specular layer is weighted by one less that layer's albedo toward ``v``
+    normal ``n`` unless a program changes it. With ``RenderSettings.layered_diffuse`` (and
+    ``layered``: the lightmap bake weights the albedo its own way), the albedo under a
+    specular layer is weighted by one less that layer's albedo toward ``v``
     (``env_brdf.diffuse_layering``)."""
     s = _surface_params(frame, tri, bary, p, n, geo, v, sx, sy, shifts)
-    if not frame.scene.settings.layered_diffuse or s.layer is None or not s.layer.any():
+    if (not layered or not frame.scene.settings.layered_diffuse or s.layer is None
+            or not s.layer.any()):
         return s
     n_dot_v = np.einsum("nc,nc->n", s.normal, v)
-    keep = env_brdf.diffuse_layering(s.layer, s.gloss, n_dot_v, s.rf0)
+    keep = env_brdf.diffuse_layering(s.layer, s.layer_f0, s.gloss, n_dot_v)
     return dataclasses.replace(s, albedo=(s.albedo * keep[:, None]).astype(np.float32))
 
 
@@ -94,7 +96,7 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         return s if s.normal is not None else dataclasses.replace(s, normal=n)
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
     emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
-    layer = t["layer"][mid, 0]
+    layer, layer_f0 = t["layer"][mid, 0], t["layer_f0"][mid, 0]
     normal = n
     occlusion = t["occlusion"][mid, 0] if (t["occlusion"] < 1.0).any() else None
     for m in varying:
@@ -105,7 +107,7 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         pts = material_points(frame, tri[sel], bary[sel], *rows, shifts)
         s = material.evaluate(mats[m].program, pts)
         albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
-        gloss[sel], alpha[sel], layer[sel] = s.gloss, s.alpha, s.layer
+        gloss[sel], alpha[sel], layer[sel], layer_f0[sel] = s.gloss, s.alpha, s.layer, s.layer_f0
         if s.normal is not None:
             normal = normal.copy() if normal is n else normal
             normal[sel] = s.normal
@@ -113,7 +115,7 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
             occlusion = np.ones(len(tri), np.float32) if occlusion is None else occlusion
             occlusion[sel] = s.occlusion
     return material.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal, occlusion,
-                                  layer)
+                                  layer, layer_f0)
 
 
 def surface_alpha(frame: Frame, tri, bary, sx, sy) -> np.ndarray:

@@ -45,8 +45,9 @@ __all__ = ["Points", "SurfaceParams", "evaluate"]
 class SurfaceParams:
     """The talk's parameters at N points: albedo, rf0, emission (N, 3); gloss, alpha (N,);
     normal (N, 3) unit shading normal or None (the geometry's); occlusion (N,) or None; layer
-    (N,) the share of the albedo under a specular layer (``Closure.layer``; the albedo is
-    weighted by ``env_brdf.diffuse_layering`` where the view is known: ``surface_params``)."""
+    (N,) the weight of the closures whose albedo lies under a specular layer and layer_f0 (N,)
+    that times the layer's rf0 (``Closure.layer``, ``layer_f0``; the albedo is weighted by
+    ``env_brdf.diffuse_layering`` where the view is known: ``surface_params``)."""
 
     albedo: np.ndarray
     rf0: np.ndarray
@@ -56,6 +57,7 @@ class SurfaceParams:
     normal: np.ndarray | None = None
     occlusion: np.ndarray | None = None
     layer: np.ndarray | None = None
+    layer_f0: np.ndarray | None = None
 
 
 class Points:
@@ -231,4 +233,5 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
         gloss=out(np.clip(gloss, 0.0, 1.0), 1)[:, 0],
         emission=out(c.emission if opaque else c.emission * inv, 3),
         alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion,
-        layer=out(np.clip(c.layer if opaque else c.layer * inv, 0.0, 1.0), 1)[:, 0])
+        layer=out(np.clip(c.layer if opaque else c.layer * inv, 0.0, 1.0), 1)[:, 0],
+        layer_f0=out(np.clip(c.layer_f0 if opaque else c.layer_f0 * inv, 0.0, 1.0), 1)[:, 0])

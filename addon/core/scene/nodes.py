@@ -58,7 +58,9 @@ class Closure:
     gloss: (N, 1) spec-weighted gloss; normal: (N, 3) weighted normal and nweight (N, 1) the
     weight of closures with one; transparent: (N, 1) transparent weight; weight: (N, 1) weight
     of the other closures; layer: (N, 1) weight of the closures whose diffuse lies under their
-    specular (Principled BSDF: Cycles weights its diffuse by one less the specular's albedo)
+    specular (Principled BSDF: Cycles weights its diffuse by one less the specular's albedo);
+    layer_f0: (N, 1) weight times the largest channel of that specular's rf0 (the dielectric's:
+    a Principled BSDF's metal is not above its diffuse)
     """
 
     albedo: np.ndarray
@@ -71,13 +73,14 @@ class Closure:
     transparent: np.ndarray
     weight: np.ndarray
     layer: np.ndarray
+    layer_f0: np.ndarray
 
     def scaled(self, w) -> Closure:
         return Closure(*(getattr(self, f) * w for f in _CLOSURE_FIELDS))
 
 
 _CLOSURE_FIELDS = ("albedo", "rf0", "spec", "gloss", "emission", "normal", "nweight",
-                   "transparent", "weight", "layer")
+                   "transparent", "weight", "layer", "layer_f0")
 _Z1 = np.zeros((1, 1), np.float32)
 _Z3 = np.zeros((1, 3), np.float32)
 _ONE = np.ones((1, 1), np.float32)
@@ -86,11 +89,12 @@ for _shared in (_Z1, _Z3, _ONE):  # shared by every closure: never written (copi
 
 
 def _closure(albedo=_Z3, rf0=_Z3, spec=_Z1, gloss=_Z1, emission=_Z3, normal=None,
-             transparent=None, layer=_Z1) -> Closure:
+             transparent=None, layer=_Z1, layer_f0=_Z1) -> Closure:
     nweight = _Z1 if normal is None else _ONE
     weight = _ONE if transparent is None else _Z1
     return Closure(albedo, rf0, spec, gloss * spec, emission, _Z3 if normal is None else normal,
-                   nweight, _Z1 if transparent is None else transparent, weight, layer)
+                   nweight, _Z1 if transparent is None else transparent, weight, layer,
+                   layer_f0)
 
 
 def principled_to_talk(base, metallic, roughness, ior, level, tint, transmission):
@@ -103,14 +107,19 @@ def principled_to_talk(base, metallic, roughness, ior, level, tint, transmission
     base, tint (N, 3); metallic, roughness, ior, level, transmission (N, 1); N may be 1.
     """
     metallic = np.clip(metallic, 0.0, 1.0)
-    ior = np.maximum(ior, 1.0)
-    f0 = ((ior - 1.0) / (ior + 1.0)) ** 2
-    dielectric = np.clip(f0 * 2.0 * level * tint, 0.0, 1.0)
+    dielectric = dielectric_f0(ior, level, tint)
     albedo = base * (1.0 - metallic) * (1.0 - np.clip(transmission, 0.0, 1.0))
     rf0 = dielectric + (base - dielectric) * metallic
     gloss = brdf.roughness_to_gloss(np.clip(roughness, 0.0, 1.0).astype(np.float32))
     return (np.maximum(albedo, 0.0).astype(np.float32), np.maximum(rf0, 0.0).astype(np.float32),
             np.asarray(gloss, np.float32))
+
+
+def dielectric_f0(ior, level, tint) -> np.ndarray:
+    """A Principled BSDF's dielectric rf0 (N, 3): F0(ior) 2 level tint, F0 = ((ior - 1) /
+    (ior + 1))^2 (``principled_to_talk``)."""
+    ior = np.maximum(ior, 1.0)
+    return np.clip(((ior - 1.0) / (ior + 1.0)) ** 2 * 2.0 * level * tint, 0.0, 1.0)
 
 
 def unit_vectors(v) -> np.ndarray:
@@ -411,8 +420,9 @@ def _op_principled(ev, op, pts):
     albedo, rf0, gloss = principled_to_talk(base[:, :3], metallic, rough, ior, level,
                                             tint[:, :3], trans)
     normal = ev.normal_arg(op, 10, pts) if op.args[10] is not None else None
+    layer_f0 = dielectric_f0(ior, level, tint[:, :3]).max(axis=1, keepdims=True)
     return _with_alpha(_closure(albedo, rf0, _ONE, gloss, ecol[:, :3] * estr, normal,
-                                layer=_ONE), alpha)
+                                layer=_ONE, layer_f0=layer_f0.astype(np.float32)), alpha)
 
 
 def _op_bo2(ev, op, pts):

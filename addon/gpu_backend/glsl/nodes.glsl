@@ -19,7 +19,7 @@ struct MatPoint {
 /* The talk's parameters a material gives at a point (core/scene/material.SurfaceParams) */
 struct MatSurface {
   vec3 albedo, rf0, emission, normal;
-  float gloss, alpha, occlusion, layer;
+  float gloss, alpha, occlusion, layer, layer_f0;
 };
 
 /* Given by the environment (gpu_backend/materials.py) */
@@ -728,7 +728,7 @@ float n_roughness_to_gloss(float roughness)
 /* A shader socket's value (nodes.Closure), every field weighted */
 struct Clo {
   vec3 albedo, rf0, emission, normal;
-  float spec, gloss, nweight, transparent, weight, layer;
+  float spec, gloss, nweight, transparent, weight, layer, layer_f0;
 };
 
 Clo n_closure(vec3 albedo, vec3 rf0, float spec, float gloss, vec3 emission, bool has_normal,
@@ -745,6 +745,7 @@ Clo n_closure(vec3 albedo, vec3 rf0, float spec, float gloss, vec3 emission, boo
   c.transparent = is_transparent ? transparent : 0.0;
   c.weight = is_transparent ? 0.0 : 1.0;
   c.layer = 0.0;
+  c.layer_f0 = 0.0;
   return c;
 }
 
@@ -760,6 +761,7 @@ Clo n_scaled(Clo c, float w)
   c.transparent *= w;
   c.weight *= w;
   c.layer *= w;
+  c.layer_f0 *= w;
   return c;
 }
 
@@ -775,6 +777,7 @@ Clo n_add(Clo a, Clo b)
   a.transparent += b.transparent;
   a.weight += b.weight;
   a.layer += b.layer;
+  a.layer_f0 += b.layer_f0;
   return a;
 }
 
@@ -801,13 +804,16 @@ Clo n_principled(vec3 base, float metallic, float roughness, float ior, float le
   Clo c = n_closure(max(albedo, 0.0), max(rf0, 0.0), 1.0, n_roughness_to_gloss(roughness),
                     emission, has_normal, normal, 0.0, false);
   c.layer = 1.0;
+  c.layer_f0 = max(dielectric.r, max(dielectric.g, dielectric.b));
   return c;
 }
 
 /* The talk's parameters of a closure (core/scene/material.evaluate): albedo, rf0, emission,
- * gloss, alpha, the shading normal (n where no closure has one) and the layered share. */
+ * gloss, alpha, the shading normal (n where no closure has one), the layered weight and its
+ * rf0 (Closure.layer, layer_f0). */
 void n_resolve(Clo c, vec3 n, out vec3 albedo, out vec3 rf0, out vec3 emission,
-               out float gloss, out float alpha, out vec3 normal, out float layer)
+               out float gloss, out float alpha, out vec3 normal, out float layer,
+               out float layer_f0)
 {
   alpha = clamp(1.0 - c.transparent, 0.0, 1.0);
   float inv = alpha >= 1.0 ? 1.0 : (alpha > 0.0 ? 1.0 / alpha : 0.0);
@@ -817,6 +823,7 @@ void n_resolve(Clo c, vec3 n, out vec3 albedo, out vec3 rf0, out vec3 emission,
   emission = n_finite(vec4(c.emission * inv, 0.0)).xyz;
   gloss = n_finite(gloss);
   layer = clamp(n_finite(c.layer * inv), 0.0, 1.0);
+  layer_f0 = clamp(n_finite(c.layer_f0 * inv), 0.0, 1.0);
   normal = n;
   if (c.nweight > 0.0) {
     float rest = max(c.weight - c.nweight, 0.0);
