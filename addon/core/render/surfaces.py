@@ -128,7 +128,7 @@ def surface_alpha(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
     _, d = frame.scene.camera.rays(sx, sy)
     shading.surface(np.ascontiguousarray(tri, np.int32), np.ascontiguousarray(bary, np.float32),
                     frame.positions, frame.normals, frame.uvs, -d, p, n, geo, uv)
-    return surface_params(frame, tri, bary, p, n, geo, -d, sx, sy).alpha
+    return _surface_params(frame, tri, bary, p, n, geo, -d, sx, sy, True).alpha
 
 
 def caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
@@ -138,4 +138,4 @@ def caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
     n = nodes.unit_vectors(np.einsum("nk,nkc->nc", bary, frame.normals[tri]))
     geo = nodes.unit_vectors(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]))
     zero = np.zeros(len(tri), np.float32)
-    return surface_params(frame, tri, bary, p, n, geo, geo, zero, zero, shifts=False).alpha
+    return _surface_params(frame, tri, bary, p, n, geo, geo, zero, zero, False).alpha
