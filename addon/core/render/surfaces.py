@@ -96,7 +96,9 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         return s if s.normal is not None else dataclasses.replace(s, normal=n)
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
     emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
-    layer, layer_f0 = t["layer"][mid, 0], t["layer_f0"][mid, 0]
+    layered = frame.scene.settings.layered_diffuse  # the layer is gathered only when read
+    layer, layer_f0 = ((t["layer"][mid, 0], t["layer_f0"][mid, 0]) if layered
+                       else (None, None))
     normal = n
     occlusion = t["occlusion"][mid, 0] if (t["occlusion"] < 1.0).any() else None
     for m in varying:
@@ -107,7 +109,9 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         pts = material_points(frame, tri[sel], bary[sel], *rows, shifts)
         s = material.evaluate(mats[m].program, pts)
         albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
-        gloss[sel], alpha[sel], layer[sel], layer_f0[sel] = s.gloss, s.alpha, s.layer, s.layer_f0
+        gloss[sel], alpha[sel] = s.gloss, s.alpha
+        if layered:
+            layer[sel], layer_f0[sel] = s.layer, s.layer_f0
         if s.normal is not None:
             normal = normal.copy() if normal is n else normal
             normal[sel] = s.normal
