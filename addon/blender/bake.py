@@ -189,7 +189,7 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
             probe_file.write_all([
                 (path, bake.metadata(b, backend, job.bounces, stamp,
                                      time.perf_counter() - start, version(), job.converged),
-                 b.coeffs, b.chains)
+                 b.coeffs, b.chains if b.moments is None else {probe_file.DEPTH: [b.moments]})
                 for b, (_, path) in zip(job.results, targets, strict=True)])
     except (OSError, bake_file.BakeFileError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)

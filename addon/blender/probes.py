@@ -169,7 +169,9 @@ def _probe_from_file(obj, state: BakeState, warnings: Warnings):
     if state.meta.get("invalid_samples"):
         validity = np.ones(len(coeffs), np.float32)
         validity[np.asarray(state.meta["invalid_samples"], np.int64)] = 0.0
-    return current.probe(coeffs, chains if current.kind == "reflection" else None, validity)
+    if current.kind == "reflection":
+        return current.probe(coeffs, chains)
+    return current.probe(coeffs, None, validity, chains.get(probe_file.DEPTH, [None])[0])
 
 
 def load_probes(scene, world: World, warnings: Warnings) -> cp.Probes:

@@ -82,6 +82,13 @@ class BO2IndirectSettings(bpy.types.PropertyGroup):
         "then gets the light at the wall, not the light a sample sees inside the room)",
         default=False,
     )
+    use_visibility_test: bpy.props.BoolProperty(
+        name="Visibility Test",
+        description="Each sample of a Volume probe lights only the points it sees, as its "
+        "bake measured the distances around it (samples beyond a wall give nothing to the "
+        "room); bakes made before this test have none, and are looked up without it",
+        default=False,
+    )
     use_ambient_occlusion: bpy.props.BoolProperty(
         name="Ambient Occlusion",
         description="Contact occlusion of probe and world light: the frame's own surfaces "

@@ -458,7 +458,8 @@ class GPUFrame:
         if has_indirect(frame):
             s = frame.scene.settings
             drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,
-                                        s.env_brdf, s.volume_extrapolation)
+                                        s.env_brdf, s.volume_extrapolation,
+                                        s.volume_visibility)
             block, texels = lightmaps.upload(frame.lightmaps or [])
             self.indirect = ([(member.partition("[")[0], gpu.types.GPUUniformBuf(raw))
                               for _, member, raw in drawn.blocks()]

@@ -22,7 +22,7 @@ INDIRECT = Struct("IndirectData", (
     ("band", "vec4", 3),  # sh.BAND_FACTORS (9)
     ("world_color", "vec4", 0),  # a world of one colour: RGB, 1; else 0
     ("counts", "ivec4", 0),  # (reflection probes, volumes, normalization, environment BRDF)
-    ("flags", "ivec4", 0),  # (the bounce volume's index or -1, -, -, -)
+    ("flags", "ivec4", 0),  # (the bounce volume's index or -1, 1: visibility test, -, -)
     ("limits", "vec4", 0),  # (eps, largest normalization ratio, smallest n.v of the BRDF,
     #                          1: volumes extrapolated to their boxes' faces)
     ("fit", "vec4", 3),  # env_brdf.FIT_A0 + FIT_A1 (10)
@@ -41,6 +41,8 @@ VOLUME = Struct("VolumeData", (
     ("res", "ivec4", 0),  # samples along x, y, z; its first row in volume_sh
     ("params", "vec4", 0),  # (influence, falloff, normal bias, view bias; metres)
     ("facing", "vec4", 0),  # (facing bias, facing on, validity on, -)
+    ("visibility", "vec4", 0),  # (its first texel in volume_depth or -1, variance floor m^2,
+    #                              the moments' face size, -)
 ))
 
 
@@ -48,8 +50,8 @@ VOLUME = Struct("VolumeData", (
 BLOCKS = (("IndirectData", "indirect", None),
           ("ReflectionData", f"reflections[{MAX_REFLECTIONS + 1}]", None),
           ("VolumeData", f"volumes[{MAX_VOLUMES + 1}]", None))
-SAMPLERS = (("FLOAT_2D", "chains"), ("FLOAT_2D", "volume_sh"), ("FLOAT_2D", "env_table"),
-            ("FLOAT_2D", "env_axes"))
+SAMPLERS = (("FLOAT_2D", "chains"), ("FLOAT_2D", "volume_sh"), ("FLOAT_2D", "volume_depth"),
+            ("FLOAT_2D", "env_table"), ("FLOAT_2D", "env_axes"))
 
 
 def defines() -> dict:
@@ -85,6 +87,7 @@ class IndirectSet:
     volumes: bytes
     chains: object
     volume_sh: object
+    volume_depth: object
     env_table: object
     env_axes: object
 
@@ -95,7 +98,8 @@ class IndirectSet:
                      zip(BLOCKS, data, strict=True))
 
     def samplers(self) -> tuple:
-        textures_ = (self.chains, self.volume_sh, self.env_table, self.env_axes)
+        textures_ = (self.chains, self.volume_sh, self.volume_depth, self.env_table,
+                     self.env_axes)
         return tuple((kind, name, t) for (kind, name), t in
                      zip(SAMPLERS, textures_, strict=True))
 
@@ -109,7 +113,7 @@ def unsupported(probes) -> str | None:
     return None
 
 
-def _volume_record(vol, row: int) -> dict:
+def _volume_record(vol, row: int, depth: int) -> dict:
     m = np.asarray(vol.local_to_world, np.float64)
     res = np.asarray(vol.resolution, np.int64)
     step = float(core_probes.grid_spacing(m, vol.resolution))
@@ -119,14 +123,16 @@ def _volume_record(vol, row: int) -> dict:
             "params": [vol.influence, vol.falloff, vol.normal_bias * step,
                        vol.view_bias * step],
             "facing": [vol.facing_bias if facing else 0.0, float(facing),
-                       float(vol.validity is not None), 0.0]}
+                       float(vol.validity is not None), 0.0],
+            "visibility": [float(depth), vol.variance_floor(),
+                           0.0 if vol.moments is None else float(vol.moments.shape[-2]), 0.0]}
 
 
 def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
-                 extrapolate: bool = False) -> IndirectSet:
+                 extrapolate: bool = False, visibility: bool = False) -> IndirectSet:
     """Upload ``probes`` (``core.lighting.probes.Probes``) for ``glsl/indirect.glsl`` with the
-    frame's normalization, prefilter, environment BRDF and volume extrapolation
-    (``RenderSettings``' names)."""
+    frame's normalization, prefilter, environment BRDF, volume extrapolation and visibility
+    test (``RenderSettings``' names)."""
     from ..core.kernels import indirect as indirect_kernel
 
     why = unsupported(probes)
@@ -155,6 +161,7 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
         records.append(record)
     volumes = list(probes.volumes) + ([probes.bounce] if probes.bounce is not None else [])
     rows, vol_records, at = [], [], 0
+    depth_rows, depth_at = [], 0
     for vol in volumes:
         coeffs = np.asarray(vol.sh, np.float32).reshape(-1, 9, 3)
         part = np.zeros((len(coeffs), 9, 4), np.float32)
@@ -162,7 +169,12 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
         if vol.validity is not None:
             part[:, 0, 3] = np.asarray(vol.validity, np.float32).reshape(-1)
         rows.append(part.reshape(-1, 4))
-        vol_records.append(_volume_record(vol, at))
+        depth = -1
+        if visibility and vol.moments is not None:
+            padded = vol.padded_moments().reshape(-1, 2)
+            depth_rows.append(padded)
+            depth, depth_at = depth_at, depth_at + len(padded)
+        vol_records.append(_volume_record(vol, at, depth))
         at += len(part) * 9
     table, gloss_axis, nv_axis = core_probes.env_table()
     axes = np.zeros((2, max(len(gloss_axis), len(nv_axis)), 1), np.float32)
@@ -176,7 +188,8 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
         "counts": [len(probes.reflection), len(probes.volumes),
                    indirect_kernel.NORMALIZATIONS[normalization],
                    indirect_kernel.ENV_MODELS[env_model]],
-        "flags": [len(probes.volumes) if probes.bounce is not None else -1, 0, 0, 0],
+        "flags": [len(probes.volumes) if probes.bounce is not None else -1, int(visibility),
+                  0, 0],
         "limits": [core_probes.EPS, core_probes.MAX_NORMALIZATION,
                    formulas_env_brdf.N_DOT_V_MIN, float(extrapolate)],
         "fit": np.array(formulas_env_brdf.FIT_A0 + formulas_env_brdf.FIT_A1)}])
@@ -185,5 +198,6 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
         VOLUME.pack(vol_records, MAX_VOLUMES + 1),
         textures.rows(flat.reshape(-1, 3) if flat.size % 3 == 0 else np.zeros((1, 3))),
         textures.rows(np.concatenate(rows) if rows else np.zeros((1, 4), np.float32)),
+        textures.rows(np.concatenate(depth_rows) if depth_rows else np.zeros((1, 2), np.float32)),
         textures.image(np.ascontiguousarray(np.moveaxis(table, 0, -1), np.float32)),
         textures.image(axes))

@@ -98,13 +98,13 @@ def test_escape_moves_samples_just_inside_geometry_out():
     m = np.diag([4.0, 1.0, 1.0, 1.0])
     spec = bake.ProbeSpec("V", "irradiance", m, 0.0, resolution=(4, 1, 1))
     grab = capture.Capture(RenderJob(scene_of(cube((-2.0, -1.0, -1.0), (2.0, 1.0, 1.0)), grey())))
-    points, ratios, moved = run_escape(spec, grab)
+    points, ratios, moved, _ = run_escape(spec, grab)
     np.testing.assert_array_equal(ratios, [1.0, 0.0, 0.0, 1.0])
     assert moved == 0
     # a box x in [-1.1, 1.1], y and z in [-1.5, 1.5]: the middle samples are 0.1 m inside the x
     # faces (within 0.1 spacings) and escape through them
     grab = capture.Capture(RenderJob(scene_of(cube((-1.1, -1.5, -1.5), (1.1, 1.5, 1.5)), grey())))
-    points, ratios, moved = run_escape(spec, grab)
+    points, ratios, moved, _ = run_escape(spec, grab)
     assert (ratios >= 0.5).all() and moved == 2
     assert points[1, 0] < -1.1 and points[2, 0] > 1.1  # through the faces nearest to them
     np.testing.assert_allclose(points[[0, 3]], [[-3, 0, 0], [3, 0, 0]])

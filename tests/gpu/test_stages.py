@@ -169,10 +169,18 @@ def _chain(size):
     return out
 
 
+def _moments(count):
+    """Depth moments (count, 6, 4, 4, 2) of ``count`` samples: means 0.2-3 m, variances to
+    0.3 m^2."""
+    mean = RNG.uniform(0.2, 3.0, (count, 6, 4, 4))
+    return np.stack([mean, mean * mean + RNG.uniform(0, 0.3, mean.shape)], -1).astype(
+        np.float32)
+
+
 def _probes(world_color: bool, volumes: bool):
     """Three overlapping reflection probes (with sphere and box proxies when ``volumes``), a
-    world chain or colour, and an irradiance volume with validity and biases plus a bounce
-    volume."""
+    world chain or colour, and an irradiance volume with validity, biases and depth moments
+    plus a bounce volume."""
     from bo2_lighting.addon.core.lighting import probes as cp
 
     refl = [cp.ReflectionProbe(
@@ -190,24 +198,24 @@ def _probes(world_color: bool, volumes: bool):
             "V", np.diag([1.5, 1.5, 1.5, 1.0]), (3, 2, 2),
             (RNG.normal(size=(3, 2, 2, 9, 3)) * 0.2 + 1.0).astype(np.float32), influence=0.5,
             validity=RNG.uniform(0, 1, (3, 2, 2)).astype(np.float32), normal_bias=0.2,
-            view_bias=0.1, facing_bias=0.3))
+            view_bias=0.1, facing_bias=0.3, moments=_moments(12).reshape(3, 2, 2, 6, 4, 4, 2)))
         p.bounce = cp.IrradianceVolume(
             "B", np.diag([3.0, 3.0, 2.0, 1.0]), (4, 4, 2),
             (RNG.normal(size=(4, 4, 2, 9, 3)) * 0.1 + 0.3).astype(np.float32), influence=0.3)
     return p
 
 
-@pytest.mark.parametrize("world_color,volumes,normalization,env_model,extrapolate", [
-    (False, False, "none", "bo2", False), (False, False, "bo1", "table", False),
-    (True, False, "bo2", "fit", False), (False, True, "bo2", "bo1", False),
-    (True, True, "bo2", "bo2", True), (False, True, "bo1", "table", True),
+@pytest.mark.parametrize("world_color,volumes,normalization,env_model,extrapolate,visibility", [
+    (False, False, "none", "bo2", False, False), (False, False, "bo1", "table", False, False),
+    (True, False, "bo2", "fit", False, False), (False, True, "bo2", "bo1", False, True),
+    (True, True, "bo2", "bo2", True, False), (False, True, "bo1", "table", True, True),
 ])
 def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, env_model,
-                                           extrapolate):
-    """The SH irradiance of volumes (held or extrapolated past their outermost samples),
-    bounce and world (with the sky's share), and the normalized prefiltered reflections of
-    overlapping probes with parallax proxies times the environment BRDF (``probes.indirect``):
-    relative difference below 2e-5."""
+                                           extrapolate, visibility):
+    """The SH irradiance of volumes (held or extrapolated past their outermost samples, with
+    or without the samples' visibility test), bounce and world (with the sky's share), and the
+    normalized prefiltered reflections of overlapping probes with parallax proxies times the
+    environment BRDF (``probes.indirect``): relative difference below 2e-5."""
     from bo2_lighting.addon.core.lighting import probes as cp
     from bo2_lighting.addon.gpu_backend import probes as gpu_probes
 
@@ -221,8 +229,14 @@ def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, 
     sky = RNG.uniform(0, 1, n).astype(np.float32)
     diffuse, specular = cp.indirect(probes, pts, normal, view, albedo, rf0, gloss,
                                     normalization, "bo2", env_model, sky=lambda k: sky[k],
-                                    extrapolate=extrapolate)
-    drawn = gpu_probes.indirect_set(probes, normalization, "bo2", env_model, extrapolate)
+                                    extrapolate=extrapolate, visibility=visibility)
+    if visibility:  # the test changes the light of some points, not all
+        held = cp.indirect(probes, pts, normal, view, albedo, rf0, gloss, normalization, "bo2",
+                           env_model, sky=lambda k: sky[k], extrapolate=extrapolate)[0]
+        changed = (np.abs(held - diffuse) > 1e-3 * np.abs(diffuse).max()).any(1).mean()
+        assert 0.05 < changed < 0.95, changed
+    drawn = gpu_probes.indirect_set(probes, normalization, "bo2", env_model, extrapolate,
+                                    visibility)
     out = pointwise.run(("direct", "indirect"), """
       vec3 psh[9];
       pixel_sh(p.xyz, n.xyz, v.xyz, p.w, psh);

@@ -44,6 +44,7 @@ from ..lighting.probes import (
     grid_spacing,
     volume_sample_positions,
 )
+from ..lighting import sample_visibility
 from ..lighting.world_probes import filtered, world_probes
 from ..render.job import Warnings
 from ..scene import World
@@ -145,10 +146,12 @@ class ProbeSpec:
         return meta
 
     def probe(self, coeffs: np.ndarray, chains: dict | None,
-              validity: np.ndarray | None = None) -> ReflectionProbe | IrradianceVolume:
+              validity: np.ndarray | None = None,
+              moments: np.ndarray | None = None) -> ReflectionProbe | IrradianceVolume:
         """The renderer's probe from baked SH ``coeffs`` (K, 9, 3) and, for a reflection probe,
         its prefiltered ``chains`` ({"bo2": [...], "bo1": [...]}); for a volume, the samples'
-        ``validity`` (K,) (None: all valid)."""
+        ``validity`` (K,) (None: all valid) and depth ``moments`` (K, 6, M, M, 2) (None: no
+        visibility test)."""
         m = np.asarray(self.local_to_world, np.float64)
         if self.kind == "reflection":
             proxy = self.proxy if self.proxy_distance > 0.0 else "none"
@@ -160,15 +163,18 @@ class ProbeSpec:
         return IrradianceVolume(
             self.name, m, res, coeffs.reshape(*res, 9, 3), float(self.influence),
             None if validity is None else np.asarray(validity, np.float32).reshape(res),
-            float(v.normal_bias), float(v.view_bias), float(v.facing_bias), float(self.falloff))
+            float(v.normal_bias), float(v.view_bias), float(v.facing_bias), float(self.falloff),
+            None if moments is None else np.asarray(moments, np.float32).reshape(
+                *res, *np.shape(moments)[1:]))
 
 
 @dataclass
 class BakedProbe:
     """One probe's bake: SH ``coeffs`` (K, 9, 3) float32 per capture point and, for a
     reflection probe, the prefiltered ``chains`` of its centre; ``face_size`` of the captures;
-    for a volume, ``validity`` (K,) float32, 1 or 0 (``dilate``), and ``escaped``, the samples
-    moved out of geometry."""
+    for a volume, ``validity`` (K,) float32, 1 or 0 (``dilate``), ``escaped``, the samples
+    moved out of geometry, and the samples' depth ``moments`` (K, 6, M, M, 2) float32
+    (``sample_visibility``)."""
 
     spec: ProbeSpec
     coeffs: np.ndarray
@@ -176,6 +182,7 @@ class BakedProbe:
     face_size: int
     validity: np.ndarray | None = None
     escaped: int = 0
+    moments: np.ndarray | None = None
 
 
 def check(specs: list[ProbeSpec], warnings: Warnings) -> list[ProbeSpec]:
@@ -267,18 +274,21 @@ def dilate(coeffs: np.ndarray, ratio: np.ndarray, settings: VolumeSettings) -> t
 
 def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
            far: float) -> Iterator[None]:
-    """A volume's capture positions (``VolumeSettings``), one sample per step: a sample whose
-    front-facing ratio is below ``dilation_threshold`` moves through the nearest back face it
-    sees when that face is within ``escape_bias`` sample spacings (to a point a tenth of that
-    beyond it), if its ratio is at or above the threshold there.
+    """A volume's capture positions (``VolumeSettings``) and what each sees, one sample per
+    step: a sample whose front-facing ratio is below ``dilation_threshold`` moves through the
+    nearest back face it sees when that face is within ``escape_bias`` sample spacings (to a
+    point a tenth of that beyond it), if its ratio is at or above the threshold there.
 
     Yields once per sample; returns (positions (K, 3) float64, ratios (K,) float64, how many
-    samples moved).
+    samples moved, depth moments (K, 6, M, M, 2) float32 at the positions,
+    ``sample_visibility.moments``).
     """
     settings = spec.volume
     reach = settings.escape_bias * grid_spacing(spec.local_to_world, spec.resolution)
+    clamp = sample_visibility.max_distance(spec.local_to_world, spec.resolution)
     points = spec.points.copy()
     ratios = np.ones(len(points))
+    depth = []
     moved = 0
     for k, p in enumerate(points):
         seen = surfaces(p, size, near, far)
@@ -286,12 +296,13 @@ def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
         if seen.front_ratio < settings.dilation_threshold and seen.back_direction is not None \
                 and seen.back_distance <= reach:
             out = p + seen.back_direction * (seen.back_distance + 0.1 * reach)
-            there = surfaces(out, size, near, far).front_ratio
-            if there >= settings.dilation_threshold:
-                points[k], ratios[k] = out, there
+            there = surfaces(out, size, near, far)
+            if there.front_ratio >= settings.dilation_threshold:
+                points[k], ratios[k], seen = out, there.front_ratio, there
                 moved += 1
+        depth.append(sample_visibility.moments(seen.distances, clamp))
         yield
-    return points, ratios, moved
+    return points, ratios, moved, np.stack(depth)
 
 
 @dataclass
@@ -336,7 +347,7 @@ class Bake:
         total = (max(1, self.bounces) * sum(len(s.points) for s in self.specs)
                  + sum(len(self.specs[k].points) for k in volumes))
         done = 0
-        placed = {}  # spec index -> (positions, ratios, moved)
+        placed = {}  # spec index -> (positions, ratios, moved, moments)
         for k in volumes:
             steps = escape(self.specs[k], self.surfaces, self.volume_face_size,
                            *self._clip(self.specs[k]))
@@ -360,7 +371,7 @@ class Bake:
             for k in order:
                 spec = self.specs[k]
                 size = self.face_size if spec.kind == "reflection" else self.volume_face_size
-                pos, ratios, moved = placed.get(k, (spec.points, None, 0))
+                pos, ratios, moved, depth = placed.get(k, (spec.points, None, 0, None))
                 seen = lighting if spec.kind == "irradiance" else replace(
                     lighting, volumes=list(baked.volumes))
                 coeffs, chains = [], None
@@ -379,9 +390,9 @@ class Bake:
                     dilated, validity = dilate(coeffs.reshape(*res, 9, 3), ratios.reshape(res),
                                                spec.volume)
                     coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
-                result = BakedProbe(spec, coeffs, chains, size, validity, moved)
+                result = BakedProbe(spec, coeffs, chains, size, validity, moved, depth)
                 found[k] = result
-                probe = spec.probe(result.coeffs, chains, validity)
+                probe = spec.probe(result.coeffs, chains, validity, depth)
                 (baked.reflection if spec.kind == "reflection" else baked.volumes).append(probe)
             results = [found[k] for k in range(len(self.specs))]
             if self.converged:

@@ -128,7 +128,8 @@ def key(scene: Scene) -> str:
     h.update(repr(_world_key(scene.world)).encode())
     s = scene.settings
     h.update(repr((s.sky_directions, s.sky_resolution, s.shadow_resolution,
-                   s.specular_model, s.layered_diffuse, s.volume_extrapolation)).encode())
+                   s.specular_model, s.layered_diffuse, s.volume_extrapolation,
+                   s.volume_visibility)).encode())
     return h.hexdigest()[:24]
 
 
@@ -143,7 +144,7 @@ def _bake(scene: Scene, where: bake.ProbeSpec,
         if should_stop is not None and should_stop():
             raise Cancelled()
     result = job.results[0]
-    return where.probe(result.coeffs, None, result.validity)
+    return where.probe(result.coeffs, None, result.validity, result.moments)
 
 
 def attach(scene: Scene, should_stop: Callable[[], bool] | None = None,
@@ -200,6 +201,8 @@ def _save(k: str, volume: IrradianceVolume) -> None:
                                           else volume.facing_bias]}
     if volume.validity is not None:
         arrays["validity"] = volume.validity
+    if volume.moments is not None:
+        arrays["moments"] = volume.moments
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         atomic.write_atomically(path, lambda tmp: np.savez(tmp, **arrays))
@@ -224,7 +227,8 @@ def _load(k: str) -> IrradianceVolume | None:
                 influence=influence,
                 validity=np.array(data["validity"], np.float32) if "validity" in data else None,
                 normal_bias=normal_bias, view_bias=view_bias,
-                facing_bias=None if np.isnan(facing) else facing, falloff=falloff)
+                facing_bias=None if np.isnan(facing) else facing, falloff=falloff,
+                moments=np.array(data["moments"], np.float32) if "moments" in data else None)
     except (OSError, KeyError, ValueError, TypeError, EOFError, zipfile.BadZipFile,
             zlib.error):
         return None

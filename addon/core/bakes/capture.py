@@ -88,8 +88,8 @@ class Capture:
 
     def surfaces(self, position, size: int, near: float, far: float) -> Surfaces:
         """What surrounds ``position`` (3,), metres: the surfaces a Volume probe's capture
-        sees in a ``size`` cube between the clip distances, and whether they show their
-        fronts (one ray per texel centre, weighted by its solid angle). Faces of
+        sees in a ``size`` cube between the clip distances, how far they are and whether they
+        show their fronts (one ray per texel centre, weighted by its solid angle). Faces of
         backface-culled materials are seen from the front only, as in a render."""
         cams = self._cameras(position, size, near, far)
         frame = dataclasses.replace(self._frame, seen=self._seen["irradiance"])
@@ -97,21 +97,23 @@ class Capture:
         weight = cubemap.texel_solid_angles(size).reshape(-1)
         front = back = 0.0
         nearest = (np.inf, None)
+        distances = np.full((6, size * size), np.inf, np.float32)
         for face, cam in enumerate(cams):
             tri, depth, normals = nearest_faces(with_camera(frame, cam, once=True))
             hit = np.flatnonzero(tri >= 0)
             d = directions[face, hit]
+            forward = np.asarray(cubemap.FACES[face][0], np.float32)
+            distances[face, hit] = depth[hit] / (d @ forward)  # view depth -> ray length
             behind = np.einsum("nk,nk->n", normals, d) > 0.0  # the ray meets a back face
             front += float(weight[hit[~behind]].sum())
             back += float(weight[hit[behind]].sum())
             if behind.any():
-                forward = np.asarray(cubemap.FACES[face][0], np.float32)
-                dist = depth[hit[behind]] / (d[behind] @ forward)  # view depth -> ray length
+                dist = distances[face, hit[behind]]
                 k = int(np.argmin(dist))
                 if dist[k] < nearest[0]:
                     nearest = (float(dist[k]), d[behind][k].astype(np.float64))
         ratio = front / (front + back) if front + back > 0.0 else 1.0
-        return Surfaces(ratio, nearest[1], nearest[0])
+        return Surfaces(ratio, nearest[1], nearest[0], distances.reshape(6, size, size))
 
     def _cameras(self, position, size: int, near: float, far: float) -> list[Camera]:
         """The six face cameras at ``position``; the geometry prepared on first use, without
@@ -140,8 +142,11 @@ class Surfaces:
                   [0, 1]; 1 when nothing is met (EEVEE's validity of a volume sample)
     back_direction, back_distance: unit direction (3,) and distance (metres) of the nearest
                   back face met (the way out of the object around the point), or None, inf
+    distances:    (6, S, S) float32 metres along each texel centre's ray to the first surface
+                  (``cubemap`` texel order), inf where none
     """
 
     front_ratio: float
     back_direction: np.ndarray | None
     back_distance: float
+    distances: np.ndarray

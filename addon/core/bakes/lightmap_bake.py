@@ -263,7 +263,8 @@ def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Bvh,
     if scene.probes is not None:
         diffuse, _ = probe_light.indirect(scene.probes, p, n, n, albedo,
                                           np.zeros_like(albedo), np.zeros(len(p), np.float32),
-                                          extrapolate=scene.settings.volume_extrapolation)
+                                          extrapolate=scene.settings.volume_extrapolation,
+                                          visibility=scene.settings.volume_visibility)
         radiance += diffuse
     out[tri] = radiance.reshape(-1, 3, 3)
     return out

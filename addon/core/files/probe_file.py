@@ -6,7 +6,11 @@ Parts (all float32 RGB, ZIP compressed):
   X*Y*Z for an irradiance volume, samples in C order of (x, y, z));
 - ``bo2.mip<m>`` and ``bo1.mip<m>``: the prefiltered cube map chains (cosine power and angular
   Gaussian), the six faces of mip m stacked top to bottom in ``cubemap`` face order, each
-  S >> m pixels square.
+  S >> m pixels square;
+- ``depth`` (irradiance volumes): the samples' depth moments (``sample_visibility``), each
+  sample's six M x M faces stacked top to bottom, samples in the SH's order, R the mean and G
+  the mean square of the distance (metres, m^2), B 0. Files baked before it have none: their
+  volumes are looked up without the visibility test.
 
 A bake file (``bake_file``): the first part carries the metadata (``bo2.meta``): probe name and
 kind, position or matrix, face size, filters, bake time, add-on version and what the shading
@@ -21,12 +25,14 @@ from pathlib import Path
 
 import numpy as np
 
+from ..lighting.sample_visibility import SIZE as MOMENT_SIZE
 from ..system.atomic import replace_all
 from .bake_file import BakeFileError, content_digest, read_parts, write_parts
 
 __all__ = ["FORMAT", "read", "size_bound", "write", "write_all"]
 
 FORMAT = 1
+DEPTH = "depth"
 """Layout version stored in the metadata; files of another version are refused."""
 
 
@@ -36,7 +42,8 @@ def write(path: str | os.PathLike, meta: dict, sh: np.ndarray,
 
     meta: JSON-serializable metadata (``FORMAT`` is added)
     sh:   (K, 9, 3) radiance SH of the K capture points
-    mips: {"bo2": [...], "bo1": [...]} lists of (6, S_m, S_m, 3) cube maps, or None
+    mips: {"bo2": [...], "bo1": [...]} lists of (6, S_m, S_m, 3) cube maps, and for a
+          volume {"depth": [(K, 6, M, M, 2) depth moments]}; or None
     """
     write_all([(path, meta, sh, mips)])
 
@@ -52,6 +59,12 @@ def _encode(path: Path, meta: dict, sh: np.ndarray, mips) -> None:
     sh = np.asarray(sh, np.float32).reshape(-1, 9, 3)
     images = [("sh", sh)]
     for chain, levels in (mips or {}).items():
+        if chain == DEPTH:
+            m = np.asarray(levels[0], np.float32)
+            size = m.shape[-2]
+            rgb = np.concatenate([m, np.zeros((*m.shape[:-1], 1), np.float32)], axis=-1)
+            images.append((DEPTH, rgb.reshape(-1, size, 3)))
+            continue
         for m, cube in enumerate(levels):
             cube = np.asarray(cube, np.float32)
             images.append((f"{chain}.mip{m}", cube.reshape(-1, cube.shape[2], 3)))
@@ -60,16 +73,17 @@ def _encode(path: Path, meta: dict, sh: np.ndarray, mips) -> None:
 
 def size_bound(points: int, face_size: int | None) -> int:
     """An upper bound of a probe file's bytes: ``points`` SH rows and, with ``face_size``, both
-    prefiltered chains of that cube, uncompressed."""
-    texels = 0 if face_size is None else 2 * sum(6 * (face_size >> m) ** 2
-                                                 for m in range(face_size.bit_length()))
+    prefiltered chains of that cube, uncompressed; without, the points' depth moments."""
+    texels = points * 6 * MOMENT_SIZE ** 2 if face_size is None else 2 * sum(
+        6 * (face_size >> m) ** 2 for m in range(face_size.bit_length()))
     return 12 * (points * 9 + texels) + 65536
 
 
 def read(path: str | os.PathLike) -> tuple[dict, np.ndarray, dict[str, list[np.ndarray]]]:
     """Read a probe written by ``write``.
 
-    returns: (meta, sh (K, 9, 3) float32, {chain: [(6, S_m, S_m, 3) float32, ...]})
+    returns: (meta, sh (K, 9, 3) float32, {chain: [(6, S_m, S_m, 3) float32, ...]} and, for a
+             volume baked with them, {"depth": [(K, 6, M, M, 2) float32]})
     raises:  BakeFileError with a one-line reason
     """
     path = Path(path)
@@ -91,6 +105,12 @@ def read(path: str | os.PathLike) -> tuple[dict, np.ndarray, dict[str, list[np.n
         raise BakeFileError(f"{path.name}: part {bad[0]} holds NaN or infinite values "
                              "(re-bake)")
     mips: dict[str, list[np.ndarray]] = {}
+    if DEPTH in images:
+        img = images[DEPTH]
+        size = img.shape[1]
+        if img.shape != (len(images["sh"]) * 6 * size, size, 3):
+            raise BakeFileError(f"{path.name}: part {DEPTH} is not six square faces per sample")
+        mips[DEPTH] = [img.reshape(-1, 6, size, size, 3)[..., :2].copy()]
     for name in sorted(images, key=lambda n: (n.split(".mip")[0], int(n.split(".mip")[-1])
                                               if ".mip" in n else -1)):
         if ".mip" not in name:

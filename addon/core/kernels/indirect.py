@@ -75,10 +75,9 @@ def _bilinear(chains, base, size, face, x, y, c):
 
 
 @nb.njit(**_OPTIONS)
-def sample_chain(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, gloss, out):
-    """``cubemap.sample`` of ``chain`` along (dx, dy, dz) (float32) at lod = top - g top,
-    g = gloss clamped to [0, 1] (slide "Black Ops: environment map pre-filtering", in
-    float32): RGB into ``out`` (3,) float32; 0 for a chain without levels."""
+def _face_uv(faces, dx, dy, dz):
+    """``cubemap.direction_to_face`` of one direction (float64): face, and u, v in [0, 1]
+    along its columns and rows; a zero or non-finite direction maps to +X's centre."""
     d0, d1, d2 = np.float64(dx), np.float64(dy), np.float64(dz)
     if not (np.isfinite(d0) and np.isfinite(d1) and np.isfinite(d2)) or \
             not max(abs(d0), abs(d1), abs(d2)) > 0.0:
@@ -93,8 +92,15 @@ def sample_chain(chains, level_offset, level_size, levels, chain, faces, dx, dy,
     face = 2 * axis + (1 if comp < 0.0 else 0)
     a = ((d0 * faces[face, 1, 0] + d1 * faces[face, 1, 1]) + d2 * faces[face, 1, 2]) / depth
     b = ((d0 * faces[face, 2, 0] + d1 * faces[face, 2, 1]) + d2 * faces[face, 2, 2]) / depth
-    u = (min(max(a, -1.0), 1.0) + 1.0) * 0.5
-    v = (1.0 - min(max(b, -1.0), 1.0)) * 0.5
+    return face, (min(max(a, -1.0), 1.0) + 1.0) * 0.5, (1.0 - min(max(b, -1.0), 1.0)) * 0.5
+
+
+@nb.njit(**_OPTIONS)
+def sample_chain(chains, level_offset, level_size, levels, chain, faces, dx, dy, dz, gloss, out):
+    """``cubemap.sample`` of ``chain`` along (dx, dy, dz) (float32) at lod = top - g top,
+    g = gloss clamped to [0, 1] (slide "Black Ops: environment map pre-filtering", in
+    float32): RGB into ``out`` (3,) float32; 0 for a chain without levels."""
+    face, u, v = _face_uv(faces, dx, dy, dz)
     top = levels[chain] - 1
     g = gloss
     if g != g:
@@ -343,12 +349,48 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
 
 
 @nb.njit(**_OPTIONS)
+def _moment(moments, row, face, x, y, c):
+    """Channel c of sample ``row``'s padded moments (S, 6, M + 2, M + 2, 2) on ``face`` at
+    continuous texel coordinates x, y in [0, M] (``cubemap._bilinear_padded``)."""
+    s = moments.shape[2] - 2
+    fx, fy = x - 0.5, y - 0.5
+    x0 = min(max(math.floor(fx), -1.0), s - 1.0)
+    y0 = min(max(math.floor(fy), -1.0), s - 1.0)
+    tx = min(max(fx - x0, 0.0), 1.0)
+    ty = min(max(fy - y0, 0.0), 1.0)
+    xi, yi = int(x0) + 1, int(y0) + 1
+    m = moments[row, face]
+    top = m[yi, xi, c] * (1.0 - tx) + m[yi, xi + 1, c] * tx
+    bottom = m[yi + 1, xi, c] * (1.0 - tx) + m[yi + 1, xi + 1, c] * tx
+    return top * (1.0 - ty) + bottom * ty
+
+
+@nb.njit(**_OPTIONS)
+def _visibility(moments, faces, floor, row, sample, point):
+    """``sample_visibility.chebyshev``: the weight of sample ``row`` at ``sample`` (3,) for
+    ``point`` (3,), from its padded moments towards the point."""
+    dx = point[0] - sample[0]
+    dy = point[1] - sample[1]
+    dz = point[2] - sample[2]
+    r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    face, u, v = _face_uv(faces, dx, dy, dz)
+    size = moments.shape[2] - 2
+    mean = _moment(moments, row, face, u * size, v * size, 0)
+    if r <= mean:
+        return 1.0
+    var = max(_moment(moments, row, face, u * size, v * size, 1) - mean * mean, floor)
+    bound = var / (var + (r - mean) * (r - mean))
+    return bound * bound * bound
+
+
+@nb.njit(**_OPTIONS)
 def _blend(f, res, positions, validity, has_validity, point, normal, facing, facing_bias,
-           samples, acc, rows, w_plain, w_kept):
+           moments, visible, faces, floor, samples, acc, rows, w_plain, w_kept):
     """Add to ``acc`` (K,) the blend of the eight samples around grid coordinates ``f`` (3,)
     (within [0, res - 1]): trilinear weights, times validity, times the facing weight
-    max(0, unit(sample - point) . normal + facing_bias) when ``facing``; where those leave
-    nothing, trilinear over the valid samples, or over all."""
+    max(0, unit(sample - point) . normal + facing_bias) when ``facing``, times the sample's
+    visibility of the point (``_visibility``) when ``visible``; where those leave nothing,
+    trilinear over the valid samples, or over all."""
     k = acc.shape[0]
     i0 = np.empty(3, np.int64)
     t = np.empty(3, np.float32)
@@ -379,6 +421,8 @@ def _blend(f, res, positions, validity, has_validity, point, normal, facing, fac
             length = max(math.sqrt(dx * dx + dy * dy + dz * dz), 1e-6)
             dot = (dx * normal[0] + dy * normal[1] + dz * normal[2]) / length
             kept *= max(dot + facing_bias, 0.0)
+        if visible and kept > 0.0:
+            kept *= _visibility(moments, faces, floor, idx, positions[idx], point)
         w_kept[c] = kept
         kept_sum += kept
         valid_sum += w * v
@@ -403,13 +447,17 @@ def _luminance(row):
 
 @nb.njit(nb.void(nb.float32[:, ::1], nb.int64[::1], nb.float32[:, ::1], nb.float32[::1],
                  nb.boolean, nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean, nb.float32,
+                 nb.float32[:, :, :, :, ::1], nb.boolean, nb.float64[:, :, ::1], nb.float64,
                  nb.float32[:, ::1], nb.float32, nb.float32, nb.float32[:, ::1]), **_OPTIONS)
 def volume_blend(grid, res, positions, validity, has_validity, points, normals, facing,
-                 facing_bias, samples, low, high, out):
+                 facing_bias, moments, visible, faces, floor, samples, low, high, out):
     """An irradiance volume's look-up (``IrradianceVolume.sample_sh``, whose NumPy form the
     tests hold it to): ``out`` (N, K) at continuous grid coordinates ``grid`` (N, 3) of a
     volume of ``res`` (3,) samples, x-major, at world ``positions`` (S, 3) with ``validity``
-    (S,) and rows ``samples`` (S, K), K = 3 m with the DC term first (SH (m, 3) flattened).
+    (S,) and rows ``samples`` (S, K), K = 3 m with the DC term first (SH (m, 3) flattened);
+    with ``visible``, each sample's depth ``moments`` (S, 6, M + 2, M + 2, 2) with their
+    seamless border (``cubemap.with_border``) test whether it sees the point (``_visibility``,
+    the variance at least ``floor``, metres squared; ``faces``: ``cubemap.FACES``).
 
     Within the outermost samples: ``_blend`` at the point. Between them and the box's faces
     (half a cell beyond), the blend at the clamped point, scaled by the ratio of its DC term's
@@ -435,7 +483,7 @@ def volume_blend(grid, res, positions, validity, has_validity, points, normals, 
         row = out[i]
         row[:] = 0.0
         _blend(f, res, positions, validity, has_validity, points[i], normals[i], facing,
-               facing_bias, samples, row, rows, w_plain, w_kept)
+               facing_bias, moments, visible, faces, floor, samples, row, rows, w_plain, w_kept)
         luma = _luminance(row)
         if not outside or luma <= 0.0 or (low == 1.0 and high == 1.0):
             continue
@@ -447,7 +495,8 @@ def volume_blend(grid, res, positions, validity, has_validity, points, normals, 
             g[a] = f[a] + (1.0 if past[a] < 0.0 else -1.0)
             inward[:] = 0.0
             _blend(g, res, positions, validity, has_validity, points[i], normals[i], facing,
-                   facing_bias, samples, inward, rows, w_plain, w_kept)
+                   facing_bias, moments, visible, faces, floor, samples, inward, rows, w_plain,
+                   w_kept)
             extra += abs(past[a]) * (luma - _luminance(inward))
         scale = min(max(1.0 + extra / luma, low), high)
         for j in range(k):

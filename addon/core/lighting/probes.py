@@ -49,6 +49,7 @@ import numpy as np
 from ..formulas import affine, cubemap, sh
 from ..formulas import env_brdf as formulas_env_brdf
 from ..scene import CHOICES
+from . import sample_visibility
 
 __all__ = [
     "MAX_NORMALIZATION",
@@ -125,6 +126,8 @@ class IrradianceVolume:
                     weighs max(0, dot(unit(sample - point), normal) + facing_bias), so a larger
                     bias blends more smoothly and leaks more (EEVEE's Facing Bias); None: plain
                     trilinear
+    moments:        float32 (X, Y, Z, 6, M, M, 2) the samples' depth moments
+                    (``sample_visibility``), or None: no visibility test
     """
 
     name: str
@@ -137,7 +140,9 @@ class IrradianceVolume:
     view_bias: float = 0.0
     facing_bias: float | None = None
     falloff: float = 1.0
+    moments: np.ndarray | None = None
     _positions: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
+    _padded: np.ndarray | None = field(default=None, init=False, repr=False, compare=False)
 
     def _local(self, points: np.ndarray) -> np.ndarray:
         inv = affine.inverse(self.local_to_world)
@@ -155,7 +160,8 @@ class IrradianceVolume:
         return np.clip(fac * (1.0 - dist / self.influence), 0.0, 1.0).astype(np.float32)
 
     def sample_sh(self, points: np.ndarray, normals: np.ndarray | None = None,
-                  view: np.ndarray | None = None, extrapolate: bool = False) -> np.ndarray:
+                  view: np.ndarray | None = None, extrapolate: bool = False,
+                  visibility: bool = False) -> np.ndarray:
         """(N, 9, 3) SH at world points (N, 3): the blend of the eight samples around each
         (clamped to the outermost samples), trilinear, times each sample's validity and, given
         the unit shading ``normals`` and directions to the eye ``view`` (N, 3), its facing
@@ -163,7 +169,8 @@ class IrradianceVolume:
         trilinear over the valid samples, or over all when none is. With ``extrapolate``, up to
         the box's faces (half a cell beyond the outermost samples) the SH at the clamped point
         scaled by its luminance's linear extrapolation (within ``EXTRAPOLATION``), held beyond
-        the box (``kernels.indirect.volume_blend``)."""
+        the box (``kernels.indirect.volume_blend``). With ``visibility`` and ``moments``, each
+        sample's weight is also its visibility of the (moved) point (``sample_visibility``)."""
         res = np.asarray(self.resolution)
         pts = np.asarray(points, np.float32)
         if normals is not None:
@@ -180,6 +187,7 @@ class IrradianceVolume:
                 self.local_to_world, self.resolution).reshape(-1, 3), np.float32)
         from ..kernels import indirect as kernels
 
+        visible = visibility and self.moments is not None
         out = np.empty((len(pts), 27), np.float32)
         n = np.ascontiguousarray(normals if facing else np.zeros((len(pts), 3)), np.float32)
         kernels.volume_blend(
@@ -188,9 +196,29 @@ class IrradianceVolume:
                                  np.float32).reshape(-1), self.validity is not None,
             np.ascontiguousarray(pts, np.float32), n, facing,
             np.float32(self.facing_bias if facing else 0.0),
+            self.padded_moments() if visible else np.zeros((1, 6, 1, 1, 2), np.float32),
+            visible, np.array(cubemap.FACES, np.float64), self.variance_floor(),
             np.ascontiguousarray(self.sh, np.float32).reshape(-1, 27),
             *np.float32(EXTRAPOLATION if extrapolate else (1.0, 1.0)), out)
         return out.reshape(-1, 9, 3)
+
+
+    def padded_moments(self) -> np.ndarray:
+        """(S, 6, M + 2, M + 2, 2) float32: every sample's ``moments`` with the seamless
+        one-texel border (``cubemap.with_border``), made once."""
+        if self._padded is None:
+            m = np.asarray(self.moments, np.float32)
+            k, size = int(np.prod(self.resolution)), m.shape[-2]
+            padded = cubemap.with_border(np.moveaxis(m.reshape(k, 6, size, size, 2), 0, 3)
+                                         .reshape(6, size, size, 2 * k))
+            self._padded = np.ascontiguousarray(np.moveaxis(
+                padded.reshape(6, size + 2, size + 2, k, 2), 3, 0))
+        return self._padded
+
+    def variance_floor(self) -> float:
+        """The smallest variance of the visibility test, m^2 (``VARIANCE_FLOOR`` spacings^2)."""
+        return sample_visibility.VARIANCE_FLOOR * grid_spacing(self.local_to_world,
+                                                               self.resolution) ** 2
 
 
 def grid_spacing(local_to_world: np.ndarray, resolution) -> float:
@@ -244,12 +272,12 @@ def sends_light(probes: Probes) -> bool:
 
 def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = None,
               view: np.ndarray | None = None, sky: SkyFn | None = None,
-              extrapolate: bool = False) -> np.ndarray:
+              extrapolate: bool = False, visibility: bool = False) -> np.ndarray:
     """SH at each point (N, 3), (N, 9, 3): the volumes' blend (``sample_sh``, with the unit
     shading ``normals`` and directions to the eye ``view`` (N, 3)), the world where they leave
     weight, times the fraction of its light that reaches the point (``sky`` of the indices of
     those points; None: all of it); (9, 3), the world's, when no volume reaches any point and
-    there is no ``sky``. ``extrapolate``: as ``sample_sh``'s."""
+    there is no ``sky``. ``extrapolate``, ``visibility``: as ``sample_sh``'s."""
     n = len(points)
     total = np.zeros(n, np.float32)
     acc = None
@@ -261,7 +289,7 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
                 acc = np.zeros((n, 9, 3), np.float32)
             acc[k] += w[k, None, None] * vol.sample_sh(
                 points[k], None if normals is None else normals[k],
-                None if view is None else view[k], extrapolate)
+                None if view is None else view[k], extrapolate, visibility)
             total[k] += w[k]
     world_sh = np.asarray(probes.world_sh, np.float32)
     if acc is None and sky is None and probes.bounce is None:
@@ -277,7 +305,7 @@ def _pixel_sh(probes: Probes, points: np.ndarray, normals: np.ndarray | None = N
         if k.size:
             acc[k] += w[k, None, None] * probes.bounce.sample_sh(
                 points[k], None if normals is None else normals[k],
-                None if view is None else view[k], extrapolate)
+                None if view is None else view[k], extrapolate, visibility)
     if sky is not None:
         k = np.flatnonzero(share > 0.0)
         if k.size:
@@ -331,6 +359,7 @@ def indirect(
     sky: SkyFn | None = None,
     baked: tuple[np.ndarray, np.ndarray] | None = None,
     extrapolate: bool = False,
+    visibility: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.
 
@@ -345,6 +374,7 @@ def indirect(
     baked:       (indices (K,), SH (K, 9, 3)): these points' SH is given (their lightmaps',
                  ``lightmap.as_sh``) rather than looked up in the volumes, or None
     extrapolate: volumes' light extrapolated up to their boxes' faces (``sample_sh``)
+    visibility:  volumes' samples weighted by their visibility of the points (``sample_sh``)
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
     from ..kernels import indirect as kernels
@@ -362,8 +392,8 @@ def indirect(
     normals3 = np.broadcast_to(np.asarray(normals, np.float32), (n, 3))
     view3 = np.broadcast_to(np.asarray(view, np.float32), (n, 3))
     if baked is None:
-        pixel_sh = np.asarray(_pixel_sh(probes, points, normals3, view3, sky, extrapolate),
-                              np.float32)
+        pixel_sh = np.asarray(_pixel_sh(probes, points, normals3, view3, sky, extrapolate,
+                                        visibility), np.float32)
         pixel_sh = np.ascontiguousarray(pixel_sh.reshape(-1, 9, 3) if pixel_sh.ndim == 3
                                         else pixel_sh[None])
     else:
@@ -374,7 +404,7 @@ def indirect(
         if rest.size:
             pixel_sh[rest] = _pixel_sh(probes, np.asarray(points)[rest], normals3[rest],
                                        view3[rest], None if sky is None else
-                                       (lambda k: sky(rest[k])), extrapolate)
+                                       (lambda k: sky(rest[k])), extrapolate, visibility)
     chains, offsets, sides, levels = packed_chains(probes, prefilter)
     shs = [p.sh for p in probes.reflection] + [probes.world_sh]
     tinted = [sh.to_tinted(np.asarray(c, np.float64)) for c in shs]

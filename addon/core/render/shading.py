@@ -93,7 +93,8 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
                                               mat.gloss, s.normalization, s.prefilter, s.env_brdf,
                                               sky=seen,
                                               baked=None if baked is None else baked[:2],
-                                              extrapolate=s.volume_extrapolation)
+                                              extrapolate=s.volume_extrapolation,
+                                              visibility=s.volume_visibility)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]

@@ -310,6 +310,8 @@ class RenderSettings:
                     surfaces from a coarse volume baked on demand (``bounce``)
     volume_extrapolation: volumes' light extrapolated past their outermost samples up to
                     their boxes' faces (``IrradianceVolume.sample_sh``), not held
+    volume_visibility: volumes' samples weighted by whether they see the point
+                    (``sample_visibility``)
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
     threads:        tiles and shadow-map faces rendered at once (the kernels release the
                     GIL); 0 = one per CPU core
@@ -337,6 +339,7 @@ class RenderSettings:
     sky_resolution: int = 256
     implicit_bounce: bool = True
     volume_extrapolation: bool = False
+    volume_visibility: bool = False
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None

@@ -11,6 +11,8 @@
  * after the probes, at index counts.x), volumes[] (VolumeData; the bounce volume after them),
  * chains (RGBA32F rows: every level of every chain with its one-texel border, RGB),
  * volume_sh (RGBA32F rows: 9 per volume sample, RGB, the sample's validity in the first's A),
+ * volume_depth (RGBA32F rows: each volume sample's depth moments, six faces with their
+ * one-texel border, mean and mean square in RG; sample_visibility.py),
  * env_table (RG32F: the ground-truth table, gloss rows x n.v columns; its axes in
  * env_axes, row 0 gloss, row 1 n.v). ROW_WIDTH: texels per row of the rows textures;
  * EXTRAPOLATION_LOW, EXTRAPOLATION_HIGH: probes.EXTRAPOLATION. */
@@ -60,13 +62,9 @@ vec3 chain_bilinear(int base, int size, int face, float x, float y)
   return top * (1.0 - ty) + bottom * ty;
 }
 
-/* cubemap.sample of chain c along d at lod = top - g top (trilinear, seamless). */
-vec3 sample_chain(int c, vec3 d, float gloss)
+/* kernels.indirect._face_uv: the cube face of direction d and u, v in [0, 1] on it. */
+void cube_face_uv(vec3 d, out int face, out float u, out float v)
 {
-  int top = reflections[c].counts.x - 1;
-  if (top < 0) {
-    return vec3(0.0);
-  }
   if (isnan(d.x + d.y + d.z) || isinf(d.x + d.y + d.z) || !(max(abs(d.x), max(abs(d.y), abs(d.z))) > 0.0)) {
     d = vec3(1.0, 0.0, 0.0);
   }
@@ -82,11 +80,21 @@ vec3 sample_chain(int c, vec3 d, float gloss)
   else {
     axis = 2; depth = a.z; comp = d.z;
   }
-  int face = 2 * axis + (comp < 0.0 ? 1 : 0);
-  float fa = dot(d, CUBE_U[face]) / depth;
-  float fb = dot(d, CUBE_V[face]) / depth;
-  float u = (clamp(fa, -1.0, 1.0) + 1.0) * 0.5;
-  float v = (1.0 - clamp(fb, -1.0, 1.0)) * 0.5;
+  face = 2 * axis + (comp < 0.0 ? 1 : 0);
+  u = (clamp(dot(d, CUBE_U[face]) / depth, -1.0, 1.0) + 1.0) * 0.5;
+  v = (1.0 - clamp(dot(d, CUBE_V[face]) / depth, -1.0, 1.0)) * 0.5;
+}
+
+/* cubemap.sample of chain c along d at lod = top - g top (trilinear, seamless). */
+vec3 sample_chain(int c, vec3 d, float gloss)
+{
+  int top = reflections[c].counts.x - 1;
+  if (top < 0) {
+    return vec3(0.0);
+  }
+  int face;
+  float u, v;
+  cube_face_uv(d, face, u, v);
   float g = isnan(gloss) ? gloss : clamp(gloss, 0.0, 1.0);
   float lod = float(top) - g * float(top);
   if (isnan(lod)) {
@@ -232,6 +240,42 @@ float volume_weight(int k, vec3 p)
   return clamp(fac * (1.0 - dist / influence), 0.0, 1.0);
 }
 
+/* kernels.indirect._moment: the (mean, mean square) of the padded moments (faces of size + 2
+ * texels square) of the sample whose first texel is `base` in volume_depth, on `face` at texel
+ * coordinates x, y in [0, size]. */
+vec2 moment_at(int base, int size, int face, float x, float y)
+{
+  int side = size + 2;
+  float fx = x - 0.5, fy = y - 0.5;
+  float x0 = clamp(floor(fx), -1.0, float(size) - 1.0);
+  float y0 = clamp(floor(fy), -1.0, float(size) - 1.0);
+  float tx = clamp(fx - x0, 0.0, 1.0);
+  float ty = clamp(fy - y0, 0.0, 1.0);
+  int at = base + (face * side + int(y0) + 1) * side + int(x0) + 1;
+  vec2 top = row_at(volume_depth, at).rg * (1.0 - tx) + row_at(volume_depth, at + 1).rg * tx;
+  vec2 bottom = row_at(volume_depth, at + side).rg * (1.0 - tx) +
+                row_at(volume_depth, at + side + 1).rg * tx;
+  return top * (1.0 - ty) + bottom * ty;
+}
+
+/* kernels.indirect._visibility: the weight of the sample at sample_p (its moments at `base`,
+ * `size` texels square) for the point p; floor_: the smallest variance, m^2. */
+float sample_visibility(int base, int size, float floor_, vec3 sample_p, vec3 p)
+{
+  vec3 d = p - sample_p;
+  float r = length(d);
+  int face;
+  float u, v;
+  cube_face_uv(d, face, u, v);
+  vec2 m = moment_at(base, size, face, u * float(size), v * float(size));
+  if (r <= m.x) {
+    return 1.0;
+  }
+  float var = max(m.y - m.x * m.x, floor_);
+  float bound = var / (var + (r - m.x) * (r - m.x));
+  return bound * bound * bound;
+}
+
 /* kernels.indirect._blend: add the blend of volume k's eight samples around grid
  * coordinates f (within [0, res - 1]) at p, normal n, to acc. */
 void volume_blend_at(int k, vec3 f, vec3 p, vec3 n, inout vec3 acc[9])
@@ -239,6 +283,7 @@ void volume_blend_at(int k, vec3 f, vec3 p, vec3 n, inout vec3 acc[9])
   ivec3 res = volumes[k].res.xyz;
   bool facing = volumes[k].facing.y != 0.0;
   bool has_validity = volumes[k].facing.z != 0.0;
+  bool visible = indirect.flags.y != 0 && volumes[k].visibility.x >= 0.0;
   ivec3 i0;
   vec3 t;
   for (int a = 0; a < 3; a++) {
@@ -263,14 +308,19 @@ void volume_blend_at(int k, vec3 f, vec3 p, vec3 n, inout vec3 acc[9])
     w_plain[c] = w;
     validity[c] = has_validity ? row_at(volume_sh, rows[c]).a : 1.0;
     float kept = w * validity[c];
+    vec3 local = (vec3(cell) + 0.5) / vec3(res) * 2.0 - 1.0;
+    vec3 sample_p = vec3(dot(volumes[k].to_world[0], vec4(local, 1.0)),
+                         dot(volumes[k].to_world[1], vec4(local, 1.0)),
+                         dot(volumes[k].to_world[2], vec4(local, 1.0)));
     if (facing) {
-      vec3 local = (vec3(cell) + 0.5) / vec3(res) * 2.0 - 1.0;
-      vec3 sample_p = vec3(dot(volumes[k].to_world[0], vec4(local, 1.0)),
-                           dot(volumes[k].to_world[1], vec4(local, 1.0)),
-                           dot(volumes[k].to_world[2], vec4(local, 1.0)));
       vec3 d = sample_p - p;
       float len = max(length(d), 1e-6);
       kept *= max(dot(d, n) / len + volumes[k].facing.x, 0.0);
+    }
+    if (visible && kept > 0.0) {
+      int size = int(volumes[k].visibility.z);
+      int base = int(volumes[k].visibility.x) + idx * 6 * (size + 2) * (size + 2);
+      kept *= sample_visibility(base, size, volumes[k].visibility.y, sample_p, p);
     }
     w_kept[c] = kept;
     kept_sum += kept;
