@@ -37,6 +37,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..formulas import cubemap, sh
+from ..lighting import sample_visibility
 from ..lighting.probes import (
     IrradianceVolume,
     Probes,
@@ -44,7 +45,6 @@ from ..lighting.probes import (
     grid_spacing,
     volume_sample_positions,
 )
-from ..lighting import sample_visibility
 from ..lighting.world_probes import filtered, world_probes
 from ..render.job import Warnings
 from ..scene import World
