@@ -87,7 +87,7 @@ class BO2IndirectSettings(bpy.types.PropertyGroup):
         description="Each sample of a Volume probe lights only the points it sees, as its "
         "bake measured the distances around it (samples beyond a wall give nothing to the "
         "room); bakes made before this test have none, and are looked up without it",
-        default=False,
+        default=True,
     )
     use_ambient_occlusion: bpy.props.BoolProperty(
         name="Ambient Occlusion",

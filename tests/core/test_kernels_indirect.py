@@ -187,10 +187,25 @@ def test_quadrature_is_not_a_shading_model():
                     env_brdf="truth")
 
 
-def _blend_numpy(vol, pts, f, normals):
+def _seen_numpy(vol, flat, sample, pts):
+    """``sample_visibility.chebyshev`` of samples ``flat`` (N,) at world ``sample`` (N, 3) for
+    points ``pts`` (N, 3), their moments read with ``cubemap``'s seamless bilinear look-up,
+    each sample's faces bordered on their own."""
+    from bo2_lighting.addon.core.lighting import sample_visibility as sv
+
+    m = vol.moments.reshape(-1, *vol.moments.shape[-4:])
+    padded = np.concatenate([cubemap.with_border(s) for s in m])  # (S 6, M + 2, M + 2, 2)
+    d = pts.astype(np.float64) - sample
+    face, x, y = cubemap.direction_to_face(d, m.shape[-2])
+    mean, square = cubemap._bilinear_padded(padded, flat * 6 + face, x, y).T
+    return sv.chebyshev(np.linalg.norm(d, axis=1), mean, square, vol.variance_floor())
+
+
+def _blend_numpy(vol, pts, f, normals, visibility=False):
     """The blend of the eight samples around grid coordinates ``f`` (N, 3), within
-    [0, res - 1]: trilinear weights times validity and the facing weight; where those leave
-    nothing, trilinear over the valid samples, or over all."""
+    [0, res - 1]: trilinear weights times validity, the facing weight and (``visibility``)
+    the samples' visibility of the points; where those leave nothing, trilinear over the
+    valid samples, or over all."""
     res = np.asarray(vol.resolution)
     i0 = np.minimum(np.floor(f).astype(np.int64), res - 2).clip(0)
     t = (f - i0).astype(np.float32)
@@ -204,11 +219,14 @@ def _blend_numpy(vol, pts, f, normals):
         for k, b in enumerate(bits):
             w *= t[:, k] if b else 1.0 - t[:, k]
         keep = w * (1.0 if vol.validity is None else vol.validity[idx])
+        local = (np.stack(idx, -1) + 0.5) / res * 2.0 - 1.0
+        sample = (local @ m[:3, :3].T + m[:3, 3]).astype(np.float32)
         if normals is not None and vol.facing_bias is not None:
-            local = (np.stack(idx, -1) + 0.5) / res * 2.0 - 1.0
-            to = (local @ m[:3, :3].T + m[:3, 3]).astype(np.float32) - pts
+            to = sample - pts
             to /= np.maximum(np.linalg.norm(to, axis=-1, keepdims=True), 1e-6)
             keep = keep * np.maximum(np.einsum("nk,nk->n", to, normals) + vol.facing_bias, 0)
+        if visibility:
+            keep = keep * _seen_numpy(vol, np.ravel_multi_index(idx, tuple(res)), sample, pts)
         plain.append(w)
         kept.append(keep)
         corners.append(idx)
@@ -222,33 +240,35 @@ def _blend_numpy(vol, pts, f, normals):
     return sum(blend[c][:, None, None] * vol.sh[idx] for c, idx in enumerate(corners))
 
 
-def volume_sh_numpy(vol, points, normals=None, extrapolate=False):
+def volume_sh_numpy(vol, points, normals=None, extrapolate=False, visibility=False):
     """The NumPy form of ``IrradianceVolume.sample_sh`` (no biases): the blend at the point
     clamped to the outermost samples; with ``extrapolate``, between them and the box's faces,
     scaled by 1 plus, per axis past them, the distance past (in cells) times the DC
     luminance's change from one cell inward, over the DC luminance (the scale within
-    ``probes.EXTRAPOLATION``)."""
+    ``probes.EXTRAPOLATION``); ``visibility``: as ``_blend_numpy``'s."""
     res = np.asarray(vol.resolution)
     pts = np.asarray(points, np.float32)
     grid = (vol._local(pts) + 1.0) * 0.5 * res - 0.5
     f = np.clip(grid, 0.0, res - 1.0)
     past = np.where(res > 1, np.clip(grid, -0.5, res - 0.5) - f, 0.0)
-    base = _blend_numpy(vol, pts, f, normals)
+    base = _blend_numpy(vol, pts, f, normals, visibility)
     luma = lambda sh: sh[:, 0] @ np.float32([0.2126, 0.7152, 0.0722])  # noqa: E731
     extra = np.zeros(len(pts))
     for a in range(3):
         g = f.copy()
         g[:, a] -= np.sign(past[:, a])
-        extra += np.abs(past[:, a]) * (luma(base) - luma(_blend_numpy(vol, pts, g, normals)))
+        extra += np.abs(past[:, a]) * (luma(base)
+                                       - luma(_blend_numpy(vol, pts, g, normals, visibility)))
     low, high = cp.EXTRAPOLATION if extrapolate else (1.0, 1.0)
     y = luma(base)
     scale = np.where(y > 0, np.clip(1.0 + extra / np.where(y > 0, y, 1.0), low, high), 1.0)
     return base * scale[:, None, None]
 
 
-@pytest.mark.parametrize("facing_bias,extrapolate", [
-    (None, False), (0.0, False), (0.5, False), (1.0, False), (None, True), (0.5, True)])
-def test_volume_look_up_kernel_matches_numpy(facing_bias, extrapolate):
+@pytest.mark.parametrize("facing_bias,extrapolate,visibility", [
+    (None, False, False), (0.0, False, False), (0.5, False, True), (1.0, False, False),
+    (None, True, True), (0.5, True, False)])
+def test_volume_look_up_kernel_matches_numpy(facing_bias, extrapolate, visibility):
     rng = np.random.default_rng(5)
     m = np.diag([2.0, 1.5, 1.0, 1.0])
     m[:3, 3] = (0.3, -0.2, 1.0)
@@ -257,14 +277,21 @@ def test_volume_look_up_kernel_matches_numpy(facing_bias, extrapolate):
     validity[0, 0, 0] = 0.0
     coeffs = rng.normal(size=(*res, 9, 3)).astype(np.float32)
     coeffs[..., 0, :] += 2.0  # light's DC terms are positive: the extrapolation scales them
-    vol = cp.IrradianceVolume("v", m, res, coeffs, 0.5, validity, facing_bias=facing_bias)
+    mean = rng.uniform(0.2, 2.0, (*res, 6, 4, 4))
+    moments = np.stack([mean, mean * mean + rng.uniform(0, 0.2, mean.shape)], -1)
+    vol = cp.IrradianceVolume("v", m, res, coeffs, 0.5, validity, facing_bias=facing_bias,
+                              moments=moments.astype(np.float32))
     points = (rng.uniform(-1.3, 1.3, size=(2000, 3)) * (2.0, 1.5, 1.0)
               + (0.3, -0.2, 1.0)).astype(np.float32)
     normals = rng.normal(size=(2000, 3)).astype(np.float32)
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    np.testing.assert_allclose(vol.sample_sh(points, normals, extrapolate=extrapolate),
-                               volume_sh_numpy(vol, points, normals, extrapolate),
-                               rtol=1e-4, atol=1e-5)
+    np.testing.assert_allclose(
+        vol.sample_sh(points, normals, extrapolate=extrapolate, visibility=visibility),
+        volume_sh_numpy(vol, points, normals, extrapolate, visibility), rtol=1e-4, atol=1e-5)
+    if visibility:  # the test changed the light of many points
+        held = vol.sample_sh(points, normals, extrapolate=extrapolate)
+        assert (np.abs(held - volume_sh_numpy(vol, points, normals, extrapolate, True))
+                > 1e-3).any(axis=(1, 2)).mean() > 0.2
     plain = cp.IrradianceVolume("v", m, res, vol.sh, 0.5)
     np.testing.assert_allclose(plain.sample_sh(points, extrapolate=extrapolate),
                                volume_sh_numpy(plain, points, extrapolate=extrapolate),

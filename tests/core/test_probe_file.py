@@ -32,7 +32,13 @@ def test_round_trip(tmp_path):
     volume = np.ones((2 * 3 * 4, 9, 3), np.float32)
     probe_file.write(tmp_path / "Volume.exr", {"kind": "irradiance"}, volume)
     meta, sh3, mips3 = probe_file.read(tmp_path / "Volume.exr")
-    assert sh3.shape == (24, 9, 3) and mips3 == {}
+    assert sh3.shape == (24, 9, 3) and mips3 == {}  # baked before the depth: none
+    depth = np.random.default_rng(2).uniform(0, 4, (24, 6, 8, 8, 2)).astype(np.float32)
+    probe_file.write(tmp_path / "Volume.exr", {"kind": "irradiance"}, volume,
+                     {probe_file.DEPTH: [depth]})
+    meta, sh3, mips3 = probe_file.read(tmp_path / "Volume.exr")
+    assert set(mips3) == {probe_file.DEPTH}
+    np.testing.assert_array_equal(mips3[probe_file.DEPTH][0], depth)
 
 
 def test_failed_write_keeps_the_previous_file_byte_identical(tmp_path, monkeypatch):

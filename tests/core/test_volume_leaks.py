@@ -7,6 +7,10 @@ Independent values:
 - dilation: the inverse-squared-distance mean of the valid neighbours, written out by hand;
 - look-ups: the trilinear weights of a two-sample grid written out by hand; the facing weight
   max(0, dot(unit(sample - point), normal) + bias) of a sample straight behind the surface is 0;
+- depth moments: the distance from the centre of a box to its walls along a direction d is
+  1 / max|d_i| (half side 1), averaged over the lobe by a quadrature on a fine cube apart from
+  the code's; a sample behind a wall sees it nearer than a point beyond it, so Chebyshev's
+  bound leaves it out (its weight the cube of var / (var + (r - mean)^2), written out);
 - bounces in a closed box of albedo rho and emission E (every wall sees the same radiance, and
   no reflection probe or world gives specular light): after n bounces the captured radiance is
   E (1 + rho + ... + rho^(n-1)), whose limit is E / (1 - rho).
@@ -161,6 +165,57 @@ def test_look_up_does_not_pull_light_through_a_wall():
     only_left = two_samples(facing_bias=-0.5, validity=np.array([1.0, 0.0], np.float32)
                             .reshape(2, 1, 1))
     assert only_left.sample_sh(point, away)[0, 0, 0] == 10.0
+
+
+def test_depth_moments_of_the_centre_of_a_room():
+    """The moments of the captured distances at the centre of a room [-1, 1]^3 (seen from
+    inside) against the lobe average of 1 / max|d_i| on a 64-texel cube: within 1.5%."""
+    from bo2_lighting.addon.core.formulas import cubemap
+    from bo2_lighting.addon.core.lighting import sample_visibility as sv
+
+    grab = capture.Capture(RenderJob(scene_of(cube(inward=True), grey())))
+    seen = grab.surfaces(np.zeros(3), 16, 0.01, 100.0)
+    assert np.isfinite(seen.distances).all()
+    m = sv.moments(seen.distances, far=10.0)
+    assert m.shape == (6, sv.SIZE, sv.SIZE, 2)
+    fine = cubemap.texel_directions64(64).reshape(-1, 3)
+    solid = np.broadcast_to(cubemap.texel_solid_angles(64), (6, 64, 64)).reshape(-1)
+    dist = 1.0 / np.abs(fine).max(axis=1)
+    out = cubemap.texel_directions64(sv.SIZE).reshape(-1, 3)
+    lobe = np.maximum(out @ fine.T, 0.0) ** sv.LOBE_POWER * solid
+    lobe /= lobe.sum(axis=1, keepdims=True)
+    np.testing.assert_allclose(m[..., 0].reshape(-1), lobe @ dist, rtol=0.015)
+    np.testing.assert_allclose(m[..., 1].reshape(-1), lobe @ dist ** 2, rtol=0.03)
+    # the distances are clamped: beyond `far` the moments hold far and far squared
+    np.testing.assert_allclose(sv.moments(seen.distances, far=0.5)[..., 0], 0.5, rtol=1e-6)
+
+
+def test_visibility_test_leaves_out_a_sample_behind_a_wall():
+    """Two samples at x = -1 (bright) and x = +1 (dark) with a wall x in [-0.1, 0] between
+    them, their moments captured: a point right of the wall gets the dark sample's light
+    alone (the bright one sees the wall 0.9 m away, the point 1.15 m away), a point left of
+    it the bright one's alone; without the test, the trilinear blend."""
+    from bo2_lighting.addon.core.lighting import sample_visibility as sv
+
+    wall = cube((-0.1, -4.0, -4.0), (0.0, 4.0, 4.0))
+    grab = capture.Capture(RenderJob(scene_of(wall, grey())))
+    vol = two_samples()
+    far = sv.max_distance(vol.local_to_world, vol.resolution)
+    moments = np.stack([sv.moments(grab.surfaces(p, 16, 0.01, 100.0).distances, far)
+                        for p in cp.volume_sample_positions(vol.local_to_world, vol.resolution)
+                        .reshape(-1, 3)])
+    vol = two_samples(moments=moments.reshape(2, 1, 1, *moments.shape[1:]))
+    points = np.array([[0.15, 0.0, 0.0], [-0.5, 0.0, 0.0]])
+    normal = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]], np.float32)
+    plain = vol.sample_sh(points, normal)[:, 0, 0]
+    np.testing.assert_allclose(plain, [10.0 * 0.425, 10.0 * 0.75], rtol=1e-5)
+    tested = vol.sample_sh(points, normal, visibility=True)[:, 0, 0]
+    # the bright sample's weight for the first point, from its moments towards it
+    mean, square = moments[0, 0, sv.SIZE // 2, sv.SIZE // 2]  # +X, at the face's centre
+    assert 0.88 < mean < 0.95
+    left = 0.425 * sv.chebyshev(1.15, mean, square, vol.variance_floor())
+    assert left < 1e-3
+    np.testing.assert_allclose(tested, [10.0 * left / (left + 0.575), 10.0], atol=0.02)
 
 
 def test_normal_and_view_bias_move_the_look_up():

@@ -339,7 +339,7 @@ class RenderSettings:
     sky_resolution: int = 256
     implicit_bounce: bool = True
     volume_extrapolation: bool = False
-    volume_visibility: bool = False
+    volume_visibility: bool = True
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None
