@@ -13,6 +13,7 @@ from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import bake_files, probes
 from bo2_lighting.addon.core.files import probe_file
 from bo2_lighting.addon.core.render.job import Warnings
+from bo2_lighting.addon.core.scene import World
 
 RES = 48
 
@@ -89,7 +90,19 @@ def test_bake_writes_one_file_per_probe(addon, tmp_path):
                                                                                2, 1]
     assert sh.shape == (1, 9, 3) and sh[0, 0].min() > 0
     meta, sh, mips = probe_file.read(baked(scene, "Irradiance"))
-    assert meta["resolution"] == [3, 3, 2] and sh.shape == (18, 9, 3) and mips == {}
+    assert meta["resolution"] == [3, 3, 2] and sh.shape == (18, 9, 3)
+    # the samples' depth moments (the Visibility Test): the sample at (-5/3, 0, 0.5) sees the
+    # white wall (x = -2) 1/3 m away along -X, the floor 0.5 m below it: the lobes around the
+    # four central texels (7 degrees off the axis) average at most 6% more than the distance
+    assert set(mips) == {probe_file.DEPTH}
+    depth = mips[probe_file.DEPTH][0]
+    assert depth.shape == (18, 6, 8, 8, 2)
+    for face, distance in ((1, 1 / 3), (5, 0.5)):  # -X, -Z
+        centre = depth[2, face, 3:5, 3:5, 0]
+        assert (centre > distance).all() and (centre < 1.06 * distance).all(), centre
+    assert (depth[..., 1] >= depth[..., 0] ** 2 * (1 - 1e-5)).all()
+    loaded = probes.load_probes(scene, World(color=np.zeros(3, np.float32)), Warnings())
+    np.testing.assert_array_equal(loaded.volumes[0].moments.reshape(depth.shape), depth)
     # The red wall tints the volume's samples next to it (y = +2 side): red over green.
     grid = sh.reshape(3, 3, 2, 9, 3)
     near_red, far = grid[:, 2, 0, 0], grid[:, 0, 0, 0]
