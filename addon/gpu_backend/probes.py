@@ -56,9 +56,11 @@ SAMPLERS = (("FLOAT_2D", "chains"), ("FLOAT_2D", "volume_sh"), ("FLOAT_2D", "vol
 
 def defines() -> dict:
     """The defines ``glsl/indirect.glsl`` reads."""
+    from ..core.kernels import indirect as indirect_kernel
+
     low, high = core_probes.EXTRAPOLATION
     return {"ROW_WIDTH": textures.ROW_WIDTH, "EXTRAPOLATION_LOW": repr(float(low)),
-            "EXTRAPOLATION_HIGH": repr(float(high))}
+            "EXTRAPOLATION_HIGH": repr(float(high)), "NEAREST": indirect_kernel.NEAREST}
 
 
 def prelude() -> str:

@@ -51,9 +51,11 @@ def random_probes(world_color, volumes):
 
 
 def reference(probes, points, normals, view, albedo, rf0, gloss, normalization, prefilter,
-              env_model):
-    """The NumPy indirect light: (diffuse (N, 3), specular (N, 3)) float32."""
-    pixel_sh = cp._pixel_sh(probes, points)
+              env_model, seen=None):
+    """The NumPy indirect light: (diffuse (N, 3), specular (N, 3)) float32; ``seen`` (N,): the
+    world's seen fraction (None: 1), whose complement of the weight the probes leave goes to
+    the two nearest probes, by inverse squared distance."""
+    pixel_sh = cp._pixel_sh(probes, points, sky=None if seen is None else lambda k: seen[k])
     y = sh.basis(normals).astype(np.float32) * sh.BAND_FACTORS.astype(np.float32)
     if pixel_sh.ndim == 2:
         pixel_e = (y.astype(np.float64) @ pixel_sh.astype(np.float64)).astype(np.float32)
@@ -94,7 +96,17 @@ def reference(probes, points, normals, view, albedo, rf0, gloss, normalization, 
         s = np.broadcast_to(probes.world_color, (len(points), 3)).astype(np.float32)
     else:
         s = lookup(probes.world_mips[prefilter])
-    radiance += world[:, None] * normalized(s, probes.world_sh)
+    shown = np.ones(len(points)) if seen is None else np.clip(seen, 0.0, 1.0)
+    radiance += (world * shown)[:, None] * normalized(s, probes.world_sh)
+    if seen is not None:
+        positions = np.array([p.position for p in probes.reflection], np.float64)
+        d2 = ((points[:, None].astype(np.float64) - positions[None]) ** 2).sum(-1)
+        nearest = np.argsort(d2, axis=1, kind="stable")[:, :2]
+        inv = 1.0 / np.take_along_axis(d2, nearest, 1)
+        inv /= inv.sum(1, keepdims=True)
+        for k, probe in enumerate(probes.reflection):
+            share = (inv * (nearest == k)).sum(1) * world * (1.0 - shown)
+            radiance += share[:, None] * normalized(lookup(probe.mips[prefilter]), probe.sh)
     e = env_brdf.environment_brdf(gloss[:, None], n_dot_v[:, None], rf0, env_model)
     return diffuse.astype(np.float32), (radiance * e).astype(np.float32)
 
@@ -103,8 +115,9 @@ def reference(probes, points, normals, view, albedo, rf0, gloss, normalization, 
                                                      ("bo2", "bo2"), ("bo2", "fit")])
 @pytest.mark.parametrize("prefilter", ["bo2", "bo1"])
 @pytest.mark.parametrize("world_color,volumes", [(False, False), (True, True)])
+@pytest.mark.parametrize("hidden", [False, True])
 def test_indirect_kernel_matches_numpy(normalization, env_model, prefilter, world_color,
-                                       volumes):
+                                       volumes, hidden):
     probes = random_probes(world_color, volumes)
     n = 6000
     points = RNG.uniform(-3, 3, (n, 3)).astype(np.float32)
@@ -118,9 +131,11 @@ def test_indirect_kernel_matches_numpy(normalization, env_model, prefilter, worl
     rf0[:3] = [[0.0, 0.04, 1.0], [1.0, 0.5, 0.0], [0.04, 0.04, 0.04]]
     view[:3] = normals[:3]  # n.v = 1, the table's last column
     args = (points, normals, view, albedo, rf0, gloss)
+    seen = RNG.uniform(-0.2, 1.2, n).astype(np.float32) if hidden else None
     diffuse, specular = cp.indirect(probes, *args, normalization=normalization,
-                                    prefilter=prefilter, env_brdf=env_model)
-    d_ref, s_ref = reference(probes, *args, normalization, prefilter, env_model)
+                                    prefilter=prefilter, env_brdf=env_model,
+                                    sky=None if seen is None else lambda k: seen[k])
+    d_ref, s_ref = reference(probes, *args, normalization, prefilter, env_model, seen)
     weights = np.stack([p.weight(points) for p in probes.reflection])
     assert (weights.sum(0) > 1).sum() > 20 and (weights.sum(0) == 0).sum() > 20  # both cases
     np.testing.assert_allclose(diffuse, d_ref, rtol=2e-5, atol=1e-7)

@@ -241,7 +241,7 @@ def test_indirect_light_matches_the_kernel(world_color, volumes, normalization, 
       vec3 psh[9];
       pixel_sh(p.xyz, n.xyz, v.xyz, p.w, psh);
       vec3 d, s;
-      indirect_light(p.xyz, n.xyz, v.xyz, a.xyz, f.xyz, a.w, psh, d, s);
+      indirect_light(p.xyz, n.xyz, v.xyz, a.xyz, f.xyz, a.w, psh, p.w, d, s);
       od = vec4(d, 0.0);
       os = vec4(s, 0.0);""",
         {"p": np.column_stack([pts, sky]), "n": normal, "v": view,

@@ -30,6 +30,7 @@ NORMALIZATIONS = {"none": NONE, "bo1": BO1, "bo2": BO2}
 TABLE, ENV_BO1, ENV_BO2, FIT = 0, 1, 2, 3  # environment BRDFs
 PROXIES = {"none": 0, "sphere": 1, "box": 2}  # reflection probes' parallax proxies
 ENV_MODELS = {"table": TABLE, "bo1": ENV_BO1, "bo2": ENV_BO2, "fit": FIT}
+NEAREST = 2  # reflection probes that stand in for the world where a point does not see it
 
 _C0 = 0.5 / math.sqrt(math.pi)  # sh._C0 ...
 _C1 = math.sqrt(3.0 / (4.0 * math.pi))
@@ -235,10 +236,75 @@ def _env_brdf(model, gloss, n_dot_v, rf0, table, table_gloss, table_nv, fit, nv_
         out[c] = np.float32(e)
 
 
+@nb.njit(**_OPTIONS)
+def _chain_radiance(i, chain, n_probes, points, rx, ry, rz, gloss, e, y, pixel_sh, k_sh, chains,
+                    level_offset, level_size, levels, faces, position, proxy, proxy_kind,
+                    dc_eps, scalar, tint, has_world_color, world_color, normalization, eps32,
+                    max_ratio, s):
+    """Chain ``chain``'s radiance (a probe's, or the world's: ``n_probes``) along the
+    reflection (rx, ry, rz) of point i, normalized: into ``s`` (3,)."""
+    if chain == n_probes and has_world_color:
+        for c in range(3):
+            s[c] = world_color[c]
+    else:
+        t = np.float32(0.0)
+        px = py = pz = np.float32(0.0)
+        if chain < n_probes:
+            px = points[i, 0] - position[chain, 0]
+            py = points[i, 1] - position[chain, 1]
+            pz = points[i, 2] - position[chain, 2]
+            if proxy_kind[chain] != 0:
+                t = _parallax(proxy, proxy_kind[chain], chain, points[i, 0], points[i, 1],
+                              points[i, 2], rx, ry, rz)
+        if t > 0.0:  # towards where the reflection leaves the proxy
+            sample_chain(chains, level_offset, level_size, levels, chain, faces,
+                         px + t * rx, py + t * ry, pz + t * rz, gloss, s)
+        else:
+            sample_chain(chains, level_offset, level_size, levels, chain, faces, rx, ry, rz,
+                         gloss, s)
+    if normalization == NONE:
+        return
+    probe_e = np.float32(0.0)
+    if normalization == BO2:
+        for k in range(9):
+            probe_e += y[k] * scalar[chain, k]
+    for c in range(3):
+        if normalization == BO1:
+            ratio = np.float32(min(max(
+                (np.float64(pixel_sh[k_sh, 0, c] + eps32)) / dc_eps[chain, c], 0.0),
+                max_ratio))
+        else:
+            ratio = (e[c] + eps32) / (probe_e * tint[chain, c] + eps32)
+            ratio = min(max(ratio, np.float32(0.0)), np.float32(max_ratio))
+        s[c] = s[c] * ratio
+
+
+@nb.njit(**_OPTIONS)
+def _nearest(points, i, position, near, near_d):
+    """The ``len(near)`` probes nearest point i (fewer when there are fewer), nearest first:
+    their indices into ``near`` and squared distances into ``near_d``; returns the count."""
+    count = 0
+    for q in range(position.shape[0]):
+        dx = np.float64(points[i, 0]) - position[q, 0]
+        dy = np.float64(points[i, 1]) - position[q, 1]
+        dz = np.float64(points[i, 2]) - position[q, 2]
+        dq = dx * dx + dy * dy + dz * dz
+        j = count if count < near.shape[0] else near.shape[0]
+        while j > 0 and near_d[j - 1] > dq:
+            if j < near.shape[0]:
+                near[j], near_d[j] = near[j - 1], near_d[j - 1]
+            j -= 1
+        if j < near.shape[0]:
+            near[j], near_d[j] = q, dq
+            count = min(count + 1, near.shape[0])
+    return count
+
+
 _INDIRECT = nb.void(
     nb.float32[:, ::1], nb.float32[:, ::1], nb.float32[:, ::1],  # points, normals, view (N, 3)
     nb.float32[:, ::1], nb.float32[:, ::1],  # albedo, rf0 (N, 3)
     nb.float32[::1], nb.float32[:, :, ::1],  # gloss (N,), pixel SH
+    nb.float32[::1],  # the world's seen fraction (N,) or (1,)
     nb.float32[::1],  # band factors (9,)
     nb.float32[::1], nb.int64[:, ::1], nb.int64[:, ::1], nb.int64[::1],  # chains, level offsets,
     nb.float64[:, :, ::1],  # sides and counts; cube faces (6, 3, 3)
@@ -254,25 +320,31 @@ _INDIRECT = nb.void(
 
 
 @nb.njit(_INDIRECT, **_OPTIONS)
-def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, level_offset,
-             level_size, levels, faces, position, radius_fade, proxy, proxy_kind, dc_eps,
-             scalar, tint,
+def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, seen, band, chains,
+             level_offset, level_size, levels, faces, position, radius_fade, proxy, proxy_kind,
+             dc_eps, scalar, tint,
              has_world_color, world_color, normalization, limits, env_model, table, table_gloss,
              table_nv, fit, diffuse, specular):
     """Indirect diffuse ``diffuse`` (N, 3) (albedo / pi times the SH irradiance at the normal)
     and specular ``specular`` (N, 3): the normalized prefiltered radiance along the reflection
     vector times the environment BRDF (slide "Environment lighting: split approximation"). The
     radiance is the reflection probes' chains 0 .. R - 1 weighted by their influence (divided
-    by the sum where it exceeds 1), and the world's (chain R, or ``world_color``) with the
-    weight they leave. ``pixel_sh`` is (N, 9, 3), or (1, 9, 3) shared by every point.
-    A probe with a parallax proxy (``_parallax``) is looked up towards the point where the
-    reflected ray leaves its proxy rather than along the ray's direction."""
+    by the sum where it exceeds 1); the weight they leave goes to the world (chain R, or
+    ``world_color``) in the share of the world's light the point sees (``seen``, (N,) or (1,)
+    shared, clamped to [0, 1]), and the rest to the ``NEAREST`` probes nearest the point,
+    weighted by inverse squared distance: where the world is hidden, what surrounds the point
+    is more like what the nearest probes saw than like the sky. ``pixel_sh`` is (N, 9, 3), or
+    (1, 9, 3) shared by every point. A probe with a parallax proxy (``_parallax``) is looked up
+    towards the point where the reflected ray leaves its proxy rather than along the ray's
+    direction."""
     n_probes = position.shape[0]
     y = np.empty(9, np.float32)
     e = np.empty(3, np.float32)
     s = np.empty(3, np.float32)
     acc = np.empty(3, np.float32)
     brdf = np.empty(3, np.float32)
+    near = np.empty(NEAREST, np.int64)
+    near_d = np.empty(NEAREST, np.float64)
     eps32 = np.float32(limits[0])
     max_ratio = limits[1]
     inv_pi = np.float32(1.0 / np.pi)
@@ -293,55 +365,55 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, band, chains, 
         weight_sum = np.float32(0.0)
         for c in range(3):
             acc[c] = np.float32(0.0)
-        for chain in range(n_probes + 1):
-            if chain < n_probes:
-                px = points[i, 0] - position[chain, 0]
-                py = points[i, 1] - position[chain, 1]
-                pz = points[i, 2] - position[chain, 2]
-                d = np.sqrt((px * px + py * py) + pz * pz)
-                w = (radius_fade[chain, 0] - d) / radius_fade[chain, 1]
-                w = min(max(w, np.float32(0.0)), np.float32(1.0))
-                if not w > 0.0:
-                    continue
-            else:
-                if weight_sum > np.float32(1.0):
-                    for c in range(3):
-                        acc[c] = acc[c] / weight_sum
-                w = max(np.float32(1.0) - weight_sum, np.float32(0.0))
-                if not w > 0.0:
-                    break
-            if chain == n_probes and has_world_color:
-                for c in range(3):
-                    s[c] = world_color[c]
-            else:
-                t = np.float32(0.0)
-                if chain < n_probes and proxy_kind[chain] != 0:
-                    t = _parallax(proxy, proxy_kind[chain], chain, points[i, 0], points[i, 1],
-                                  points[i, 2], rx, ry, rz)
-                if t > 0.0:  # towards where the reflection leaves the proxy
-                    sample_chain(chains, level_offset, level_size, levels, chain, faces,
-                                 px + t * rx, py + t * ry, pz + t * rz, gloss[i], s)
-                else:
-                    sample_chain(chains, level_offset, level_size, levels, chain, faces, rx, ry,
-                                 rz, gloss[i], s)
-            if normalization != NONE:
-                if normalization == BO2:
-                    probe_e = np.float32(0.0)
-                    for k in range(9):
-                        probe_e += y[k] * scalar[chain, k]
-                for c in range(3):
-                    if normalization == BO1:
-                        ratio = np.float32(min(max(
-                            (np.float64(pixel_sh[k_sh, 0, c] + eps32)) / dc_eps[chain, c], 0.0),
-                            max_ratio))
-                    else:
-                        ratio = (e[c] + eps32) / (probe_e * tint[chain, c] + eps32)
-                        ratio = min(max(ratio, np.float32(0.0)), np.float32(max_ratio))
-                    s[c] = s[c] * ratio
+        for chain in range(n_probes):
+            px = points[i, 0] - position[chain, 0]
+            py = points[i, 1] - position[chain, 1]
+            pz = points[i, 2] - position[chain, 2]
+            d = np.sqrt((px * px + py * py) + pz * pz)
+            w = (radius_fade[chain, 0] - d) / radius_fade[chain, 1]
+            w = min(max(w, np.float32(0.0)), np.float32(1.0))
+            if not w > 0.0:
+                continue
+            _chain_radiance(i, chain, n_probes, points, rx, ry, rz, gloss[i], e, y, pixel_sh,
+                            k_sh, chains, level_offset, level_size, levels, faces, position,
+                            proxy, proxy_kind, dc_eps, scalar, tint, has_world_color,
+                            world_color, normalization, eps32, max_ratio, s)
             for c in range(3):
                 acc[c] += w * s[c]
-            if chain < n_probes:
-                weight_sum += w
+            weight_sum += w
+        if weight_sum > np.float32(1.0):
+            for c in range(3):
+                acc[c] = acc[c] / weight_sum
+        left = max(np.float32(1.0) - weight_sum, np.float32(0.0))
+        if left > 0.0:
+            shown = seen[i if seen.shape[0] > 1 else 0]
+            shown = np.float32(1.0) if shown != shown else min(max(shown, np.float32(0.0)),
+                                                                np.float32(1.0))
+            if n_probes == 0:
+                shown = np.float32(1.0)
+            if shown > 0.0:
+                _chain_radiance(i, n_probes, n_probes, points, rx, ry, rz, gloss[i], e, y,
+                                pixel_sh, k_sh, chains, level_offset, level_size, levels,
+                                faces, position, proxy, proxy_kind, dc_eps, scalar, tint,
+                                has_world_color, world_color, normalization, eps32, max_ratio,
+                                s)
+                for c in range(3):
+                    acc[c] += left * shown * s[c]
+            hidden = left * (np.float32(1.0) - shown)
+            if hidden > 0.0:
+                count = _nearest(points, i, position, near, near_d)
+                total_w = 0.0
+                for j in range(count):
+                    total_w += 1.0 / max(near_d[j], 1e-12)
+                for j in range(count):
+                    _chain_radiance(i, near[j], n_probes, points, rx, ry, rz, gloss[i], e, y,
+                                    pixel_sh, k_sh, chains, level_offset, level_size, levels,
+                                    faces, position, proxy, proxy_kind, dc_eps, scalar, tint,
+                                    has_world_color, world_color, normalization, eps32,
+                                    max_ratio, s)
+                    wj = hidden * np.float32(1.0 / max(near_d[j], 1e-12) / total_w)
+                    for c in range(3):
+                        acc[c] += wj * s[c]
         _env_brdf(env_model, gloss[i], n_dot_v, rf0[i], table, table_gloss, table_nv, fit,
                   limits[2], brdf)
         for c in range(3):

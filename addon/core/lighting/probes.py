@@ -26,9 +26,12 @@ The talk's indirect lighting (Lazarov 2013):
   The ratio is bounded by ``MAX_NORMALIZATION`` so that a probe that captured (nearly) no light
   in some direction cannot blow a pixel up.
 
-The world's prefiltered cube map is the reflections' fallback, with the weight that the
-reflection probes leave (1 - the sum of their weights, when that is positive); with the "bo1"
-and "bo2" normalizations it is dimmed where the world's light is occluded, as the pixel's SH is.
+The weight that the reflection probes leave (1 - the sum of their weights, when that is
+positive) goes to the world's prefiltered cube map in the share of the world's light that the
+point sees (``sky``), and the rest to the two probes nearest the point (by inverse squared
+distance): where the world is hidden, the surroundings are more like what the nearest probes
+saw than like the sky. With the "bo1" and "bo2" normalizations every chain is scaled to the
+pixel's irradiance, so the world's is dimmed where its light is occluded, as the pixel's SH is.
 
 References
 ----------
@@ -370,7 +373,9 @@ def indirect(
     env_brdf:    one of ``env_brdf.MODELS`` but "truth" (a quadrature per point: tools and
                  tests call ``env_brdf`` for it; "table" is its look-up)
     sky:         the fraction of the world's light that reaches the points of given indices
-                 (k,) -> (k,) in [0, 1] (``sky.visibility``), or None: all of it
+                 (k,) -> (k,) in [0, 1] (``sky.visibility``), or None: all of it; where the
+                 reflection probes leave weight, the world's reflection takes that share of
+                 it and the nearest probes the rest (``kernels.indirect.indirect``)
     baked:       (indices (K,), SH (K, 9, 3)): these points' SH is given (their lightmaps',
                  ``lightmap.as_sh``) rather than looked up in the volumes, or None
     extrapolate: volumes' light extrapolated up to their boxes' faces (``sample_sh``)
@@ -391,6 +396,10 @@ def indirect(
     n = len(points)
     normals3 = np.broadcast_to(np.asarray(normals, np.float32), (n, 3))
     view3 = np.broadcast_to(np.asarray(view, np.float32), (n, 3))
+    seen = np.ones(1, np.float32)
+    if sky is not None and probes.reflection:  # where the probes leave weight to the world
+        seen, sky = _seen_where_left(probes, np.asarray(points), sky,
+                                     None if baked is None else baked[0])
     if baked is None:
         pixel_sh = np.asarray(_pixel_sh(probes, points, normals3, view3, sky, extrapolate,
                                         visibility), np.float32)
@@ -428,7 +437,8 @@ def indirect(
     specular = np.empty((n, 3), np.float32)
     kernels.indirect(
         f32(points, (n, 3)), f32(normals, (n, 3)), f32(view, (n, 3)), f32(albedo, (n, 3)),
-        f32(rf0, (n, 3)), f32(gloss, (n,)), pixel_sh, sh.BAND_FACTORS.astype(np.float32), chains,
+        f32(rf0, (n, 3)), f32(gloss, (n,)), pixel_sh, seen, sh.BAND_FACTORS.astype(np.float32),
+        chains,
         offsets, sides, levels, np.array(cubemap.FACES),
         np.array([p.position for p in probes.reflection], np.float32).reshape(-1, 3),
         radius_fade, proxies, proxy_kinds,
@@ -443,6 +453,37 @@ def indirect(
         np.array(formulas_env_brdf.FIT_A0 + formulas_env_brdf.FIT_A1, np.float64),
         diffuse, specular)
     return diffuse, specular
+
+
+def _seen_where_left(probes: Probes, points: np.ndarray, sky: SkyFn,
+                     baked: np.ndarray | None) -> tuple[np.ndarray, SkyFn]:
+    """The world's seen fraction (N,) float32 for the kernel: ``sky`` of the points that the
+    reflection probes' influence leaves weight to the world, 1 elsewhere and at the ``baked``
+    points (their lightmaps hold the world's light); and ``sky`` again, answering from those
+    values where it can (each point's visibility is computed once)."""
+    n = len(points)
+    total = np.zeros(n, np.float32)
+    for p in probes.reflection:
+        total += p.weight(points)
+    need = total < 1.0
+    if baked is not None:
+        need[baked] = False
+    seen = np.ones(n, np.float32)
+    known = np.zeros(n, bool)
+    k = np.flatnonzero(need)
+    if k.size:
+        seen[k] = np.asarray(sky(k), np.float32)
+        known[k] = True
+
+    def cached(idx):
+        idx = np.asarray(idx)
+        out = seen[idx].copy()
+        missing = ~known[idx]
+        if missing.any():
+            out[missing] = np.asarray(sky(idx[missing]), np.float32)
+        return out
+
+    return seen, cached
 
 
 @functools.lru_cache(maxsize=1)

@@ -93,7 +93,7 @@ void main()
     else {
       pixel_sh(s.p, s.n, s.v, sky, psh);
     }
-    indirect_light(s.p, s.n, s.v, s.albedo, s.rf0, s.gloss, psh, diff_ind, gloss_ind);
+    indirect_light(s.p, s.n, s.v, s.albedo, s.rf0, s.gloss, psh, sky, diff_ind, gloss_ind);
     diff_ind *= s.occlusion; /* the glTF importer's occlusion */
     gloss_ind *= s.occlusion;
 #ifdef AMBIENT

@@ -437,9 +437,42 @@ void pixel_sh(vec3 p, vec3 n, vec3 v, float sky, out vec3 out_sh[9])
   }
 }
 
-/* kernels.indirect.indirect of one point, its SH given: diffuse and specular radiance. */
+/* kernels.indirect._chain_radiance: chain c's radiance along r at p (a probe's, or the world's:
+ * c == counts.x), normalized. */
+vec3 chain_radiance(int c, vec3 p, vec3 r, float gloss, vec3 e, float y[9], vec3 psh[9])
+{
+  int probes_count = indirect.counts.x;
+  int normalization = indirect.counts.z;
+  float eps = indirect.limits.x, max_ratio = indirect.limits.y;
+  vec3 s;
+  if (c == probes_count && indirect.world_color.w != 0.0) {
+    s = indirect.world_color.rgb;
+  }
+  else {
+    float t = 0.0;
+    vec3 d = c < probes_count ? p - reflections[c].position : vec3(0.0);
+    if (c < probes_count && reflections[c].counts.y != 0) {
+      t = parallax(c, p, r);
+    }
+    s = t > 0.0 ? sample_chain(c, d + t * r, gloss) : sample_chain(c, r, gloss);
+  }
+  if (normalization == NORM_BO2) {
+    float probe_e = 0.0;
+    for (int k = 0; k < 9; k++) {
+      probe_e += y[k] * reflections[c].scalar[k >> 2][k & 3];
+    }
+    s *= clamp((e + eps) / (probe_e * reflections[c].tint.rgb + eps), 0.0, max_ratio);
+  }
+  else if (normalization == NORM_BO1) {
+    s *= clamp((psh[0] + eps) / reflections[c].dc_eps.rgb, 0.0, max_ratio);
+  }
+  return s;
+}
+
+/* kernels.indirect.indirect of one point, its SH given, the world's seen fraction `seen`:
+ * diffuse and specular radiance. */
 void indirect_light(vec3 p, vec3 n, vec3 v, vec3 albedo, vec3 rf0, float gloss, vec3 psh[9],
-                    out vec3 diffuse, out vec3 specular)
+                    float seen, out vec3 diffuse, out vec3 specular)
 {
   float y[9];
   sh_basis(n, y);
@@ -451,56 +484,55 @@ void indirect_light(vec3 p, vec3 n, vec3 v, vec3 albedo, vec3 rf0, float gloss, 
   float n_dot_v = dot(n, v);
   vec3 r = 2.0 * n_dot_v * n - v;
   int probes_count = indirect.counts.x;
-  int normalization = indirect.counts.z;
-  float eps = indirect.limits.x, max_ratio = indirect.limits.y;
   float weight_sum = 0.0;
   vec3 acc = vec3(0.0);
-  for (int chain = 0; chain <= probes_count; chain++) {
-    float w;
-    vec3 s;
-    vec3 d = p - reflections[chain].position;
-    if (chain < probes_count) {
-      float dist = length(d);
-      w = clamp((reflections[chain].radius - dist) / reflections[chain].fade, 0.0, 1.0);
-      if (!(w > 0.0)) {
-        continue;
-      }
-    }
-    else {
-      if (weight_sum > 1.0) {
-        acc /= weight_sum;
-      }
-      w = max(1.0 - weight_sum, 0.0);
-      if (!(w > 0.0)) {
-        break;
-      }
-    }
-    if (chain == probes_count && indirect.world_color.w != 0.0) {
-      s = indirect.world_color.rgb;
-    }
-    else {
-      float t = 0.0;
-      if (chain < probes_count && reflections[chain].counts.y != 0) {
-        t = parallax(chain, p, r);
-      }
-      s = t > 0.0 ? sample_chain(chain, d + t * r, gloss) : sample_chain(chain, r, gloss);
-    }
-    if (normalization != NORM_NONE) {
-      if (normalization == NORM_BO2) {
-        float probe_e = 0.0;
-        for (int k = 0; k < 9; k++) {
-          probe_e += y[k] * reflections[chain].scalar[k >> 2][k & 3];
-        }
-        vec3 ratio = (e + eps) / (probe_e * reflections[chain].tint.rgb + eps);
-        s *= clamp(ratio, 0.0, max_ratio);
-      }
-      else {
-        s *= clamp((psh[0] + eps) / reflections[chain].dc_eps.rgb, 0.0, max_ratio);
-      }
-    }
-    acc += w * s;
-    if (chain < probes_count) {
+  for (int c = 0; c < probes_count; c++) {
+    float w = clamp((reflections[c].radius - length(p - reflections[c].position)) /
+                    reflections[c].fade, 0.0, 1.0);
+    if (w > 0.0) {
+      acc += w * chain_radiance(c, p, r, gloss, e, y, psh);
       weight_sum += w;
+    }
+  }
+  if (weight_sum > 1.0) {
+    acc /= weight_sum;
+  }
+  float left = max(1.0 - weight_sum, 0.0);
+  if (left > 0.0) {
+    float shown = probes_count == 0 || isnan(seen) ? 1.0 : clamp(seen, 0.0, 1.0);
+    if (shown > 0.0) {
+      acc += left * shown * chain_radiance(probes_count, p, r, gloss, e, y, psh);
+    }
+    float hidden = left * (1.0 - shown);
+    if (hidden > 0.0) { /* kernels.indirect._nearest: the NEAREST nearest probes */
+      int near[NEAREST];
+      float near_d[NEAREST];
+      int count = 0;
+      for (int q = 0; q < probes_count; q++) {
+        vec3 d = p - reflections[q].position;
+        float dq = dot(d, d);
+        int j = min(count, NEAREST);
+        while (j > 0 && near_d[j - 1] > dq) {
+          if (j < NEAREST) {
+            near[j] = near[j - 1];
+            near_d[j] = near_d[j - 1];
+          }
+          j--;
+        }
+        if (j < NEAREST) {
+          near[j] = q;
+          near_d[j] = dq;
+          count = min(count + 1, NEAREST);
+        }
+      }
+      float total = 0.0;
+      for (int j = 0; j < count; j++) {
+        total += 1.0 / max(near_d[j], 1e-12);
+      }
+      for (int j = 0; j < count; j++) {
+        acc += hidden * (1.0 / max(near_d[j], 1e-12) / total) *
+               chain_radiance(near[j], p, r, gloss, e, y, psh);
+      }
     }
   }
   specular = acc * env_brdf(gloss, n_dot_v, rf0);
