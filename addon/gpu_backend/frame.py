@@ -459,7 +459,7 @@ class GPUFrame:
             s = frame.scene.settings
             drawn = probes.indirect_set(frame.scene.probes, s.normalization, s.prefilter,
                                         s.env_brdf, s.volume_extrapolation,
-                                        s.volume_visibility)
+                                        s.volume_visibility, s.nearest_reflections)
             block, texels = lightmaps.upload(frame.lightmaps or [])
             self.indirect = ([(member.partition("[")[0], gpu.types.GPUUniformBuf(raw))
                               for _, member, raw in drawn.blocks()]

@@ -22,7 +22,8 @@ INDIRECT = Struct("IndirectData", (
     ("band", "vec4", 3),  # sh.BAND_FACTORS (9)
     ("world_color", "vec4", 0),  # a world of one colour: RGB, 1; else 0
     ("counts", "ivec4", 0),  # (reflection probes, volumes, normalization, environment BRDF)
-    ("flags", "ivec4", 0),  # (the bounce volume's index or -1, 1: visibility test, -, -)
+    ("flags", "ivec4", 0),  # (the bounce volume's index or -1, 1: visibility test,
+    #                         1: the nearest probes where the world is hidden, -)
     ("limits", "vec4", 0),  # (eps, largest normalization ratio, smallest n.v of the BRDF,
     #                          1: volumes extrapolated to their boxes' faces)
     ("fit", "vec4", 3),  # env_brdf.FIT_A0 + FIT_A1 (10)
@@ -131,10 +132,11 @@ def _volume_record(vol, row: int, depth: int) -> dict:
 
 
 def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
-                 extrapolate: bool = False, visibility: bool = False) -> IndirectSet:
+                 extrapolate: bool = False, visibility: bool = False,
+                 nearest: bool = True) -> IndirectSet:
     """Upload ``probes`` (``core.lighting.probes.Probes``) for ``glsl/indirect.glsl`` with the
-    frame's normalization, prefilter, environment BRDF, volume extrapolation and visibility
-    test (``RenderSettings``' names)."""
+    frame's normalization, prefilter, environment BRDF, volume extrapolation, visibility
+    test and nearest reflections (``RenderSettings``' names)."""
     from ..core.kernels import indirect as indirect_kernel
 
     why = unsupported(probes)
@@ -191,7 +193,7 @@ def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
                    indirect_kernel.NORMALIZATIONS[normalization],
                    indirect_kernel.ENV_MODELS[env_model]],
         "flags": [len(probes.volumes) if probes.bounce is not None else -1, int(visibility),
-                  0, 0],
+                  int(nearest), 0],
         "limits": [core_probes.EPS, core_probes.MAX_NORMALIZATION,
                    formulas_env_brdf.N_DOT_V_MIN, float(extrapolate)],
         "fit": np.array(formulas_env_brdf.FIT_A0 + formulas_env_brdf.FIT_A1)}])

@@ -363,6 +363,7 @@ def indirect(
     baked: tuple[np.ndarray, np.ndarray] | None = None,
     extrapolate: bool = False,
     visibility: bool = False,
+    nearest: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.
 
@@ -380,6 +381,8 @@ def indirect(
                  ``lightmap.as_sh``) rather than looked up in the volumes, or None
     extrapolate: volumes' light extrapolated up to their boxes' faces (``sample_sh``)
     visibility:  volumes' samples weighted by their visibility of the points (``sample_sh``)
+    nearest:     where the world is hidden (``sky``), the nearest probes reflect in its place;
+                 False: the world reflects wherever the probes leave weight
     returns:     (diffuse (N, 3), specular (N, 3)) float32 radiance, W/(m^2 sr)
     """
     from ..kernels import indirect as kernels
@@ -397,7 +400,7 @@ def indirect(
     normals3 = np.broadcast_to(np.asarray(normals, np.float32), (n, 3))
     view3 = np.broadcast_to(np.asarray(view, np.float32), (n, 3))
     seen = np.ones(1, np.float32)
-    if sky is not None and probes.reflection:  # where the probes leave weight to the world
+    if nearest and sky is not None and probes.reflection:  # where they leave the world weight
         seen, sky = _seen_where_left(probes, np.asarray(points), sky,
                                      None if baked is None else baked[0])
     if baked is None:

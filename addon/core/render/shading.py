@@ -94,7 +94,8 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
                                               sky=seen,
                                               baked=None if baked is None else baked[:2],
                                               extrapolate=s.volume_extrapolation,
-                                              visibility=s.volume_visibility)
+                                              visibility=s.volume_visibility,
+                                              nearest=s.nearest_reflections)
         if mat.occlusion is not None:  # the glTF importer's occlusion dims indirect light
             diff_ind *= mat.occlusion[:, None]
             gloss_ind *= mat.occlusion[:, None]

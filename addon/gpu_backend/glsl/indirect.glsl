@@ -499,7 +499,8 @@ void indirect_light(vec3 p, vec3 n, vec3 v, vec3 albedo, vec3 rf0, float gloss, 
   }
   float left = max(1.0 - weight_sum, 0.0);
   if (left > 0.0) {
-    float shown = probes_count == 0 || isnan(seen) ? 1.0 : clamp(seen, 0.0, 1.0);
+    float shown = probes_count == 0 || indirect.flags.z == 0 || isnan(seen) ? 1.0 :
+                  clamp(seen, 0.0, 1.0);
     if (shown > 0.0) {
       acc += left * shown * chain_radiance(probes_count, p, r, gloss, e, y, psh);
     }
