@@ -103,7 +103,8 @@ def unsupported(frame: Frame) -> str | None:
     scene = frame.scene
     mats = scene.materials
     if has_indirect(frame):
-        why = dome.unsupported(frame) or probes.unsupported(scene.probes)
+        why = dome.unsupported(frame) or probes.unsupported(scene.probes,
+                                                            scene.settings.volume_visibility)
         if why:
             return why
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]

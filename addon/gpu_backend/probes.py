@@ -17,6 +17,8 @@ from .uniforms import Struct
 MAX_LEVELS = 16  # mip levels of a chain (a 32768 texel face has 16)
 MAX_REFLECTIONS = 32  # reflection probes a frame's block holds (and the world's chain)
 MAX_VOLUMES = 32  # irradiance volumes (and the bounce volume)
+MAX_DEPTH_TEXELS = textures.ROW_WIDTH * 16384  # the volumes' depth moments (16384 rows, the
+#                                                height every GL 4.3 context holds)
 INDIRECT = Struct("IndirectData", (
     ("world_sh", "vec4", 9),  # the world's radiance SH, RGB
     ("band", "vec4", 3),  # sh.BAND_FACTORS (9)
@@ -43,7 +45,7 @@ VOLUME = Struct("VolumeData", (
     ("params", "vec4", 0),  # (influence, falloff, normal bias, view bias; metres)
     ("facing", "vec4", 0),  # (facing bias, facing on, validity on, -)
     ("visibility", "vec4", 0),  # (its first texel in volume_depth or -1, variance floor m^2,
-    #                              the moments' face size, -)
+    #                              the moments' face size, their clamp distance m)
 ))
 
 
@@ -61,7 +63,8 @@ def defines() -> dict:
 
     low, high = core_probes.EXTRAPOLATION
     return {"ROW_WIDTH": textures.ROW_WIDTH, "EXTRAPOLATION_LOW": repr(float(low)),
-            "EXTRAPOLATION_HIGH": repr(float(high)), "NEAREST": indirect_kernel.NEAREST}
+            "EXTRAPOLATION_HIGH": repr(float(high)), "NEAREST": indirect_kernel.NEAREST,
+            "CHOSEN": MAX_REFLECTIONS + 1 + indirect_kernel.NEAREST}
 
 
 def prelude() -> str:
@@ -107,12 +110,18 @@ class IndirectSet:
                      zip(SAMPLERS, textures_, strict=True))
 
 
-def unsupported(probes) -> str | None:
-    """What of ``probes`` the GPU's blocks cannot hold, or None."""
+def unsupported(probes, visibility: bool = True) -> str | None:
+    """What of ``probes`` the GPU's blocks and textures cannot hold (with the ``visibility``
+    test, the volumes' depth moments too), or None."""
     if len(probes.reflection) > MAX_REFLECTIONS:
         return f"more than {MAX_REFLECTIONS} reflection probes"
     if len(probes.volumes) > MAX_VOLUMES:
         return f"more than {MAX_VOLUMES} irradiance volumes"
+    texels = sum(int(np.prod(np.shape(v.moments)[:4])) * (np.shape(v.moments)[-2] + 2) ** 2
+                 for v in probes.volumes if visibility and v.moments is not None)
+    if texels > MAX_DEPTH_TEXELS:
+        return (f"irradiance volumes of more than {MAX_DEPTH_TEXELS // 600:,} samples in all "
+                "for the Visibility Test")
     return None
 
 
@@ -128,11 +137,12 @@ def _volume_record(vol, row: int, depth: int) -> dict:
             "facing": [vol.facing_bias if facing else 0.0, float(facing),
                        float(vol.validity is not None), 0.0],
             "visibility": [float(depth), vol.variance_floor(),
-                           0.0 if vol.moments is None else float(vol.moments.shape[-2]), 0.0]}
+                           0.0 if vol.moments is None else float(vol.moments.shape[-2]),
+                           vol.moment_clamp()]}
 
 
 def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
-                 extrapolate: bool = False, visibility: bool = False,
+                 extrapolate: bool = False, visibility: bool = True,
                  nearest: bool = True) -> IndirectSet:
     """Upload ``probes`` (``core.lighting.probes.Probes``) for ``glsl/indirect.glsl`` with the
     frame's normalization, prefilter, environment BRDF, volume extrapolation, visibility

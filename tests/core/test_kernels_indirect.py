@@ -54,8 +54,8 @@ def reference(probes, points, normals, view, albedo, rf0, gloss, normalization, 
               env_model, seen=None, nearest=True):
     """The NumPy indirect light: (diffuse (N, 3), specular (N, 3)) float32; ``seen`` (N,): the
     world's seen fraction (None: 1), whose complement of the weight the probes leave goes to
-    the two nearest probes, by inverse squared distance (with ``nearest``; else to the
-    world)."""
+    the two nearest probes, each by 1/d^2 - 1/d3^2, d3 the third nearest's distance (with
+    ``nearest``; else to the world)."""
     pixel_sh = cp._pixel_sh(probes, points, sky=None if seen is None else lambda k: seen[k])
     y = sh.basis(normals).astype(np.float32) * sh.BAND_FACTORS.astype(np.float32)
     if pixel_sh.ndim == 2:
@@ -102,8 +102,11 @@ def reference(probes, points, normals, view, albedo, rf0, gloss, normalization, 
     if seen is not None and nearest:
         positions = np.array([p.position for p in probes.reflection], np.float64)
         d2 = ((points[:, None].astype(np.float64) - positions[None]) ** 2).sum(-1)
-        nearest = np.argsort(d2, axis=1, kind="stable")[:, :2]
+        order = np.argsort(d2, axis=1, kind="stable")
+        nearest = order[:, :2]
         inv = 1.0 / np.take_along_axis(d2, nearest, 1)
+        if len(positions) > 2:
+            inv -= 1.0 / np.take_along_axis(d2, order[:, 2:3], 1)
         inv /= inv.sum(1, keepdims=True)
         for k, probe in enumerate(probes.reflection):
             share = (inv * (nearest == k)).sum(1) * world * (1.0 - shown)
@@ -211,8 +214,8 @@ def test_quadrature_is_not_a_shading_model():
 
 def _seen_numpy(vol, flat, sample, pts):
     """``sample_visibility.chebyshev`` of samples ``flat`` (N,) at world ``sample`` (N, 3) for
-    points ``pts`` (N, 3), their moments read with ``cubemap``'s seamless bilinear look-up,
-    each sample's faces bordered on their own."""
+    points ``pts`` (N, 3) (their distances clamped as the moments are), the moments read with
+    ``cubemap``'s seamless bilinear look-up, each sample's faces bordered on their own."""
     from bo2_lighting.addon.core.lighting import sample_visibility as sv
 
     m = vol.moments.reshape(-1, *vol.moments.shape[-4:])
@@ -220,7 +223,10 @@ def _seen_numpy(vol, flat, sample, pts):
     d = pts.astype(np.float64) - sample
     face, x, y = cubemap.direction_to_face(d, m.shape[-2])
     mean, square = cubemap._bilinear_padded(padded, flat * 6 + face, x, y).T
-    return sv.chebyshev(np.linalg.norm(d, axis=1), mean, square, vol.variance_floor())
+    cell = 2.0 * np.linalg.norm(vol.local_to_world[:3, :3], axis=0) / np.asarray(vol.resolution)
+    far = 1.5 * np.linalg.norm(cell)  # the moments' clamp: 1.5 cell diagonals
+    return sv.chebyshev(np.minimum(np.linalg.norm(d, axis=1), far), mean, square,
+                        vol.variance_floor())
 
 
 def _blend_numpy(vol, pts, f, normals, visibility=False):

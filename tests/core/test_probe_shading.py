@@ -253,3 +253,24 @@ def test_parallax_proxy_reads_where_the_reflection_leaves_the_room(proxy):
     _, spec = cp.indirect(probes, far, n[:1], v[:1], rf0[:1] * 0, rf0[:1], gloss[:1],
                           normalization="none", env_brdf="table")
     np.testing.assert_allclose(spec[0] / e[0], 0.5 * r[0] + 0.5, atol=4e-3)
+
+
+def test_the_gpu_names_volumes_too_large_for_its_depth_texture():
+    """The volumes' depth moments (600 texels a sample) go in one texture of at most 16384
+    rows of 1024: 27,962 samples; beyond, the GPU path declines with the reason (the frame
+    then renders on the CPU)."""
+    from bo2_lighting.addon.gpu_backend import probes as gpu_probes
+
+    def volume(res):
+        moments = np.broadcast_to(np.float32(1.0), (*res, 6, 8, 8, 2))
+        return cp.IrradianceVolume("V", np.eye(4), res, np.zeros((*res, 9, 3), np.float32),
+                                   moments=moments)
+
+    probes = constant_probes([1.0, 1.0, 1.0])
+    probes.volumes = [volume((30, 30, 31))]  # 27,900 samples
+    assert gpu_probes.unsupported(probes) is None
+    probes.volumes.append(volume((4, 4, 4)))
+    assert "Visibility Test" in gpu_probes.unsupported(probes)
+    assert gpu_probes.unsupported(probes, visibility=False) is None
+    probes.volumes[1].moments = None  # baked before the test: no depth to upload
+    assert gpu_probes.unsupported(probes) is None

@@ -280,8 +280,9 @@ def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
     point a tenth of that beyond it), if its ratio is at or above the threshold there.
 
     Yields once per sample; returns (positions (K, 3) float64, ratios (K,) float64, how many
-    samples moved, depth moments (K, 6, M, M, 2) float32 at the positions,
-    ``sample_visibility.moments``).
+    samples moved, depth moments (K, 6, M, M, 2) float32 seen from the positions,
+    ``sample_visibility.moments``; the look-up measures a point's distance from the grid's
+    position, at most a tenth of a spacing beyond an escaped sample's).
     """
     settings = spec.volume
     reach = settings.escape_bias * grid_spacing(spec.local_to_world, spec.resolution)

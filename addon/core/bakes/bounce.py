@@ -128,8 +128,7 @@ def key(scene: Scene) -> str:
     h.update(repr(_world_key(scene.world)).encode())
     s = scene.settings
     h.update(repr((s.sky_directions, s.sky_resolution, s.shadow_resolution,
-                   s.specular_model, s.layered_diffuse, s.volume_extrapolation,
-                   s.volume_visibility)).encode())
+                   s.specular_model, s.layered_diffuse, s.volume_extrapolation)).encode())
     return h.hexdigest()[:24]
 
 

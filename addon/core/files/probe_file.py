@@ -29,11 +29,12 @@ from ..lighting.sample_visibility import SIZE as MOMENT_SIZE
 from ..system.atomic import replace_all
 from .bake_file import BakeFileError, content_digest, read_parts, write_parts
 
-__all__ = ["FORMAT", "read", "size_bound", "write", "write_all"]
+__all__ = ["DEPTH", "FORMAT", "read", "size_bound", "write", "write_all"]
 
 FORMAT = 1
-DEPTH = "depth"
 """Layout version stored in the metadata; files of another version are refused."""
+DEPTH = "depth"
+"""The name of a volume's depth moments part, and of their entry in ``read``'s dict."""
 
 
 def write(path: str | os.PathLike, meta: dict, sh: np.ndarray,

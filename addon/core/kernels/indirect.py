@@ -280,24 +280,36 @@ def _chain_radiance(i, chain, n_probes, points, rx, ry, rz, gloss, e, y, pixel_s
 
 
 @nb.njit(**_OPTIONS)
-def _nearest(points, i, position, near, near_d):
-    """The ``len(near)`` probes nearest point i (fewer when there are fewer), nearest first:
-    their indices into ``near`` and squared distances into ``near_d``; returns the count."""
+def _nearest_weights(points, i, position, near, near_d, weights):
+    """The K = len(weights) probes nearest point i (fewer when there are fewer) into ``near``
+    and their weights, summing to 1, into ``weights``; returns how many. A probe weighs
+    1/d^2 - 1/d'^2, d' the distance of the (K + 1)th nearest (0 without one), so a probe
+    enters and leaves the K with no weight: no seam where the K nearest change.
+    ``near``, ``near_d``: (K + 1,) scratch."""
+    size = near.shape[0]
     count = 0
     for q in range(position.shape[0]):
         dx = np.float64(points[i, 0]) - position[q, 0]
         dy = np.float64(points[i, 1]) - position[q, 1]
         dz = np.float64(points[i, 2]) - position[q, 2]
         dq = dx * dx + dy * dy + dz * dz
-        j = count if count < near.shape[0] else near.shape[0]
+        j = min(count, size)
         while j > 0 and near_d[j - 1] > dq:
-            if j < near.shape[0]:
+            if j < size:
                 near[j], near_d[j] = near[j - 1], near_d[j - 1]
             j -= 1
-        if j < near.shape[0]:
+        if j < size:
             near[j], near_d[j] = q, dq
-            count = min(count + 1, near.shape[0])
-    return count
+            count = min(count + 1, size)
+    k = min(count, weights.shape[0])
+    beyond = 1.0 / max(near_d[k], 1e-12) if count > k else 0.0
+    total = 0.0
+    for j in range(k):
+        weights[j] = 1.0 / max(near_d[j], 1e-12) - beyond
+        total += weights[j]
+    for j in range(k):
+        weights[j] = weights[j] / total if total > 0.0 else 1.0 / k
+    return k
 
 
 _INDIRECT = nb.void(
@@ -331,9 +343,9 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, seen, band, ch
     radiance is the reflection probes' chains 0 .. R - 1 weighted by their influence (divided
     by the sum where it exceeds 1); the weight they leave goes to the world (chain R, or
     ``world_color``) in the share of the world's light the point sees (``seen``, (N,) or (1,)
-    shared, clamped to [0, 1]), and the rest to the ``NEAREST`` probes nearest the point,
-    weighted by inverse squared distance: where the world is hidden, what surrounds the point
-    is more like what the nearest probes saw than like the sky. ``pixel_sh`` is (N, 9, 3), or
+    shared, clamped to [0, 1]; NaN: 1), and the rest to the ``NEAREST`` probes nearest the
+    point (``_nearest_weights``): where the world is hidden, what surrounds the point is more
+    like what the nearest probes saw than like the sky. ``pixel_sh`` is (N, 9, 3), or
     (1, 9, 3) shared by every point. A probe with a parallax proxy (``_parallax``) is looked up
     towards the point where the reflected ray leaves its proxy rather than along the ray's
     direction."""
@@ -343,8 +355,11 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, seen, band, ch
     s = np.empty(3, np.float32)
     acc = np.empty(3, np.float32)
     brdf = np.empty(3, np.float32)
-    near = np.empty(NEAREST, np.int64)
-    near_d = np.empty(NEAREST, np.float64)
+    chosen = np.empty(n_probes + 1 + NEAREST, np.int64)  # the chains that reflect, their weights
+    chosen_w = np.empty(n_probes + 1 + NEAREST, np.float32)
+    near = np.empty(NEAREST + 1, np.int64)
+    near_d = np.empty(NEAREST + 1, np.float64)
+    near_w = np.empty(NEAREST, np.float64)
     eps32 = np.float32(limits[0])
     max_ratio = limits[1]
     inv_pi = np.float32(1.0 / np.pi)
@@ -362,9 +377,8 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, seen, band, ch
         n_dot_v = (nx * vx + ny * vy) + nz * vz
         two = np.float32(2.0) * n_dot_v
         rx, ry, rz = two * nx - vx, two * ny - vy, two * nz - vz
+        count = 0
         weight_sum = np.float32(0.0)
-        for c in range(3):
-            acc[c] = np.float32(0.0)
         for chain in range(n_probes):
             px = points[i, 0] - position[chain, 0]
             py = points[i, 1] - position[chain, 1]
@@ -372,48 +386,37 @@ def indirect(points, normals, view, albedo, rf0, gloss, pixel_sh, seen, band, ch
             d = np.sqrt((px * px + py * py) + pz * pz)
             w = (radius_fade[chain, 0] - d) / radius_fade[chain, 1]
             w = min(max(w, np.float32(0.0)), np.float32(1.0))
-            if not w > 0.0:
-                continue
-            _chain_radiance(i, chain, n_probes, points, rx, ry, rz, gloss[i], e, y, pixel_sh,
-                            k_sh, chains, level_offset, level_size, levels, faces, position,
-                            proxy, proxy_kind, dc_eps, scalar, tint, has_world_color,
-                            world_color, normalization, eps32, max_ratio, s)
-            for c in range(3):
-                acc[c] += w * s[c]
-            weight_sum += w
+            if w > 0.0:
+                chosen[count], chosen_w[count] = chain, w
+                count += 1
+                weight_sum += w
         if weight_sum > np.float32(1.0):
-            for c in range(3):
-                acc[c] = acc[c] / weight_sum
+            for j in range(count):
+                chosen_w[j] = chosen_w[j] / weight_sum
         left = max(np.float32(1.0) - weight_sum, np.float32(0.0))
         if left > 0.0:
             shown = seen[i if seen.shape[0] > 1 else 0]
-            shown = np.float32(1.0) if shown != shown else min(max(shown, np.float32(0.0)),
-                                                                np.float32(1.0))
-            if n_probes == 0:
+            if shown != shown or n_probes == 0:
                 shown = np.float32(1.0)
+            shown = min(max(shown, np.float32(0.0)), np.float32(1.0))
             if shown > 0.0:
-                _chain_radiance(i, n_probes, n_probes, points, rx, ry, rz, gloss[i], e, y,
-                                pixel_sh, k_sh, chains, level_offset, level_size, levels,
-                                faces, position, proxy, proxy_kind, dc_eps, scalar, tint,
-                                has_world_color, world_color, normalization, eps32, max_ratio,
-                                s)
-                for c in range(3):
-                    acc[c] += left * shown * s[c]
+                chosen[count], chosen_w[count] = n_probes, left * shown
+                count += 1
             hidden = left * (np.float32(1.0) - shown)
             if hidden > 0.0:
-                count = _nearest(points, i, position, near, near_d)
-                total_w = 0.0
-                for j in range(count):
-                    total_w += 1.0 / max(near_d[j], 1e-12)
-                for j in range(count):
-                    _chain_radiance(i, near[j], n_probes, points, rx, ry, rz, gloss[i], e, y,
-                                    pixel_sh, k_sh, chains, level_offset, level_size, levels,
-                                    faces, position, proxy, proxy_kind, dc_eps, scalar, tint,
-                                    has_world_color, world_color, normalization, eps32,
-                                    max_ratio, s)
-                    wj = hidden * np.float32(1.0 / max(near_d[j], 1e-12) / total_w)
-                    for c in range(3):
-                        acc[c] += wj * s[c]
+                found = _nearest_weights(points, i, position, near, near_d, near_w)
+                for j in range(found):
+                    chosen[count], chosen_w[count] = near[j], hidden * np.float32(near_w[j])
+                    count += 1
+        for c in range(3):
+            acc[c] = np.float32(0.0)
+        for j in range(count):
+            _chain_radiance(i, chosen[j], n_probes, points, rx, ry, rz, gloss[i], e, y,
+                            pixel_sh, k_sh, chains, level_offset, level_size, levels, faces,
+                            position, proxy, proxy_kind, dc_eps, scalar, tint,
+                            has_world_color, world_color, normalization, eps32, max_ratio, s)
+            for c in range(3):
+                acc[c] += chosen_w[j] * s[c]
         _env_brdf(env_model, gloss[i], n_dot_v, rf0[i], table, table_gloss, table_nv, fit,
                   limits[2], brdf)
         for c in range(3):
@@ -438,13 +441,14 @@ def _moment(moments, row, face, x, y, c):
 
 
 @nb.njit(**_OPTIONS)
-def _visibility(moments, faces, floor, row, sample, point):
+def _visibility(moments, faces, floor, far, row, sample, point):
     """``sample_visibility.chebyshev``: the weight of sample ``row`` at ``sample`` (3,) for
-    ``point`` (3,), from its padded moments towards the point."""
+    ``point`` (3,), from its padded moments towards the point, its distance clamped at ``far``
+    as theirs are."""
     dx = point[0] - sample[0]
     dy = point[1] - sample[1]
     dz = point[2] - sample[2]
-    r = math.sqrt(dx * dx + dy * dy + dz * dz)
+    r = min(math.sqrt(dx * dx + dy * dy + dz * dz), far)
     face, u, v = _face_uv(faces, dx, dy, dz)
     size = moments.shape[2] - 2
     mean = _moment(moments, row, face, u * size, v * size, 0)
@@ -457,7 +461,7 @@ def _visibility(moments, faces, floor, row, sample, point):
 
 @nb.njit(**_OPTIONS)
 def _blend(f, res, positions, validity, has_validity, point, normal, facing, facing_bias,
-           moments, visible, faces, floor, samples, acc, rows, w_plain, w_kept):
+           moments, visible, faces, floor, far, samples, acc, rows, w_plain, w_kept):
     """Add to ``acc`` (K,) the blend of the eight samples around grid coordinates ``f`` (3,)
     (within [0, res - 1]): trilinear weights, times validity, times the facing weight
     max(0, unit(sample - point) . normal + facing_bias) when ``facing``, times the sample's
@@ -494,7 +498,7 @@ def _blend(f, res, positions, validity, has_validity, point, normal, facing, fac
             dot = (dx * normal[0] + dy * normal[1] + dz * normal[2]) / length
             kept *= max(dot + facing_bias, 0.0)
         if visible and kept > 0.0:
-            kept *= _visibility(moments, faces, floor, idx, positions[idx], point)
+            kept *= _visibility(moments, faces, floor, far, idx, positions[idx], point)
         w_kept[c] = kept
         kept_sum += kept
         valid_sum += w * v
@@ -520,16 +524,18 @@ def _luminance(row):
 @nb.njit(nb.void(nb.float32[:, ::1], nb.int64[::1], nb.float32[:, ::1], nb.float32[::1],
                  nb.boolean, nb.float32[:, ::1], nb.float32[:, ::1], nb.boolean, nb.float32,
                  nb.float32[:, :, :, :, ::1], nb.boolean, nb.float64[:, :, ::1], nb.float64,
-                 nb.float32[:, ::1], nb.float32, nb.float32, nb.float32[:, ::1]), **_OPTIONS)
+                 nb.float64, nb.float32[:, ::1], nb.float32, nb.float32, nb.float32[:, ::1]),
+         **_OPTIONS)
 def volume_blend(grid, res, positions, validity, has_validity, points, normals, facing,
-                 facing_bias, moments, visible, faces, floor, samples, low, high, out):
+                 facing_bias, moments, visible, faces, floor, far, samples, low, high, out):
     """An irradiance volume's look-up (``IrradianceVolume.sample_sh``, whose NumPy form the
     tests hold it to): ``out`` (N, K) at continuous grid coordinates ``grid`` (N, 3) of a
     volume of ``res`` (3,) samples, x-major, at world ``positions`` (S, 3) with ``validity``
     (S,) and rows ``samples`` (S, K), K = 3 m with the DC term first (SH (m, 3) flattened);
     with ``visible``, each sample's depth ``moments`` (S, 6, M + 2, M + 2, 2) with their
     seamless border (``cubemap.with_border``) test whether it sees the point (``_visibility``,
-    the variance at least ``floor``, metres squared; ``faces``: ``cubemap.FACES``).
+    the variance at least ``floor``, metres squared, the distances clamped at ``far``, metres;
+    ``faces``: ``cubemap.FACES``).
 
     Within the outermost samples: ``_blend`` at the point. Between them and the box's faces
     (half a cell beyond), the blend at the clamped point, scaled by the ratio of its DC term's
@@ -555,7 +561,8 @@ def volume_blend(grid, res, positions, validity, has_validity, points, normals, 
         row = out[i]
         row[:] = 0.0
         _blend(f, res, positions, validity, has_validity, points[i], normals[i], facing,
-               facing_bias, moments, visible, faces, floor, samples, row, rows, w_plain, w_kept)
+               facing_bias, moments, visible, faces, floor, far, samples, row, rows, w_plain,
+               w_kept)
         luma = _luminance(row)
         if not outside or luma <= 0.0 or (low == 1.0 and high == 1.0):
             continue
@@ -567,8 +574,8 @@ def volume_blend(grid, res, positions, validity, has_validity, points, normals, 
             g[a] = f[a] + (1.0 if past[a] < 0.0 else -1.0)
             inward[:] = 0.0
             _blend(g, res, positions, validity, has_validity, points[i], normals[i], facing,
-                   facing_bias, moments, visible, faces, floor, samples, inward, rows, w_plain,
-                   w_kept)
+                   facing_bias, moments, visible, faces, floor, far, samples, inward, rows,
+                   w_plain, w_kept)
             extra += abs(past[a]) * (luma - _luminance(inward))
         scale = min(max(1.0 + extra / luma, low), high)
         for j in range(k):

@@ -201,10 +201,10 @@ class IrradianceVolume:
             np.float32(self.facing_bias if facing else 0.0),
             self.padded_moments() if visible else np.zeros((1, 6, 1, 1, 2), np.float32),
             visible, np.array(cubemap.FACES, np.float64), self.variance_floor(),
+            self.moment_clamp(),
             np.ascontiguousarray(self.sh, np.float32).reshape(-1, 27),
             *np.float32(EXTRAPOLATION if extrapolate else (1.0, 1.0)), out)
         return out.reshape(-1, 9, 3)
-
 
     def padded_moments(self) -> np.ndarray:
         """(S, 6, M + 2, M + 2, 2) float32: every sample's ``moments`` with the seamless
@@ -217,6 +217,11 @@ class IrradianceVolume:
             self._padded = np.ascontiguousarray(np.moveaxis(
                 padded.reshape(6, size + 2, size + 2, k, 2), 3, 0))
         return self._padded
+
+    def moment_clamp(self) -> float:
+        """The distance the moments are clamped at, metres (``sample_visibility.max_distance``):
+        a point farther from a sample (in the influence band beyond the box) is tested at it."""
+        return sample_visibility.max_distance(self.local_to_world, self.resolution)
 
     def variance_floor(self) -> float:
         """The smallest variance of the visibility test, m^2 (``VARIANCE_FLOOR`` spacings^2)."""
@@ -362,7 +367,7 @@ def indirect(
     sky: SkyFn | None = None,
     baked: tuple[np.ndarray, np.ndarray] | None = None,
     extrapolate: bool = False,
-    visibility: bool = False,
+    visibility: bool = True,
     nearest: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.

@@ -28,10 +28,14 @@ import numpy as np
 
 from ..formulas import cubemap
 
-__all__ = ["LOBE_POWER", "SIZE", "VARIANCE_FLOOR", "chebyshev", "max_distance", "moments"]
+__all__ = ["CAPTURE_MAX", "LOBE_POWER", "SIZE", "VARIANCE_FLOOR", "chebyshev", "max_distance",
+           "moments"]
 
 SIZE = 8
 """Cube face side of the stored moments, texels."""
+CAPTURE_MAX = 32
+"""Captures larger than this are averaged down to it before the lobes (their moments, 2 x 2
+texels at a time: a lobe of 10 degrees spans several texels of a 32 texel face)."""
 LOBE_POWER = 50.0
 """The moments are averaged over max(0, cos)^LOBE_POWER around each texel's direction (a lobe
 of about 10 degrees half width at half maximum; the 2019 paper's depth exponent)."""
@@ -41,9 +45,10 @@ varies nothing within the lobe still fades over a hundredth of a spacing."""
 
 
 def max_distance(local_to_world: np.ndarray, resolution) -> float:
-    """Distances beyond which the moments hold no surface, metres: 1.5 times the longest cell
-    diagonal, beyond any point the eight samples around it light (a point's distance to them is
-    at most one diagonal, plus its biases)."""
+    """The distance the moments are clamped at, metres: 1.5 times the longest cell diagonal,
+    beyond a point inside the box and the eight samples around it (at most one diagonal apart,
+    plus its biases). A point farther from a sample (in the influence band beyond the box) is
+    tested at this distance."""
     scale = np.linalg.norm(np.asarray(local_to_world, np.float64)[:3, :3], axis=0)
     cell = 2.0 * scale / np.maximum(np.asarray(resolution, np.float64), 1.0)
     return float(1.5 * np.linalg.norm(cell))
@@ -66,16 +71,19 @@ def moments(distances: np.ndarray, far: float, size: int = SIZE,
     """The depth moments of one sample from the ray lengths of its capture.
 
     distances: (6, S, S) metres along each texel centre's ray to the first surface, inf where
-               none (``capture.Surfaces.distances``)
+               none (``capture.Surfaces.distances``); beyond ``CAPTURE_MAX`` texels, averaged
+               down to it first
     far:       distances are clamped to this (``max_distance``), metres
     returns:   (6, size, size, 2) float32: mean and mean square of the clamped distance over
                the lobe around each texel's direction
     """
-    s = distances.shape[1]
-    d = np.minimum(np.asarray(distances, np.float64).reshape(-1), far)
-    lobes = _lobes(s, size, float(power))
-    both = np.stack([d, d * d], axis=-1).astype(np.float32)
-    return (lobes @ both).reshape(6, size, size, 2)
+    d = np.minimum(np.asarray(distances, np.float64), far)
+    both = np.stack([d, d * d], axis=-1)
+    while both.shape[1] > CAPTURE_MAX and both.shape[1] % 2 == 0:
+        s = both.shape[1] // 2
+        both = both.reshape(6, s, 2, s, 2, 2).mean(axis=(2, 4))
+    lobes = _lobes(both.shape[1], size, float(power))
+    return (lobes @ both.reshape(-1, 2).astype(np.float32)).reshape(6, size, size, 2)
 
 
 def chebyshev(r: np.ndarray, mean: np.ndarray, mean_square: np.ndarray,

@@ -15,7 +15,9 @@
  * one-texel border, mean and mean square in RG; sample_visibility.py),
  * env_table (RG32F: the ground-truth table, gloss rows x n.v columns; its axes in
  * env_axes, row 0 gloss, row 1 n.v). ROW_WIDTH: texels per row of the rows textures;
- * EXTRAPOLATION_LOW, EXTRAPOLATION_HIGH: probes.EXTRAPOLATION. */
+ * EXTRAPOLATION_LOW, EXTRAPOLATION_HIGH: probes.EXTRAPOLATION; NEAREST:
+ * kernels.indirect.NEAREST; CHOSEN: the reflection probes a block holds, plus the world and
+ * NEAREST. */
 
 #define NORM_NONE 0
 #define NORM_BO1 1
@@ -259,11 +261,12 @@ vec2 moment_at(int base, int size, int face, float x, float y)
 }
 
 /* kernels.indirect._visibility: the weight of the sample at sample_p (its moments at `base`,
- * `size` texels square) for the point p; floor_: the smallest variance, m^2. */
-float sample_visibility(int base, int size, float floor_, vec3 sample_p, vec3 p)
+ * `size` texels square, clamped at `far` metres) for the point p; floor_: the smallest
+ * variance, m^2. */
+float sample_visibility(int base, int size, float floor_, float far, vec3 sample_p, vec3 p)
 {
   vec3 d = p - sample_p;
-  float r = length(d);
+  float r = min(length(d), far);
   int face;
   float u, v;
   cube_face_uv(d, face, u, v);
@@ -320,7 +323,8 @@ void volume_blend_at(int k, vec3 f, vec3 p, vec3 n, inout vec3 acc[9])
     if (visible && kept > 0.0) {
       int size = int(volumes[k].visibility.z);
       int base = int(volumes[k].visibility.x) + idx * 6 * (size + 2) * (size + 2);
-      kept *= sample_visibility(base, size, volumes[k].visibility.y, sample_p, p);
+      kept *= sample_visibility(base, size, volumes[k].visibility.y, volumes[k].visibility.w,
+                                sample_p, p);
     }
     w_kept[c] = kept;
     kept_sum += kept;
@@ -469,6 +473,42 @@ vec3 chain_radiance(int c, vec3 p, vec3 r, float gloss, vec3 e, float y[9], vec3
   return s;
 }
 
+/* kernels.indirect._nearest_weights: the NEAREST probes nearest p into near and their weights,
+ * summing to 1, into weights; returns how many. */
+int nearest_weights(vec3 p, out int near[NEAREST + 1], out float weights[NEAREST])
+{
+  float near_d[NEAREST + 1];
+  int count = 0;
+  for (int q = 0; q < indirect.counts.x; q++) {
+    vec3 d = p - reflections[q].position;
+    float dq = dot(d, d);
+    int j = min(count, NEAREST + 1);
+    while (j > 0 && near_d[j - 1] > dq) {
+      if (j < NEAREST + 1) {
+        near[j] = near[j - 1];
+        near_d[j] = near_d[j - 1];
+      }
+      j--;
+    }
+    if (j < NEAREST + 1) {
+      near[j] = q;
+      near_d[j] = dq;
+      count = min(count + 1, NEAREST + 1);
+    }
+  }
+  int k = min(count, NEAREST);
+  float beyond = count > k ? 1.0 / max(near_d[k], 1e-12) : 0.0;
+  float total = 0.0;
+  for (int j = 0; j < k; j++) {
+    weights[j] = 1.0 / max(near_d[j], 1e-12) - beyond;
+    total += weights[j];
+  }
+  for (int j = 0; j < k; j++) {
+    weights[j] = total > 0.0 ? weights[j] / total : 1.0 / float(k);
+  }
+  return k;
+}
+
 /* kernels.indirect.indirect of one point, its SH given, the world's seen fraction `seen`:
  * diffuse and specular radiance. */
 void indirect_light(vec3 p, vec3 n, vec3 v, vec3 albedo, vec3 rf0, float gloss, vec3 psh[9],
@@ -484,57 +524,49 @@ void indirect_light(vec3 p, vec3 n, vec3 v, vec3 albedo, vec3 rf0, float gloss, 
   float n_dot_v = dot(n, v);
   vec3 r = 2.0 * n_dot_v * n - v;
   int probes_count = indirect.counts.x;
+  int chosen[CHOSEN];  /* the chains that reflect, and their weights */
+  float chosen_w[CHOSEN];
+  int count = 0;
   float weight_sum = 0.0;
-  vec3 acc = vec3(0.0);
   for (int c = 0; c < probes_count; c++) {
     float w = clamp((reflections[c].radius - length(p - reflections[c].position)) /
                     reflections[c].fade, 0.0, 1.0);
     if (w > 0.0) {
-      acc += w * chain_radiance(c, p, r, gloss, e, y, psh);
+      chosen[count] = c;
+      chosen_w[count] = w;
+      count++;
       weight_sum += w;
     }
   }
   if (weight_sum > 1.0) {
-    acc /= weight_sum;
+    for (int j = 0; j < count; j++) {
+      chosen_w[j] /= weight_sum;
+    }
   }
   float left = max(1.0 - weight_sum, 0.0);
   if (left > 0.0) {
     float shown = probes_count == 0 || indirect.flags.z == 0 || isnan(seen) ? 1.0 :
                   clamp(seen, 0.0, 1.0);
     if (shown > 0.0) {
-      acc += left * shown * chain_radiance(probes_count, p, r, gloss, e, y, psh);
+      chosen[count] = probes_count;
+      chosen_w[count] = left * shown;
+      count++;
     }
     float hidden = left * (1.0 - shown);
-    if (hidden > 0.0) { /* kernels.indirect._nearest: the NEAREST nearest probes */
-      int near[NEAREST];
-      float near_d[NEAREST];
-      int count = 0;
-      for (int q = 0; q < probes_count; q++) {
-        vec3 d = p - reflections[q].position;
-        float dq = dot(d, d);
-        int j = min(count, NEAREST);
-        while (j > 0 && near_d[j - 1] > dq) {
-          if (j < NEAREST) {
-            near[j] = near[j - 1];
-            near_d[j] = near_d[j - 1];
-          }
-          j--;
-        }
-        if (j < NEAREST) {
-          near[j] = q;
-          near_d[j] = dq;
-          count = min(count + 1, NEAREST);
-        }
-      }
-      float total = 0.0;
-      for (int j = 0; j < count; j++) {
-        total += 1.0 / max(near_d[j], 1e-12);
-      }
-      for (int j = 0; j < count; j++) {
-        acc += hidden * (1.0 / max(near_d[j], 1e-12) / total) *
-               chain_radiance(near[j], p, r, gloss, e, y, psh);
+    if (hidden > 0.0) {
+      int near[NEAREST + 1];
+      float near_w[NEAREST];
+      int found = nearest_weights(p, near, near_w);
+      for (int j = 0; j < found; j++) {
+        chosen[count] = near[j];
+        chosen_w[count] = hidden * near_w[j];
+        count++;
       }
     }
+  }
+  vec3 acc = vec3(0.0);
+  for (int j = 0; j < count; j++) {
+    acc += chosen_w[j] * chain_radiance(chosen[j], p, r, gloss, e, y, psh);
   }
   specular = acc * env_brdf(gloss, n_dot_v, rf0);
 }
