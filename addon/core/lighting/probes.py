@@ -467,8 +467,9 @@ def _seen_where_left(probes: Probes, points: np.ndarray, sky: SkyFn,
                      baked: np.ndarray | None) -> tuple[np.ndarray, SkyFn]:
     """The world's seen fraction (N,) float32 for the kernel: ``sky`` of the points that the
     reflection probes' influence leaves weight to the world, 1 elsewhere and at the ``baked``
-    points (their lightmaps hold the world's light); and ``sky`` again, answering from those
-    values where it can (each point's visibility is computed once)."""
+    points (the GPU's frame has no dome answer for lightmapped pixels either: they reflect the
+    world there); and ``sky`` again, answering from those values where it can (each point's
+    visibility is computed once)."""
     n = len(points)
     total = np.zeros(n, np.float32)
     for p in probes.reflection:
