@@ -89,6 +89,14 @@ class BO2IndirectSettings(bpy.types.PropertyGroup):
         "room); bakes made before this test have none, and are looked up without it",
         default=True,
     )
+    use_nearest_reflections: bpy.props.BoolProperty(
+        name="Nearest Reflections",
+        description="Beyond every Sphere probe's influence, where the world is hidden (World "
+        "Occlusion), reflect the nearest Sphere probes rather than the world: a metal in a "
+        "corner no probe reaches reflects the room, not the sky. Slower: the world's "
+        "visibility is found for every such point",
+        default=False,
+    )
     use_ambient_occlusion: bpy.props.BoolProperty(
         name="Ambient Occlusion",
         description="Contact occlusion of probe and world light: the frame's own surfaces "

@@ -83,6 +83,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         implicit_bounce=bool(ind.use_implicit_bounce),
         volume_extrapolation=bool(ind.use_wall_extrapolation),
         volume_visibility=bool(ind.use_visibility_test),
+        nearest_reflections=bool(ind.use_nearest_reflections),
         threads=int(r.threads),  # Blender's Threads setting (Auto: one per core)
         border=None if whole else render_border(scene, width, height),
     )

@@ -122,6 +122,7 @@ class RENDER_PT_bo2_indirect(_Switched, _RenderSubPanel, bpy.types.Panel):
         col.prop(settings, "use_implicit_bounce")
         col.prop(settings, "use_wall_extrapolation")
         col.prop(settings, "use_visibility_test")
+        col.prop(settings, "use_nearest_reflections")
         col.prop(settings, "use_ambient_occlusion")
         sub = col.column()
         sub.active = settings.use_ambient_occlusion

@@ -143,7 +143,7 @@ def _volume_record(vol, row: int, depth: int) -> dict:
 
 def indirect_set(probes, normalization: str, prefilter: str, env_model: str,
                  extrapolate: bool = False, visibility: bool = True,
-                 nearest: bool = True) -> IndirectSet:
+                 nearest: bool = False) -> IndirectSet:
     """Upload ``probes`` (``core.lighting.probes.Probes``) for ``glsl/indirect.glsl`` with the
     frame's normalization, prefilter, environment BRDF, volume extrapolation, visibility
     test and nearest reflections (``RenderSettings``' names)."""

@@ -138,7 +138,8 @@ def test_indirect_kernel_matches_numpy(normalization, env_model, prefilter, worl
     seen = RNG.uniform(-0.2, 1.2, n).astype(np.float32) if hidden else None
     diffuse, specular = cp.indirect(probes, *args, normalization=normalization,
                                     prefilter=prefilter, env_brdf=env_model,
-                                    sky=None if seen is None else lambda k: seen[k])
+                                    sky=None if seen is None else lambda k: seen[k],
+                                    nearest=True)
     d_ref, s_ref = reference(probes, *args, normalization, prefilter, env_model, seen)
     weights = np.stack([p.weight(points) for p in probes.reflection])
     assert (weights.sum(0) > 1).sum() > 20 and (weights.sum(0) == 0).sum() > 20  # both cases

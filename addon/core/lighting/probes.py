@@ -368,7 +368,7 @@ def indirect(
     baked: tuple[np.ndarray, np.ndarray] | None = None,
     extrapolate: bool = False,
     visibility: bool = True,
-    nearest: bool = True,
+    nearest: bool = False,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indirect diffuse and specular radiance at N shaded points.
 

@@ -313,9 +313,11 @@ class RenderSettings:
     volume_visibility: volumes' samples weighted by whether they see the point
                     (``sample_visibility``)
     nearest_reflections: beyond the Sphere probes' influence, where the world is hidden, the
-                    nearest probes reflect in its place (``probes.indirect``); the bakes'
-                    captures leave it off (it would cost them the world's visibility of most
-                    of their points, for reflections that matter little to the light they gather)
+                    nearest probes reflect in its place (``probes.indirect``; off by default:
+                    it asks the world's dome of most points, 13% of the demo room's frame);
+                    the bakes' captures leave it off (it would cost them the world's
+                    visibility of most of their points, for reflections that matter little to
+                    the light they gather)
     tile_size:      the frame is rendered in square tiles of this many pixels (bounds memory)
     threads:        tiles and shadow-map faces rendered at once (the kernels release the
                     GIL); 0 = one per CPU core
@@ -344,7 +346,7 @@ class RenderSettings:
     implicit_bounce: bool = True
     volume_extrapolation: bool = False
     volume_visibility: bool = True
-    nearest_reflections: bool = True
+    nearest_reflections: bool = False
     tile_size: int = 256
     threads: int = 0
     border: tuple[int, int, int, int] | None = None
