@@ -21,6 +21,7 @@ from ..core.lighting import world_sun
 from ..core.render import memory
 from ..core.render.job import Cancelled, Warnings
 from . import lightmaps as baked_lightmaps
+from . import linking
 from . import settings as settings_of
 from . import worlds
 from .images import load_image
@@ -319,11 +320,12 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings, shown: set):
 
 
 def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
-                     visibility: tuple[bool, ...]) -> cs.MeshBatch:
+                     visibility: tuple) -> cs.MeshBatch:
     """One mesh placed by I instance matrices ``local`` (I, 16) (column-major) in the space of
     ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
     (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
-    counter-clockwise fronts, their corners reversed."""
+    counter-clockwise fronts, their corners reversed. ``visibility``: ``_visibility``'s
+    tuple, then the linking masks (``linking.Sets.of_object``)."""
     from ..core.kernels import raster
 
     pos, nrm, uvs, mat_index, attributes, texspace = data
@@ -361,7 +363,7 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
                         name=name, holdout=visibility[0], camera=visibility[1],
                         shadow=visibility[2], sphere_probes=visibility[3],
                         volume_probes=visibility[4], attributes=wattr, world_to_object=inverse,
-                        texspace=texspace)
+                        texspace=texspace, light_sets=visibility[5], shadow_sets=visibility[6])
 
 
 class SceneCache:
@@ -446,6 +448,10 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
                       for o in depsgraph.objects)
 
     instancers, shown = [], set()  # (read after the walk, when every shown object is known)
+    sets = linking.Sets(warnings)  # every light's linking sets, before any object's
+    for obj in depsgraph.objects:
+        if obj.type == "LIGHT":
+            sets.of_light(obj)
     def poll() -> None:
         if should_stop is not None and should_stop():
             raise Cancelled()
@@ -462,13 +468,16 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         if not inst.show_self:  # an instancer hidden in renders (e.g. a particle emitter)
             continue
         if obj.type == "LIGHT":
-            lights.append(blender_light(obj, _matrix(inst.matrix_world)))
+            light = blender_light(obj, _matrix(inst.matrix_world))
+            light.receivers, light.blockers = sets.of_light(obj)
+            lights.append(light)
             continue
         if obj.type not in _GEOMETRY_TYPES:
             continue
         visibility = _visibility(obj, depsgraph.view_layer)
         if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
             continue
+        visibility += sets.of_object(obj)
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
         if key not in objects:
             if key not in cache.objects:
@@ -490,7 +499,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
                                  holdout=visibility[0], camera=visibility[1],
                                  shadow=visibility[2], sphere_probes=visibility[3],
                                  volume_probes=visibility[4], attributes=wattr,
-                                 world_to_object=inverse, texspace=texspace)
+                                 world_to_object=inverse, texspace=texspace,
+                                 light_sets=visibility[5], shadow_sets=visibility[6])
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
@@ -500,6 +510,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
             visibility = _visibility(owner, depsgraph.view_layer)
             if not any(visibility[1:]):
                 continue
+            visibility += sets.of_object(owner)
             objects[key] = data
             digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
             digest.update(parent.tobytes())

@@ -37,6 +37,7 @@ _STOCK_PANELS = (
     "DATA_PT_context_lightprobe", "DATA_PT_lightprobe_animation",
     "EEVEE_WORLD_PT_surface", "WORLD_PT_custom_props", "WORLD_PT_animation",
     "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",
+    "OBJECT_PT_shading",  # Light Linking and Shadow Linking (its other children are Cycles')
 )
 # Blender's Light and Probe panels are EEVEE's own (``DATA_PT_light`` draws only the type): the
 # light and light probe tabs are this module's panels, each setting once.

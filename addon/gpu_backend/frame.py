@@ -94,6 +94,9 @@ def memory(width: int, height: int, names: tuple[str, ...]) -> int:
     return pixels * (16 * (3 * len(names) + 3) + 4) + margin * (2 * 16 + 4) + pixels * 32
 
 
+GPU_LINK_SETS = 32  # light linking sets a triangle's ``links`` holds (set 0 included)
+
+
 class Unsupported(Exception):
     """The frame needs what the GPU backend does not draw yet: the message says what."""
 
@@ -107,6 +110,8 @@ def unsupported(frame: Frame) -> str | None:
                                                             scene.settings.volume_visibility)
         if why:
             return why
+    if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
+        return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
     why = materials.unsupported(varying, frame.attributes)
     if why:
@@ -209,12 +214,12 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
     frame_block = (("FrameData", "frame"),)
     vertex_in = (("VEC3", "pos"), ("VEC3", "nor"), ("VEC3", "geo"), ("FLOAT", "mat"),
                  ("INT", "tri"), ("INT", "lm"), ("VEC2", "lm_uv"), ("VEC3", "uv"),
-                 ("INT", "flags"))
+                 ("INT", "flags"), ("INT", "links"))
     varyings = (("VEC3", "v_position", "smooth"), ("VEC3", "v_normal", "smooth"),
                 ("VEC3", "v_geo", "flat"), ("INT", "v_material", "flat"),
                 ("INT", "v_tri", "flat"), ("INT", "v_lightmap", "flat"),
                 ("VEC2", "v_lightmap_uv", "smooth"), ("VEC3", "v_uv", "smooth"),
-                ("INT", "v_flags", "flat"))
+                ("INT", "v_flags", "flat"), ("INT", "v_links", "flat"))
     outputs = (("VEC4", "out_key"),) + tuple(("VEC4", f"out_{name}") for name in names)
     vert = programs.source("frame_vert")
     corner = (("VEC2", "corner"),)
@@ -389,6 +394,7 @@ class GPUFrame:
         fmt.attr_add(id="lm_uv", comp_type="F32", len=2, fetch_mode="FLOAT")
         fmt.attr_add(id="uv", comp_type="F32", len=3, fetch_mode="FLOAT")
         fmt.attr_add(id="flags", comp_type="I32", len=1, fetch_mode="INT")
+        fmt.attr_add(id="links", comp_type="I32", len=1, fetch_mode="INT")
         self.mat, keys, texs = material_code(frame)
         if self.mat is not None:
             fmt.attr_add(id="inst", comp_type="I32", len=1, fetch_mode="INT")
@@ -417,6 +423,11 @@ class GPUFrame:
         flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
         flags |= frame.fades[keep].astype(np.int32) * FLAG_FADES
         vbo.attr_fill("flags", np.repeat(flags, 3))
+        # light linking: the receiver sets of the triangle's mesh, the low 32 (``unsupported``)
+        links = (np.full(t, -1, np.int32) if frame.receives is None else
+                 (frame.receives[keep] & np.uint64(0xFFFFFFFF)).astype(np.uint32)
+                 .view(np.int32))
+        vbo.attr_fill("links", np.repeat(links, 3))
         self.mat_resources = None  # (ImageData buffer, samplers) of the material programs
         if self.mat is not None:
             vbo.attr_fill("inst", np.repeat(frame.obj[keep].astype(np.int32), 3))
@@ -481,12 +492,13 @@ class GPUFrame:
             last = _kept_shadows[0] if _kept_shadows else None
         kept = last[1] if last is not None and last[0] == key else None
         sets = [] if kept is None else kept
-        casters = None  # the shadow casters, for maps the core left to the GPU to draw
+        casters = {}  # the shadow casters by blocker set, for maps the GPU draws
         if kept is None and any(m is not None and m.on_gpu for m in frame.shadow_maps):
+            from ..core.render.shadow_maps import casters as caster_set
             from .shadow_depths import Casters
 
-            casts = frame.positions if frame.casts is None else frame.positions[frame.casts]
-            casters = Casters(casts)
+            for k in {0} | {light.blockers for light in scene_lights}:
+                casters[k] = Casters(caster_set(frame, k)[0])
         lo = 0
         while lo < max(1, len(scene_lights)):
             size = DOME_BATCH_LIGHTS if sky is not None and lo == 0 else BATCH_LIGHTS
@@ -495,7 +507,9 @@ class GPUFrame:
             if kept is None:
                 sets.append(lights.shadow_set(
                     maps[lo:lo + size] + list(extra),
-                    jitter=[True] * len(group) + [False] * len(extra), casters=casters))
+                    jitter=[True] * len(group) + [False] * len(extra),
+                    casters=[casters.get(light.blockers) for light in group]
+                    + [casters.get(0)] * len(extra)))
             shadow_set = sets[len(self.batches)]
             if extra:
                 self.dome = shadow_set.index[len(group):]

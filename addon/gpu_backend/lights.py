@@ -18,6 +18,7 @@ LIGHT = Struct("LightData", (
     ("position", "vec3", 0), ("cos_half", "float", 0),  # a spot's cos(size / 2)
     ("axis", "vec3", 0), ("blend", "float", 0),  # the direction it shines along
     ("shadow", "int", 0),  # its shadow map's index in the ShadowData block, -1 none
+    ("receivers", "int", 0),  # its light linking set (core.scene.linking), 0 none
 ))
 MAX_LEVELS = 16  # pyramid levels of a map (a 16384 texel map has 12)
 FP_SLOTS = 24  # room for the filter's float constants (kernels.shadows.P_SIZE_ALL, 21)
@@ -93,8 +94,8 @@ class ShadowSet:
 def shadow_set(maps: list, *, jitter=True, casters=None) -> ShadowSet:
     """Upload ``maps`` (``core.render.shadows.ShadowMap`` or None each) for the filter, or
     draw them here when the core left them to a GPU (``ShadowMap.on_gpu``: every map of a set
-    alike) from ``casters`` (``shadow_depths.Casters``); ``jitter``: whether each map's taps
-    turn per point (one bool, or one per map)."""
+    alike) from ``casters`` (``shadow_depths.Casters``: one for every map, or one per map);
+    ``jitter``: whether each map's taps turn per point (one bool, or one per map)."""
     import gpu
 
     from ..core.kernels import shadows as filter_kernel
@@ -107,7 +108,9 @@ def shadow_set(maps: list, *, jitter=True, casters=None) -> ShadowSet:
     if len(drawn) > 1:
         raise ValueError("a set of shadow maps mixes maps drawn here and on the CPU")
     on_gpu = drawn == {True}
-    if on_gpu and casters is None:
+    per_map = list(casters) if isinstance(casters, (list, tuple)) else [casters] * len(maps)
+    if on_gpu and any(c is None for m, c in zip(maps, per_map, strict=True)
+                      if m is not None and len(m.depth)):
         raise ValueError("shadow maps left to the GPU need the frame's casters")
     records, index, depths, mip_rows, layers, rows = [], [], [], [], [], []
     layer = row = 0
@@ -148,8 +151,10 @@ def shadow_set(maps: list, *, jitter=True, casters=None) -> ShadowSet:
         depth = gpu.types.GPUTexture((side, side), layers=layer, format="R32F")
         width = min(max(1, row), MIPS_WIDTH)
         mips = gpu.types.GPUTexture((width, -(-max(1, row) // width)), format="RGBA32F")
-        shadow_depths.draw_depths(kept, casters, depth, layers)
-        shadow_depths.draw_pyramids(kept, casters, depth, layers, rows, mips)
+        drawn_by = [c for m, c in zip(maps, per_map, strict=True)
+                    if m is not None and len(m.depth)]
+        shadow_depths.draw_depths(kept, drawn_by, depth, layers)
+        shadow_depths.draw_pyramids(kept, drawn_by[0], depth, layers, rows, mips)
     else:
         depth = textures.layers(np.concatenate(depths) if depths
                                 else np.full((1, 1, 1), np.inf, np.float32))
@@ -170,4 +175,5 @@ def light_block(lights: list, shadow_index: list[int]) -> bytes:
         "position": np.asarray(light.position, np.float32).ravel()[:3],
         "cos_half": np.cos(0.5 * light.spot_size), "blend": light.spot_blend,
         "axis": np.asarray(light.direction, np.float32).ravel()[:3],
-        "shadow": shadow} for light, shadow in zip(lights, shadow_index, strict=True)])
+        "shadow": shadow, "receivers": light.receivers}
+        for light, shadow in zip(lights, shadow_index, strict=True)])

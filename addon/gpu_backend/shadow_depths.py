@@ -78,10 +78,11 @@ def _far(view_proj: np.ndarray) -> float:
     return b / (a + 1.0)
 
 
-def draw_depths(maps: list, casters: Casters, depth, first_layers: list[int]) -> None:
-    """Draw every face of ``maps`` (``ShadowMap`` with ``on_gpu``) into the layers of
-    ``depth`` (an R32F 2D-array texture cleared to +inf, side at least each map's resolution)
-    from ``first_layers`` on, each face in the top-left res x res of its layer."""
+def draw_depths(maps: list, casters: list[Casters], depth, first_layers: list[int]) -> None:
+    """Draw every face of ``maps`` (``ShadowMap`` with ``on_gpu``), each of its ``casters``,
+    into the layers of ``depth`` (an R32F 2D-array texture cleared to +inf, side at least
+    each map's resolution) from ``first_layers`` on, each face in the top-left res x res of
+    its layer."""
     import gpu
 
     side = depth.width
@@ -92,7 +93,7 @@ def draw_depths(maps: list, casters: Casters, depth, first_layers: list[int]) ->
     gpu.state.blend_set(_DEPTH_STATE[2])
     gpu.state.face_culling_set("NONE")  # casters are two-sided (Blender's default state)
     try:
-        for m, first in zip(maps, first_layers, strict=True):
+        for m, first, mine in zip(maps, first_layers, casters, strict=True):
             ortho = m.kind == "ORTHO"
             shader = programs.compiled(_depth_program(ortho), ("shadow_depth", ortho))
             res = m.resolution
@@ -101,7 +102,7 @@ def draw_depths(maps: list, casters: Casters, depth, first_layers: list[int]) ->
                     depth_slot=zbuffer, color_slots={"texture": depth, "layer": first + f})
                 with framebuffer.bind():
                     framebuffer.clear(color=(np.inf, np.inf, np.inf, np.inf), depth=1.0)
-                    if not casters.count:
+                    if not mine.count:
                         continue
                     framebuffer.viewport_set(0, 0, res, res)
                     shader.bind()
@@ -112,7 +113,7 @@ def draw_depths(maps: list, casters: Casters, depth, first_layers: list[int]) ->
                         along = (0.0, 0.0, 0.0, 1.0 / _far(view_proj))
                     shader.uniform_float("view_proj", _column_major(view_proj))
                     shader.uniform_float("along", [float(v) for v in along])
-                    casters.batch.draw(shader)
+                    mine.batch.draw(shader)
     finally:
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])

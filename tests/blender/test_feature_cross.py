@@ -9,6 +9,9 @@ One scene holds them all (film transparent, lights straight above the middle):
 - a Holdout surface (alpha 0, no colour), an Emission surface (its radiance), and a plane with a
   striped normal map beside the same plane without it (the stripes' relief in the shading).
 
+- a card the light's receiver collection excludes (light linking): dark under every light;
+  a card its blocker collection excludes (shadow linking): the floor under it fully lit.
+
 The expected values come from the geometry and the alphas, not from the renderer: shadow
 points are where the line from the light through the casters meets the floor.
 """
@@ -29,6 +32,8 @@ SAMPLES = 16
 LIGHT_HEIGHT = 3.0
 VEIL = (1.2, 0.0, 1.0)  # centre of the single alpha-0.5 plane
 LAYERS = ((-1.2, 0.0, 1.0), (-1.2, 0.0, 1.3))  # the stack of two
+LINKED_OUT = (-1.5, 1.2, 0.01)  # a card the light does not light (light linking)
+FREE = (1.6, 1.4, 1.0)  # a card that does not shadow the light (shadow linking)
 # (kind, area shape)
 LIGHTS = [("POINT", None), ("SPOT", None), ("SUN", None), ("AREA", "SQUARE"),
           ("AREA", "RECTANGLE"), ("AREA", "DISK"), ("AREA", "ELLIPSE")]
@@ -108,6 +113,8 @@ def build(tmp_path):
     bpy.context.object.data.materials.append(surface_material("Glow", "EMISSION"))
     plane(striped_normal_map("Striped"), 1.0, (-1.5, -1.6, 0.01))
     plane(matte("Plain"), 1.0, (1.5, -1.6, 0.01))
+    plane(matte("Linked Out"), 0.8, LINKED_OUT).name = "Linked Out"
+    plane(matte("Free"), 0.6, FREE).name = "Free"
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location = (0.0, -6.0, 3.5)
     direction = Vector((0.0, 0.5, 0.3)) - cam.location
@@ -140,6 +147,11 @@ def add_light(scene, kind, shape):
     obj = bpy.data.objects.new("Light", data)
     obj.location = (0.0, 0.0, LIGHT_HEIGHT)  # every kind shines straight down
     scene.collection.objects.link(obj)
+    for kind_, card in (("receiver_collection", "Linked Out"), ("blocker_collection", "Free")):
+        collection = bpy.data.collections.new(kind_)
+        collection.objects.link(scene.objects[card])
+        collection.collection_objects[0].light_linking.link_state = "EXCLUDE"
+        setattr(obj.light_linking, kind_, collection)
     return obj
 
 
@@ -184,6 +196,10 @@ def measure(scene, kind, px):
         "glow": patch(px, pixel(scene, (0.0, -1.4, 0.2)), 0)[0, 0].copy(),
         "striped_relief": float(np.abs(np.diff(striped, axis=1)).mean()),
         "plain_relief": float(np.abs(np.diff(plain, axis=1)).mean()),
+        "plain": float(plain.mean()),
+        "linked_out": float(luminance(patch(px, pixel(scene, LINKED_OUT), 2)).mean()),
+        "free_floor": float(luminance(patch(px, pixel(scene, floor_point(kind, FREE)), 2))
+                            .mean()),
     }
 
 
@@ -193,6 +209,7 @@ def check_features(m, name):
     assert m["holdout"][3] == 0.0 and np.abs(m["holdout"][:3]).max() == 0.0, (name, m)
     assert m["glow"][0] > 4.5 and m["glow"][0] > 3.0 * m["glow"][1], (name, m)
     assert m["striped_relief"] > 4.0 * m["plain_relief"] + 0.01, (name, m)
+    assert m["linked_out"] < 0.02 * m["plain"], (name, m)
 
 
 def check_shadows(on, off, name):
@@ -202,6 +219,7 @@ def check_shadows(on, off, name):
     layers = on["layers_floor"] / off["layers_floor"]
     assert 0.3 < veil < 0.7, (name, veil, on, off)
     assert 0.12 < layers < 0.4, (name, layers, on, off)
+    assert on["free_floor"] > 0.97 * off["free_floor"], (name, on, off)
 
 
 def render_viewport(scene):

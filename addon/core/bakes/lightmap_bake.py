@@ -40,7 +40,7 @@ from ..render.buffers import broken_triangles
 from ..render.job import Cancelled, RenderJob
 from ..render.shadow_maps import shadow_map_count
 from ..render.surfaces import surface_params
-from ..scene import Scene
+from ..scene import Scene, linking
 from . import series
 from .capture import face_camera
 
@@ -188,20 +188,41 @@ def light_samples(light, count: int = SHADOW_RAYS) -> tuple[np.ndarray, bool]:
     return centre + radius * np.stack([ring * np.cos(phi), ring * np.sin(phi), z], 1), True
 
 
-def _direct(frame, casters: _Bvh, reach: float, p, n, geo, offsets) -> np.ndarray:
-    """(N, 3) irradiance of the scene's lights at points p with normals n, face normals geo,
-    shadowed by ray tracing ``casters`` (``SHADOW_RAYS`` per light, rays starting ``offsets``
-    (N,) m above the surface): exact at any scale, where a shadow map over the whole scene
-    (a far terrain) would blur every shadow away."""
+class _Casters:
+    """The frame's shadow casters as BVHs, per shadow linking set (``linking``; set 0: every
+    caster), each built when first asked for."""
+
+    def __init__(self, frame, every: _Bvh):
+        self.frame, self.sets = frame, {0: every}
+
+    def of(self, blockers: int) -> _Bvh:
+        """The BVH of the casters that shadow the lights of set ``blockers``."""
+        if blockers not in self.sets:
+            keep = linking.in_set(self.frame.blocks, blockers)
+            if self.frame.casts is not None:
+                keep &= self.frame.casts
+            self.sets[blockers] = _Bvh.of(self.frame.positions[keep])
+        return self.sets[blockers]
+
+
+def _direct(frame, casters: _Casters, reach: float, tri, p, n, geo, offsets) -> np.ndarray:
+    """(N, 3) irradiance of the scene's lights at points p on triangles tri (N,) with normals
+    n, face normals geo, shadowed by ray tracing ``casters`` (``SHADOW_RAYS`` per light, rays
+    starting ``offsets`` (N,) m above the surface): exact at any scale, where a shadow map over
+    the whole scene (a far terrain) would blur every shadow away. A linked light lights and is
+    shadowed by its sets alone, as in a frame."""
     from ..kernels import lightmap as kernels
 
     out = np.zeros((len(p), 3), np.float32)
     for light in frame.scene.lights:
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
+        if light.receivers:
+            lit &= linking.in_set(frame.receives[tri], light.receivers)
         if not lit.any():
             continue
         vis = np.ones(len(p), np.float32)
-        if light.shadow and len(casters.tris):
+        mine = casters.of(light.blockers if frame.blocks is not None else 0)
+        if light.shadow and len(mine.tris):
             samples, toward = light_samples(light)
             at = np.flatnonzero(lit)
             v = np.empty(len(at), np.float32)
@@ -209,7 +230,7 @@ def _direct(frame, casters: _Bvh, reach: float, p, n, geo, offsets) -> np.ndarra
                                np.ascontiguousarray(geo[at], np.float32),
                                np.ascontiguousarray(offsets[at], np.float32),
                                np.ascontiguousarray(samples, np.float64), toward,
-                               casters.tris, casters.order, casters.bounds, casters.links,
+                               mine.tris, mine.order, mine.bounds, mine.links,
                                reach, v)
             vis[at] = v
         cos = np.maximum(np.einsum("nk,nk->n", n, l_dir), 0.0)
@@ -240,7 +261,7 @@ def _surface(frame, tri, p, n, geo, bary=None):
     return reflectance, np.asarray(s.emission, np.float32)
 
 
-def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Bvh,
+def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Casters,
                      reach: float) -> np.ndarray:
     """(T, 3, 3) radiance of the corners (moved 5% in) of the frame's triangles ``dynamic``
     (bool (T,)), lit directly (``_direct``) and by the probes; 0 elsewhere."""
@@ -258,7 +279,7 @@ def _corner_radiance(frame, scene: Scene, dynamic: np.ndarray, casters: _Bvh,
     n = n / np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-30)
     geo, n = geo.astype(np.float32), n.astype(np.float32)
     albedo, emission = _surface(frame, t3, p, n, geo)
-    e = _direct(frame, casters, reach, p, n, geo, np.repeat(ray_offset(q), 3))
+    e = _direct(frame, casters, reach, t3, p, n, geo, np.repeat(ray_offset(q), 3))
     radiance = emission + albedo * e / np.float32(np.pi)
     if scene.probes is not None:
         diffuse, _ = probe_light.indirect(scene.probes, p, n, n, albedo,
@@ -341,7 +362,8 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
     map_height = np.array([t.height for t in targets], np.int64)
     bvh = _Bvh.of(frame.positions)
     tris, order, bounds, links = bvh.tris, bvh.order, bvh.bounds, bvh.links
-    casters = bvh if frame.casts is None else _Bvh.of(frame.positions[frame.casts])
+    casters = _Casters(frame, bvh if frame.casts is None else
+                       _Bvh.of(frame.positions[frame.casts]))
     extent = np.ptp(tris.reshape(-1, 3), axis=0) if len(tris) else np.ones(3)
     reach = float(np.linalg.norm(extent)) * 2.0 + 1.0
     # what each texel is: albedo, emission and direct light, once
@@ -356,8 +378,8 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
             part = slice(lo, lo + CHUNK)
             albedo[k][part], emission[k][part] = _surface(frame, tx.tri[part], tx.p[part],
                                                           tx.n[part], tx.geo[part])
-            direct[k][part] = _direct(frame, casters, reach, tx.p[part], tx.n[part],
-                                      tx.geo[part], tx.offset[part])
+            direct[k][part] = _direct(frame, casters, reach, tx.tri[part], tx.p[part],
+                                      tx.n[part], tx.geo[part], tx.offset[part])
             seen += len(tx.p[part])
             yield 0.05 + 0.05 * seen / max(texel_count, 1)
     corner = _corner_radiance(frame, scene, tri_map < 0, casters, reach)
@@ -586,8 +608,10 @@ def light_key(scene: Scene) -> str:
         h.update(repr((light.kind, np.round(np.asarray(light.color, np.float64), 5).tolist(),
                        np.round(np.asarray(light.position, np.float64), 4).tolist(),
                        np.round(np.asarray(light.direction, np.float64), 4).tolist(),
-                       round(light.radius, 5), round(light.spot_size, 5), light.shadow))
-                 .encode())
+                       round(light.radius, 5), round(light.spot_size, 5), light.shadow,
+                       light.receivers, light.blockers)).encode())
+    if any(linking.linked(scene.lights)):
+        h.update(repr([(m.light_sets, m.shadow_sets) for m in scene.meshes]).encode())
     w = scene.world
     h.update(repr((np.round(np.asarray(w.color, np.float64), 5).tolist(), round(w.strength, 5),
                    None if w.texture is None else w.texture.name)).encode())

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..scene import Material, Scene, material
+from ..scene import Material, Scene, linking, material
 from . import projection, raster
 from . import sky as sky_light
 from .job import RenderJob
@@ -50,6 +50,10 @@ class Frame:
     lightmap: np.ndarray | None = None
     lightmap_uvs: np.ndarray | None = None
     lightmaps: list | None = None
+    # light and shadow linking: per triangle its mesh's ``MeshBatch.light_sets`` and
+    # ``shadow_sets`` (T,) uint64, each None when no light has a set of that kind
+    receives: np.ndarray | None = None
+    blocks: np.ndarray | None = None
 
     @property
     def sky(self) -> sky_light.Sky | None:
@@ -147,6 +151,11 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                 if not all(m.camera for m in meshes) else None)
         casts = (joined([np.full(len(m.positions), m.shadow) for m in meshes], bool)
                  if not all(m.shadow for m in meshes) else None)
+        receivers, blockers = linking.linked(scene.lights)
+        receives, blocks = (
+            joined([np.full(len(m.positions), getattr(m, sets), np.uint64) for m in meshes],
+                   np.uint64) if wanted else None
+            for wanted, sets in ((receivers, "light_sets"), (blockers, "shadow_sets")))
         first = np.cumsum([0] + [len(w) for w in per_instance]).astype(np.int32)
         obj = joined([np.repeat(np.arange(first[k], first[k + 1], dtype=np.int32),
                                 len(m.positions) // len(w))
@@ -157,7 +166,7 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
         uvs = np.zeros((0, 3, 2), np.float32)
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
-        seen = casts = None
+        seen = casts = receives = blocks = None
     lit: dict[int, int] = {}  # batch -> its lightmap's index in Frame.lightmaps
     if scene.settings.lightmaps:
         for k, m in enumerate(meshes):
@@ -189,8 +198,9 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                  "with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
-        seen, casts, lightmap, lightmap_uvs = (None if a is None else a[keep] for a in (
-            seen, casts, lightmap, lightmap_uvs))
+        seen, casts, lightmap, lightmap_uvs, receives, blocks = (
+            None if a is None else a[keep]
+            for a in (seen, casts, lightmap, lightmap_uvs, receives, blocks))
         normals = np.nan_to_num(normals[keep])
         uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
@@ -209,7 +219,8 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
-                 lightmaps=[meshes[k].lightmap for k in lit] or None)
+                 lightmaps=[meshes[k].lightmap for k in lit] or None, receives=receives,
+                 blocks=blocks)
 
 
 def mesh_flags(frame: Frame, values) -> np.ndarray | None:

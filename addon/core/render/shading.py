@@ -10,7 +10,7 @@ import numpy as np
 from ..formulas import affine, occlusion, sh, texture
 from ..lighting import lightmap as lightmap_light
 from ..lighting import probes, shade, world_sun
-from ..scene import Scene
+from ..scene import Scene, linking
 from . import shadow_filter
 from .buffers import Frame
 from .passes import SAMPLED, SAMPLED_WIDTH
@@ -73,6 +73,9 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
     for light, smap in zip(scene.lights, frame.shadow_maps[:len(scene.lights)], strict=True):
         # The geometric normal decides what faces the light (a shading normal may not).
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
+        if light.receivers:  # a linked light lights the meshes of its set alone
+            lit &= linking.in_set(frame.receives[tri], light.receivers)
+            irradiance[~lit] = 0.0
         if not lit.any():
             continue
         vis = None if smap is None else shadow_filter.shadow_visibility(smap, p, geo, where=lit,

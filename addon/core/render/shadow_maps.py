@@ -10,7 +10,7 @@ import threading
 
 import numpy as np
 
-from ..scene import Scene
+from ..scene import Scene, linking
 from ..system.cache import Cache
 from . import shadows
 from . import sky as sky_light
@@ -67,22 +67,20 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     if not len(frame.positions):
         return [None] * count
 
-    positions, fades, index = frame.positions, frame.fades, None
-    if frame.casts is not None:  # objects that cast no shadow are not in the maps
-        index = np.flatnonzero(frame.casts)
-        positions, fades = positions[index], fades[index]
-        if not len(positions):
-            return [None] * count
-    cutout = ((fades, lambda t, b: caster_alpha(frame, t if index is None else index[t], b))
-              if fades.any() else None)
+    positions, cutout = casters(frame)
+    if not len(positions):
+        return [None] * count
     s = scene.settings
     view = scene.camera if fit_shadows else None
     plans = []
     for light in scene.lights:
         job.poll()
-        plans.append(shadows.shadow_map_jobs(light, positions, view, focus=focus,
-                                             resolution=s.shadow_resolution, cutout=cutout,
-                                             on_gpu=on_gpu))
+        mine, own_cutout = (positions, cutout) if not light.blockers else casters(
+            frame, light.blockers)  # a shadow-linked light: its blockers alone
+        plans.append(shadows.shadow_map_jobs(light, mine, view, focus=focus,
+                                             resolution=s.shadow_resolution, cutout=own_cutout,
+                                             on_gpu=on_gpu) if len(mine) else
+                     ([], lambda done: None))
     dome = count - len(scene.lights)
     lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
     key = None if cutout is not None or not lit.any() else _dome_key(
@@ -105,6 +103,23 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     if key is not None:
         _domes.put(key, maps[len(scene.lights):])
     return maps
+
+
+def casters(frame: Frame, blockers: int = 0) -> tuple[np.ndarray, tuple | None]:
+    """The triangles that cast shadows in ``frame`` (K, 3, 3) (those of shadow linking set
+    ``blockers`` alone, ``linking``), and their cutout for ``shadows.shadow_map_jobs``
+    (None when none may be transparent)."""
+    keep = frame.casts
+    if blockers and frame.blocks is not None:
+        mine = linking.in_set(frame.blocks, blockers)
+        keep = mine if keep is None else keep & mine
+    positions, fades, index = frame.positions, frame.fades, None
+    if keep is not None:  # objects that cast no shadow are not in the maps
+        index = np.flatnonzero(keep)
+        positions, fades = positions[index], fades[index]
+    cutout = ((fades, lambda t, b: caster_alpha(frame, t if index is None else index[t], b))
+              if fades.any() else None)
+    return positions, cutout
 
 
 # The dome's maps of the last geometries and views (``_dome_key``), reused while they stay

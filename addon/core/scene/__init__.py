@@ -19,6 +19,7 @@ import numpy as np
 
 from ..formulas import affine
 from ..formulas.texture import Texture
+from . import linking
 from .program import Program, talk_program
 
 if TYPE_CHECKING:  # the lighting floor, above this one, holds the probes
@@ -152,6 +153,9 @@ class MeshBatch:
     texspace:  (2, 3) Generated coordinates are (p_object - texspace[0]) / texspace[1]
     lightmap:  its baked ``lightmap.Lightmap`` (the diffuse indirect light of its surface), or
                None: the probes light it
+    light_sets, shadow_sets: the light and shadow linking sets it belongs to, bit k for set k
+               (``linking``): the lights of receiver set k light it, it blocks the lights of
+               blocker set k; every bit by default
     """
 
     positions: np.ndarray
@@ -168,6 +172,8 @@ class MeshBatch:
     world_to_object: np.ndarray | None = None
     texspace: np.ndarray | None = None
     lightmap: object | None = None
+    light_sets: int = linking.EVERY
+    shadow_sets: int = linking.EVERY
 
 
 @dataclass
@@ -183,6 +189,10 @@ class Light:
     spot_blend: softness of the cone edge in [0, 1] (spot only)
     size:      (2,) area light extent in metres along its local X and Y
     shadow:    whether the light casts shadows
+    receivers: its light linking set (``linking``): it lights only the meshes of that set
+               (``MeshBatch.light_sets``); 0, every mesh
+    blockers:  its shadow linking set: only the meshes of that set shadow it
+               (``MeshBatch.shadow_sets``); 0, every caster
     """
 
     kind: str
@@ -195,8 +205,12 @@ class Light:
     size: np.ndarray = field(default_factory=lambda: np.ones(2))
     shadow: bool = True
     name: str = ""
+    receivers: int = 0
+    blockers: int = 0
 
     def __post_init__(self) -> None:
+        if not (0 <= self.receivers < linking.SETS and 0 <= self.blockers < linking.SETS):
+            raise ValueError(f"a light's linking sets are 0 to {linking.SETS - 1}")
         if self.kind not in LIGHT_KINDS:
             raise ValueError(f"unknown light kind {self.kind!r}; expected one of {LIGHT_KINDS}")
 

@@ -44,8 +44,9 @@ void main()
 #ifndef SURFACE_ONLY
   for (int i = 0; i < frame.counts.x; i++) {
     vec3 l, e;
-    if (!incidence(lights[i], s.p, s.geo, l, e)) {
-      continue;
+    if ((lights[i].receivers > 0 && ((v_links >> lights[i].receivers) & 1) == 0) ||
+        !incidence(lights[i], s.p, s.geo, l, e)) {
+      continue; /* a linked light lights the meshes of its set alone */
     }
     float vis = lights[i].shadow < 0 ? 1.0 :
                                        shadow_visibility(lights[i].shadow, s.p, s.geo, seed);
