@@ -57,7 +57,8 @@ def link(scene, receivers=("A",), blockers=("A",)):
                                ("Fill", "blocker_collection", blockers)):
         collection = None
         if names is not None:
-            collection = bpy.data.collections.new(f"{light} {kind}")
+            collection = bpy.data.collections.new(
+                f"{light} {'Receivers' if kind == 'receiver_collection' else 'Blockers'}")
             for name in names:
                 collection.objects.link(scene.objects[name])
         setattr(scene.objects[light].light_linking, kind, collection)
@@ -122,7 +123,7 @@ def test_an_empty_collection_links_nothing_and_says_so(addon):
         empty = render_pixels(scene, "BO2_LIGHTING", samples=4)
     np.testing.assert_array_equal(empty, plain)
     texts = [t for t in said.texts() if "is empty" in t]
-    assert texts == ["Light 'Key': its receiver collection 'Key receiver_collection' is empty, "
+    assert texts == ["Light 'Key': its receiver collection 'Key Receivers' is empty, "
                      "so every object receives its light (as in Cycles)"], said.texts()
 
 
@@ -152,3 +153,16 @@ def test_captures_honour_linking_as_cycles_does(addon, tmp_path):
     truth = linked["CYCLES"] / plain["CYCLES"]
     assert truth.min() < 0.8  # the key's bounce off the floor and B is gone
     assert np.abs(change - truth).max() < 0.08, (change, truth)
+
+
+def test_blenders_linking_panels_show_for_the_engine(addon):
+    """Object > Shading (Light Linking, Shadow Linking) polls true for BO2 Lighting on lights
+    and meshes, as for Cycles and EEVEE; Cycles' own children of it stay Cycles'."""
+    from types import SimpleNamespace
+
+    scene = build()
+    shading = bpy.types.OBJECT_PT_shading
+    for name in ("Key", "A"):
+        assert shading.poll(SimpleNamespace(engine="BO2_LIGHTING", object=scene.objects[name]))
+    assert not bpy.types.OBJECT_PT_shadow_terminator.poll(
+        SimpleNamespace(engine="BO2_LIGHTING", object=scene.objects["A"]))
