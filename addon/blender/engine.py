@@ -19,7 +19,7 @@ import numpy as np
 
 from ..core import kernels
 from ..core.bakes import bounce
-from ..core.render import memory, pipeline
+from ..core.render import cryptomatte, memory, pipeline
 from ..core.render.job import Cancelled, Message, RenderJob, Warnings
 from ..core.render.passes import PASSES
 from ..core.render.viewport import VIEWS
@@ -132,6 +132,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                     return
             for tile, layers in pipeline.render_tiles(job, frame=prepared):
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
+            self._stamp_cryptomatte(frame, depsgraph.view_layer.name)
         except Cancelled:
             return
         except (extract.SceneError, kernels.KernelsUnavailable) as exc:
@@ -178,6 +179,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 self._write_tile(border, {name: image[y0:y1, x0:x1]
                                           for name, image in drawn.items()},
                                  job.scene, depsgraph.view_layer.name)
+                self._stamp_cryptomatte(job.scene, depsgraph.view_layer.name)
                 job.warn(f"Rendered on the GPU ({gpu_frames.renderer()})", "INFO")
                 return prepared, "GPU"
             why = drawn
@@ -214,12 +216,24 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 rp.rect.foreach_set(np.ascontiguousarray(image[::-1], np.float32).ravel())
         self.end_result(result)
 
+    def _stamp_cryptomatte(self, frame, layer_name: str) -> None:
+        """The render's Cryptomatte metadata: the names the Cryptomatte node lists."""
+        if not frame.settings.cryptomatte:
+            return
+        result = self.get_result()
+        for kind in frame.settings.cryptomatte:
+            for key, value in cryptomatte.metadata(layer_name, kind,
+                                                   cryptomatte.manifest(frame, kind)).items():
+                result.stamp_data_add_field(key, value)
+
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, "Combined", 4, "RGBA", "COLOR")
         for name, p in PASSES.items():
             if name != "Combined" and passes.enabled(renderlayer, name):
                 self.register_pass(scene, renderlayer, passes.blender_name(name), p.channels,
                                    p.ids, p.kind)
+        for name in passes.cryptomatte_passes(renderlayer):
+            self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")  # as Cycles
 
 
 _listeners: list[Warnings] = []  # the sinks ``listening`` holds open

@@ -147,6 +147,14 @@ def extract_world(scene, warnings: Warnings) -> cs.World:
     return world_sun.split(world, float(source.sun_threshold), float(source.sun_angle), shadow)
 
 
+def _asset(obj) -> str:
+    """The name of ``obj``'s topmost parent ("" when it has none): its Cryptomatte asset."""
+    top = obj.original
+    while top.parent is not None:
+        top = top.parent
+    return top.name if top is not obj.original else ""
+
+
 def _visibility(obj, view_layer) -> tuple[bool, bool, bool, bool, bool]:
     """What the depsgraph does not filter of an object's render visibility: (holdout, seen by
     the camera, casts shadows, seen by Sphere probes, by Volume probes); ``MeshBatch``'s
@@ -325,7 +333,7 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
     ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
     (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
     counter-clockwise fronts, their corners reversed. ``visibility``: ``_visibility``'s
-    tuple, then the linking masks (``linking.Sets.of_object``)."""
+    tuple, then the linking masks (``linking.Sets.of_object``) and the asset's name."""
     from ..core.kernels import raster
 
     pos, nrm, uvs, mat_index, attributes, texspace = data
@@ -363,7 +371,8 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
                         name=name, holdout=visibility[0], camera=visibility[1],
                         shadow=visibility[2], sphere_probes=visibility[3],
                         volume_probes=visibility[4], attributes=wattr, world_to_object=inverse,
-                        texspace=texspace, light_sets=visibility[5], shadow_sets=visibility[6])
+                        texspace=texspace, light_sets=visibility[5], shadow_sets=visibility[6],
+                        asset=visibility[7])
 
 
 class SceneCache:
@@ -477,7 +486,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         visibility = _visibility(obj, depsgraph.view_layer)
         if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
             continue
-        visibility += sets.of_object(obj)
+        visibility += (*sets.of_object(obj), _asset(obj))
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
         if key not in objects:
             if key not in cache.objects:
@@ -500,7 +509,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
                                  shadow=visibility[2], sphere_probes=visibility[3],
                                  volume_probes=visibility[4], attributes=wattr,
                                  world_to_object=inverse, texspace=texspace,
-                                 light_sets=visibility[5], shadow_sets=visibility[6])
+                                 light_sets=visibility[5], shadow_sets=visibility[6],
+                                 asset=visibility[7])
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
@@ -510,7 +520,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
             visibility = _visibility(owner, depsgraph.view_layer)
             if not any(visibility[1:]):
                 continue
-            visibility += sets.of_object(owner)
+            visibility += (*sets.of_object(owner), _asset(owner))
             objects[key] = data
             digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
             digest.update(parent.tobytes())

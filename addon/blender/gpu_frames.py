@@ -80,5 +80,6 @@ def render(job, view_layer) -> tuple[object, dict | str]:
         return pipeline.cpu_maps(job, frame), why
     s = job.scene.settings
     wanted = [name for name in PASSES if name == "Combined" or passes.enabled(view_layer, name)]
+    wanted += passes.cryptomatte_passes(view_layer)
     return frame, gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)),
                                                          s.filter_width), wanted)

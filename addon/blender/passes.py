@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import bpy
 
+from ..core.render import cryptomatte as crypto
 from ..core.render.passes import PASSES
 
 # Pass (pipeline name) -> its flag on the view layer, or on the view layer's ``bo2`` settings.
@@ -77,3 +78,15 @@ def draw_flag(layout, view_layer, name: str) -> None:
     """The checkbox of pass ``name``, labelled with its 5.0 name."""
     owner, flag = _owner(view_layer, name)
     layout.prop(owner, flag, text=readable_name(name))
+
+
+def cryptomatte(view_layer) -> tuple[str, ...]:
+    """The Cryptomatte passes turned on in ``view_layer`` (``core.render.cryptomatte.KINDS``)."""
+    return tuple(kind for kind in crypto.KINDS
+                 if getattr(view_layer, f"use_pass_cryptomatte_{kind.lower()}", False))
+
+
+def cryptomatte_passes(view_layer) -> list[str]:
+    """The names of the Cryptomatte passes ``view_layer`` has: Crypto<Kind>NN."""
+    levels = int(view_layer.pass_cryptomatte_depth)
+    return [name for kind in cryptomatte(view_layer) for name in crypto.passes(kind, levels)]

@@ -89,6 +89,9 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
     )
     if purpose in ("FINAL", "PREVIEW") and view_layer is not None:
         fields["ao_pass"] = passes.enabled(view_layer, "AO")
+    if purpose == "FINAL" and view_layer is not None:
+        fields["cryptomatte"] = passes.cryptomatte(view_layer)
+        fields["cryptomatte_levels"] = int(view_layer.pass_cryptomatte_depth)
     if purpose == "VIEWPORT":
         fields["tile_size"] = viewport.TILE_SIZE
     fields.update(_methods.get(scene.name_full, {}))

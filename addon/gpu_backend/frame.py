@@ -20,6 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.formulas import occlusion as occlusion_formulas
+from ..core.render import pipeline
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
@@ -668,6 +669,43 @@ class GPUFrame:
         return {"Depth": np.ascontiguousarray(image[..., :1]),
                 "IndexMA": np.ascontiguousarray(image[..., 1:2])}
 
+    def seen(self, camera, offsets, first_sample: int = 0) -> list[np.ndarray]:
+        """The triangle each sample of ``offsets`` sees through ``camera`` (its surfaces
+        dithered as that sample's; holdouts count as none): S arrays (H W,) int32 in row-major
+        order from the top row, -1 where none (``pipeline.render_tile``'s ``seen_by``)."""
+        import gpu
+
+        w, h = camera.width, camera.height
+        c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
+        view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
+        visible = gpu.types.GPUTexture((w, h), format="RGBA32F")
+        z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+        prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        out = []
+        for k, (ox, oy) in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
+            record = {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
+                      "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
+                      "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+                      "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
+                      "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
+                      "sample_offset": (ox, oy), "size": [w, h, first_sample + k, 0]}
+            blocks = []
+
+            def block(record=record, blocks=blocks, **extra):
+                blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{**record, **extra}])))
+                return blocks[-1]
+
+            self._visible(prepass, visible, block, first_sample + k)
+            key = textures.read(visible)[::-1].reshape(-1, 4)
+            tri = key[:, 0].astype(np.int32) * 4096 + key[:, 1].astype(np.int32) - 1
+            tri[(tri >= 0) & self.frame.holdout[np.maximum(tri, 0)]] = -1
+            out.append(tri)
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
+        return out
+
     def _bind_materials(self, program) -> None:
         """The material table and the material programs' images and object rows."""
         program.uniform_sampler("materials", self.materials)
@@ -932,7 +970,8 @@ def _padded(block: bytes, struct: Struct, count: int) -> bytes:
 def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
     """The frame's passes through its own camera, drawn on the GPU: {name: (H, W, C)
     float32}, row 0 at the top (``pipeline.render_frame``'s layout); ``passes``: the names
-    wanted (``PASS_OF`` and ``CENTRAL``; default all), Combined always."""
+    wanted (``PASS_OF``, ``CENTRAL`` and the settings' Cryptomatte passes; default all),
+    Combined always."""
     cam = frame.scene.camera
     wanted = set(PASS_OF) | set(CENTRAL) if passes is None else set(passes) | {"Combined"}
     try:
@@ -946,6 +985,10 @@ def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
             out.update({p: image for p, image in targets.passes().items() if p in wanted})
         if wanted & set(CENTRAL):
             out.update(drawn.central(cam, offsets))
+        if frame.crypto and (passes is None or any(p.startswith("Crypto") for p in passes)):
+            crypto = pipeline.crypto_passes(frame, drawn.seen(cam, offsets))
+            out.update({name: ranks.reshape(cam.height, cam.width, 4)
+                        for name, ranks in crypto.items()})
         return out
     finally:
         release()  # a final frame's maps and images are not drawn again

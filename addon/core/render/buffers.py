@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import Material, Scene, linking, material
-from . import projection, raster
+from . import cryptomatte, projection, raster
 from . import sky as sky_light
 from .job import RenderJob
 
@@ -54,6 +54,9 @@ class Frame:
     # ``shadow_sets`` (T,) uint64, each None when no light has a set of that kind
     receives: np.ndarray | None = None
     blocks: np.ndarray | None = None
+    # Cryptomatte: per kind wanted (``RenderSettings.cryptomatte``) each triangle's id (T,)
+    # uint64 (``cryptomatte.triangle_ids``)
+    crypto: dict | None = None
 
     @property
     def sky(self) -> sky_light.Sky | None:
@@ -156,6 +159,8 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
             joined([np.full(len(m.positions), getattr(m, sets), np.uint64) for m in meshes],
                    np.uint64) if wanted else None
             for wanted, sets in ((receivers, "light_sets"), (blockers, "shadow_sets")))
+        batch = (joined([np.full(len(m.positions), k, np.int32) for k, m in enumerate(meshes)],
+                        np.int32) if scene.settings.cryptomatte else None)
         first = np.cumsum([0] + [len(w) for w in per_instance]).astype(np.int32)
         obj = joined([np.repeat(np.arange(first[k], first[k + 1], dtype=np.int32),
                                 len(m.positions) // len(w))
@@ -166,7 +171,7 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
         uvs = np.zeros((0, 3, 2), np.float32)
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
-        seen = casts = receives = blocks = None
+        seen = casts = receives = blocks = batch = None
     lit: dict[int, int] = {}  # batch -> its lightmap's index in Frame.lightmaps
     if scene.settings.lightmaps:
         for k, m in enumerate(meshes):
@@ -198,9 +203,9 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                  "with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
-        seen, casts, lightmap, lightmap_uvs, receives, blocks = (
+        seen, casts, lightmap, lightmap_uvs, receives, blocks, batch = (
             None if a is None else a[keep]
-            for a in (seen, casts, lightmap, lightmap_uvs, receives, blocks))
+            for a in (seen, casts, lightmap, lightmap_uvs, receives, blocks, batch))
         normals = np.nan_to_num(normals[keep])
         uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
@@ -216,11 +221,15 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
 
     tables = _constant_tables(mats)
     fades = tables["fades"][mat_index]
+    crypto = {kind: cryptomatte.triangle_ids(
+        cryptomatte.names_of(meshes, mats, kind), mat_index if kind == "Material" else
+        (batch if batch is not None else np.zeros(0, np.int32)))
+        for kind in scene.settings.cryptomatte} or None
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
                  lightmaps=[meshes[k].lightmap for k in lit] or None, receives=receives,
-                 blocks=blocks)
+                 blocks=blocks, crypto=crypto)
 
 
 def mesh_flags(frame: Frame, values) -> np.ndarray | None:

@@ -82,14 +82,18 @@ def _sampled_columns() -> tuple[dict[str, slice], int]:
 SAMPLED, SAMPLED_WIDTH = _sampled_columns()
 
 
-def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray) -> dict:
+def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray,
+                crypto: dict | None = None) -> dict:
     """The passes stage of one tile (x0, y0, x1, y1): the averaged passes side by side
-    ``acc`` (npx, SAMPLED_WIDTH), Depth and IndexMA (npx,) as {pass name: (h, w, C) float32}."""
+    ``acc`` (npx, SAMPLED_WIDTH), Depth and IndexMA (npx,), the Cryptomatte passes
+    {name: (npx, 4)}, as {pass name: (h, w, C) float32}."""
     x0, y0, x1, y1 = tile
     shape = (y1 - y0, x1 - x0)
     image = acc.reshape(*shape, SAMPLED_WIDTH)
     out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
     out["Depth"], out["IndexMA"] = depth.reshape(*shape, 1), index.reshape(*shape, 1)
+    for name, ranks in (crypto or {}).items():
+        out[name] = ranks.reshape(*shape, 4)
     return out
 
 
@@ -101,15 +105,20 @@ class Film:
         self.film = np.zeros((count, height, width, SAMPLED_WIDTH), np.float32)
         self.depth = np.full((count, height, width, 1), EMPTY_DEPTH, np.float32)
         self.index = np.zeros((count, height, width, 1), np.float32)
+        self.crypto: dict[str, np.ndarray] = {}  # name -> (count, height, width, 4)
 
     def add(self, view: int, tile, acc: np.ndarray, depth: np.ndarray,
-            index: np.ndarray) -> None:
+            index: np.ndarray, crypto: dict | None = None) -> None:
         """One tile of view ``view``: arrays as ``tile_passes``."""
         x0, y0, x1, y1 = tile
         shape = (y1 - y0, x1 - x0)
         self.film[view, y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
         self.depth[view, y0:y1, x0:x1, 0] = depth.reshape(shape)
         self.index[view, y0:y1, x0:x1, 0] = index.reshape(shape)
+        for name, ranks in (crypto or {}).items():
+            if name not in self.crypto:
+                self.crypto[name] = np.zeros((*self.film.shape[:3], 4), np.float32)
+            self.crypto[name][view, y0:y1, x0:x1] = ranks.reshape(*shape, 4)
 
     def passes(self) -> list[dict]:
         """[{pass name: (H, W, C) float32}] per view; the averaged passes are views of one
@@ -118,5 +127,6 @@ class Film:
         for k in range(len(self.film)):
             passes = {name: self.film[k, ..., SAMPLED[name]] for name in SAMPLED}
             passes["Depth"], passes["IndexMA"] = self.depth[k], self.index[k]
+            passes.update({name: image[k] for name, image in self.crypto.items()})
             out.append(passes)
         return out

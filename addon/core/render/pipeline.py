@@ -23,6 +23,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from . import cryptomatte
 from .buffers import Frame, prepare_buffers, with_camera
 from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
@@ -45,7 +46,9 @@ SAMPLE_BATCH = 4  # samples of a tile drawn at once (``raster.nearest``; bounds 
 
 def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     """All samples of one tile, averaged: the passes of ``SAMPLED`` side by side
-    (npx, SAMPLED_WIDTH), Depth (npx,) and IndexMA (npx,), float32.
+    (npx, SAMPLED_WIDTH), Depth (npx,) and IndexMA (npx,), float32, and the Cryptomatte
+    passes the settings ask for, {name: (npx, 4) float32} (``cryptomatte.ranks`` of what each
+    sample sees).
 
     The shadow filter turns its taps by the pixel, triangle and sample of each point shaded
     (``shadow_filter.pixel_seeds``). Shading is done once per pixel and triangle, as in
@@ -70,6 +73,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
     points = []  # per sample: (tri, bary, sx, sy, pixel, sample) of the points it shades
+    seen_by = []  # per sample, with Cryptomatte: the triangle it sees, -1 none
     margin = tile_margin(frame, tile)
     m, clip, _, cull, keep = margin
     drawn = []
@@ -96,6 +100,8 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                 acc[miss, rgba.start:rgba.start + 3] += background_radiance(scene, sx[miss],
                                                                             sy[miss])
                 acc[miss, rgba.start + 3] += np.float32(scene.world.background_alpha)
+        if frame.crypto:
+            seen_by.append(np.where(hit, tri, -1))
         if first_tri is None:
             first_tri, fresh = tri, hit
             reuse_count += hit
@@ -137,7 +143,23 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color
     acc *= np.float32(1.0 / len(offsets))
-    return acc, depth_acc, index_acc
+    return acc, depth_acc, index_acc, crypto_passes(frame, seen_by)
+
+
+def crypto_passes(frame: Frame, seen_by: list) -> dict:
+    """The Cryptomatte passes of pixels whose samples see triangles ``seen_by`` (S arrays
+    (N,), -1 where none): {name: (N, 4) float32} (``cryptomatte.ranks``)."""
+    out = {}
+    if not frame.crypto or not seen_by:
+        return out
+    tri = np.stack(seen_by)
+    levels = frame.scene.settings.cryptomatte_levels
+    for kind, ids in frame.crypto.items():
+        ranked = cryptomatte.ranks(np.where(tri >= 0, ids[np.maximum(tri, 0)] if len(ids)
+                                            else cryptomatte.NONE, cryptomatte.NONE), levels)
+        for k, name in enumerate(cryptomatte.passes(kind, levels)):
+            out[name] = ranked[:, 4 * k:4 * k + 4]
+    return out
 
 
 def prepare(job: RenderJob, *, shadow_maps: list | None = None,

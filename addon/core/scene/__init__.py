@@ -153,6 +153,8 @@ class MeshBatch:
     texspace:  (2, 3) Generated coordinates are (p_object - texspace[0]) / texspace[1]
     lightmap:  its baked ``lightmap.Lightmap`` (the diffuse indirect light of its surface), or
                None: the probes light it
+    asset:     the name of its object's topmost parent ("" for none: its own), for the
+               Cryptomatte Asset pass
     light_sets, shadow_sets: the light and shadow linking sets it belongs to, bit k for set k
                (``linking``): the lights of receiver set k light it, it blocks the lights of
                blocker set k; every bit by default
@@ -172,6 +174,7 @@ class MeshBatch:
     world_to_object: np.ndarray | None = None
     texspace: np.ndarray | None = None
     lightmap: object | None = None
+    asset: str = ""
     light_sets: int = linking.EVERY
     shadow_sets: int = linking.EVERY
 
@@ -339,6 +342,8 @@ class RenderSettings:
                     x1 and y1 exclusive (Blender's render border)
     lightmaps:      objects with a baked lightmap take their diffuse indirect light from it
                     (``lightmap``); False: from the probes, as every other object
+    cryptomatte:    the Cryptomatte passes wanted, of ``render.cryptomatte.KINDS``
+    cryptomatte_levels: the ranks each keeps per pixel (the view layer's Levels)
     """
 
     samples: int = 4
@@ -365,6 +370,8 @@ class RenderSettings:
     threads: int = 0
     border: tuple[int, int, int, int] | None = None
     lightmaps: bool = True
+    cryptomatte: tuple[str, ...] = ()
+    cryptomatte_levels: int = 6
 
 
 @dataclass
