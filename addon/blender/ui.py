@@ -5,6 +5,7 @@ Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external
 """
 
 import bpy
+from bl_ui.properties_view_layer import ViewLayerCryptomattePanelHelper
 
 from ..core import kernels
 from ..core.render.passes import PASSES
@@ -231,6 +232,15 @@ class VIEWLAYER_PT_bo2_passes(BO2Panel, bpy.types.Panel):
                     passes.draw_flag(col, view_layer, p.name)
 
 
+class VIEWLAYER_PT_bo2_passes_cryptomatte(BO2Panel, ViewLayerCryptomattePanelHelper,
+                                          bpy.types.Panel):
+    """Blender's Cryptomatte settings (``core.render.cryptomatte``), as Cycles shows them."""
+
+    bl_label = "Cryptomatte"
+    bl_context = "view_layer"
+    bl_parent_id = "VIEWLAYER_PT_bo2_passes"
+
+
 class MATERIAL_PT_bo2_surface(BO2Panel, bpy.types.Panel):
     bl_label = "Surface"
     bl_context = "material"
@@ -329,8 +339,9 @@ class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_lightmaps, RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev,
-           VIEWLAYER_PT_bo2_passes, *object_panels.CLASSES, MATERIAL_PT_bo2_surface,
-           MATERIAL_PT_bo2_settings, WORLD_PT_bo2_light]
+           VIEWLAYER_PT_bo2_passes, VIEWLAYER_PT_bo2_passes_cryptomatte,
+           *object_panels.CLASSES, MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
+           WORLD_PT_bo2_light]
 
 
 def draw_render_menu(self, context):
