@@ -132,7 +132,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                     return
             for tile, layers in pipeline.render_tiles(job, frame=prepared):
                 self._write_tile(tile, layers, frame, depsgraph.view_layer.name)
-            self._stamp_cryptomatte(frame, depsgraph.view_layer.name)
+            self._stamp_cryptomatte(frame, depsgraph.view_layer.name, job.warn)
         except Cancelled:
             return
         except (extract.SceneError, kernels.KernelsUnavailable) as exc:
@@ -179,7 +179,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 self._write_tile(border, {name: image[y0:y1, x0:x1]
                                           for name, image in drawn.items()},
                                  job.scene, depsgraph.view_layer.name)
-                self._stamp_cryptomatte(job.scene, depsgraph.view_layer.name)
+                self._stamp_cryptomatte(job.scene, depsgraph.view_layer.name, job.warn)
                 job.warn(f"Rendered on the GPU ({gpu_frames.renderer()})", "INFO")
                 return prepared, "GPU"
             why = drawn
@@ -216,14 +216,18 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                 rp.rect.foreach_set(np.ascontiguousarray(image[::-1], np.float32).ravel())
         self.end_result(result)
 
-    def _stamp_cryptomatte(self, frame, layer_name: str) -> None:
-        """The render's Cryptomatte metadata: the names the Cryptomatte node lists."""
+    def _stamp_cryptomatte(self, frame, layer_name: str, warn) -> None:
+        """The render's Cryptomatte metadata: the names the Cryptomatte node lists; ``warn``
+        (text, kind) says which of them clash."""
         if not frame.settings.cryptomatte:
             return
         result = self.get_result()
         for kind in frame.settings.cryptomatte:
-            for key, value in cryptomatte.metadata(layer_name, kind,
-                                                   cryptomatte.manifest(frame, kind)).items():
+            names = cryptomatte.manifest(frame, kind)
+            for a, b in cryptomatte.clashes(names):
+                warn(f"Cryptomatte {kind}: '{a}' and '{b}' have the same id, so one matte "
+                     "picks both; rename one", "WARNING")
+            for key, value in cryptomatte.metadata(layer_name, kind, names).items():
                 result.stamp_data_add_field(key, value)
 
     def update_render_passes(self, scene=None, renderlayer=None):

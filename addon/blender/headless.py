@@ -115,7 +115,9 @@ def set_samples(scene, engine: str, samples: int) -> None:
 
 def enable_all_passes(layer, engine: str) -> None:
     """Turn on every pass the chosen engine writes (BO2: the engine's passes but Combined, which
-    stays as the view layer has it; Cycles: the same names without the BO2 material passes)."""
+    stays as the view layer has it; Cycles: the same names without the BO2 material passes;
+    both: the three Cryptomatte passes)."""
+    from ..core.render.cryptomatte import KINDS
     from ..core.render.passes import PASSES
     from . import passes
 
@@ -124,6 +126,8 @@ def enable_all_passes(layer, engine: str) -> None:
             continue
         if engine == "bo2" or not passes.FLAGS[name].startswith("bo2."):
             passes.set_enabled(layer, name)
+    for kind in KINDS:
+        setattr(layer, f"use_pass_cryptomatte_{kind.lower()}", True)
 
 
 def apply_render_options(scene, engine: str, resolution: tuple[int, int] | None = None,

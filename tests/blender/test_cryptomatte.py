@@ -107,3 +107,13 @@ def test_levels_make_the_passes_and_their_metadata(addon, tmp_path):
     assert manifests[f"{layer}.CryptoObject"] == \
         '{"Floor":"6a2fb16e","A":"54dcf7ce","B":"cca66a8a"}'
     assert '"Rig":"b76dec1e"' in manifests[f"{layer}.CryptoAsset"]
+
+
+def test_names_whose_ids_clash_are_said(addon):
+    """Two objects whose names hash alike render, and the render says one matte picks both."""
+    scene = scene_with_rig()
+    scene.objects["A"].name, scene.objects["B"].name = "Cube.027977", "Cube.083097"
+    with engine.listening() as said:
+        render_pixels(scene, "BO2_LIGHTING", samples=1)
+    assert ("Cryptomatte Object: 'Cube.027977' and 'Cube.083097' have the same id, so one "
+            "matte picks both; rename one") in said.texts(), said.texts()

@@ -139,6 +139,10 @@ def test_render_demo_png_and_exr(tmp_path):
                                          "Glossy Indirect", "Emission"))
     ground = parts["Depth"][..., 0] < 1e9
     np.testing.assert_allclose(total[ground], combined[ground, :3], rtol=1e-4, atol=1e-5)
+    # the Cryptomatte passes: every pixel that sees a surface names it with its coverage
+    crypto = sum(read_exr(exr, f"CryptoObject{n:02d}")[..., [0, 2]].sum(-1)  # (a, b, g, r)
+                 for n in range(3))
+    assert crypto.shape == (36, 64) and (crypto[ground] > 0.99).all()
 
 
 def test_env_brdf_prints_the_slide_value():

@@ -134,3 +134,16 @@ def manifest(scene, kind: str) -> dict[str, int]:
                                         or [np.zeros(0, np.int64)]))
         names = [names[k] for k in used if 0 <= k < len(names)]
     return {n: name_hash(n) for n in names}
+
+
+def clashes(names: dict[str, int]) -> list[tuple[str, str]]:
+    """Pairs of different names of a manifest whose ids are the same (MurmurHash3 collides
+    for about one pair in 2^32): their mattes cannot be told apart."""
+    first: dict[int, str] = {}
+    out = []
+    for name, h in names.items():
+        if h in first:
+            out.append((first[h], name))
+        else:
+            first[h] = name
+    return out
