@@ -21,7 +21,7 @@ from ..core import kernels
 from ..core.bakes import bounce
 from ..core.render import cryptomatte, memory, pipeline
 from ..core.render.job import Cancelled, Message, RenderJob, Warnings
-from ..core.render.passes import PASSES
+from ..core.render.passes import PASSES, group_pass
 from ..core.render.viewport import VIEWS
 from . import extract, gpu_frames, interrupt, passes, render_graph, viewport
 from . import settings as settings_of
@@ -238,6 +238,8 @@ class BO2RenderEngine(bpy.types.RenderEngine):
                                    p.ids, p.kind)
         for name in passes.cryptomatte_passes(renderlayer):
             self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")  # as Cycles
+        for group in renderlayer.lightgroups:
+            self.register_pass(scene, renderlayer, group_pass(group.name), 3, "RGB", "COLOR")
 
 
 _listeners: list[Warnings] = []  # the sinks ``listening`` holds open

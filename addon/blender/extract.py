@@ -333,7 +333,8 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
     ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
     (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
     counter-clockwise fronts, their corners reversed. ``visibility``: ``_visibility``'s
-    tuple, then the linking masks (``linking.Sets.of_object``) and the asset's name."""
+    tuple, then the linking masks (``linking.Sets.of_object``), the asset's name and the
+    light group."""
     from ..core.kernels import raster
 
     pos, nrm, uvs, mat_index, attributes, texspace = data
@@ -372,7 +373,7 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
                         shadow=visibility[2], sphere_probes=visibility[3],
                         volume_probes=visibility[4], attributes=wattr, world_to_object=inverse,
                         texspace=texspace, light_sets=visibility[5], shadow_sets=visibility[6],
-                        asset=visibility[7])
+                        asset=visibility[7], group=visibility[8])
 
 
 class SceneCache:
@@ -479,6 +480,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         if obj.type == "LIGHT":
             light = blender_light(obj, _matrix(inst.matrix_world))
             light.receivers, light.blockers = sets.of_light(obj)
+            light.group = obj.original.lightgroup
             lights.append(light)
             continue
         if obj.type not in _GEOMETRY_TYPES:
@@ -486,7 +488,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         visibility = _visibility(obj, depsgraph.view_layer)
         if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
             continue
-        visibility += (*sets.of_object(obj), _asset(obj))
+        visibility += (*sets.of_object(obj), _asset(obj), obj.original.lightgroup)
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
         if key not in objects:
             if key not in cache.objects:
@@ -510,7 +512,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
                                  volume_probes=visibility[4], attributes=wattr,
                                  world_to_object=inverse, texspace=texspace,
                                  light_sets=visibility[5], shadow_sets=visibility[6],
-                                 asset=visibility[7])
+                                 asset=visibility[7], group=visibility[8])
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
@@ -520,7 +522,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
             visibility = _visibility(owner, depsgraph.view_layer)
             if not any(visibility[1:]):
                 continue
-            visibility += (*sets.of_object(owner), _asset(owner))
+            visibility += (*sets.of_object(owner), _asset(owner), owner.original.lightgroup)
             objects[key] = data
             digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
             digest.update(parent.tobytes())
@@ -579,6 +581,10 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
                      "sees no geometry (as in Cycles)")
         meshes = []
     world = extract_world(scene, warnings)
+    group = scene.world.lightgroup if scene.world is not None else ""
+    if group:  # (the world may be a cached one: replaced, not changed)
+        world = dataclasses.replace(world, group=group, sun=None if world.sun is None else
+                                    dataclasses.replace(world.sun, group=group))
     if world.sun is not None:
         lights.append(world.sun)
     if not lights and not _lit_by(world):

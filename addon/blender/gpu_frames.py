@@ -56,6 +56,7 @@ def unsupported_passes(view_layer) -> str | None:
     """The enabled passes the GPU does not draw yet (one phrase), or None."""
     missing = [name for name in PASSES if name not in gpu_frame.PASS_OF
                and name not in gpu_frame.CENTRAL and passes.enabled(view_layer, name)]
+    missing += ["light group" for _ in view_layer.lightgroups[:1]]
     if not missing:
         return None
     return f"the {', '.join(missing[:3])} pass{'es' if len(missing) > 1 else ''}"

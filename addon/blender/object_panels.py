@@ -135,6 +135,19 @@ class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
         row.operator("bo2.clear_probes", text="Clear", icon="TRASH").mode = "ACTIVE"
 
 
+class OBJECT_PT_bo2_lightgroup(BO2Panel, bpy.types.Panel):
+    """The light group an object's light or emission is counted in (View Layer > Passes >
+    Light Groups)."""
+
+    bl_label = "Light Group"
+    bl_context = "object"
+    bl_parent_id = "OBJECT_PT_shading"
+    needs = "object"
+
+    def draw(self, context):
+        self.light_group(self.layout, context.object, context.view_layer)
+
+
 class _LightPanel(BO2Panel):
     bl_context = "data"
     needs = "light"
@@ -297,7 +310,8 @@ class OBJECT_PT_bo2_lightmap(BO2Panel, bpy.types.Panel):
             layout.label(text=f"File: {bake_files.image(obj).filepath}", icon="FILE")
 
 
-CLASSES = [OBJECT_PT_bo2_visibility, OBJECT_PT_bo2_lightmap, DATA_PT_bo2_light,
+CLASSES = [OBJECT_PT_bo2_visibility, OBJECT_PT_bo2_lightmap, OBJECT_PT_bo2_lightgroup,
+           DATA_PT_bo2_light,
            DATA_PT_bo2_light_shadow, DATA_PT_bo2_light_beam, DATA_PT_bo2_lightprobe,
            DATA_PT_bo2_lightprobe_parallax, DATA_PT_bo2_lightprobe_display,
            DATA_PT_bo2_lightprobe_bake]

@@ -30,3 +30,18 @@ class BO2Panel:
         row = layout.row()
         row.active = False
         row.label(text=text, icon="INFO")
+
+    @staticmethod
+    def light_group(layout, owner, view_layer) -> None:
+        """The Light Group of ``owner`` (an object or the world), picked from the view layer's
+        groups, with the button that adds a typed name as a group (as Cycles draws it)."""
+        row = layout.row(align=True)
+        row.use_property_split = True
+        row.use_property_decorate = False
+        row.prop_search(owner, "lightgroup", view_layer, "lightgroups", text="Light Group",
+                        results_are_suggestions=True)
+        sub = row.column(align=True)
+        sub.enabled = bool(owner.lightgroup) and not any(
+            group.name == owner.lightgroup for group in view_layer.lightgroups)
+        sub.operator("scene.view_layer_add_lightgroup", icon="ADD", text="").name = \
+            owner.lightgroup

@@ -53,7 +53,12 @@ def blender_name(name: str) -> str:
 
 
 def channel_ids(name: str) -> str:
-    """Channel ids of a pass of either engine ("RGBA", "XYZ", ...)."""
+    """Channel ids of a pass of either engine ("RGBA", "XYZ", ...): a light group's is RGB, a
+    Cryptomatte pass's rgba."""
+    if name.startswith("Combined_"):
+        return "RGB"
+    if name.startswith("Crypto"):
+        return "rgba"
     return CYCLES_COLOR[name] if name in CYCLES_COLOR else PASSES[name].ids
 
 

@@ -5,7 +5,10 @@ Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external
 """
 
 import bpy
-from bl_ui.properties_view_layer import ViewLayerCryptomattePanelHelper
+from bl_ui.properties_view_layer import (
+    ViewLayerCryptomattePanelHelper,
+    ViewLayerLightgroupsPanelHelper,
+)
 
 from ..core import kernels
 from ..core.render.passes import PASSES
@@ -241,6 +244,27 @@ class VIEWLAYER_PT_bo2_passes_cryptomatte(BO2Panel, ViewLayerCryptomattePanelHel
     bl_parent_id = "VIEWLAYER_PT_bo2_passes"
 
 
+class VIEWLAYER_PT_bo2_passes_lightgroups(BO2Panel, ViewLayerLightgroupsPanelHelper,
+                                          bpy.types.Panel):
+    """The view layer's light groups: a ``Combined_<name>`` pass each (``light_groups``)."""
+
+    bl_label = "Light Groups"
+    bl_context = "view_layer"
+    bl_parent_id = "VIEWLAYER_PT_bo2_passes"
+
+
+class WORLD_PT_bo2_lightgroup(BO2Panel, bpy.types.Panel):
+    """The light group the world's light, its sun and the background are counted in."""
+
+    bl_label = "Light Group"
+    bl_context = "world"
+    bl_parent_id = "WORLD_PT_bo2_light"
+    needs = "world"
+
+    def draw(self, context):
+        self.light_group(self.layout, context.world, context.view_layer)
+
+
 class MATERIAL_PT_bo2_surface(BO2Panel, bpy.types.Panel):
     bl_label = "Surface"
     bl_context = "material"
@@ -340,8 +364,9 @@ class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_lightmaps, RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev,
            VIEWLAYER_PT_bo2_passes, VIEWLAYER_PT_bo2_passes_cryptomatte,
-           *object_panels.CLASSES, MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings,
-           WORLD_PT_bo2_light]
+           VIEWLAYER_PT_bo2_passes_lightgroups, *object_panels.CLASSES,
+           MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings, WORLD_PT_bo2_light,
+           WORLD_PT_bo2_lightgroup]
 
 
 def draw_render_menu(self, context):

@@ -92,7 +92,8 @@ def render_passes(scene, engine: str, names, samples: int = 16) -> dict:
 
     layer = bpy.context.view_layer
     for name in names:
-        passes.set_enabled(layer, name, True)
+        if name in passes.FLAGS:  # (a light group's or a Cryptomatte pass is the layer's)
+            passes.set_enabled(layer, name, True)
     scene.render.engine = engine
     if engine == "CYCLES":
         scene.cycles.samples = samples

@@ -57,6 +57,9 @@ class Frame:
     # Cryptomatte: per kind wanted (``RenderSettings.cryptomatte``) each triangle's id (T,)
     # uint64 (``cryptomatte.triangle_ids``)
     crypto: dict | None = None
+    # light groups: per triangle the index in ``RenderSettings.light_groups`` of its mesh's
+    # group (its emission's) (T,) int32, -1 none; None without light groups
+    group: np.ndarray | None = None
 
     @property
     def sky(self) -> sky_light.Sky | None:
@@ -159,8 +162,9 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
             joined([np.full(len(m.positions), getattr(m, sets), np.uint64) for m in meshes],
                    np.uint64) if wanted else None
             for wanted, sets in ((receivers, "light_sets"), (blockers, "shadow_sets")))
+        groups = scene.settings.light_groups
         batch = (joined([np.full(len(m.positions), k, np.int32) for k, m in enumerate(meshes)],
-                        np.int32) if scene.settings.cryptomatte else None)
+                        np.int32) if scene.settings.cryptomatte or groups else None)
         first = np.cumsum([0] + [len(w) for w in per_instance]).astype(np.int32)
         obj = joined([np.repeat(np.arange(first[k], first[k + 1], dtype=np.int32),
                                 len(m.positions) // len(w))
@@ -225,11 +229,17 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
         cryptomatte.names_of(meshes, mats, kind), mat_index if kind == "Material" else
         (batch if batch is not None else np.zeros(0, np.int32)))
         for kind in scene.settings.cryptomatte} or None
+    groups = scene.settings.light_groups
+    group = None
+    if groups and batch is not None:
+        of_mesh = np.array([groups.index(m.group) if m.group in groups else -1
+                            for m in meshes], np.int32)
+        group = of_mesh[batch]
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
                  lightmaps=[meshes[k].lightmap for k in lit] or None, receives=receives,
-                 blocks=blocks, crypto=crypto)
+                 blocks=blocks, crypto=crypto, group=group)
 
 
 def mesh_flags(frame: Frame, values) -> np.ndarray | None:

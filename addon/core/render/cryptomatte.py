@@ -65,7 +65,7 @@ def identifier(layer_pass: str) -> str:
 
 def passes(kind: str, levels: int) -> list[str]:
     """The pass names of ``kind`` at ``levels`` ranks: Crypto<Kind>00, 01, ..."""
-    return [f"Crypto{kind}{k:02d}" for k in range(-(-max(1, int(levels)) // 2))]
+    return [f"Crypto{kind}{k:02d}" for k in range(-(-min(16, max(1, int(levels))) // 2))]
 
 
 def metadata(layer: str, kind: str, manifest: dict[str, int]) -> dict[str, str]:

@@ -21,7 +21,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EMPTY_DEPTH", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass"]
+__all__ = ["EMPTY_DEPTH", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass", "film_width",
+           "group_columns", "group_pass"]
 
 EMPTY_DEPTH = 1e10
 
@@ -82,15 +83,37 @@ def _sampled_columns() -> tuple[dict[str, slice], int]:
 SAMPLED, SAMPLED_WIDTH = _sampled_columns()
 
 
+def group_pass(group: str) -> str:
+    """The name of light group ``group``'s pass, as Cycles names it."""
+    return f"Combined_{group}"
+
+
+def film_width(groups: tuple[str, ...]) -> int:
+    """Columns of the averaged passes with the light groups ``groups``: ``SAMPLED``'s, then
+    RGB per group (``group_columns``)."""
+    return SAMPLED_WIDTH + 3 * len(groups)
+
+
+def group_columns(k: int) -> slice:
+    """The columns of the k-th light group in the averaged passes."""
+    return slice(SAMPLED_WIDTH + 3 * k, SAMPLED_WIDTH + 3 * k + 3)
+
+
+def _averaged(image: np.ndarray, groups: tuple[str, ...]) -> dict:
+    out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
+    out.update({group_pass(g): image[..., group_columns(k)] for k, g in enumerate(groups)})
+    return out
+
+
 def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray,
-                crypto: dict | None = None) -> dict:
+                crypto: dict | None = None, groups: tuple[str, ...] = ()) -> dict:
     """The passes stage of one tile (x0, y0, x1, y1): the averaged passes side by side
-    ``acc`` (npx, SAMPLED_WIDTH), Depth and IndexMA (npx,), the Cryptomatte passes
+    ``acc`` (npx, ``film_width(groups)``), Depth and IndexMA (npx,), the Cryptomatte passes
     {name: (npx, 4)}, as {pass name: (h, w, C) float32}."""
     x0, y0, x1, y1 = tile
     shape = (y1 - y0, x1 - x0)
-    image = acc.reshape(*shape, SAMPLED_WIDTH)
-    out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
+    image = acc.reshape(*shape, film_width(groups))
+    out = _averaged(image, groups)
     out["Depth"], out["IndexMA"] = depth.reshape(*shape, 1), index.reshape(*shape, 1)
     for name, ranks in (crypto or {}).items():
         out[name] = ranks.reshape(*shape, 4)
@@ -99,10 +122,13 @@ def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray,
 
 class Film:
     """The passes stage of whole views: ``count`` films of ``height`` x ``width`` pixels that
-    tiles are written into; outside them the passes are 0 (Depth: ``EMPTY_DEPTH``)."""
+    tiles are written into (with the passes of light groups ``groups``); outside them the
+    passes are 0 (Depth: ``EMPTY_DEPTH``)."""
 
-    def __init__(self, count: int, height: int, width: int) -> None:
-        self.film = np.zeros((count, height, width, SAMPLED_WIDTH), np.float32)
+    def __init__(self, count: int, height: int, width: int,
+                 groups: tuple[str, ...] = ()) -> None:
+        self.groups = tuple(groups)
+        self.film = np.zeros((count, height, width, film_width(self.groups)), np.float32)
         self.depth = np.full((count, height, width, 1), EMPTY_DEPTH, np.float32)
         self.index = np.zeros((count, height, width, 1), np.float32)
         self.crypto: dict[str, np.ndarray] = {}  # name -> (count, height, width, 4)
@@ -112,7 +138,7 @@ class Film:
         """One tile of view ``view``: arrays as ``tile_passes``."""
         x0, y0, x1, y1 = tile
         shape = (y1 - y0, x1 - x0)
-        self.film[view, y0:y1, x0:x1] = acc.reshape(*shape, SAMPLED_WIDTH)
+        self.film[view, y0:y1, x0:x1] = acc.reshape(*shape, film_width(self.groups))
         self.depth[view, y0:y1, x0:x1, 0] = depth.reshape(shape)
         self.index[view, y0:y1, x0:x1, 0] = index.reshape(shape)
         for name, ranks in (crypto or {}).items():
@@ -125,7 +151,7 @@ class Film:
         (H, W, SAMPLED_WIDTH) film."""
         out = []
         for k in range(len(self.film)):
-            passes = {name: self.film[k, ..., SAMPLED[name]] for name in SAMPLED}
+            passes = _averaged(self.film[k], self.groups)
             passes["Depth"], passes["IndexMA"] = self.depth[k], self.index[k]
             passes.update({name: image[k] for name, image in self.crypto.items()})
             out.append(passes)

@@ -27,7 +27,7 @@ from . import cryptomatte
 from .buffers import Frame, prepare_buffers, with_camera
 from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
-from .passes import EMPTY_DEPTH, SAMPLED, SAMPLED_WIDTH, Film, tile_passes
+from .passes import EMPTY_DEPTH, SAMPLED, Film, film_width, group_columns, tile_passes
 from .shading import background_radiance, has_indirect, shade_points
 from .shadow_filter import pixel_seeds
 from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
@@ -45,10 +45,10 @@ SAMPLE_BATCH = 4  # samples of a tile drawn at once (``raster.nearest``; bounds 
 
 
 def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
-    """All samples of one tile, averaged: the passes of ``SAMPLED`` side by side
-    (npx, SAMPLED_WIDTH), Depth (npx,) and IndexMA (npx,), float32, and the Cryptomatte
-    passes the settings ask for, {name: (npx, 4) float32} (``cryptomatte.ranks`` of what each
-    sample sees).
+    """All samples of one tile, averaged: the passes of ``SAMPLED`` and of the light groups
+    side by side (npx, ``film_width``), Depth (npx,) and IndexMA (npx,), float32, and the
+    Cryptomatte passes the settings ask for, {name: (npx, 4) float32} (``cryptomatte.ranks``
+    of what each sample sees).
 
     The shadow filter turns its taps by the pixel, triangle and sample of each point shaded
     (``shadow_filter.pixel_seeds``). Shading is done once per pixel and triangle, as in
@@ -64,7 +64,10 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     scene = frame.scene
     x0, y0, x1, y1 = tile
     npx = (x1 - x0) * (y1 - y0)
-    acc = np.zeros((npx, SAMPLED_WIDTH), np.float32)
+    groups = scene.settings.light_groups
+    acc = np.zeros((npx, film_width(groups)), np.float32)
+    world_group = (group_columns(groups.index(scene.world.group))
+                   if scene.world.group in groups else None)
     central = int(np.argmin(np.abs(np.asarray(offsets) - 0.5).sum(-1)))  # Depth and IndexMA
     depth_acc = index_acc = None
     first_tri = None
@@ -97,9 +100,11 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                 miss_count += ~covered
             elif not covered.all():
                 miss = ~covered
-                acc[miss, rgba.start:rgba.start + 3] += background_radiance(scene, sx[miss],
-                                                                            sy[miss])
+                seen = background_radiance(scene, sx[miss], sy[miss])
+                acc[miss, rgba.start:rgba.start + 3] += seen
                 acc[miss, rgba.start + 3] += np.float32(scene.world.background_alpha)
+                if world_group is not None:
+                    acc[miss, world_group] += seen
         if frame.crypto:
             seen_by.append(np.where(hit, tri, -1))
         if first_tri is None:
@@ -142,6 +147,8 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color
+        if world_group is not None:
+            acc[:, world_group] += miss_count[:, None] * color[:3]
     acc *= np.float32(1.0 / len(offsets))
     return acc, depth_acc, index_acc, crypto_passes(frame, seen_by)
 
@@ -252,7 +259,7 @@ def render_tiles(job: RenderJob, *, frame: Frame | None = None
             for every tile of ``visibility.tiles(scene)``
     """
     for _, tile, arrays in _tile_results(job, frame):
-        yield tile, tile_passes(tile, *arrays)
+        yield tile, tile_passes(tile, *arrays, groups=job.scene.settings.light_groups)
 
 
 def render_frame(job: RenderJob, *, frame: Frame | None = None, offsets=None,
@@ -274,7 +281,8 @@ def render_views(job: RenderJob, cameras, *, frame: Frame | None = None, offsets
     side on the job's threads (probe captures: six small faces at once), the scene prepared
     once: [{pass name: (H, W, C) float32}] in camera order. Arguments as ``render_frame``."""
     cam = job.scene.camera
-    film = Film(1 if cameras is None else len(cameras), cam.height, cam.width)
+    film = Film(1 if cameras is None else len(cameras), cam.height, cam.width,
+                job.scene.settings.light_groups)
     for k, tile, arrays in _tile_results(job, frame, cameras, offsets, first_sample):
         film.add(k, tile, *arrays)
     return film.passes()

@@ -13,7 +13,7 @@ from ..lighting import probes, shade, world_sun
 from ..scene import Scene, linking
 from . import shadow_filter
 from .buffers import Frame
-from .passes import SAMPLED, SAMPLED_WIDTH
+from .passes import SAMPLED, SAMPLED_WIDTH, film_width
 from .surfaces import surface_params
 from .world_occlusion import world_visibility
 
@@ -50,8 +50,9 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
     ``seeds``: (N, 3) the shadow filter's rotation seeds (``shadow_filter.pixel_seeds``), or
     None (the positions').
 
-    returns: (N, SAMPLED_WIDTH) float32, the averaged passes side by side (columns ``SAMPLED``;
-             Combined with alpha 1)
+    returns: (N, ``passes.film_width``) float32, the averaged passes side by side (columns
+             ``SAMPLED``; Combined with alpha 1), then each light group's light
+             (``passes.group_columns``)
     """
     from ..kernels import shading
 
@@ -70,6 +71,8 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
     diffuse = np.zeros((len(tri), 3), np.float32)
     specular = np.zeros((len(tri), 3), np.float32)
     model = scene.settings.specular_model
+    groups = scene.settings.light_groups
+    grouped = np.zeros((len(tri), 3 * len(groups)), np.float32)  # each light group's light
     for light, smap in zip(scene.lights, frame.shadow_maps[:len(scene.lights)], strict=True):
         # The geometric normal decides what faces the light (a shading normal may not).
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
@@ -80,8 +83,17 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
             continue
         vis = None if smap is None else shadow_filter.shadow_visibility(smap, p, geo, where=lit,
                                                                           seeds=seeds)
+        if light.group not in groups:
+            shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
+                             diffuse, specular, visibility=vis)
+            continue
+        own = np.zeros_like(diffuse), np.zeros_like(specular)
         shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
-                         diffuse, specular, visibility=vis)
+                         *own, visibility=vis)
+        diffuse += own[0]
+        specular += own[1]
+        k = groups.index(light.group)
+        grouped[:, 3 * k:3 * k + 3] += own[0] + own[1]
     ao = np.ones(len(tri), np.float32)
     if ao_tile is not None:
         image, x0, y0 = ao_tile
@@ -112,7 +124,16 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
                 gloss_ind *= occlusion.specular(ao, n_dot_v, mat.gloss)[:, None]
     else:
         diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
-    out = np.empty((len(tri), SAMPLED_WIDTH), np.float32)
+    out = np.empty((len(tri), film_width(groups)), np.float32)
+    if groups:
+        if scene.world.group in groups:  # the probes' light is the world's
+            k = groups.index(scene.world.group)
+            grouped[:, 3 * k:3 * k + 3] += diff_ind + gloss_ind
+        emits = frame.group[tri]
+        for k in np.unique(emits[emits >= 0]):
+            at = emits == k
+            grouped[at, 3 * k:3 * k + 3] += mat.emission[at]
+        out[:, SAMPLED_WIDTH:] = grouped
     f32 = np.ascontiguousarray
     cols = np.array([SAMPLED[name].start for name in shading.COMPOSED], np.int64)
     shading.compose(out, cols, n, p, uv, f32(frame.has_uv[tri]), diffuse, specular,

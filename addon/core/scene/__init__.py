@@ -155,6 +155,7 @@ class MeshBatch:
                None: the probes light it
     asset:     the name of its object's topmost parent ("" for none: its own), for the
                Cryptomatte Asset pass
+    group:     the light group its emission is counted in ("": none)
     light_sets, shadow_sets: the light and shadow linking sets it belongs to, bit k for set k
                (``linking``): the lights of receiver set k light it, it blocks the lights of
                blocker set k; every bit by default
@@ -175,6 +176,7 @@ class MeshBatch:
     texspace: np.ndarray | None = None
     lightmap: object | None = None
     asset: str = ""
+    group: str = ""
     light_sets: int = linking.EVERY
     shadow_sets: int = linking.EVERY
 
@@ -196,6 +198,8 @@ class Light:
                (``MeshBatch.light_sets``); 0, every mesh
     blockers:  its shadow linking set: only the meshes of that set shadow it
                (``MeshBatch.shadow_sets``); 0, every caster
+    group:     the light group its light is counted in (``RenderSettings.light_groups``;
+               "": none)
     """
 
     kind: str
@@ -210,6 +214,7 @@ class Light:
     name: str = ""
     receivers: int = 0
     blockers: int = 0
+    group: str = ""
 
     def __post_init__(self) -> None:
         if not (0 <= self.receivers < linking.SETS and 0 <= self.blockers < linking.SETS):
@@ -232,6 +237,7 @@ class World:
     background_alpha: opacity of the background the camera sees (a studio light's)
     sun:      the world's sun taken out of the texture (``world_sun``), a "SUN" ``Light`` that
               is also one of the scene's lights; the camera sees its disc (``world_sun``)
+    group:    the light group of its light, the indirect light and the background ("": none)
     """
 
     color: np.ndarray = field(default_factory=lambda: np.full(3, 0.05, np.float32))
@@ -241,6 +247,7 @@ class World:
     background_lod: float = 0.0
     background_alpha: float = 1.0
     sun: Light | None = None
+    group: str = ""
 
 
 @dataclass(frozen=True)
@@ -344,6 +351,8 @@ class RenderSettings:
                     (``lightmap``); False: from the probes, as every other object
     cryptomatte:    the Cryptomatte passes wanted, of ``render.cryptomatte.KINDS``
     cryptomatte_levels: the ranks each keeps per pixel (the view layer's Levels)
+    light_groups:   the light groups whose passes are wanted (``Combined_<name>``): each the
+                    light of the lights, the world and the emission of the meshes in it
     """
 
     samples: int = 4
@@ -372,6 +381,7 @@ class RenderSettings:
     lightmaps: bool = True
     cryptomatte: tuple[str, ...] = ()
     cryptomatte_levels: int = 6
+    light_groups: tuple[str, ...] = ()
 
 
 @dataclass
