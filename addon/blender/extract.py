@@ -41,8 +41,41 @@ def _matrix(m) -> np.ndarray:
     return np.array([list(row) for row in m], np.float64)
 
 
-def extract_camera(depsgraph) -> cs.Camera:
-    """The scene camera with Blender's sensor fit, shift and clipping."""
+def _aperture(cam, warnings: Warnings | None) -> cs.Aperture | None:
+    """The depth of field of evaluated camera object ``cam`` as Cycles reads it (the radius
+    the focal length over twice the f-stop; the focus object's distance along the view axis,
+    or the Focus Distance), or None when it has none."""
+    dof = cam.data.dof
+    if not dof.use_dof:
+        return None
+    if cam.data.type != "PERSP":
+        if warnings is not None:
+            warnings.add(f"Camera '{cam.name}': BO2 Lighting renders depth of field with "
+                         "perspective cameras only")
+        return None
+    focus = float(dof.focus_distance)
+    target = dof.focus_object
+    if target is not None:
+        where = np.asarray(target.matrix_world.translation, np.float64)
+        bone = getattr(dof, "focus_subtarget", "")
+        if bone and target.pose is not None and bone in target.pose.bones:
+            where = np.asarray(target.matrix_world @ target.pose.bones[bone].head, np.float64)
+        world = _matrix(cam.matrix_world)
+        along = float((where - world[:3, 3]) @ -world[:3, 2] / np.linalg.norm(world[:3, 2]))
+        if along < 0.0 and warnings is not None:
+            warnings.add(f"Camera '{cam.name}': its focus object '{target.name}' is behind it; "
+                         "it focuses at that distance ahead, as Cycles does")
+        focus = abs(along)
+    fstop = max(float(dof.aperture_fstop), 1e-5)
+    blades = int(dof.aperture_blades)
+    return cs.Aperture(radius=float(cam.data.lens) * 1e-3 / (2.0 * fstop),
+                       focus=max(focus, 1e-5), blades=blades if blades >= 3 else 0,
+                       rotation=float(dof.aperture_rotation),
+                       ratio=max(float(dof.aperture_ratio), 1e-6))
+
+
+def extract_camera(depsgraph, warnings: Warnings | None = None) -> cs.Camera:
+    """The scene camera with Blender's sensor fit, shift, clipping and depth of field."""
     scene = depsgraph.scene
     if scene.camera is None:
         raise SceneError("The scene has no active camera: add one and set it as the scene camera")
@@ -62,6 +95,7 @@ def extract_camera(depsgraph) -> cs.Camera:
         width=w,
         height=h,
         orthographic=cam.data.type == "ORTHO",
+        aperture=_aperture(cam, warnings),
     )
 
 
@@ -564,7 +598,7 @@ def extract_scene(depsgraph, settings: cs.RenderSettings | None = None, camera: 
     warnings = Warnings() if warnings is None else warnings
     scene = depsgraph.scene
     viewer = scene.camera if camera else None
-    camera = (extract_camera(depsgraph) if camera else
+    camera = (extract_camera(depsgraph, warnings) if camera else
               cs.Camera(world_to_camera=np.eye(4), projection=np.eye(4), width=1, height=1))
     cache = SceneCache() if cache is None else cache
     cache.refresh(warnings)

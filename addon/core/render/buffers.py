@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import Material, Scene, linking, material
-from . import cryptomatte, projection, raster
+from . import cryptomatte, depth_of_field, projection, raster
 from . import sky as sky_light
 from .job import RenderJob
 
@@ -60,6 +60,9 @@ class Frame:
     # light groups: per triangle the index in ``RenderSettings.light_groups`` of its mesh's
     # group (its emission's) (T,) int32, -1 none; None without light groups
     group: np.ndarray | None = None
+    # depth of field: pixels by which a lens point may move a triangle
+    # (``depth_of_field.reach``), 0 for a pinhole
+    lens_reach: int = 0
 
     @property
     def sky(self) -> sky_light.Sky | None:
@@ -239,7 +242,9 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
                  lightmaps=[meshes[k].lightmap for k in lit] or None, receives=receives,
-                 blocks=blocks, crypto=crypto, group=group)
+                 blocks=blocks, crypto=crypto, group=group,
+                 lens_reach=depth_of_field.reach(cam, positions if seen is None
+                                                 else positions[seen]))
 
 
 def mesh_flags(frame: Frame, values) -> np.ndarray | None:
@@ -280,7 +285,8 @@ def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
     else:
         clip = clip_coordinates(frame.positions, camera, frame.seen)
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
-                               clip=clip, tiles=None if frame.tiles is None else {})
+                               clip=clip, tiles=None if frame.tiles is None else {},
+                               lens_reach=depth_of_field.reach(camera, frame.positions))
 
 
 def with_materials(frame: Frame, scene: Scene) -> Frame | None:

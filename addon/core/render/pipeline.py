@@ -23,7 +23,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from . import cryptomatte
+from . import cryptomatte, depth_of_field
 from .buffers import Frame, prepare_buffers, with_camera
 from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
@@ -35,8 +35,10 @@ from .visibility import (
     dither_sample,
     draw_samples,
     sample_offsets,
+    reprojected,
     sample_raster,
     tile_margin,
+    tile_matrix,
     tiles,
 )
 
@@ -79,16 +81,33 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     seen_by = []  # per sample, with Cryptomatte: the triangle it sees, -1 none
     margin = tile_margin(frame, tile)
     m, clip, _, cull, keep = margin
+    cam = scene.camera
+    lens = cam.aperture is not None and not cam.orthographic
+    if lens:  # each sample its lens point: its own projection of the tile, drawn alone
+        lens_at = depth_of_field.lens_points(cam.aperture,
+                                             first_sample + np.arange(len(offsets)))
+        grown = (x0 - m, y0 - m, x1 + m, y1 + m)
+        to_tile = tile_matrix(cam.width, cam.height, grown)
+        from_tile = np.linalg.inv(to_tile)
     drawn = []
     for k, offset in enumerate(offsets):
         tick()
-        if k % SAMPLE_BATCH == 0:  # the next samples' fragments, drawn together
-            drawn = draw_samples(scene.camera, clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull,
+        sample_margin, shift = margin, (0.0, 0.0)
+        if lens:
+            seen_clip = reprojected(clip, to_tile @ depth_of_field.clip_transform(
+                cam, lens_at[k]) @ from_tile)
+            sample_margin = (m, seen_clip, margin[2], cull, None)
+            drawn = draw_samples(cam, seen_clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull,
+                                 offsets[k:k + 1], None, frame.fades.any())
+            shift = depth_of_field.background_shift(cam, lens_at[k])
+        elif k % SAMPLE_BATCH == 0:  # the next samples' fragments, drawn together
+            drawn = draw_samples(cam, clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull,
                           offsets[k:k + SAMPLE_BATCH], keep, frame.fades.any())
-        layer0 = sample_raster(frame, tile, margin, offset, frags=drawn[k % SAMPLE_BATCH])
+        layer0 = sample_raster(frame, tile, sample_margin, offset,
+                               frags=drawn[0 if lens else k % SAMPLE_BATCH])
         if frame.fades.any():
-            tri, bary, depth, sx, sy = dither_sample(frame, tile, margin, offset, first_sample + k,
-                                               layer0)
+            tri, bary, depth, sx, sy = dither_sample(frame, tile, sample_margin, offset,
+                                                     first_sample + k, layer0)
         else:
             tri, bary, depth, sx, sy, _ = layer0
         covered = tri >= 0
@@ -100,7 +119,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                 miss_count += ~covered
             elif not covered.all():
                 miss = ~covered
-                seen = background_radiance(scene, sx[miss], sy[miss])
+                seen = background_radiance(scene, sx[miss] - shift[0], sy[miss] - shift[1])
                 acc[miss, rgba.start:rgba.start + 3] += seen
                 acc[miss, rgba.start + 3] += np.float32(scene.world.background_alpha)
                 if world_group is not None:
@@ -138,12 +157,15 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     ao_tile = ((tile_ambient(frame, tile), x0, y0) if count and scene.probes is not None
                and s.ambient_occlusion and s.ao_distance > 0.0
                and (s.ao_pass or has_indirect(frame)) else None)
+    eyes = (np.array([depth_of_field.eye(cam, p) for p in lens_at], np.float32)[
+        sample - np.uint32(first_sample)] if lens and count else None)
     for lo in range(0, count, SHADE_BLOCK):
         block = slice(lo, lo + SHADE_BLOCK)
         tick(len(pixel[block]) / count)
         shading.splat(acc, pixel[block], weight[block],
                       shade_points(frame, tri[block], bary[block], sx[block], sy[block],
-                                    tick, ao_tile, seeds[block]))
+                                    tick, ao_tile, seeds[block],
+                                    None if eyes is None else eyes[block]))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color

@@ -43,12 +43,13 @@ def has_indirect(frame: Frame) -> bool:
 
 
 def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
-                 seeds=None) -> np.ndarray:
+                 seeds=None, eyes=None) -> np.ndarray:
     """Shade N visible points: tri (N,), bary (N, 3), window positions sx, sy (N,);
     ``tick`` (the tile's) is called with 0 between the long steps, so a stop comes soon;
     ``ao_tile``: the tile's ``tile_ambient`` and its origin (x, y) in the frame, or None;
     ``seeds``: (N, 3) the shadow filter's rotation seeds (``shadow_filter.pixel_seeds``), or
-    None (the positions').
+    None (the positions'); ``eyes``: (N, 3) where each point is seen from (a lens point,
+    ``depth_of_field``), or None: the camera.
 
     returns: (N, ``passes.film_width``) float32, the averaged passes side by side (columns
              ``SAMPLED``; Combined with alpha 1), then each light group's light
@@ -60,8 +61,12 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
     m = len(tri)
     p, n, geo = (np.empty((m, 3), np.float32) for _ in range(3))
     uv = np.empty((m, 2), np.float32)
-    _, d = cam.rays(sx, sy)
-    v = -d
+    if eyes is None:
+        _, d = cam.rays(sx, sy)
+        v = -d
+    else:
+        v = eyes - np.einsum("nk,nkc->nc", bary, frame.positions[tri]).astype(np.float32)
+        v /= np.maximum(np.linalg.norm(v, axis=1, keepdims=True), np.float32(1e-20))
     # position, normals (turned towards the camera), UV
     shading.surface(np.ascontiguousarray(tri, np.int32), np.ascontiguousarray(bary, np.float32),
                     frame.positions, frame.normals, frame.uvs, v, p, n, geo, uv)

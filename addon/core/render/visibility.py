@@ -59,6 +59,26 @@ def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
             for y in range(by0, by1, size) for x in range(bx0, bx1, size)]
 
 
+def tile_matrix(width: int, height: int, tile) -> np.ndarray:
+    """(4, 4) float64: the frame's clip coordinates to those in which ``tile`` (x0, y0, x1,
+    y1) fills the viewport (``tile_clip``)."""
+    x0, y0, x1, y1 = tile
+    tw, th = x1 - x0, y1 - y0
+    m = np.eye(4)
+    m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
+    m[1, 1], m[1, 3] = height / th, 1.0 - height / th + 2.0 * y0 / th
+    return m
+
+
+def reprojected(clip, matrix: np.ndarray):
+    """``clip`` (K, 3, 4) float32, or its ``projection.Projection``, times the clip-space
+    ``matrix`` (4, 4) (a lens point's, ``depth_of_field.clip_transform``)."""
+    if isinstance(clip, projection.Projection):
+        return projection.Projection(clip.positions, matrix @ clip.matrix, clip.dtype,
+                                     clip.index)
+    return np.ascontiguousarray(clip @ matrix.T.astype(np.float32), np.float32)
+
+
 def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarray, np.ndarray]:
     """Clip coordinates re-projected so that ``tile`` fills the viewport, of the triangles that
     may touch it (the others lie wholly beyond one plane of its frustum).
@@ -88,11 +108,8 @@ def tile_clip(clip: np.ndarray, width: int, height: int, tile) -> tuple[np.ndarr
                                           ax, bx, ay, by, out, index)
         return out[:count], index[:count]
     if isinstance(clip, projection.Projection):  # re-projected a chunk at a time when drawn
-        m = np.eye(4)
-        m[0, 0], m[0, 3] = width / tw, (width - 2.0 * x0) / tw - 1.0
-        m[1, 1], m[1, 3] = height / th, 1.0 - height / th + 2.0 * y0 / th
-        tile = projection.Projection(clip.positions, m @ clip.matrix, clip.dtype,
-                                 clip.index).survivors()
+        tile = projection.Projection(clip.positions, tile_matrix(width, height, tile)
+                                     @ clip.matrix, clip.dtype, clip.index).survivors()
         return tile, tile.index
     clip = np.ascontiguousarray(clip, np.float32)
     out = np.empty_like(clip)
@@ -113,12 +130,13 @@ def nearest_faces(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 def tile_margin(frame: Frame, tile):
     """The tile grown by the filter's reach (samples drawn from the pixel filter land up to its
-    width beyond their pixel, so triangles next to the tile must not be rejected): the margin
-    m, pixels, ``tile_clip`` of the grown tile with the culling flags of its triangles, and the
-    raster's ``keep`` dict (None unless the frame keeps its tiles: ``Frame.tiles``)."""
+    width beyond their pixel, so triangles next to the tile must not be rejected) and by the
+    lens's (``Frame.lens_reach``): the margin m, pixels, ``tile_clip`` of the grown tile with
+    the culling flags of its triangles, and the raster's ``keep`` dict (None unless the frame
+    keeps its tiles: ``Frame.tiles``)."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
-    m = int(np.ceil(frame.scene.settings.filter_width))
+    m = int(np.ceil(frame.scene.settings.filter_width)) + frame.lens_reach
     key = (tuple(tile), m)
     if frame.tiles is not None and key in frame.tiles:
         return frame.tiles[key]

@@ -28,14 +28,34 @@ if TYPE_CHECKING:  # the lighting floor, above this one, holds the probes
 LIGHT_KINDS = ("POINT", "SPOT", "SUN", "AREA")
 
 
+@dataclass(frozen=True)
+class Aperture:
+    """A thin lens's aperture, as Cycles models depth of field (Camera > Depth of Field).
+
+    radius:   metres: the focal length over twice the f-stop
+    focus:    distance along the view axis that is sharp, metres
+    blades:   sides of a polygonal aperture (0: a disc)
+    rotation: the polygon's rotation, radians
+    ratio:    anamorphic ratio: the aperture's width is divided by it
+    """
+
+    radius: float
+    focus: float
+    blades: int = 0
+    rotation: float = 0.0
+    ratio: float = 1.0
+
+
 @dataclass
 class Camera:
-    """A pinhole or orthographic camera.
+    """A pinhole or orthographic camera, or a thin lens (``aperture``).
 
     world_to_camera: (4, 4) float64 view matrix; the camera looks down its -Z axis, Y up
     projection:      (4, 4) float64 OpenGL-style projection (camera space -> clip space)
     width, height:   output resolution in pixels
     orthographic:    True for an orthographic camera (view direction is constant)
+    aperture:        depth of field (``render.depth_of_field``), perspective cameras only;
+                     None: a pinhole
     """
 
     world_to_camera: np.ndarray
@@ -43,6 +63,7 @@ class Camera:
     width: int
     height: int
     orthographic: bool = False
+    aperture: Aperture | None = None
 
     @classmethod
     def look_at(cls, eye, target, fov_y: float, width: int, height: int,
