@@ -82,6 +82,10 @@ class BO2RenderEngine(bpy.types.RenderEngine):
         view.set_view(getattr(space.shading, "bo2_lookdev_view", "COMBINED"))
         scale = viewport.pixel_size(depsgraph.scene, context.preferences)
         camera = viewport.region_camera(region, context.region_data, scale)
+        viewer = depsgraph.scene.camera
+        if context.region_data.view_perspective == "CAMERA" and viewer is not None \
+                and viewer.type == "CAMERA" and camera.aperture is None:
+            camera.aperture = extract.aperture(viewer.evaluated_get(depsgraph), None)
         view.set_camera(camera)
         busy = view.session.busy  # before the image: a last sample landing now is redrawn
         if self._drawing is None:

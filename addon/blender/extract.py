@@ -41,7 +41,7 @@ def _matrix(m) -> np.ndarray:
     return np.array([list(row) for row in m], np.float64)
 
 
-def _aperture(cam, warnings: Warnings | None) -> cs.Aperture | None:
+def aperture(cam, warnings: Warnings | None) -> cs.Aperture | None:
     """The depth of field of evaluated camera object ``cam`` as Cycles reads it (the radius
     the focal length over twice the f-stop; the focus object's distance along the view axis,
     or the Focus Distance), or None when it has none."""
@@ -95,7 +95,7 @@ def extract_camera(depsgraph, warnings: Warnings | None = None) -> cs.Camera:
         width=w,
         height=h,
         orthographic=cam.data.type == "ORTHO",
-        aperture=_aperture(cam, warnings),
+        aperture=aperture(cam, warnings),
     )
 
 

@@ -38,6 +38,7 @@ _STOCK_PANELS = (
     "DATA_PT_context_mesh", "DATA_PT_normals", "DATA_PT_uv_texture", "DATA_PT_vertex_groups",
     "MATERIAL_PT_preview", "EEVEE_MATERIAL_PT_context_material", "MATERIAL_PT_viewport",
     "WORLD_PT_context_world", "WORLD_PT_preview", "VIEWLAYER_PT_layer",
+    "DATA_PT_camera_dof", "DATA_PT_camera_dof_aperture",
     "DATA_PT_context_lightprobe", "DATA_PT_lightprobe_animation",
     "EEVEE_WORLD_PT_surface", "WORLD_PT_custom_props", "WORLD_PT_animation",
     "MATERIAL_PT_custom_props", "MATERIAL_PT_animation",

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.formulas import occlusion as occlusion_formulas
-from ..core.render import pipeline
+from ..core.render import depth_of_field, pipeline
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH
 from ..core.render.shading import has_indirect
@@ -561,14 +561,19 @@ class GPUFrame:
             mode = ("MODE_EVERY" if settings.shade_every_sample else
                     "MODE_FIRST" if k == 0 else "MODE_REST")
             jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
+            lens = _lens(camera, first_sample + k)  # this sample's lens point, if any
 
             def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy),
-                      **extra):
+                      lens=lens, **extra):
                 blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{
-                    **base, "jitter": jitter, "sample_offset": offset,
+                    **base, **lens, "jitter": jitter, "sample_offset": offset,
                     "counts": [count, model, int(first_batch), MODES[mode]],
                     "size": [w, h, first_sample + k, 0], **extra}])))
                 return blocks[-1]
+
+            if lens and self.world is not None:  # the background through the lens point
+                world_block = gpu.types.GPUUniformBuf(self._world_block(camera, lens))
+                blocks.append(world_block)
 
             self._visible(targets.prepass, targets.textures["visible"],
                           lambda **extra: block(0, True, **extra), first_sample + k)
@@ -638,7 +643,7 @@ class GPUFrame:
                   "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
                   "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                   "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
-                  "sample_offset": (ox, oy), "size": [w, h, k, 0]}
+                  "sample_offset": (ox, oy), "size": [w, h, k, 0], **_lens(camera, k)}
         blocks = []
 
         def block(**extra):
@@ -689,7 +694,8 @@ class GPUFrame:
                       "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
                       "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                       "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
-                      "sample_offset": (ox, oy), "size": [w, h, first_sample + k, 0]}
+                      "sample_offset": (ox, oy), "size": [w, h, first_sample + k, 0],
+                      **_lens(camera, first_sample + k)}
             blocks = []
 
             def block(record=record, blocks=blocks, **extra):
@@ -774,14 +780,15 @@ class GPUFrame:
                 merge.uniform_sampler("next_visible", after)
                 self.background.draw(merge)
 
-    def _world_block(self, camera) -> bytes:
-        """The WorldData of the frame's image world seen through ``camera``."""
+    def _world_block(self, camera, lens: dict | None = None) -> bytes:
+        """The WorldData of the frame's image world seen through ``camera`` (from a lens
+        point: ``_lens``)."""
         import math
 
         world = self.frame.scene.world
         view_proj = np.asarray(camera.projection, np.float64) @ np.asarray(
             camera.world_to_camera, np.float64)
-        record = {"clip_to_world": np.linalg.inv(view_proj),
+        record = {"clip_to_world": lens["clip_to_world"] if lens else np.linalg.inv(view_proj),
                   "rotation": np.asarray(world.rotation, np.float64),
                   "params": [world.strength, world.background_alpha,
                              world.background_lod or -1.0, float(world.sun is not None)]}
@@ -947,6 +954,20 @@ class Targets:
                 read[target] = textures.read(self.textures[f"total_{target}"])[::-1] * scale
             out[name] = np.ascontiguousarray(read[target][..., channels])
         return out
+
+
+def _lens(camera, sample: int) -> dict:
+    """The FrameData fields of sample number ``sample`` seen from its point of ``camera``'s
+    aperture (``core.render.depth_of_field``): its view_proj, clip_to_world and eye; {} for a
+    pinhole."""
+    if camera.aperture is None or camera.orthographic:
+        return {}
+    point = depth_of_field.lens_points(camera.aperture, np.array([sample]))[0]
+    view_proj = depth_of_field.clip_transform(camera, point) @ (
+        np.asarray(camera.projection, np.float64) @ np.asarray(camera.world_to_camera,
+                                                                 np.float64))
+    return {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
+            "eye": depth_of_field.eye(camera, point)}
 
 
 def _triangle_normals(pos: np.ndarray):

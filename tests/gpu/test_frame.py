@@ -414,3 +414,19 @@ def test_cryptomatte_matches_the_cpu():
         assert same_id.mean() > 0.995 and close.mean() > 0.995, name
     covered = sum(gpu[f"CryptoObject{n:02d}"][..., c] for n in (0, 1) for c in (1, 3))
     assert covered.max() <= 1.0 + 1e-6 and (covered == 1.0).mean() > 0.5  # the sky: none
+
+
+def test_depth_of_field_matches_the_cpu():
+    """A thin lens focused on the box (blades, a ratio): the GPU's samples see from the CPU's
+    lens points; the frame against the CPU's, and blurred where the pinhole's is sharp."""
+    from bo2_lighting.addon.core.scene import Aperture
+
+    scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], samples=16)
+    pinhole = _render_both(scene)[1]["Combined"]
+    eye = scene.camera.position
+    scene.camera.aperture = Aperture(radius=1.2, focus=float(np.linalg.norm(eye - [-1, 0, 0.5])),
+                                     blades=6, rotation=0.2, ratio=1.3)
+    cpu, gpu = _render_both(scene)
+    _check(cpu, gpu, "depth of field")
+    blurred = np.abs(gpu["Combined"] - pinhole).max(-1) > 0.05
+    assert 0.02 < blurred.mean() < 0.6, blurred.mean()

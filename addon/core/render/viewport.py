@@ -462,8 +462,10 @@ class Session:
 
 
 def same_camera(a: Camera, b: Camera) -> bool:
-    """True when cameras ``a`` and ``b`` see the same image (matrices bit for bit, size)."""
-    return (a.width, a.height, a.orthographic) == (b.width, b.height, b.orthographic) and (
+    """True when cameras ``a`` and ``b`` see the same image (matrices bit for bit, size,
+    aperture)."""
+    return (a.width, a.height, a.orthographic, a.aperture) == (
+        b.width, b.height, b.orthographic, b.aperture) and (
         np.array_equal(a.world_to_camera, b.world_to_camera)
         and np.array_equal(a.projection, b.projection))
 
