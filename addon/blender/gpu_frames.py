@@ -10,7 +10,7 @@ import bpy
 
 from ..core import kernels
 from ..core.render import pipeline
-from ..core.render.passes import PASSES
+from ..core.render.passes import PASSES, group_pass
 from ..core.render.visibility import sample_offsets
 from ..gpu_backend import device
 from ..gpu_backend import frame as gpu_frame
@@ -56,7 +56,6 @@ def unsupported_passes(view_layer) -> str | None:
     """The enabled passes the GPU does not draw yet (one phrase), or None."""
     missing = [name for name in PASSES if name not in gpu_frame.PASS_OF
                and name not in gpu_frame.CENTRAL and passes.enabled(view_layer, name)]
-    missing += ["light group" for _ in view_layer.lightgroups[:1]]
     if not missing:
         return None
     return f"the {', '.join(missing[:3])} pass{'es' if len(missing) > 1 else ''}"
@@ -82,5 +81,6 @@ def render(job, view_layer) -> tuple[object, dict | str]:
     s = job.scene.settings
     wanted = [name for name in PASSES if name == "Combined" or passes.enabled(view_layer, name)]
     wanted += passes.cryptomatte_passes(view_layer)
+    wanted += [group_pass(group.name) for group in view_layer.lightgroups]
     return frame, gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)),
                                                          s.filter_width), wanted)

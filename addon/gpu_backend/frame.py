@@ -22,7 +22,7 @@ import numpy as np
 from ..core.formulas import occlusion as occlusion_formulas
 from ..core.render import depth_of_field, pipeline
 from ..core.render.buffers import Frame
-from ..core.render.passes import EMPTY_DEPTH
+from ..core.render.passes import EMPTY_DEPTH, group_pass
 from ..core.render.shading import has_indirect
 from ..core.render.transparency import DITHER_LAYERS
 from . import dome, images, lightmaps, lights, materials, occlusion, probes, programs, textures
@@ -70,7 +70,8 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "UV": ("uv", slice(0, 3)), "Specular Color": ("rf0", slice(0, 3)),
            "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
            "Lightmap Texels": ("texels", slice(0, 3))}
-FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES = 1, 2, 4  # a triangle's flags (``glsl/frame_vert.glsl``)
+# a triangle's flags (``glsl/frame_vert.glsl``)
+FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES, FLAG_DARK = 1, 2, 4, 8
 # Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
 CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
@@ -376,7 +377,7 @@ class GPUFrame:
     once; ``draw`` renders it through any camera. Raises ``Unsupported`` for a frame the GPU
     does not draw yet (``unsupported``)."""
 
-    def __init__(self, frame: Frame):
+    def __init__(self, frame: Frame, dark: np.ndarray | None = None):
         import gpu
 
         reason = unsupported(frame)
@@ -423,6 +424,8 @@ class GPUFrame:
             flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
         flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
         flags |= frame.fades[keep].astype(np.int32) * FLAG_FADES
+        if dark is not None:  # (a light group's frame: the emission of other groups' meshes)
+            flags |= dark[keep].astype(np.int32) * FLAG_DARK
         vbo.attr_fill("flags", np.repeat(flags, 3))
         # light linking: the receiver sets of the triangle's mesh, the low 32 (``unsupported``)
         links = (np.full(t, -1, np.int32) if frame.receives is None else
@@ -956,6 +959,26 @@ class Targets:
         return out
 
 
+def _group_frame(frame: Frame, group: str) -> tuple[Frame, np.ndarray]:
+    """``frame`` lit by light group ``group`` alone (``core.render.passes.group_pass``): its
+    lights, and the world's light, the probes' and the background when the world is in it;
+    and (T,) bool the triangles whose emission is another group's (or none's)."""
+    scene = frame.scene
+    mine = [k for k, light in enumerate(scene.lights) if light.group == group]
+    world = scene.world.group == group
+    sub = dataclasses.replace(
+        scene, lights=[scene.lights[k] for k in mine], probes=scene.probes if world else None,
+        world=scene.world if world else dataclasses.replace(
+            scene.world, color=np.zeros(3, np.float32), texture=None, sun=None),
+        settings=dataclasses.replace(scene.settings, light_groups=(), cryptomatte=()))
+    maps = [frame.shadow_maps[k] for k in mine] + (
+        list(frame.shadow_maps[len(scene.lights):]) if world else [])
+    index = scene.settings.light_groups.index(group)
+    dark = np.ones(len(frame.positions), bool) if frame.group is None else frame.group != index
+    return dataclasses.replace(frame, scene=sub, shadow_maps=maps, crypto=None,
+                               group=None), dark
+
+
 def _lens(camera, sample: int) -> dict:
     """The FrameData fields of sample number ``sample`` seen from its point of ``camera``'s
     aperture (``core.render.depth_of_field``): its view_proj, clip_to_world and eye; {} for a
@@ -991,8 +1014,8 @@ def _padded(block: bytes, struct: Struct, count: int) -> bytes:
 def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
     """The frame's passes through its own camera, drawn on the GPU: {name: (H, W, C)
     float32}, row 0 at the top (``pipeline.render_frame``'s layout); ``passes``: the names
-    wanted (``PASS_OF``, ``CENTRAL`` and the settings' Cryptomatte passes; default all),
-    Combined always."""
+    wanted (``PASS_OF``, ``CENTRAL``, the settings' Cryptomatte and light group passes;
+    default all), Combined always."""
     cam = frame.scene.camera
     wanted = set(PASS_OF) | set(CENTRAL) if passes is None else set(passes) | {"Combined"}
     try:
@@ -1006,6 +1029,13 @@ def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
             out.update({p: image for p, image in targets.passes().items() if p in wanted})
         if wanted & set(CENTRAL):
             out.update(drawn.central(cam, offsets))
+        for group in frame.scene.settings.light_groups:
+            name = group_pass(group)
+            if passes is None or name in passes:
+                sub, dark = _group_frame(frame, group)
+                targets = Targets(cam.width, cam.height, GROUPS[0])
+                GPUFrame(sub, dark).draw(cam, offsets, targets)
+                out[name] = np.ascontiguousarray(targets.passes()["Combined"][..., :3])
         if frame.crypto and (passes is None or any(p.startswith("Crypto") for p in passes)):
             crypto = pipeline.crypto_passes(frame, drawn.seen(cam, offsets))
             out.update({name: ranks.reshape(cam.height, cam.width, 4)

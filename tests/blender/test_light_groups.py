@@ -60,11 +60,20 @@ def test_light_group_passes_match_cycles_and_add_up(addon):
         assert a[lit].mean() == pytest.approx(b[lit].mean(), rel=0.05), n
 
 
-def test_the_gpu_says_it_leaves_light_groups_to_the_cpu(addon):
-    """With the GPU chosen, a frame with light groups renders on the CPU, and says why."""
+def test_the_gpu_draws_light_groups_as_the_cpu(addon):
+    """With the GPU chosen, the light group passes add up to Combined there too, and equal
+    the CPU's (or, without a GPU context, the frame renders on the CPU and says why)."""
     scene = grouped_scene()
-    scene.render.engine = "BO2_LIGHTING"
+    names = [f"Combined_{g}" for g in ("key", "fill", "env")]
+    scene.bo2.device = "CPU"
+    cpu = render_passes(scene, "BO2_LIGHTING", names + ["Combined"], samples=8)
     scene.bo2.device = "GPU"
     with engine.listening() as said:
-        assert bpy.ops.render.render() == {"FINISHED"}
-    assert any("light group" in t or "no GPU context" in t for t in said.texts()), said.texts()
+        gpu = render_passes(scene, "BO2_LIGHTING", names + ["Combined"], samples=8)
+    if any("no GPU context" in t for t in said.texts()):
+        return
+    assert any("Rendered on the GPU" in t for t in said.texts()), said.texts()
+    total = sum(gpu[n] for n in names)
+    np.testing.assert_allclose(total, gpu["Combined"][..., :3], rtol=1e-3, atol=1e-4)
+    for n in names:
+        assert np.abs(gpu[n] - cpu[n]).mean() < 2e-3 * max(cpu[n].mean(), 1e-3) + 1e-4, n

@@ -430,3 +430,24 @@ def test_depth_of_field_matches_the_cpu():
     _check(cpu, gpu, "depth of field")
     blurred = np.abs(gpu["Combined"] - pinhole).max(-1) > 0.05
     assert 0.02 < blurred.mean() < 0.6, blurred.mean()
+
+
+def test_light_groups_match_the_cpu():
+    """Light groups on the GPU (a frame per group: its lights, its meshes' emission, the
+    world's light and probes for the world's): each pass against the CPU's, and together
+    Combined."""
+    lights = [dataclasses.replace(scenes.LIGHTS["SUN"], group="sun"),
+              dataclasses.replace(scenes.LIGHTS["POINT"], group="lamps"),
+              dataclasses.replace(scenes.LIGHTS["SPOT"], group="lamps")]
+    scene = scenes.with_probes(scenes.objects_scene(lights, emission=True))
+    scene.meshes[3].group = "lamps"  # the glowing cube
+    scene.world.group = "world"
+    scene.settings = dataclasses.replace(scene.settings, light_groups=("sun", "lamps", "world"))
+    cpu, gpu = _render_both(scene)
+    names = ["Combined_sun", "Combined_lamps", "Combined_world"]
+    for name in names:
+        value = compare.psnr(gpu[name], cpu[name])
+        print(f"{name}: {value:.1f} dB")
+        assert value >= 40.0, name
+    np.testing.assert_allclose(sum(gpu[n] for n in names), gpu["Combined"][..., :3],
+                               rtol=1e-3, atol=1e-4)

@@ -105,7 +105,7 @@ void main()
 #endif
   }
 #endif
-  vec3 emit = first_batch ? s.emission : vec3(0.0);
+  vec3 emit = first_batch && (v_flags & 8) == 0 ? s.emission : vec3(0.0);  /* 8: dark */
   vec3 reflections_view = vec3(0.2), volumes_view = vec3(0.2);  /* no probes: the world's */
 #ifdef INDIRECT
   reflections_view = influence_colour(0, s.p);
