@@ -202,15 +202,99 @@ def _visibility(obj, view_layer) -> tuple[bool, bool, bool, bool, bool]:
 
 def _object_data(obj, cache: SceneCache, warnings):
     """Object-space triangles, global material indices (``cache.materials``), corner
-    attributes and texture space of an evaluated object, or None."""
-    mesh = obj.to_mesh()
-    try:
-        if mesh is None or len(mesh.polygons) == 0:
-            return None
-        return _mesh_data(mesh, [ms.material for ms in obj.material_slots], obj.name, cache,
-                          warnings)
-    finally:
-        obj.to_mesh_clear()
+    attributes and texture space of an evaluated object (its mesh, and its hair curves and
+    points as ``core.scene.strands`` makes them), or None."""
+    parts = []
+    if obj.type not in _STRAND_TYPES:
+        mesh = obj.to_mesh()
+        try:
+            if mesh is not None and len(mesh.polygons):
+                parts.append(_mesh_data(mesh, [ms.material for ms in obj.material_slots],
+                                        obj.name, cache, warnings))
+        finally:
+            obj.to_mesh_clear()
+    if obj.type in _STRAND_TYPES or any(m.type == "NODES" for m in obj.modifiers):
+        strand = _strand_data(obj, cache, warnings)
+        if strand is not None:
+            parts.append(strand)
+    if len(parts) < 2:
+        return parts[0] if parts else None
+    (pos, nrm, uvs, mat, attributes, texspace), (spos, snrm, _, smat, _, _) = parts
+    zeros = {key: np.zeros((len(spos), *a.shape[1:]), np.float32)
+             for key, a in attributes.items()}
+    return (np.concatenate([pos, spos]), np.concatenate([nrm, snrm]),
+            None if uvs is None else np.concatenate([uvs, np.zeros((len(spos), 3, 2),
+                                                                   np.float32)]),
+            np.concatenate([mat, smat]),
+            {key: np.concatenate([a, zeros[key]]) for key, a in attributes.items()}, texspace)
+
+
+_STRAND_TYPES = {"CURVES", "POINTCLOUD"}
+DEFAULT_RADIUS = 0.01  # metres: a hair curve's or a point's without a radius attribute
+HAIR_SEGMENTS = 2_000_000  # hair segments drawn per object (6 triangles each); beyond, thinned
+
+
+def _float_attribute(owner, name: str, count: int, default: float) -> np.ndarray:
+    attribute = owner.attributes.get(name)
+    out = np.full(count, default, np.float32)
+    if attribute is not None and attribute.data_type == "FLOAT" and len(attribute.data) == count:
+        attribute.data.foreach_get("value", out)
+    return out
+
+
+def _strand_data(obj, cache: SceneCache, warnings):
+    """``_object_data`` of evaluated object ``obj``'s hair curves (tubes) and points
+    (spheres), each in its first material, or None when it has neither."""
+    from ..core.scene import strands
+
+    geometry = _geometry(obj)
+    if geometry is None:
+        return None
+    tris, normals, mats = [], [], []
+
+    def material(component) -> int:  # its first material, as Cycles gives the component
+        first = component.materials[0] if len(component.materials) else None
+        return cache.material(first, warnings)
+
+    curves = geometry.curves
+    if curves is not None and len(curves.points) and len(curves.curves):
+        count = len(curves.points)
+        points = np.empty(count * 3, np.float32)
+        curves.position_data.foreach_get("vector", points)
+        offsets = np.empty(len(curves.curves) + 1, np.int32)
+        curves.curve_offset_data.foreach_get("value", offsets)
+        radii = _float_attribute(curves, "radius", count, DEFAULT_RADIUS)
+        points = points.reshape(-1, 3)
+        segments = count - len(curves.curves)
+        step = max(1, -(-segments // HAIR_SEGMENTS))
+        if step > 1:  # every step-th curve, step times as thick: the same coverage
+            warnings.add(f"Hair '{obj.name}': {segments:,} segments, more than "
+                         f"{HAIR_SEGMENTS:,}: every {step}th curve is drawn, {step} times as "
+                         "thick")
+            keep = np.arange(0, len(offsets) - 1, step)
+            take = np.concatenate([np.arange(offsets[k], offsets[k + 1]) for k in keep])
+            offsets = np.concatenate([[0], np.cumsum(np.diff(offsets)[keep])])
+            points, radii = points[take], radii[take] * step
+        t, n, _ = strands.tubes(points, radii, offsets)
+        tris.append(t)
+        normals.append(n)
+        mats.append(np.full(len(t), material(curves), np.int32))
+    cloud = geometry.pointcloud
+    if cloud is not None and len(cloud.points):
+        count = len(cloud.points)
+        points = np.empty(count * 3, np.float32)
+        cloud.attributes["position"].data.foreach_get("vector", points)
+        t, n = strands.spheres(points.reshape(-1, 3),
+                               _float_attribute(cloud, "radius", count, DEFAULT_RADIUS))
+        tris.append(t)
+        normals.append(n)
+        mats.append(np.full(len(t), material(cloud), np.int32))
+    if not tris:
+        return None
+    pos = np.concatenate(tris)
+    lo, hi = pos.reshape(-1, 3).min(0), pos.reshape(-1, 3).max(0)
+    texspace = np.array([lo, np.maximum(hi - lo, 1e-6)], np.float32)
+    return pos, np.concatenate(normals), None, np.concatenate(mats), {}, texspace
 
 
 def _mesh_data(mesh, slots, owner: str, cache: SceneCache, warnings):
@@ -348,8 +432,8 @@ def _instances(obj, depsgraph, cache: SceneCache, warnings, shown: set):
                if isinstance(ref, bpy.types.Object) else (obj.name_full, "instances", k))
         if key not in cache.objects:
             if isinstance(ref, bpy.types.Object):
-                data = _object_data(ref, cache, warnings) if ref.type in _GEOMETRY_TYPES \
-                    else None
+                data = (_object_data(ref, cache, warnings)
+                        if ref.type in _GEOMETRY_TYPES | _STRAND_TYPES else None)
             else:
                 mesh = ref.mesh
                 data = (None if mesh is None or not len(mesh.polygons) else
@@ -517,7 +601,7 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
             light.group = obj.original.lightgroup
             lights.append(light)
             continue
-        if obj.type not in _GEOMETRY_TYPES:
+        if obj.type not in _GEOMETRY_TYPES | _STRAND_TYPES:
             continue
         visibility = _visibility(obj, depsgraph.view_layer)
         if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
