@@ -21,9 +21,8 @@ from ..core.lighting import world_sun
 from ..core.render import memory
 from ..core.render.job import Cancelled, Warnings
 from . import lightmaps as baked_lightmaps
-from . import linking
+from . import linking, worlds
 from . import settings as settings_of
-from . import worlds
 from .images import load_image
 from .lights import blender_light, euler_xyz
 from .materials import convert_material

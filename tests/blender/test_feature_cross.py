@@ -23,7 +23,14 @@ import numpy as np
 import pytest
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
-from util import bare_material, camera_of, principled, render_pixels, set_world_color
+from util import (
+    bare_material,
+    camera_of,
+    principled,
+    render_passes,
+    render_pixels,
+    set_world_color,
+)
 
 from bo2_lighting.addon.blender import bake_files, viewport
 
@@ -112,7 +119,7 @@ def build(tmp_path):
     bpy.ops.mesh.primitive_cube_add(size=0.4, location=(0.0, -1.2, 0.2))
     bpy.context.object.data.materials.append(surface_material("Glow", "EMISSION"))
     plane(striped_normal_map("Striped"), 1.0, (-1.5, -1.6, 0.01))
-    plane(matte("Plain"), 1.0, (1.5, -1.6, 0.01))
+    plane(matte("Plain"), 1.0, (1.5, -1.6, 0.01)).name = "Plain"
     plane(matte("Linked Out"), 0.8, LINKED_OUT).name = "Linked Out"
     plane(matte("Free"), 0.6, FREE).name = "Free"
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
@@ -271,3 +278,54 @@ def test_every_feature_under_every_light(addon, tmp_path, kind, shape):
         check_shadows(results[True][k], results[False][k], (kind, shape, where))
     # the probe sees the floor darkened by the casters' shadows
     assert results[True][2] < 0.99 * results[False][2], (kind, shape, results)
+
+
+HAIR = (2.1, 1.4)  # where the hair patch and the points stand (x, y on the floor)
+POINTS = (-2.1, 1.6)
+
+
+def add_strands():
+    """A small patch of hair (orange) and a cloud of points (blue) on the floor."""
+    from test_strands import cloud, hair
+
+    patch = hair(count=300, points=8, radius=0.006)
+    patch.location = (*HAIR, 0.0)
+    dots = cloud(count=80, radius=0.02)
+    dots.location = (*POINTS, 0.0)
+
+
+@pytest.mark.parametrize(("kind", "shape"), LIGHTS, ids=[s or k for k, s in LIGHTS])
+def test_production_features_under_every_light(addon, tmp_path, kind, shape):
+    """The scene above with hair and points, a light group for the light and one for the
+    world, and Cryptomatte, in F12: the groups add up to Combined, the Cryptomatte Object pass
+    names the card under the pixel, the hair and the points are drawn in their colours, and
+    the light's linking holds as above."""
+    scene = build(tmp_path)
+    light = add_light(scene, kind, shape)
+    add_strands()
+    layer = bpy.context.view_layer
+    for name in ("light", "world"):
+        layer.lightgroups.add(name=name)
+    light.lightgroup, scene.world.lightgroup = "light", "world"
+    layer.use_pass_cryptomatte_object = True
+    names = ["Combined", "Combined_light", "Combined_world", "CryptoObject00", "Emit"]
+    passes = render_passes(scene, "BO2_LIGHTING", names, samples=SAMPLES)
+    combined = passes["Combined"]
+    # what no group holds is the emission of the meshes in none (all of them here)
+    left = combined[..., :3] - passes["Combined_light"] - passes["Combined_world"]
+    np.testing.assert_allclose(left, passes["Emit"], atol=2e-4 * combined[..., :3].max())
+    assert passes["Combined_light"].max() > 0.05
+    crypto = passes["CryptoObject00"]  # row 0 at the top; pixel() counts from the bottom
+    from bo2_lighting.addon.core.render import cryptomatte
+
+    row, col = pixel(scene, (1.5, -1.6, 0.01))
+    centre = crypto[H - 1 - row, col]
+    assert centre[0].view(np.uint32) == cryptomatte.name_hash("Plain"), kind
+    assert centre[1] == pytest.approx(1.0)
+    def colour(co):
+        row, col = pixel(scene, co)
+        return combined[H - 1 - row - 2:H - row + 2, col - 2:col + 3, :3].mean((0, 1))
+
+    for where, (a, b) in ((HAIR, (0, 2)), (POINTS, (2, 0))):  # orange hair, blue points
+        patch, floor = colour((*where, 0.12)), colour((where[0], where[1] - 1.0, 0.0))
+        assert patch[a] / patch[b] > 1.1 * floor[a] / floor[b], (kind, where, patch, floor)

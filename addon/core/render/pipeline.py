@@ -34,8 +34,8 @@ from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
 from .visibility import (
     dither_sample,
     draw_samples,
-    sample_offsets,
     reprojected,
+    sample_offsets,
     sample_raster,
     tile_margin,
     tile_matrix,
