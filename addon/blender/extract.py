@@ -199,20 +199,24 @@ def _visibility(obj, view_layer) -> tuple[bool, bool, bool, bool, bool]:
             not getattr(obj, "hide_probe_volume", False))
 
 
-def _object_data(obj, cache: SceneCache, warnings):
+def _object_data(obj, cache: SceneCache, warnings, strands: bool = True):
     """Object-space triangles, global material indices (``cache.materials``), corner
     attributes and texture space of an evaluated object (its mesh, and its hair curves and
-    points as ``core.scene.strands`` makes them), or None."""
+    points as ``core.scene.strands`` makes them; a mesh object's geometry nodes' curves and
+    points only with ``strands``: read one by one, they are instances of their own), or
+    None."""
     parts = []
-    if obj.type not in _STRAND_TYPES:
+    try:
         mesh = obj.to_mesh()
-        try:
-            if mesh is not None and len(mesh.polygons):
-                parts.append(_mesh_data(mesh, [ms.material for ms in obj.material_slots],
-                                        obj.name, cache, warnings))
-        finally:
-            obj.to_mesh_clear()
-    if obj.type in _STRAND_TYPES or any(m.type == "NODES" for m in obj.modifiers):
+    except RuntimeError:  # a Curves or Point Cloud object whose nodes make no mesh
+        mesh = None
+    try:
+        if mesh is not None and len(mesh.polygons):
+            parts.append(_mesh_data(mesh, [ms.material for ms in obj.material_slots],
+                                    obj.name, cache, warnings))
+    finally:
+        obj.to_mesh_clear()
+    if obj.type in _STRAND_TYPES or strands and any(m.type == "NODES" for m in obj.modifiers):
         strand = _strand_data(obj, cache, warnings)
         if strand is not None:
             parts.append(strand)
@@ -606,10 +610,10 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
             continue
         visibility += (*sets.of_object(obj), _asset(obj), obj.original.lightgroup)
-        key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0)
+        key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0, at_once)
         if key not in objects:
             if key not in cache.objects:
-                cache.objects[key] = _object_data(obj, cache, warnings)
+                cache.objects[key] = _object_data(obj, cache, warnings, strands=at_once)
                 cache.reads["mesh", obj.name_full] += 1
             objects[key] = cache.objects[key]
         data = objects[key]

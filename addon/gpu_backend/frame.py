@@ -637,16 +637,8 @@ class GPUFrame:
 
         offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
         k = int(np.argmin(np.abs(offsets - 0.5).sum(-1)))
-        ox, oy = offsets[k]
         w, h = camera.width, camera.height
-        c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
-        view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
-        record = {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
-                  "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
-                  "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
-                  "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
-                  "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
-                  "sample_offset": (ox, oy), "size": [w, h, k, 0], **_lens(camera, k)}
+        record = _view_record(camera, offsets[k], k)
         blocks = []
 
         def block(**extra):
@@ -684,21 +676,13 @@ class GPUFrame:
         import gpu
 
         w, h = camera.width, camera.height
-        c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
-        view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
         visible = gpu.types.GPUTexture((w, h), format="RGBA32F")
         z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
         prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
         out = []
-        for k, (ox, oy) in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
-            record = {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
-                      "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
-                      "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
-                      "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
-                      "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
-                      "sample_offset": (ox, oy), "size": [w, h, first_sample + k, 0],
-                      **_lens(camera, first_sample + k)}
+        for k, offset in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
+            record = _view_record(camera, offset, first_sample + k)
             blocks = []
 
             def block(record=record, blocks=blocks, **extra):
@@ -979,6 +963,21 @@ def _group_frame(frame: Frame, group: str) -> tuple[Frame, np.ndarray]:
                                group=None), dark
 
 
+def _view_record(camera, offset, sample: int) -> dict:
+    """The FrameData of sample number ``sample`` at ``offset`` (x, y in the pixel) through
+    ``camera`` (from its lens point, ``_lens``), for the passes that draw no light."""
+    w, h = camera.width, camera.height
+    ox, oy = offset
+    c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
+    view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
+    return {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
+            "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
+            "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
+            "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
+            "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
+            "sample_offset": (ox, oy), "size": [w, h, sample, 0], **_lens(camera, sample)}
+
+
 def _lens(camera, sample: int) -> dict:
     """The FrameData fields of sample number ``sample`` seen from its point of ``camera``'s
     aperture (``core.render.depth_of_field``): its view_proj, clip_to_world and eye; {} for a
@@ -1033,7 +1032,7 @@ def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
             name = group_pass(group)
             if passes is None or name in passes:
                 sub, dark = _group_frame(frame, group)
-                targets = Targets(cam.width, cam.height, GROUPS[0])
+                targets = Targets(cam.width, cam.height, ("combined",))
                 GPUFrame(sub, dark).draw(cam, offsets, targets)
                 out[name] = np.ascontiguousarray(targets.passes()["Combined"][..., :3])
         if frame.crypto and (passes is None or any(p.startswith("Crypto") for p in passes)):

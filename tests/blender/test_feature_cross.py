@@ -286,7 +286,7 @@ POINTS = (-2.1, 1.6)
 
 def add_strands():
     """A small patch of hair (orange) and a cloud of points (blue) on the floor."""
-    from test_strands import cloud, hair
+    from test_strands_cycles import cloud, hair
 
     patch = hair(count=300, points=8, radius=0.006)
     patch.location = (*HAIR, 0.0)

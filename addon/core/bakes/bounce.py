@@ -108,14 +108,15 @@ def _world_key(world: World) -> object:
 
 def key(scene: Scene) -> str:
     """A digest of what the bounce depends on: every triangle's place, normals, texture
-    coordinates, attributes and material, the materials' programs, the lights, the world and
-    the settings that change a capture."""
+    coordinates, attributes, material and linking sets, the materials' programs, the lights
+    (their linking too), the world and the settings that change a capture."""
     h = hashlib.sha256()
     for m in scene.meshes:
         h.update(np.ascontiguousarray(m.positions, np.float32).view(np.uint8))
         h.update(np.ascontiguousarray(m.normals, np.float32).view(np.uint8))
         h.update(np.asarray(m.material, np.int32).tobytes())
-        h.update(repr((m.shadow, m.volume_probes, _digest_value(m.uvs),
+        h.update(repr((m.shadow, m.volume_probes, m.light_sets, m.shadow_sets,
+                       _digest_value(m.uvs),
                        _digest_value(m.world_to_object), _digest_value(m.texspace),
                        sorted((k, _digest_value(v)) for k, v in m.attributes.items()))).encode())
     for mat in scene.materials:
@@ -124,7 +125,8 @@ def key(scene: Scene) -> str:
     for light in scene.lights:
         h.update(repr(_digest_value([light.kind, light.color, light.position, light.direction,
                                      light.radius, light.spot_size, light.spot_blend,
-                                     light.size, light.shadow])).encode())
+                                     light.size, light.shadow, light.receivers,
+                                     light.blockers])).encode())
     h.update(repr(_world_key(scene.world)).encode())
     s = scene.settings
     h.update(repr((s.sky_directions, s.sky_resolution, s.shadow_resolution,

@@ -54,7 +54,8 @@ class Capture:
         # occluded at the look-up (``occlusion``)
         scene = job.scene
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None,
-                                       ambient_occlusion=False, nearest_reflections=False)
+                                       ambient_occlusion=False, nearest_reflections=False,
+                                       cryptomatte=(), light_groups=())
         self.scene = dataclasses.replace(scene, settings=settings, probes=None)
         self.job, self.focus = job, focus
         self._frame = None  # the geometry, prepared once for every view

@@ -38,7 +38,7 @@ from ..lighting.world_probes import world_cube
 from ..render import pipeline
 from ..render.buffers import broken_triangles
 from ..render.job import Cancelled, RenderJob
-from ..render.shadow_maps import shadow_map_count
+from ..render.shadow_maps import casters, shadow_map_count
 from ..render.surfaces import surface_params
 from ..scene import Scene, linking
 from . import series
@@ -198,10 +198,7 @@ class _Casters:
     def of(self, blockers: int) -> _Bvh:
         """The BVH of the casters that shadow the lights of set ``blockers``."""
         if blockers not in self.sets:
-            keep = linking.in_set(self.frame.blocks, blockers)
-            if self.frame.casts is not None:
-                keep &= self.frame.casts
-            self.sets[blockers] = _Bvh.of(self.frame.positions[keep])
+            self.sets[blockers] = _Bvh.of(casters(self.frame, blockers)[0])
         return self.sets[blockers]
 
 
@@ -332,7 +329,8 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
     scene, poll = job.scene, job.poll
 
     base = dataclasses.replace(scene, camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0),
-                               settings=dataclasses.replace(scene.settings, border=None))
+                               settings=dataclasses.replace(scene.settings, border=None,
+                                                            cryptomatte=(), light_groups=()))
     base = dataclasses.replace(base, probes=None)
     # no shadow maps: the direct light of the texels is ray traced (``_direct``)
     frame = pipeline.prepare(job.on(base), shadow_maps=[None] * shadow_map_count(base))

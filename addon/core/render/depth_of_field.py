@@ -87,8 +87,8 @@ def background_shift(camera: Camera, lens: np.ndarray) -> tuple[float, float]:
 
 def reach(camera: Camera, positions: np.ndarray) -> int:
     """Pixels by which a sample may move a point of the triangles ``positions`` (T, 3, 3)
-    (the widest blur radius over their depths, rounded up): the margin a tile's triangles are
-    gathered with. 0 without an aperture."""
+    (the widest blur radius over their depths, rounded up, at most the frame's size): the
+    margin a tile's triangles are gathered with. 0 without an aperture."""
     a = camera.aperture
     if a is None or camera.orthographic or not len(positions):
         return 0
@@ -102,5 +102,5 @@ def reach(camera: Camera, positions: np.ndarray) -> int:
     z = np.array([max(ahead.min(), near), ahead.max()])
     radius = a.radius * max(1.0, 1.0 / max(a.ratio, 1e-6))
     tangent = radius * np.abs(1.0 / a.focus - 1.0 / z).max()
-    return int(np.ceil(tangent * max(proj[0, 0] * camera.width, proj[1, 1] * camera.height)
-                       / 2.0)) + 1
+    pixels = tangent * max(proj[0, 0] * camera.width, proj[1, 1] * camera.height) / 2.0
+    return int(np.ceil(min(pixels, max(camera.width, camera.height)))) + 1

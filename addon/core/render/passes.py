@@ -148,7 +148,7 @@ class Film:
 
     def passes(self) -> list[dict]:
         """[{pass name: (H, W, C) float32}] per view; the averaged passes are views of one
-        (H, W, SAMPLED_WIDTH) film."""
+        (H, W, ``film_width``) film."""
         out = []
         for k in range(len(self.film)):
             passes = _averaged(self.film[k], self.groups)

@@ -86,9 +86,11 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     if lens:  # each sample its lens point: its own projection of the tile, drawn alone
         lens_at = depth_of_field.lens_points(cam.aperture,
                                              first_sample + np.arange(len(offsets)))
-        grown = (x0 - m, y0 - m, x1 + m, y1 + m)
-        to_tile = tile_matrix(cam.width, cam.height, grown)
-        from_tile = np.linalg.inv(to_tile)
+        # the triangles are gathered over the lens's reach (m), drawn over the filter's (mf)
+        mf = m - frame.lens_reach
+        from_tile = np.linalg.inv(tile_matrix(cam.width, cam.height,
+                                              (x0 - m, y0 - m, x1 + m, y1 + m)))
+        to_tile = tile_matrix(cam.width, cam.height, (x0 - mf, y0 - mf, x1 + mf, y1 + mf))
     drawn = []
     for k, offset in enumerate(offsets):
         tick()
@@ -96,8 +98,8 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         if lens:
             seen_clip = reprojected(clip, to_tile @ depth_of_field.clip_transform(
                 cam, lens_at[k]) @ from_tile)
-            sample_margin = (m, seen_clip, margin[2], cull, None)
-            drawn = draw_samples(cam, seen_clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull,
+            sample_margin = (mf, seen_clip, margin[2], cull, None)
+            drawn = draw_samples(cam, seen_clip, x1 - x0 + 2 * mf, y1 - y0 + 2 * mf, cull,
                                  offsets[k:k + 1], None, frame.fades.any())
             shift = depth_of_field.background_shift(cam, lens_at[k])
         elif k % SAMPLE_BATCH == 0:  # the next samples' fragments, drawn together

@@ -1,6 +1,6 @@
 """Cryptomatte passes picked by Blender's own Cryptomatte node, against Cycles' mattes.
 
-The scene of ``test_light_linking`` (two spheres on a floor), sphere B parented to an empty
+The scene of ``test_light_linking_cycles`` (two spheres on a floor), sphere B parented to an empty
 "Rig". The compositor's Cryptomatte node (source Render) reads the render's passes and
 metadata; its Matte output of a name, composited, is compared with the same matte of a Cycles
 render.
@@ -9,7 +9,7 @@ render.
 import bpy
 import numpy as np
 import pytest
-from test_light_linking import build
+from test_light_linking_cycles import build
 from util import render_pixels
 
 from bo2_lighting.addon.blender import engine

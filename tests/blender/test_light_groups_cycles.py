@@ -1,7 +1,7 @@
 """Light groups (View Layer > Passes > Light Groups; a light's, an object's and the world's
 Light Group) against Cycles' light group passes.
 
-The scene of ``test_light_linking`` without its links: the key point light in group "key",
+The scene of ``test_light_linking_cycles`` without its links: the key point light in group "key",
 the fill sun in "fill", an emissive card in "key", the world (a dim blue) in "env". Cycles
 renders direct light only (no bounce); BO2 without probes and without its bounce without
 probes, so that its indirect light is the world's alone (the probes' light, bounces
@@ -11,7 +11,7 @@ included, is counted in the world's group).
 import bpy
 import numpy as np
 import pytest
-from test_light_linking import build
+from test_light_linking_cycles import build
 from util import principled, render_passes
 
 from bo2_lighting.addon.blender import engine
