@@ -454,8 +454,8 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
     ``parent`` (4, 4): a batch of its triangles in world space, instance by instance
     (``core.scene.MeshBatch``, ``kernels.raster.place``); mirrored instances keep
     counter-clockwise fronts, their corners reversed. ``visibility``: ``_visibility``'s
-    tuple, then the linking masks (``linking.Sets.of_object``), the asset's name and the
-    light group."""
+    tuple, then the linking masks (``linking.Sets.of_object``), the asset's name, the light
+    group and whether it is a shadow catcher."""
     from ..core.kernels import raster
 
     pos, nrm, uvs, mat_index, attributes, texspace = data
@@ -494,7 +494,8 @@ def _instanced_batch(data, local: np.ndarray, parent: np.ndarray, name: str,
                         shadow=visibility[2], sphere_probes=visibility[3],
                         volume_probes=visibility[4], attributes=wattr, world_to_object=inverse,
                         texspace=texspace, light_sets=visibility[5], shadow_sets=visibility[6],
-                        asset=visibility[7], group=visibility[8])
+                        asset=visibility[7], group=visibility[8],
+                        shadow_catcher=visibility[9])
 
 
 class SceneCache:
@@ -609,7 +610,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
         visibility = _visibility(obj, depsgraph.view_layer)
         if not any(visibility[1:]):  # neither seen, nor casting shadows, nor captured
             continue
-        visibility += (*sets.of_object(obj), _asset(obj), obj.original.lightgroup)
+        visibility += (*sets.of_object(obj), _asset(obj), obj.original.lightgroup,
+                       bool(obj.is_shadow_catcher))
         key = (obj.name_full, obj.data.as_pointer() if obj.data is not None else 0, at_once)
         if key not in objects:
             if key not in cache.objects:
@@ -633,7 +635,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
                                  volume_probes=visibility[4], attributes=wattr,
                                  world_to_object=inverse, texspace=texspace,
                                  light_sets=visibility[5], shadow_sets=visibility[6],
-                                 asset=visibility[7], group=visibility[8])
+                                 asset=visibility[7], group=visibility[8],
+                                 shadow_catcher=visibility[9])
         batches[bkey] = batch
         meshes.append(batch)
     for obj in instancers:
@@ -643,7 +646,8 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
             visibility = _visibility(owner, depsgraph.view_layer)
             if not any(visibility[1:]):
                 continue
-            visibility += (*sets.of_object(owner), _asset(owner), owner.original.lightgroup)
+            visibility += (*sets.of_object(owner), _asset(owner), owner.original.lightgroup,
+                           bool(owner.is_shadow_catcher))
             objects[key] = data
             digest = hashlib.blake2b(memoryview(np.ascontiguousarray(local)).cast("B"))
             digest.update(parent.tobytes())

@@ -263,6 +263,7 @@ class OBJECT_PT_bo2_visibility(BO2Panel, bpy.types.Panel):
             col.prop(obj, "hide_probe_volume", text="Volume", toggle=False, invert_checkbox=True)
             col.prop(obj, "hide_probe_sphere", text="Sphere", toggle=False, invert_checkbox=True)
             col = layout.column(heading="Mask")
+            col.prop(obj, "is_shadow_catcher")
             col.prop(obj, "is_holdout")
 
 

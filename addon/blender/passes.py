@@ -32,6 +32,7 @@ FLAGS = {
     "Gloss": "bo2.use_pass_gloss",
     "Lightmap": "bo2.use_pass_lightmap",
     "Lightmap Texels": "bo2.use_pass_lightmap_texels",
+    "Shadow Catcher": "bo2.use_pass_shadow_catcher",
     "DiffCol": "use_pass_diffuse_color",
     "GlossCol": "use_pass_glossy_color",
 }

@@ -427,6 +427,9 @@ class BO2ViewLayerSettings(bpy.types.PropertyGroup):
     use_pass_lightmap_texels: bpy.props.BoolProperty(
         name="Lightmap Texels", description="Each lightmap's texels as a checker of its own "
         "hue: their density on the surfaces")
+    use_pass_shadow_catcher: bpy.props.BoolProperty(
+        name="Shadow Catcher", description="On shadow catchers the share of the lights' light "
+        "their shadows let through, 1 elsewhere: multiply a backplate by it (Cycles' pass)")
 
 
 def _tag_scene(self, context) -> None:

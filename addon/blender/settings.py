@@ -89,6 +89,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
     )
     if purpose in ("FINAL", "PREVIEW") and view_layer is not None:
         fields["ao_pass"] = passes.enabled(view_layer, "AO")
+        fields["shadow_catcher_pass"] = passes.enabled(view_layer, "Shadow Catcher")
     if purpose == "FINAL" and view_layer is not None:
         fields["cryptomatte"] = passes.cryptomatte(view_layer)
         fields["cryptomatte_levels"] = int(view_layer.pass_cryptomatte_depth)

@@ -112,6 +112,8 @@ def unsupported(frame: Frame) -> str | None:
                                                             scene.settings.volume_visibility)
         if why:
             return why
+    if frame.catcher is not None:
+        return "shadow catchers"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
         return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]

@@ -60,6 +60,8 @@ class Frame:
     # light groups: per triangle the index in ``RenderSettings.light_groups`` of its mesh's
     # group (its emission's) (T,) int32, -1 none; None without light groups
     group: np.ndarray | None = None
+    # shadow catchers (``MeshBatch.shadow_catcher``): (T,) bool, None without any
+    catcher: np.ndarray | None = None
     # depth of field: pixels by which a lens point may move a triangle
     # (``depth_of_field.reach``), 0 for a pinhole
     lens_reach: int = 0
@@ -160,6 +162,8 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                 if not all(m.camera for m in meshes) else None)
         casts = (joined([np.full(len(m.positions), m.shadow) for m in meshes], bool)
                  if not all(m.shadow for m in meshes) else None)
+        catcher = (joined([np.full(len(m.positions), m.shadow_catcher) for m in meshes], bool)
+                   if any(m.shadow_catcher for m in meshes) else None)
         receivers, blockers = linking.linked(scene.lights)
         receives, blocks = (
             joined([np.full(len(m.positions), getattr(m, sets), np.uint64) for m in meshes],
@@ -178,7 +182,7 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
         uvs = np.zeros((0, 3, 2), np.float32)
         mat_index = obj = np.zeros(0, np.int32)
         has_uv = holdout = np.zeros(0, bool)
-        seen = casts = receives = blocks = batch = None
+        seen = casts = receives = blocks = batch = catcher = None
     lit: dict[int, int] = {}  # batch -> its lightmap's index in Frame.lightmaps
     if scene.settings.lightmaps:
         for k, m in enumerate(meshes):
@@ -210,9 +214,9 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                  "with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
-        seen, casts, lightmap, lightmap_uvs, receives, blocks, batch = (
+        seen, casts, lightmap, lightmap_uvs, receives, blocks, batch, catcher = (
             None if a is None else a[keep]
-            for a in (seen, casts, lightmap, lightmap_uvs, receives, blocks, batch))
+            for a in (seen, casts, lightmap, lightmap_uvs, receives, blocks, batch, catcher))
         normals = np.nan_to_num(normals[keep])
         uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
@@ -242,7 +246,7 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
                  lightmaps=[meshes[k].lightmap for k in lit] or None, receives=receives,
-                 blocks=blocks, crypto=crypto, group=group,
+                 blocks=blocks, crypto=crypto, group=group, catcher=catcher,
                  lens_reach=depth_of_field.reach(cam, positions if seen is None
                                                  else positions[seen]))
 

@@ -13,6 +13,8 @@ multilayer EXR files store (``<layer>.<pass>.<id>``).
 - Albedo, Specular Color, Gloss: the material in the talk's parameters after texture lookups.
 - Lightmap: the irradiance a baked lightmap gives the pixel (W/m^2; 0 where none); Lightmap
   Texels: each lightmap's texels as a checker of its own hue (their density; 0 where none).
+- Shadow Catcher: on shadow catchers the share of the lights' light their shadows let through
+  (Cycles' pass: multiply a backplate by it), 1 elsewhere.
 """
 
 from __future__ import annotations
@@ -68,6 +70,7 @@ PASSES: dict[str, Pass] = {p.name: p for p in (
     Pass("Gloss", "X", "VALUE", "material"),
     Pass("Lightmap", "RGB", "COLOR", "light"),
     Pass("Lightmap Texels", "RGB", "COLOR", "data"),
+    Pass("Shadow Catcher", "RGB", "COLOR", "light"),
 )}
 
 def _sampled_columns() -> tuple[dict[str, slice], int]:

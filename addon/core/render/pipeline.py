@@ -74,6 +74,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     depth_acc = index_acc = None
     first_tri = None
     reuse_count = np.zeros(npx, np.float32)  # samples that reuse the first sample's shading
+    empty = np.zeros(npx, np.float32)  # samples that see no surface (the Shadow Catcher's 1)
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
@@ -116,6 +117,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         hit = covered.copy()
         if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind
             hit[covered] = ~frame.holdout[tri[covered]]
+        empty += ~hit
         if not scene.settings.film_transparent:  # transparent film: background alpha 0, RGB 0
             if constant_world:
                 miss_count += ~covered
@@ -173,6 +175,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         acc[:, rgba] += miss_count[:, None] * color
         if world_group is not None:
             acc[:, world_group] += miss_count[:, None] * color[:3]
+    acc[:, SAMPLED["Shadow Catcher"]] += empty[:, None]
     acc *= np.float32(1.0 / len(offsets))
     return acc, depth_acc, index_acc, crypto_passes(frame, seen_by)
 

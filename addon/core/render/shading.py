@@ -13,7 +13,7 @@ from ..lighting import probes, shade, world_sun
 from ..scene import Scene, linking
 from . import shadow_filter
 from .buffers import Frame
-from .passes import SAMPLED, SAMPLED_WIDTH, film_width
+from .passes import SAMPLED, SAMPLED_WIDTH, film_width, group_columns
 from .surfaces import surface_params
 from .world_occlusion import world_visibility
 
@@ -78,6 +78,10 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
     model = scene.settings.specular_model
     groups = scene.settings.light_groups
     grouped = np.zeros((len(tri), 3 * len(groups)), np.float32)  # each light group's light
+    # shadow catchers: the lights' irradiance on them, shadowed (held) and not (free)
+    caught = (np.zeros(0, np.int64) if frame.catcher is None else
+              np.flatnonzero(frame.catcher[tri]))
+    held, free = (np.zeros((len(caught), 3), np.float32) for _ in range(2))
     for light, smap in zip(scene.lights, frame.shadow_maps[:len(scene.lights)], strict=True):
         # The geometric normal decides what faces the light (a shading normal may not).
         l_dir, irradiance, lit = shade.light_incidence(light, p, geo)
@@ -88,6 +92,11 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
             continue
         vis = None if smap is None else shadow_filter.shadow_visibility(smap, p, geo, where=lit,
                                                                           seeds=seeds)
+        if len(caught):
+            e = irradiance[caught] * np.maximum(
+                np.einsum("nk,nk->n", n[caught], l_dir[caught]), 0.0)[:, None]
+            free += e
+            held += e if vis is None else e * vis[caught, None]
         if light.group not in groups:
             shade.add_direct(n, v, l_dir, irradiance, mat.albedo, mat.rf0, mat.gloss, model,
                              diffuse, specular, visibility=vis)
@@ -146,6 +155,9 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
                     *(f32(a, np.float32) for a in (mat.emission, mat.albedo, mat.rf0,
                                                    mat.gloss)))
     out[:, SAMPLED["AO"]] = ao[:, None]
+    out[:, SAMPLED["Shadow Catcher"]] = 1.0
+    if len(caught):
+        catch_shadows(out, caught, held, free, scene, sx, sy)
     lm, texels = SAMPLED["Lightmap"], SAMPLED["Lightmap Texels"]
     out[:, lm] = 0.0
     out[:, texels] = 0.0
@@ -154,6 +166,35 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
         out[k, lm] = np.einsum("nk,nkc->nc", sh.basis(n[k]) * sh.BAND_FACTORS, coeffs)
         out[k, texels] = checker
     return out
+
+
+def catch_shadows(out: np.ndarray, caught: np.ndarray, held: np.ndarray, free: np.ndarray,
+                  scene: Scene, sx, sy) -> None:
+    """Shadow catchers (Blender's Shadow Catcher, as Cycles renders them) among the shaded
+    points, rows ``caught`` of ``out`` (the passes, ``shade_points``): the share of the lights'
+    irradiance their shadows let through, ``held`` over ``free`` (K, 3) (1 where no light
+    reaches), is the Shadow Catcher pass. Combined shows the world behind them times that
+    share, or with a transparent film black of opacity one less its mean; with the Shadow
+    Catcher pass wanted, nothing (alpha 0: the shadows are in the pass alone). Their light is
+    in no light group but the world's."""
+    share = np.where(free > 0.0, held / np.maximum(free, np.float32(1e-30)), np.float32(1.0))
+    share = np.clip(share, 0.0, 1.0).astype(np.float32)
+    combined = SAMPLED["Combined"]
+    out[caught, SAMPLED["Shadow Catcher"]] = share
+    if scene.settings.shadow_catcher_pass:
+        out[caught, combined] = 0.0
+    elif scene.settings.film_transparent:
+        out[caught, combined.start:combined.start + 3] = 0.0
+        out[caught, combined.start + 3] = 1.0 - share.mean(1)
+    else:
+        out[caught, combined.start:combined.start + 3] = background_radiance(
+            scene, sx[caught], sy[caught]) * share
+    groups = scene.settings.light_groups
+    if groups:
+        out[caught, SAMPLED_WIDTH:] = 0.0
+        if scene.world.group in groups:
+            k = groups.index(scene.world.group)
+            out[caught, group_columns(k)] = out[caught, combined.start:combined.start + 3]
 
 
 def lightmap_sh(frame: Frame, tri, bary) -> tuple | None:

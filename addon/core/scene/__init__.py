@@ -177,6 +177,8 @@ class MeshBatch:
     asset:     the name of its object's topmost parent ("" for none: its own), for the
                Cryptomatte Asset pass
     group:     the light group its emission is counted in ("": none)
+    shadow_catcher: it shows only the shadows it receives (Blender's Shadow Catcher,
+               ``render.shading``)
     light_sets, shadow_sets: the light and shadow linking sets it belongs to, bit k for set k
                (``linking``): the lights of receiver set k light it, it blocks the lights of
                blocker set k; every bit by default
@@ -198,6 +200,7 @@ class MeshBatch:
     lightmap: object | None = None
     asset: str = ""
     group: str = ""
+    shadow_catcher: bool = False
     light_sets: int = linking.EVERY
     shadow_sets: int = linking.EVERY
 
@@ -374,6 +377,8 @@ class RenderSettings:
     cryptomatte_levels: the ranks each keeps per pixel (the view layer's Levels)
     light_groups:   the light groups whose passes are wanted (``Combined_<name>``): each the
                     light of the lights, the world and the emission of the meshes in it
+    shadow_catcher_pass: the Shadow Catcher pass is wanted: shadow catchers are then left out
+                    of Combined (alpha 0), their shadows in the pass alone, as Cycles does
     """
 
     samples: int = 4
@@ -403,6 +408,7 @@ class RenderSettings:
     cryptomatte: tuple[str, ...] = ()
     cryptomatte_levels: int = 6
     light_groups: tuple[str, ...] = ()
+    shadow_catcher_pass: bool = False
 
 
 @dataclass
