@@ -170,7 +170,7 @@ def test_splat_and_compose_place_every_value():
     cols = np.array([SAMPLED[name].start for name in shading.COMPOSED], np.int64)
     shading.compose(out, cols, n, p, uv, has_uv, diff, spec, dind, gind, emit, alb, rf0, gloss)
     mine = np.ones(SAMPLED_WIDTH, bool)
-    for name in ("AO", "Lightmap", "Lightmap Texels"):  # the pipeline's
+    for name in ("AO", "Lightmap", "Lightmap Texels", "Shadow Catcher"):  # the pipeline's
         mine[SAMPLED[name]] = False
     assert np.isfinite(out[:, mine]).all()  # every other column written
     expect = {"Normal": n, "Position": p, "DiffDir": diff, "GlossDir": spec, "DiffInd": dind,
