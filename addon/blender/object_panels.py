@@ -6,7 +6,7 @@ draws only the type): these tabs are this module's panels, each setting once.
 import bpy
 
 from . import bake_files, lightmaps, probes
-from .panel import BO2Panel
+from .panel import BO2Panel, LightGroupPanel
 
 # Leak controls of a Volume light probe that the bake and the look-up honour (Blender's own).
 _VOLUME_LEAK = ("dilation_threshold", "validity_threshold", "dilation_radius", "escape_bias",
@@ -135,17 +135,13 @@ class DATA_PT_bo2_lightprobe_bake(_LightProbePanel, bpy.types.Panel):
         row.operator("bo2.clear_probes", text="Clear", icon="TRASH").mode = "ACTIVE"
 
 
-class OBJECT_PT_bo2_lightgroup(BO2Panel, bpy.types.Panel):
+class OBJECT_PT_bo2_lightgroup(LightGroupPanel, bpy.types.Panel):
     """The light group an object's light or emission is counted in (View Layer > Passes >
     Light Groups)."""
 
-    bl_label = "Light Group"
     bl_context = "object"
     bl_parent_id = "OBJECT_PT_shading"
     needs = "object"
-
-    def draw(self, context):
-        self.light_group(self.layout, context.object, context.view_layer)
 
 
 class _LightPanel(BO2Panel):

@@ -31,11 +31,17 @@ class BO2Panel:
         row.active = False
         row.label(text=text, icon="INFO")
 
-    @staticmethod
-    def light_group(layout, owner, view_layer) -> None:
-        """The Light Group of ``owner`` (an object or the world), picked from the view layer's
-        groups, with the button that adds a typed name as a group (as Cycles draws it)."""
-        row = layout.row(align=True)
+
+class LightGroupPanel(BO2Panel):
+    """The Light Group of the context's ``needs`` (an object or the world), picked from the
+    view layer's groups, with the button that adds a typed name as a group (as Cycles draws
+    it)."""
+
+    bl_label = "Light Group"
+
+    def draw(self, context):
+        owner, view_layer = getattr(context, self.needs), context.view_layer
+        row = self.layout.row(align=True)
         row.use_property_split = True
         row.use_property_decorate = False
         row.prop_search(owner, "lightgroup", view_layer, "lightgroups", text="Light Group",

@@ -23,7 +23,7 @@ from . import (
     viewport,
     worlds,
 )
-from .panel import ENGINE_ID, BO2Panel
+from .panel import ENGINE_ID, BO2Panel, LightGroupPanel
 
 _PASS_HEADINGS = {"data": "Data", "index": "Indexes", "light": "Light", "material": "Material"}
 
@@ -254,16 +254,12 @@ class VIEWLAYER_PT_bo2_passes_lightgroups(BO2Panel, ViewLayerLightgroupsPanelHel
     bl_parent_id = "VIEWLAYER_PT_bo2_passes"
 
 
-class WORLD_PT_bo2_lightgroup(BO2Panel, bpy.types.Panel):
+class WORLD_PT_bo2_lightgroup(LightGroupPanel, bpy.types.Panel):
     """The light group the world's light, its sun and the background are counted in."""
 
-    bl_label = "Light Group"
     bl_context = "world"
     bl_parent_id = "WORLD_PT_bo2_light"
     needs = "world"
-
-    def draw(self, context):
-        self.light_group(self.layout, context.world, context.view_layer)
 
 
 class MATERIAL_PT_bo2_surface(BO2Panel, bpy.types.Panel):

@@ -11,11 +11,10 @@ import numpy as np
 import pytest
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
-from util import baked, principled, render_pixels, set_world_color
+from test_probes import _volume_irradiance
+from util import principled, render_pixels, set_world_color
 
-from bo2_lighting.addon.blender import bake as blender_bake
 from bo2_lighting.addon.blender import engine
-from bo2_lighting.addon.core.files import probe_file
 
 W, H = 160, 120
 SUN_TILT = -0.9  # the sun's rotation about X: it shines down and towards -Y (the camera)
@@ -127,14 +126,6 @@ def test_an_empty_collection_links_nothing_and_says_so(addon):
                      "so every object receives its light (as in Cycles)"], said.texts()
 
 
-def _volume(scene, backend):
-    """(K,) the Irradiance volume's samples' constant SH term (green), baked by ``backend``."""
-    for _ in blender_bake.bake_steps(scene, [scene.objects["Irradiance"]], backend):
-        pass
-    _, sh, _ = probe_file.read(baked(scene, "Irradiance"))
-    return sh[:, 0, 1]
-
-
 def test_captures_honour_linking_as_cycles_does(addon, tmp_path):
     """A Volume probe around the spheres, baked by BO2 and by Cycles, linked and unlinked:
     the change linking makes to each sample's light, BO2's against Cycles' (within 0.08)."""
@@ -146,9 +137,9 @@ def test_captures_honour_linking_as_cycles_does(addon, tmp_path):
     scene.collection.objects.link(volume)
     scene.bo2.probes.bounces = 1  # as Cycles' backend: the world and one bounce of the lights
     scene.bo2.probes.cycles_samples = 16
-    plain = {b: _volume(scene, b) for b in ("BO2", "CYCLES")}
+    plain = {b: _volume_irradiance(scene, b) for b in ("BO2", "CYCLES")}
     link(scene)
-    linked = {b: _volume(scene, b) for b in ("BO2", "CYCLES")}
+    linked = {b: _volume_irradiance(scene, b) for b in ("BO2", "CYCLES")}
     change = linked["BO2"] / plain["BO2"]
     truth = linked["CYCLES"] / plain["CYCLES"]
     assert truth.min() < 0.8  # the key's bounce off the floor and B is gone
