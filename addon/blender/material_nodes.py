@@ -288,13 +288,52 @@ def _principled(c, node, out, ctx):
     def v(name, kind, default):
         return _in(c, node, name, kind, ctx) if name in node.inputs else c.constant(default, kind)
 
-    return c.b.add(
-        "principled", v("Base Color", "color", 0.8), v("Metallic", "float", 0.0),
-        v("Roughness", "float", 0.5), v("IOR", "float", 1.5),
+    base, metallic, ior = v("Base Color", "color", 0.8), v("Metallic", "float", 0.0), v(
+        "IOR", "float", 1.5)
+    transmission, alpha = v("Transmission Weight", "float", 0.0), v("Alpha", "float", 1.0)
+    surface = c.b.add(
+        "principled", base, metallic, v("Roughness", "float", 0.5), ior,
         v("Specular IOR Level", "float", 0.5), v("Specular Tint", "color", 1.0),
-        v("Transmission Weight", "float", 0.0), v("Emission Color", "color", 0.0),
-        v("Emission Strength", "float", 0.0), v("Alpha", "float", 1.0),
-        c.normal(node, "Normal", ctx)), "shader"
+        transmission, v("Emission Color", "color", 0.0),
+        v("Emission Strength", "float", 0.0), alpha, c.normal(node, "Normal", ctx))
+    if c.is_zero(transmission):
+        return surface, "shader"
+    # the transmission of the dielectric part (one less the metal), of the covered part, tinted
+    # by the square root of the base colour (Cycles' Principled BSDF: the colour is met twice)
+    weight = _arith(c, "MULTIPLY", _arith(c, "MULTIPLY", transmission, alpha),
+                    _arith(c, "SUBTRACT", c.b.const(1.0), metallic))
+    tint = c.b.add("gamma", base, c.b.const(0.5))
+    return c.b.add("add_shader", surface, _see_through(c, tint, weight, ior)), "shader"
+
+
+def _arith(c, operation, a, b):
+    return c.b.add("math", a, b, c.b.const(0.0), param=(operation, False))
+
+
+def _see_through(c, color, weight, ior):
+    """Transmission as EEVEE shows it without refraction: a Transparent BSDF of ``color`` times
+    ``weight`` times one less the dielectric's reflectance at normal incidence,
+    F0 = ((ior - 1) / (ior + 1))^2."""
+    one = c.b.const(1.0)
+    r = _arith(c, "DIVIDE", _arith(c, "SUBTRACT", ior, one), _arith(c, "ADD", ior, one))
+    through = _arith(c, "MULTIPLY", weight, _arith(c, "SUBTRACT", one, _arith(c, "MULTIPLY", r, r)))
+    zero = c.b.const(0.0, 0.0, 0.0)
+    return c.b.add("transparent", c.b.add("vector_math", color, zero, zero, through,
+                                          param=("SCALE",)))
+
+
+def _glass(c, node, out, ctx):
+    """Glass BSDF: its reflection (a Glossy BSDF of the colour times F0) plus what it lets
+    through (``_see_through``), without refraction."""
+    color, ior = _in(c, node, "Color", "color", ctx), _in(c, node, "IOR", "float", ctx)
+    r = _arith(c, "DIVIDE", _arith(c, "SUBTRACT", ior, c.b.const(1.0)),
+              _arith(c, "ADD", ior, c.b.const(1.0)))
+    zero = c.b.const(0.0, 0.0, 0.0)
+    tint = c.b.add("vector_math", color, zero, zero, _arith(c, "MULTIPLY", r, r),
+                   param=("SCALE",))
+    mirror = c.b.add("glossy", tint, _in(c, node, "Roughness", "float", ctx),
+                     c.normal(node, "Normal", ctx))
+    return c.b.add("add_shader", mirror, _see_through(c, color, c.b.const(1.0), ior)), "shader"
 
 
 def bo2_material(c, node, out, ctx):
@@ -359,6 +398,7 @@ NODES = {
     "ShaderNodeBsdfDiffuse": _diffuse, "ShaderNodeBsdfGlossy": _glossy,
     "ShaderNodeBsdfAnisotropic": _glossy, "ShaderNodeEmission": _emission,
     "ShaderNodeBsdfTransparent": _transparent, "ShaderNodeHoldout": _holdout,
+    "ShaderNodeBsdfGlass": _glass,
     "ShaderNodeMixShader": _mix_shader, "ShaderNodeAddShader": _add_shader,
 }
 # The nodes a material may use: those the core's operations stand for (``nodes.NODES``), and

@@ -290,4 +290,7 @@ def convert_material(material, warnings: Warnings) -> Material:
         program = compiler.b.build(compiler._viewport_surface())
     return Material(name=material.name, program=program,
                     backface_culling=bool(getattr(material, "use_backface_culling", False)),
-                    pass_index=int(material.pass_index))
+                    pass_index=int(material.pass_index),
+                    blended=material.surface_render_method == "BLENDED",
+                    transparency_overlap=bool(material.use_transparency_overlap))
+

@@ -317,6 +317,12 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "triangle: supersamples textures, highlights and shadow edges, at the cost of speed",
         default=False,
     )
+    blend_sort: bpy.props.EnumProperty(
+        name="Blended Order",
+        description="The order materials of Render Method Blended are composited in",
+        items=_items("blend_sort"),
+        default="pixel",
+    )
     specular_model: bpy.props.EnumProperty(
         name="Direct Specular",
         description="Terms of the direct specular BRDF (slide 'Black Ops: Microfacet BRDF' and "

@@ -74,6 +74,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         normalization=str(ind.normalization),
         prefilter=str(ind.prefilter),
         film_transparent=bool(r.film_transparent) and not bake,
+        blend_sort=str(s.blend_sort),
         shadow_resolution=shadow_resolution,
         ambient_occlusion=bool(ind.use_ambient_occlusion),
         ao_distance=float(ind.ao_distance),

@@ -11,6 +11,7 @@ from bl_ui.properties_view_layer import (
 )
 
 from ..core import kernels
+from ..core.render import transparency
 from ..core.render.passes import PASSES
 from . import (
     adoption,
@@ -84,6 +85,7 @@ class RENDER_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         layout.prop(settings, "use_layered_diffuse")
         layout.prop(settings, "shadow_resolution")
         layout.prop(context.scene.render, "film_transparent")
+        layout.prop(settings, "blend_sort")
         col = layout.column(heading="Threads")
         col.prop(context.scene.render, "threads_mode", text="Threads")
         sub = col.column()
@@ -316,7 +318,14 @@ class MATERIAL_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         layout.prop(mat, "pass_index")
         col = layout.column(heading="Backface Culling")
         col.prop(mat, "use_backface_culling", text="Camera")
-        self.note(layout, "Transparency: dithered, as EEVEE's Dithered")
+        layout.prop(mat, "surface_render_method", text="Render Method")
+        if mat.surface_render_method == "BLENDED":
+            layout.prop(mat, "use_transparency_overlap")
+            self.note(layout, f"Blended: sorted per pixel, up to {transparency.BLEND_LAYERS} "
+                      "layers; shadows dithered")
+        else:
+            self.note(layout, "Dithered: stochastic, as EEVEE's")
+        self.note(layout, "Glass and Transmission: seen through, without refraction")
 
 
 class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):

@@ -114,6 +114,8 @@ def unsupported(frame: Frame) -> str | None:
             return why
     if frame.catcher is not None:
         return "shadow catchers"
+    if frame.blends is not None:
+        return "blended materials"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
         return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]

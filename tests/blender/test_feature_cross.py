@@ -297,9 +297,11 @@ def add_strands():
 @pytest.mark.parametrize(("kind", "shape"), LIGHTS, ids=[s or k for k, s in LIGHTS])
 def test_production_features_under_every_light(addon, tmp_path, kind, shape):
     """The scene above with hair and points, a light group for the light and one for the
-    world, and Cryptomatte, in F12: the groups add up to Combined, the Cryptomatte Object pass
-    names the card under the pixel, the hair and the points are drawn in their colours, and
-    the light's linking holds as above."""
+    world, Cryptomatte, and the stack of two ("Layers") Blended, in F12: the groups add up to
+    Combined, the Cryptomatte Object pass names the card under the pixel, the hair and the
+    points are drawn in their colours, the blended stack covers 3/4 exactly where the
+    dithered one is near it, its shadow is still dithered (the floor under it keeps about half
+    the light the single veil's keeps), and the light's linking holds as above."""
     scene = build(tmp_path)
     light = add_light(scene, kind, shape)
     add_strands()
@@ -308,6 +310,7 @@ def test_production_features_under_every_light(addon, tmp_path, kind, shape):
         layer.lightgroups.add(name=name)
     light.lightgroup, scene.world.lightgroup = "light", "world"
     layer.use_pass_cryptomatte_object = True
+    bpy.data.materials["Layers"].surface_render_method = "BLENDED"
     names = ["Combined", "Combined_light", "Combined_world", "CryptoObject00", "Emit"]
     passes = render_passes(scene, "BO2_LIGHTING", names, samples=SAMPLES)
     combined = passes["Combined"]
@@ -329,3 +332,6 @@ def test_production_features_under_every_light(addon, tmp_path, kind, shape):
     for where, (a, b) in ((HAIR, (0, 2)), (POINTS, (2, 0))):  # orange hair, blue points
         patch, floor = colour((*where, 0.12)), colour((where[0], where[1] - 1.0, 0.0))
         assert patch[a] / patch[b] > 1.1 * floor[a] / floor[b], (kind, where, patch, floor)
+    m = measure(scene, kind, combined[::-1])
+    assert m["layers_cover"] == pytest.approx(0.75, abs=0.005), (kind, m)
+    assert 0.3 < m["layers_floor"] / m["veil_floor"] < 0.75, (kind, m)

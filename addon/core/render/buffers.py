@@ -65,6 +65,19 @@ class Frame:
     # depth of field: pixels by which a lens point may move a triangle
     # (``depth_of_field.reach``), 0 for a pinhole
     lens_reach: int = 0
+    # blended transparency (``Material.blended``): (T,) bool, the triangle's surface may be
+    # transparent and is composited (``transparency.blend``), None without any; with the
+    # object-origin order (``RenderSettings.blend_sort``) each triangle's rank in it (T,)
+    # int64; where the material shows one layer per object (``Material.transparency_overlap``
+    # off) the triangle's object instance (T,) int64, -1 elsewhere
+    blends: np.ndarray | None = None
+    blend_rank: np.ndarray | None = None
+    blend_solo: np.ndarray | None = None
+
+    @property
+    def dithers(self) -> np.ndarray:
+        """(T,) bool: triangles whose surface may be transparent and is dithered."""
+        return self.fades if self.blends is None else self.fades & ~self.blends
 
     @property
     def sky(self) -> sky_light.Sky | None:
@@ -92,6 +105,8 @@ def _constant_tables(materials: list[Material]) -> dict:
     table["fades"] = np.array([m.program.fades and (varying[i] or table["alpha"][i, 0] < 1.0)
                                for i, m in enumerate(materials)], bool)
     table["pass_index"] = np.array([m.pass_index for m in materials], np.float32)
+    table["blended"] = np.array([m.blended for m in materials], bool) & table["fades"]
+    table["overlap"] = np.array([m.transparency_overlap for m in materials], bool)
     return table
 
 
@@ -242,13 +257,36 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
         of_mesh = np.array([groups.index(m.group) if m.group in groups else -1
                             for m in meshes], np.int32)
         group = of_mesh[batch]
+    blends, blend_rank, blend_solo = _blending(scene, tables, mat_index, holdout, obj,
+                                               world_to_object)
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
                  lightmaps=[meshes[k].lightmap for k in lit] or None, receives=receives,
                  blocks=blocks, crypto=crypto, group=group, catcher=catcher,
                  lens_reach=depth_of_field.reach(cam, positions if seen is None
-                                                 else positions[seen]))
+                                                 else positions[seen]),
+                 blends=blends, blend_rank=blend_rank, blend_solo=blend_solo)
+
+
+def _blending(scene: Scene, tables: dict, mat_index, holdout, obj, world_to_object):
+    """``Frame.blends``, ``blend_rank`` and ``blend_solo`` (each None when not needed)."""
+    blends = tables["blended"][mat_index] & ~holdout
+    if not blends.any():
+        return None, None, None
+    rank = solo = None
+    if scene.settings.blend_sort == "object":
+        # EEVEE draws blended objects back to front by the distance of their origins, each
+        # object's triangles in their order: front to back is the reverse
+        origin = np.linalg.pinv(world_to_object)[:, :3, 3]
+        eye = np.linalg.inv(np.asarray(scene.camera.world_to_camera, np.float64))[:3, 3]
+        far = np.linalg.norm(origin - eye, axis=1)[obj]
+        rank = np.empty(len(obj), np.int64)
+        rank[np.lexsort((-np.arange(len(obj)), far))] = np.arange(len(obj))
+    lone = ~tables["overlap"][mat_index] & blends
+    if lone.any():
+        solo = np.where(lone, obj, -1).astype(np.int64)
+    return blends, rank, solo
 
 
 def mesh_flags(frame: Frame, values) -> np.ndarray | None:

@@ -23,7 +23,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from . import cryptomatte, depth_of_field
+from . import cryptomatte, depth_of_field, transparency
 from .buffers import Frame, prepare_buffers, with_camera
 from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
@@ -32,6 +32,7 @@ from .shading import background_radiance, has_indirect, shade_points
 from .shadow_filter import pixel_seeds
 from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
 from .visibility import (
+    blend_sample,
     dither_sample,
     draw_samples,
     reprojected,
@@ -59,7 +60,10 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     first sample reuses that sample's shading (weighted by the number of samples that do);
     only samples that see another triangle (edges) are shaded on their own. The points of all
     samples are shaded together, in blocks of ``SHADE_BLOCK``.
-    ``settings.shade_every_sample`` shades every sample instead.
+    ``settings.shade_every_sample`` shades every sample instead. A sample that sees a blended
+    surface shades each layer of its stack (``visibility.blend_sample``), weighted by its
+    share. Last, the number of pixel samples whose blended stack was cut
+    (``transparency.BLEND_LAYERS``).
     """
     from ..kernels import shading
 
@@ -79,6 +83,8 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
     points = []  # per sample: (tri, bary, sx, sy, pixel, sample) of the points it shades
+    layered, layered_weight = [], []  # the same of blended stacks' surfaces, and their shares
+    deep = 0
     seen_by = []  # per sample, with Cryptomatte: the triangle it sees, -1 none
     margin = tile_margin(frame, tile)
     m, clip, _, cull, keep = margin
@@ -93,6 +99,20 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                                               (x0 - m, y0 - m, x1 + m, y1 + m)))
         to_tile = tile_matrix(cam.width, cam.height, (x0 - mf, y0 - mf, x1 + mf, y1 + mf))
     drawn = []
+
+    def background(pixels, weight, sx, sy, shift) -> None:  # the world seen behind ``pixels``
+        if scene.settings.film_transparent:  # transparent film: background alpha 0, RGB 0
+            return
+        if constant_world:
+            miss_count[pixels] += weight
+            return
+        seen = background_radiance(scene, sx[pixels] - shift[0], sy[pixels] - shift[1])
+        seen *= weight[:, None]
+        acc[pixels, rgba.start:rgba.start + 3] += seen
+        acc[pixels, rgba.start + 3] += weight * np.float32(scene.world.background_alpha)
+        if world_group is not None:
+            acc[pixels, world_group] += seen
+
     for k, offset in enumerate(offsets):
         tick()
         sample_margin, shift = margin, (0.0, 0.0)
@@ -118,27 +138,33 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         if frame.holdout.any():  # holdout objects: nothing at all (alpha 0), hiding what is behind
             hit[covered] = ~frame.holdout[tri[covered]]
         empty += ~hit
-        if not scene.settings.film_transparent:  # transparent film: background alpha 0, RGB 0
-            if constant_world:
-                miss_count += ~covered
-            elif not covered.all():
-                miss = ~covered
-                seen = background_radiance(scene, sx[miss] - shift[0], sy[miss] - shift[1])
-                acc[miss, rgba.start:rgba.start + 3] += seen
-                acc[miss, rgba.start + 3] += np.float32(scene.world.background_alpha)
-                if world_group is not None:
-                    acc[miss, world_group] += seen
+        if not covered.all():
+            miss = np.flatnonzero(~covered)
+            background(miss, np.ones(len(miss), np.float32), sx, sy, shift)
         if frame.crypto:
             seen_by.append(np.where(hit, tri, -1))
+        solid = hit  # pixels whose surface is shaded as the sample's own (not a blended stack)
+        if frame.blends is not None:
+            front = hit & frame.blends[np.maximum(tri, 0)]
+            if front.any():
+                solid = hit & ~front
+                (at, t, b, w), (bg, bg_weight), cut = blend_sample(
+                    frame, tile, sample_margin, offset, first_sample + k,
+                    (tri, bary, depth, sx, sy, layer0[5]), np.flatnonzero(front))
+                background(bg, bg_weight, sx, sy, shift)
+                layered.append((t, b, sx[at], sy[at], at,
+                                np.full(len(at), first_sample + k, np.uint32)))
+                layered_weight.append(w)
+                deep += cut
         if first_tri is None:
-            first_tri, fresh = tri, hit
-            reuse_count += hit
+            first_tri, fresh = tri, solid
+            reuse_count += solid
         elif scene.settings.shade_every_sample:
-            fresh = hit
+            fresh = solid
         else:
-            reuse = hit & (tri == first_tri)
+            reuse = solid & (tri == first_tri)
             reuse_count += reuse
-            fresh = hit & ~reuse
+            fresh = solid & ~reuse
         pixel = np.flatnonzero(fresh)
         points.append((tri[pixel], bary[pixel], sx[pixel], sy[pixel], pixel,
                        np.full(len(pixel), first_sample + k, np.uint32)))
@@ -146,14 +172,15 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
             depth_acc = np.where(hit, depth, np.float32(EMPTY_DEPTH))
             index_acc = np.zeros(npx, np.float32)
             index_acc[hit] = frame.tables["pass_index"][frame.material[tri[hit]]]
-    # the later samples' own points first, then the first sample's, weighted by its reuses
-    points = points[1:] + points[:1]
+    # the later samples' own points first, the blended stacks' next, then the first sample's,
+    # weighted by its reuses
+    weight = [np.ones(len(p[4]), np.float32) for p in points[1:]] + layered_weight
+    points = points[1:] + layered + points[:1]
     tri, bary, sx, sy, pixel, sample = (np.concatenate(a) for a in zip(*points, strict=True))
     width = x1 - x0
     seeds = pixel_seeds(x0 + pixel % width, y0 + pixel // width, tri, sample)
-    weight = np.ones(len(pixel), np.float32)
     first = len(pixel) - len(points[-1][4])
-    weight[first:] = reuse_count[pixel[first:]]
+    weight = np.concatenate(weight + [reuse_count[pixel[first:]]]).astype(np.float32)
     count = len(pixel)
     if not count:
         tick()
@@ -177,7 +204,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
             acc[:, world_group] += miss_count[:, None] * color[:3]
     acc[:, SAMPLED["Shadow Catcher"]] += empty[:, None]
     acc *= np.float32(1.0 / len(offsets))
-    return acc, depth_acc, index_acc, crypto_passes(frame, seen_by)
+    return acc, depth_acc, index_acc, crypto_passes(frame, seen_by), deep
 
 
 def crypto_passes(frame: Frame, seen_by: list) -> dict:
@@ -225,7 +252,8 @@ def cpu_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True) -> Frame
 
 def _tile_results(job: RenderJob, frame: Frame | None, cameras=None, offsets=None,
                   first_sample: int = 0):
-    """``render_tiles``'s work: yields (view, tile, ``render_tile``'s arrays) in order, the
+    """``render_tiles``'s work: yields (view, tile, ``render_tile``'s arrays) in order (its
+    count of cut blended stacks left out: one warning at the end), the
     views being ``frame`` through each of ``cameras`` (all the same size), or through its own
     camera when ``cameras`` is None. Every view's tiles share the job's threads; a view's
     projection is done once, on the thread of its first tile. ``offsets`` (S, 2) replaces the
@@ -268,11 +296,16 @@ def _tile_results(job: RenderJob, frame: Frame | None, cameras=None, offsets=Non
         return lambda: render_tile(view(k), tile, offsets, tick, first_sample)
 
     results = job.ordered([work(k, tile) for k, tile in todo], stop, poll)
+    deep = 0
     try:
         for (k, tile), arrays in zip(todo, results, strict=True):
-            yield k, tile, arrays
+            deep += arrays[-1]
+            yield k, tile, arrays[:-1]
     finally:
         results.close()  # a caller that stops early stops the threads too
+    if deep:
+        job.warn(f"{deep} pixel samples see more than {transparency.BLEND_LAYERS} blended "
+                 "surfaces in a row: the surface behind the last is drawn opaque")
     if progress is not None:
         progress(1.0)
 

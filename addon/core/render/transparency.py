@@ -90,3 +90,96 @@ def dither(layer0, at, fades, alpha, thresholds, next_layer):
         if bary is not None:
             bary[pending] = bary2[pending]
         keys[at[pending]] = keys2[at[pending]]
+
+
+BLEND_LAYERS = 8  # blended surfaces composited per sample; the surface behind the last is drawn
+#                   as if opaque (``blend``)
+
+
+def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, rank=None,
+          solo=None):
+    """Blended transparency (Blender's "Blended" render method) of one sample position:
+    behind each pixel of ``start`` the blended surfaces are peeled front to back, up to
+    ``BLEND_LAYERS``, and composited "over" the first surface that is not blended (Porter and
+    Duff, "Compositing Digital Images", 1984): surface i of alpha a_i weighs a_i prod_{j<i}
+    (1 - a_j), the surface or background behind them all prod_j (1 - a_j). A dithered surface
+    met on the way is peeled or kept as ``dither`` peels it (thresholds of layer
+    ``DITHER_LAYERS`` + k); one more blended surface than ``BLEND_LAYERS`` ends the stack.
+
+    layer0:  (tri (N,), bary (N, 3), depth (N,), keys (K,)) of the pixels, as ``dither`` (not
+             changed)
+    at:      (N,) each pixel's index in ``keys``;  start: (M,) pixels whose surface is blended
+    blends, dithers: (T,) bool: blended triangles, and the dithered ones (``dither``'s fades)
+    alpha, thresholds, next_layer: as ``dither``'s
+    rank:    (T,) int64 or None: composite in the order of these ranks (EEVEE's, by object
+             origin) instead of the layers' depths
+    solo:    (T,) int64 or None: an object number per triangle whose surface shows once, its
+             nearest layer (EEVEE's Transparency Overlap off), -1 where all layers show
+    returns: surfaces (pixels (P,), tri (P,), bary (P, 3), weight (P,) float32) to shade, the
+             background's share (pixels (B,), weight (B,) float32) and the number of pixels
+             whose stack had more blended layers than ``BLEND_LAYERS``
+    """
+    tri, bary, depth, keys = (a.copy() for a in layer0)
+    m, layers = len(start), BLEND_LAYERS
+    a = np.zeros((layers, m), np.float64)
+    order = np.full((layers, m), np.iinfo(np.int64).max, np.int64)
+    lt = np.full((layers, m), -1, np.int64)
+    lb = np.zeros((layers, m, 3), np.float32)
+    count = np.zeros(m, np.int64)
+    end_tri = np.full(m, -1, np.int64)
+    end_bary = np.zeros((m, 3), np.float32)
+    deep = 0
+    pending = np.arange(m)
+    for layer in range(layers + DITHER_LAYERS + 1):
+        px = start[pending]
+        t = tri[px]
+        t0 = np.maximum(t, 0)
+        take = (t >= 0) & blends[t0]
+        peel = np.zeros(len(t), bool)
+        if solo is not None:
+            s = solo[t0]
+            peel = take & (s >= 0) & (np.where(lt[:, pending] >= 0, solo[np.maximum(
+                lt[:, pending], 0)], -1) == s).any(0)
+            take &= ~peel
+        thin = (t >= 0) & dithers[t0] & ~take & ~peel
+        if thin.any():
+            k = np.flatnonzero(thin)
+            peel[k] = ~(alpha(px[k], t[k], bary[px[k]])
+                        > thresholds(px[k], DITHER_LAYERS + layer))
+        full = take & (count[pending] >= layers)
+        deep += int(full.sum())
+        take &= ~full
+        if take.any():
+            k = pending[take]
+            j = count[k]
+            a[j, k] = np.clip(alpha(px[take], t[take], bary[px[take]]), 0.0, 1.0)
+            order[j, k] = j if rank is None else rank[t[take]]
+            lt[j, k], lb[j, k] = t[take], bary[px[take]]
+            count[k] += 1
+        peel |= take
+        ends = ~peel if layer < layers + DITHER_LAYERS else np.ones(len(t), bool)
+        end_tri[pending[ends]], end_bary[pending[ends]] = t[ends], bary[px[ends]]
+        pending = pending[~ends]
+        if not len(pending):
+            break
+        floor = np.full(len(keys), np.iinfo(np.uint64).max, np.uint64)
+        floor[at[start[pending]]] = keys[at[start[pending]]]
+        tri2, bary2, depth2, keys2 = next_layer(floor)
+        px = start[pending]
+        tri[px], bary[px], depth[px] = tri2[px], bary2[px], depth2[px]
+        keys[at[px]] = keys2[at[px]]
+    # "over", front to back in ``order``: each layer's share is its alpha times what the
+    # layers before it let through
+    sort = np.argsort(order, axis=0, kind="stable")
+    a_sorted = np.take_along_axis(a, sort, 0)
+    through = np.cumprod(1.0 - a_sorted, axis=0)
+    share = np.empty_like(a)
+    np.put_along_axis(share, sort, a_sorted * np.vstack([np.ones((1, m)), through[:-1]]), 0)
+    rest = through[-1]
+    j, k = np.nonzero(lt >= 0)
+    ended = end_tri >= 0
+    surfaces = (np.concatenate([start[k], start[ended]]),
+                np.concatenate([lt[j, k], end_tri[ended]]).astype(np.int32),
+                np.concatenate([lb[j, k], end_bary[ended]]),
+                np.concatenate([share[j, k], rest[ended]]).astype(np.float32))
+    return surfaces, (start[~ended], rest[~ended].astype(np.float32)), deep

@@ -193,15 +193,14 @@ def sample_raster(frame: Frame, tile, margin, offset, behind=None, frags=None):
     return tri, bary, depth, x0 + cols + offset[0], y0 + rows + offset[1], frags.keys
 
 
-def dither_sample(frame: Frame, tile, margin, offset, sample: int, layer0):
-    """Stochastic transparency of one sample (Blender's "Dithered" render method,
-    ``transparency.dither``): over the samples a pixel is covered by a fraction alpha of each
-    surface. layer0: ``sample_raster``'s result, updated."""
-    tri, bary, depth, sx, sy, keys = layer0
+def _peeling(frame: Frame, tile, margin, offset, sample: int, layer0):
+    """What ``transparency.dither`` and ``blend`` peel one sample's layers with: each pixel's
+    index in the raster's keys, and the functions alpha, thresholds and next_layer."""
+    sx, sy = layer0[3], layer0[4]
     x0, y0, x1, y1 = tile
     m = margin[0]
     tw = x1 - x0
-    rows, cols = np.divmod(np.arange(len(tri)), tw)
+    rows, cols = np.divmod(np.arange(len(sx)), tw)
 
     def alpha(pixels, t, b):
         return surface_alpha(frame, t, b, sx[pixels], sy[pixels])
@@ -213,6 +212,26 @@ def dither_sample(frame: Frame, tile, margin, offset, sample: int, layer0):
     def thresholds(pixels, layer):
         return transparency.dither_thresholds(x0 + cols[pixels], y0 + rows[pixels], sample, layer)
 
-    transparency.dither((tri, bary, depth, keys), (rows + m) * (tw + 2 * m) + cols + m,
-                  frame.fades, alpha, thresholds, next_layer)
+    return (rows + m) * (tw + 2 * m) + cols + m, alpha, thresholds, next_layer
+
+
+def dither_sample(frame: Frame, tile, margin, offset, sample: int, layer0):
+    """Stochastic transparency of one sample (Blender's "Dithered" render method,
+    ``transparency.dither``): over the samples a pixel is covered by a fraction alpha of each
+    surface. layer0: ``sample_raster``'s result, updated."""
+    tri, bary, depth, sx, sy, keys = layer0
+    at, alpha, thresholds, next_layer = _peeling(frame, tile, margin, offset, sample, layer0)
+    transparency.dither((tri, bary, depth, keys), at, frame.dithers, alpha, thresholds,
+                        next_layer)
     return tri, bary, depth, sx, sy
+
+
+def blend_sample(frame: Frame, tile, margin, offset, sample: int, layer0, start):
+    """Blended transparency of one sample (``transparency.blend``) behind the pixels
+    ``start`` (their surfaces are blended). layer0: ``sample_raster``'s result after
+    ``dither_sample``, not changed. Returns ``transparency.blend``'s result."""
+    tri, bary, depth, _, _, keys = layer0
+    at, alpha, thresholds, next_layer = _peeling(frame, tile, margin, offset, sample, layer0)
+    return transparency.blend((tri, bary, depth, keys), at, start, frame.blends, frame.dithers,
+                              alpha, thresholds, next_layer, rank=frame.blend_rank,
+                              solo=frame.blend_solo)

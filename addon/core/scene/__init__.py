@@ -131,12 +131,18 @@ class Material:
     program: what the surface is at each point (``program.talk_program()``: a grey dielectric)
     backface_culling: cull faces seen from behind
     pass_index: the material's index in the IndexMA pass (Blender's Material > Pass Index)
+    blended: where it is transparent it is composited over what lies behind (Blender's Render
+               Method: Blended; ``render.transparency.blend``), not dithered
+    transparency_overlap: a blended surface shows every layer of its object; False: only the
+               nearest (EEVEE's Transparency Overlap)
     """
 
     name: str = "Material"
     program: Program = field(default_factory=talk_program)
     backface_culling: bool = False
     pass_index: int = 0
+    blended: bool = False
+    transparency_overlap: bool = True
 
     @classmethod
     def talk(cls, name: str = "Material", albedo=(0.8, 0.8, 0.8), rf0=(0.04, 0.04, 0.04),
@@ -321,6 +327,12 @@ CHOICES: dict[str, tuple[Choice, ...]] = {
                "algorithm': divide by the probe's irradiance at the normal (tinted scalar SH), "
                "multiply by the pixel's irradiance"),
     ),
+    "blend_sort": (
+        Choice("pixel", "Per Pixel", "Blended surfaces composited in the order of their depths "
+               "at each pixel: exact, as Cycles sees them"),
+        Choice("object", "Object Origin", "As EEVEE sorts them: whole objects by the distance "
+               "of their origins, an object's faces in their order"),
+    ),
     "prefilter": (
         Choice("bo1", "BO1 Angular Gaussian", "Slide 'Black Ops: environment map "
                "pre-filtering': CubeMapGen's angular Gaussian filter"),
@@ -379,6 +391,7 @@ class RenderSettings:
                     light of the lights, the world and the emission of the meshes in it
     shadow_catcher_pass: the Shadow Catcher pass is wanted: shadow catchers are then left out
                     of Combined (alpha 0), their shadows in the pass alone, as Cycles does
+    blend_sort:     the order blended surfaces are composited in, of ``CHOICES["blend_sort"]``
     """
 
     samples: int = 4
@@ -409,6 +422,7 @@ class RenderSettings:
     cryptomatte_levels: int = 6
     light_groups: tuple[str, ...] = ()
     shadow_catcher_pass: bool = False
+    blend_sort: str = "pixel"
 
 
 @dataclass

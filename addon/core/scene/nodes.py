@@ -600,7 +600,7 @@ NODES: dict[str, Node] = {n.kind: n for n in (
     Node("emission", ("color", "strength"), (), "closure", _op_emission,
          blender=("ShaderNodeEmission",)),
     Node("transparent", ("color",), (), "closure", _op_transparent,
-         blender=("ShaderNodeBsdfTransparent",)),
+         blender=("ShaderNodeBsdfTransparent", "ShaderNodeBsdfGlass")),
     Node("holdout", (), (), "closure", _op_holdout, blender=("ShaderNodeHoldout",)),
     Node("add_shader", ("a", "b"), (), "closure", _op_add_shader,
          blender=("ShaderNodeAddShader",)),
