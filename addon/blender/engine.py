@@ -244,6 +244,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             self.register_pass(scene, renderlayer, name, 4, "rgba", "COLOR")  # as Cycles
         for group in renderlayer.lightgroups:
             self.register_pass(scene, renderlayer, group_pass(group.name), 3, "RGB", "COLOR")
+        for name, kind in passes.aovs(renderlayer):  # as Cycles registers them
+            self.register_pass(scene, renderlayer, name, 4 if kind == "COLOR" else 1,
+                               "RGBA" if kind == "COLOR" else "X", kind)
 
 
 _listeners: list[Warnings] = []  # the sinks ``listening`` holds open

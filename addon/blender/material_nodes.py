@@ -405,5 +405,5 @@ NODES = {
 # the tree's structure (groups, reroutes, frames, the output)
 SUPPORTED_NODES = BLENDER_NODES | {"NodeReroute", "NodeFrame", "NodeGroupInput",
                                    "NodeGroupOutput", "ShaderNodeGroup",
-                                   "ShaderNodeOutputMaterial"}
+                                   "ShaderNodeOutputMaterial", "ShaderNodeOutputAOV"}
 

@@ -233,7 +233,14 @@ class _Compiler:
                     and node.node_tree.name.split(".")[0] in _GLTF_GROUPS
                     and "Occlusion" in node.inputs and node.inputs["Occlusion"].is_linked):
                 occlusion = self.socket(node.inputs["Occlusion"], "float")
-        return self.b.build(surface, occlusion)
+        aovs = {}  # the AOV Output nodes (of the tree's top level, as Cycles reads them)
+        for node in tree.nodes:
+            if (node.bl_idname == "ShaderNodeOutputAOV" and not node.mute and node.aov_name
+                    and node.aov_name not in aovs):
+                aovs[node.aov_name] = (self.socket(node.inputs["Color"], "color"),
+                                       self.socket(node.inputs["Value"], "float"))
+        return self.b.build(surface, occlusion,
+                            tuple((name, *regs) for name, regs in aovs.items()))
 
 
 def _looped_tree(tree, seen=None) -> str | None:

@@ -55,12 +55,14 @@ def blender_name(name: str) -> str:
 
 def channel_ids(name: str) -> str:
     """Channel ids of a pass of either engine ("RGBA", "XYZ", ...): a light group's is RGB, a
-    Cryptomatte pass's rgba."""
+    Cryptomatte pass's rgba, a shader AOV's RGBA or X."""
     if name.startswith("Combined_"):
         return "RGB"
     if name.startswith("Crypto"):
         return "rgba"
-    return CYCLES_COLOR[name] if name in CYCLES_COLOR else PASSES[name].ids
+    if name in CYCLES_COLOR:
+        return CYCLES_COLOR[name]
+    return PASSES[name].ids if name in PASSES else "RGBAX"
 
 
 def _owner(view_layer, name: str):
@@ -96,3 +98,9 @@ def cryptomatte_passes(view_layer) -> list[str]:
     """The names of the Cryptomatte passes ``view_layer`` has: Crypto<Kind>NN."""
     levels = int(view_layer.pass_cryptomatte_depth)
     return [name for kind in cryptomatte(view_layer) for name in crypto.passes(kind, levels)]
+
+
+def aovs(view_layer) -> tuple[tuple[str, str], ...]:
+    """The view layer's shader AOVs (View Layer > Shader AOV): (name, "COLOR" or "VALUE")
+    each, those Blender marks invalid (a name used twice or a pass's) left out."""
+    return tuple((aov.name, aov.type) for aov in view_layer.aovs if aov.is_valid)

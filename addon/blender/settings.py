@@ -95,6 +95,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         fields["cryptomatte"] = passes.cryptomatte(view_layer)
         fields["cryptomatte_levels"] = int(view_layer.pass_cryptomatte_depth)
         fields["light_groups"] = tuple(group.name for group in view_layer.lightgroups)
+        fields["aovs"] = passes.aovs(view_layer)
     if purpose == "VIEWPORT":
         fields["tile_size"] = viewport.TILE_SIZE
     fields.update(_methods.get(scene.name_full, {}))

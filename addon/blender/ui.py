@@ -6,6 +6,7 @@ Stock panels opt in through their ``COMPAT_ENGINES`` set, the way other external
 
 import bpy
 from bl_ui.properties_view_layer import (
+    ViewLayerAOVPanelHelper,
     ViewLayerCryptomattePanelHelper,
     ViewLayerLightgroupsPanelHelper,
 )
@@ -256,6 +257,15 @@ class VIEWLAYER_PT_bo2_passes_lightgroups(BO2Panel, ViewLayerLightgroupsPanelHel
     bl_parent_id = "VIEWLAYER_PT_bo2_passes"
 
 
+class VIEWLAYER_PT_bo2_passes_aov(BO2Panel, ViewLayerAOVPanelHelper, bpy.types.Panel):
+    """The view layer's shader AOVs: a pass each, what the AOV Output nodes give
+    (``RenderSettings.aovs``)."""
+
+    bl_label = "Shader AOV"
+    bl_context = "view_layer"
+    bl_parent_id = "VIEWLAYER_PT_bo2_passes"
+
+
 class WORLD_PT_bo2_lightgroup(LightGroupPanel, bpy.types.Panel):
     """The light group the world's light, its sun and the background are counted in."""
 
@@ -370,7 +380,8 @@ class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_lightmaps, RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev,
            VIEWLAYER_PT_bo2_passes, VIEWLAYER_PT_bo2_passes_cryptomatte,
-           VIEWLAYER_PT_bo2_passes_lightgroups, *object_panels.CLASSES,
+           VIEWLAYER_PT_bo2_passes_lightgroups, VIEWLAYER_PT_bo2_passes_aov,
+           *object_panels.CLASSES,
            MATERIAL_PT_bo2_surface, MATERIAL_PT_bo2_settings, WORLD_PT_bo2_light,
            WORLD_PT_bo2_lightgroup]
 

@@ -116,6 +116,9 @@ def unsupported(frame: Frame) -> str | None:
         return "shadow catchers"
     if frame.blends is not None:
         return "blended materials"
+    wanted = {name for name, _ in scene.settings.aovs}
+    if any(name in wanted for m in mats for name, *_ in m.program.aovs):
+        return "shader AOVs"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
         return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
@@ -958,7 +961,8 @@ def _group_frame(frame: Frame, group: str) -> tuple[Frame, np.ndarray]:
         scene, lights=[scene.lights[k] for k in mine], probes=scene.probes if world else None,
         world=scene.world if world else dataclasses.replace(
             scene.world, color=np.zeros(3, np.float32), texture=None, sun=None),
-        settings=dataclasses.replace(scene.settings, light_groups=(), cryptomatte=()))
+        settings=dataclasses.replace(scene.settings, light_groups=(), cryptomatte=(),
+                                     aovs=()))
     maps = [frame.shadow_maps[k] for k in mine] + (
         list(frame.shadow_maps[len(scene.lights):]) if world else [])
     index = scene.settings.light_groups.index(group)

@@ -55,7 +55,7 @@ class Capture:
         scene = job.scene
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None,
                                        ambient_occlusion=False, nearest_reflections=False,
-                                       cryptomatte=(), light_groups=())
+                                       cryptomatte=(), light_groups=(), aovs=())
         meshes = scene.meshes  # a shadow catcher is a surface like any other to the probes
         if any(m.shadow_catcher for m in meshes):
             meshes = [dataclasses.replace(m, shadow_catcher=False) for m in meshes]

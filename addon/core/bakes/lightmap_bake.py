@@ -330,7 +330,8 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
 
     base = dataclasses.replace(scene, camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0),
                                settings=dataclasses.replace(scene.settings, border=None,
-                                                            cryptomatte=(), light_groups=()))
+                                                            cryptomatte=(), light_groups=(),
+                                                            aovs=()))
     base = dataclasses.replace(base, probes=None)
     # no shadow maps: the direct light of the texels is ray traced (``_direct``)
     frame = pipeline.prepare(job.on(base), shadow_maps=[None] * shadow_map_count(base))

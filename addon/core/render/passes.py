@@ -15,6 +15,9 @@ multilayer EXR files store (``<layer>.<pass>.<id>``).
   Texels: each lightmap's texels as a checker of its own hue (their density; 0 where none).
 - Shadow Catcher: on shadow catchers the share of the lights' light their shadows let through
   (Cycles' pass: multiply a backplate by it), 1 elsewhere.
+
+After these, the passes the view layer names (``extras``): each light group's light
+(``Combined_<group>``), then each shader AOV (its name: the AOV Output nodes' Color or Value).
 """
 
 from __future__ import annotations
@@ -23,8 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["EMPTY_DEPTH", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass", "film_width",
-           "group_columns", "group_pass"]
+__all__ = ["EMPTY_DEPTH", "PASSES", "SAMPLED", "SAMPLED_WIDTH", "Pass", "extra_columns",
+           "extras", "film_width", "group_columns", "group_pass"]
 
 EMPTY_DEPTH = 1e10
 
@@ -91,32 +94,48 @@ def group_pass(group: str) -> str:
     return f"Combined_{group}"
 
 
-def film_width(groups: tuple[str, ...]) -> int:
-    """Columns of the averaged passes with the light groups ``groups``: ``SAMPLED``'s, then
-    RGB per group (``group_columns``)."""
-    return SAMPLED_WIDTH + 3 * len(groups)
+def extras(settings) -> tuple[tuple[str, int], ...]:
+    """The averaged passes after ``SAMPLED`` that ``settings`` (``RenderSettings``) asks for:
+    (name, channels) of each light group (RGB), then of each shader AOV (RGBA or one value,
+    as Cycles writes them)."""
+    return (tuple((group_pass(g), 3) for g in settings.light_groups)
+            + tuple((name, 4 if kind == "COLOR" else 1) for name, kind in settings.aovs))
+
+
+def film_width(extra: tuple[tuple[str, int], ...]) -> int:
+    """Columns of the averaged passes: ``SAMPLED``'s, then those of ``extras``."""
+    return SAMPLED_WIDTH + sum(c for _, c in extra)
+
+
+def extra_columns(extra: tuple[tuple[str, int], ...]) -> dict[str, slice]:
+    """Each pass of ``extras``: its columns in the averaged passes."""
+    out, start = {}, SAMPLED_WIDTH
+    for name, channels in extra:
+        out[name] = slice(start, start + channels)
+        start += channels
+    return out
 
 
 def group_columns(k: int) -> slice:
-    """The columns of the k-th light group in the averaged passes."""
+    """The columns of the k-th light group in the averaged passes (the first of ``extras``)."""
     return slice(SAMPLED_WIDTH + 3 * k, SAMPLED_WIDTH + 3 * k + 3)
 
 
-def _averaged(image: np.ndarray, groups: tuple[str, ...]) -> dict:
+def _averaged(image: np.ndarray, extra: tuple[tuple[str, int], ...]) -> dict:
     out = {name: image[..., SAMPLED[name]] for name in SAMPLED}
-    out.update({group_pass(g): image[..., group_columns(k)] for k, g in enumerate(groups)})
+    out.update({name: image[..., cols] for name, cols in extra_columns(extra).items()})
     return out
 
 
 def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray,
-                crypto: dict | None = None, groups: tuple[str, ...] = ()) -> dict:
+                crypto: dict | None = None, extra: tuple[tuple[str, int], ...] = ()) -> dict:
     """The passes stage of one tile (x0, y0, x1, y1): the averaged passes side by side
-    ``acc`` (npx, ``film_width(groups)``), Depth and IndexMA (npx,), the Cryptomatte passes
+    ``acc`` (npx, ``film_width(extra)``), Depth and IndexMA (npx,), the Cryptomatte passes
     {name: (npx, 4)}, as {pass name: (h, w, C) float32}."""
     x0, y0, x1, y1 = tile
     shape = (y1 - y0, x1 - x0)
-    image = acc.reshape(*shape, film_width(groups))
-    out = _averaged(image, groups)
+    image = acc.reshape(*shape, film_width(extra))
+    out = _averaged(image, extra)
     out["Depth"], out["IndexMA"] = depth.reshape(*shape, 1), index.reshape(*shape, 1)
     for name, ranks in (crypto or {}).items():
         out[name] = ranks.reshape(*shape, 4)
@@ -125,13 +144,13 @@ def tile_passes(tile, acc: np.ndarray, depth: np.ndarray, index: np.ndarray,
 
 class Film:
     """The passes stage of whole views: ``count`` films of ``height`` x ``width`` pixels that
-    tiles are written into (with the passes of light groups ``groups``); outside them the
-    passes are 0 (Depth: ``EMPTY_DEPTH``)."""
+    tiles are written into (with the passes ``extra``, ``extras``); outside them the passes
+    are 0 (Depth: ``EMPTY_DEPTH``)."""
 
     def __init__(self, count: int, height: int, width: int,
-                 groups: tuple[str, ...] = ()) -> None:
-        self.groups = tuple(groups)
-        self.film = np.zeros((count, height, width, film_width(self.groups)), np.float32)
+                 extra: tuple[tuple[str, int], ...] = ()) -> None:
+        self.extra = tuple(extra)
+        self.film = np.zeros((count, height, width, film_width(self.extra)), np.float32)
         self.depth = np.full((count, height, width, 1), EMPTY_DEPTH, np.float32)
         self.index = np.zeros((count, height, width, 1), np.float32)
         self.crypto: dict[str, np.ndarray] = {}  # name -> (count, height, width, 4)
@@ -141,7 +160,7 @@ class Film:
         """One tile of view ``view``: arrays as ``tile_passes``."""
         x0, y0, x1, y1 = tile
         shape = (y1 - y0, x1 - x0)
-        self.film[view, y0:y1, x0:x1] = acc.reshape(*shape, film_width(self.groups))
+        self.film[view, y0:y1, x0:x1] = acc.reshape(*shape, film_width(self.extra))
         self.depth[view, y0:y1, x0:x1, 0] = depth.reshape(shape)
         self.index[view, y0:y1, x0:x1, 0] = index.reshape(shape)
         for name, ranks in (crypto or {}).items():
@@ -154,7 +173,7 @@ class Film:
         (H, W, ``film_width``) film."""
         out = []
         for k in range(len(self.film)):
-            passes = _averaged(self.film[k], self.groups)
+            passes = _averaged(self.film[k], self.extra)
             passes["Depth"], passes["IndexMA"] = self.depth[k], self.index[k]
             passes.update({name: image[k] for name, image in self.crypto.items()})
             out.append(passes)

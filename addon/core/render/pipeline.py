@@ -27,7 +27,15 @@ from . import cryptomatte, depth_of_field, transparency
 from .buffers import Frame, prepare_buffers, with_camera
 from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
-from .passes import EMPTY_DEPTH, SAMPLED, Film, film_width, group_columns, tile_passes
+from .passes import (
+    EMPTY_DEPTH,
+    SAMPLED,
+    Film,
+    extras,
+    film_width,
+    group_columns,
+    tile_passes,
+)
 from .shading import background_radiance, has_indirect, shade_points
 from .shadow_filter import pixel_seeds
 from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
@@ -71,7 +79,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     x0, y0, x1, y1 = tile
     npx = (x1 - x0) * (y1 - y0)
     groups = scene.settings.light_groups
-    acc = np.zeros((npx, film_width(groups)), np.float32)
+    acc = np.zeros((npx, film_width(extras(scene.settings))), np.float32)
     world_group = (group_columns(groups.index(scene.world.group))
                    if scene.world.group in groups else None)
     central = int(np.argmin(np.abs(np.asarray(offsets) - 0.5).sum(-1)))  # Depth and IndexMA
@@ -319,7 +327,7 @@ def render_tiles(job: RenderJob, *, frame: Frame | None = None
             for every tile of ``visibility.tiles(scene)``
     """
     for _, tile, arrays in _tile_results(job, frame):
-        yield tile, tile_passes(tile, *arrays, groups=job.scene.settings.light_groups)
+        yield tile, tile_passes(tile, *arrays, extra=extras(job.scene.settings))
 
 
 def render_frame(job: RenderJob, *, frame: Frame | None = None, offsets=None,
@@ -342,7 +350,7 @@ def render_views(job: RenderJob, cameras, *, frame: Frame | None = None, offsets
     once: [{pass name: (H, W, C) float32}] in camera order. Arguments as ``render_frame``."""
     cam = job.scene.camera
     film = Film(1 if cameras is None else len(cameras), cam.height, cam.width,
-                job.scene.settings.light_groups)
+                extras(job.scene.settings))
     for k, tile, arrays in _tile_results(job, frame, cameras, offsets, first_sample):
         film.add(k, tile, *arrays)
     return film.passes()

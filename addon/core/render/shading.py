@@ -13,8 +13,8 @@ from ..lighting import probes, shade, world_sun
 from ..scene import Scene, linking
 from . import shadow_filter
 from .buffers import Frame
-from .passes import SAMPLED, SAMPLED_WIDTH, film_width, group_columns
-from .surfaces import surface_params
+from .passes import SAMPLED, SAMPLED_WIDTH, extra_columns, extras, film_width, group_columns
+from .surfaces import surface_aovs, surface_params
 from .world_occlusion import world_visibility
 
 
@@ -138,7 +138,11 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
                 gloss_ind *= occlusion.specular(ao, n_dot_v, mat.gloss)[:, None]
     else:
         diff_ind = gloss_ind = np.zeros((len(tri), 3), np.float32)
-    out = np.empty((len(tri), film_width(groups)), np.float32)
+    extra = extras(scene.settings)
+    out = np.empty((len(tri), film_width(extra)), np.float32)
+    if scene.settings.aovs:
+        first = extra_columns(extra)[scene.settings.aovs[0][0]].start
+        out[:, first:] = surface_aovs(frame, tri, bary, p, n, geo, v, sx, sy)
     if groups:
         if scene.world.group in groups:  # the probes' light is the world's
             k = groups.index(scene.world.group)
@@ -147,7 +151,7 @@ def shade_points(frame: Frame, tri, bary, sx, sy, tick=None, ao_tile=None,
         for k in np.unique(emits[emits >= 0]):
             at = emits == k
             grouped[at, 3 * k:3 * k + 3] += mat.emission[at]
-        out[:, SAMPLED_WIDTH:] = grouped
+        out[:, SAMPLED_WIDTH:SAMPLED_WIDTH + grouped.shape[1]] = grouped
     f32 = np.ascontiguousarray
     cols = np.array([SAMPLED[name].start for name in shading.COMPOSED], np.int64)
     shading.compose(out, cols, n, p, uv, f32(frame.has_uv[tri]), diffuse, specular,
@@ -191,7 +195,7 @@ def catch_shadows(out: np.ndarray, caught: np.ndarray, held: np.ndarray, free: n
             scene, sx[caught], sy[caught]) * share
     groups = scene.settings.light_groups
     if groups:
-        out[caught, SAMPLED_WIDTH:] = 0.0
+        out[caught, SAMPLED_WIDTH:SAMPLED_WIDTH + 3 * len(groups)] = 0.0
         if scene.world.group in groups:
             k = groups.index(scene.world.group)
             out[caught, group_columns(k)] = out[caught, combined.start:combined.start + 3]

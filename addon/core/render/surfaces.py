@@ -143,3 +143,22 @@ def caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
     geo = nodes.unit_vectors(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]))
     zero = np.zeros(len(tri), np.float32)
     return _surface_params(frame, tri, bary, p, n, geo, geo, zero, zero, False).alpha
+
+
+def surface_aovs(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> np.ndarray:
+    """The shader AOVs of ``RenderSettings.aovs`` at the points on triangles ``tri`` (N,)
+    (arguments as ``surface_params``): (N, C) float32 side by side
+    (``material.evaluate_aovs``)."""
+    wanted = frame.scene.settings.aovs
+    mid = frame.material[tri]
+    mats = frame.scene.materials or [Material()]
+    width = sum(4 if kind == "COLOR" else 1 for _, kind in wanted)
+    out = np.zeros((len(tri), width), np.float32)
+    for m in np.unique(mid):
+        if not mats[m].program.aovs:
+            continue
+        sel = np.flatnonzero(mid == m)
+        pts = material_points(frame, tri[sel], bary[sel], p[sel], n[sel], geo[sel], v[sel],
+                              sx[sel], sy[sel])
+        out[sel] = material.evaluate_aovs(mats[m].program, pts, wanted)
+    return out

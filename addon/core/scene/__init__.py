@@ -392,6 +392,9 @@ class RenderSettings:
     shadow_catcher_pass: the Shadow Catcher pass is wanted: shadow catchers are then left out
                     of Combined (alpha 0), their shadows in the pass alone, as Cycles does
     blend_sort:     the order blended surfaces are composited in, of ``CHOICES["blend_sort"]``
+    aovs:           the shader AOV passes wanted, (name, "COLOR" or "VALUE") each: what the
+                    materials' AOV Output nodes of that name give (``Program.aovs``; a colour
+                    with alpha 1), 0 elsewhere
     """
 
     samples: int = 4
@@ -423,6 +426,7 @@ class RenderSettings:
     light_groups: tuple[str, ...] = ()
     shadow_catcher_pass: bool = False
     blend_sort: str = "pixel"
+    aovs: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass

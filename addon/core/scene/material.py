@@ -38,7 +38,7 @@ from .nodes import NODES, Closure, unit_vectors, uv_step
 from .program import Op, Program
 from .recursion import Bounded
 
-__all__ = ["Points", "SurfaceParams", "evaluate"]
+__all__ = ["Points", "SurfaceParams", "evaluate", "evaluate_aovs"]
 
 
 @dataclass
@@ -235,3 +235,24 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
         alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion,
         layer=out(np.clip(c.layer if opaque else c.layer * inv, 0.0, 1.0), 1)[:, 0],
         layer_f0=out(np.clip(c.layer_f0 if opaque else c.layer_f0 * inv, 0.0, 1.0), 1)[:, 0])
+
+
+def evaluate_aovs(program: Program, points: Points, wanted) -> np.ndarray:
+    """The shader AOVs ``wanted`` ((name, "COLOR" or "VALUE") each) a material writes at N
+    points, side by side: (N, C) float32, 4 columns for a colour (RGB and 1, as Cycles writes
+    them: averaged, the alpha is the coverage), 1 for a value; 0 for an AOV it has no AOV
+    Output node of."""
+    ev = _Evaluation(program, points)
+    own = {name: (color, value) for name, color, value in program.aovs}
+    columns = []
+    for name, kind in wanted:
+        width = 4 if kind == "COLOR" else 1
+        if name not in own:
+            columns.append(np.zeros((points.n, width), np.float32))
+            continue
+        value = np.ones((points.n, width), np.float32)
+        value[:, :min(width, 3)] = ev.value(own[name][0 if kind == "COLOR" else 1],
+                                            points)[:, :min(width, 3)]
+        columns.append(value)
+    out = np.concatenate(columns, axis=1) if columns else np.zeros((points.n, 0), np.float32)
+    return np.where(np.isfinite(out), out, 0.0).astype(np.float32)

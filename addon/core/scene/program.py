@@ -26,11 +26,14 @@ class Op:
 @dataclass
 class Program:
     """A compiled material: ``ops`` in dependency order; ``surface`` the register of the final
-    closure; ``occlusion`` an optional float register (the glTF importer's occlusion)."""
+    closure; ``occlusion`` an optional float register (the glTF importer's occlusion);
+    ``aovs`` the shader AOVs it writes (AOV Output nodes), (name, colour register, value
+    register) each."""
 
     ops: list[Op]
     surface: int
     occlusion: int | None = None
+    aovs: tuple[tuple[str, int, int], ...] = ()
 
     def __post_init__(self) -> None:
         varying = []
@@ -106,12 +109,14 @@ class ProgramBuilder:
             self._consts[key] = self.add("const", param=key)
         return self._consts[key]
 
-    def build(self, surface: int, occlusion: int | None = None) -> Program:
-        """The program of the operations ``surface`` and ``occlusion`` read, in dependency
-        order, renumbered (the others, such as those of a compile of a node that stopped part
-        way, ``core.scene.recursion``, are dropped)."""
+    def build(self, surface: int, occlusion: int | None = None,
+              aovs: tuple[tuple[str, int, int], ...] = ()) -> Program:
+        """The program of the operations ``surface``, ``occlusion`` and ``aovs`` (as
+        ``Program``'s) read, in dependency order, renumbered (the others, such as those of a
+        compile of a node that stopped part way, ``core.scene.recursion``, are dropped)."""
         live = [False] * len(self.ops)
         stack = [r for r in (surface, occlusion) if r is not None]
+        stack += [r for _, color, value in aovs for r in (color, value)]
         while stack:
             reg = stack.pop()
             if not live[reg]:
@@ -124,7 +129,8 @@ class ProgramBuilder:
                 new[reg] = len(ops)
                 ops.append(Op(op.kind, tuple(None if a is None else new[a] for a in op.args),
                               op.param))
-        return Program(ops, new[surface], None if occlusion is None else new[occlusion])
+        return Program(ops, new[surface], None if occlusion is None else new[occlusion],
+                       tuple((name, new[color], new[value]) for name, color, value in aovs))
 
 
 def talk_program(albedo=(0.8, 0.8, 0.8), rf0=(0.04, 0.04, 0.04), gloss=0.5,
