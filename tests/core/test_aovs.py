@@ -8,7 +8,7 @@ passes are those constants inside, 0 outside, and half of them on pixels the edg
 import dataclasses
 
 import numpy as np
-from test_pipeline import H, W, floor, lambert_scene, pixel_centres
+from test_pipeline import floor, lambert_scene, pixel_centres
 
 from bo2_lighting.addon.core.render import pipeline
 from bo2_lighting.addon.core.render.job import RenderJob
