@@ -23,7 +23,7 @@ from ..core.render import cryptomatte, memory, pipeline
 from ..core.render.job import Cancelled, Message, RenderJob, Warnings
 from ..core.render.passes import PASSES, group_pass
 from ..core.render.viewport import VIEWS
-from . import extract, gpu_frames, interrupt, passes, render_graph, viewport
+from . import extract, gpu_frames, interrupt, motion, passes, render_graph, viewport
 from . import settings as settings_of
 
 
@@ -120,6 +120,9 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731
             frame, _ = extract.extract_scene(depsgraph, settings, indirect=scene.bo2.indirect.use,
                                              should_stop=should_stop, warnings=sink)
+            if motion.wanted(scene, "PREVIEW" if self.is_preview else "FINAL"):
+                self.update_stats("BO2 Lighting", "Reading the motion over the shutter")
+                frame = motion.attach(self, depsgraph, frame, sink, should_stop)
             if not self.is_preview:
                 self.update_stats("BO2 Lighting", "Baking the bounce without probes")
                 frame = bounce.attach(frame, should_stop)

@@ -266,6 +266,31 @@ class OBJECT_PT_bo2_visibility(BO2Panel, bpy.types.Panel):
 _GEOMETRY = {"MESH", "CURVE", "SURFACE", "META", "FONT", "CURVES", "POINTCLOUD"}
 
 
+class OBJECT_PT_bo2_motion_blur(BO2Panel, bpy.types.Panel):
+    """Object > Motion Blur: the object's own toggles, as Cycles reads them."""
+
+    bl_label = "Motion Blur"
+    bl_context = "object"
+    bl_options = {"DEFAULT_CLOSED"}
+    needs = "object"
+
+    @classmethod
+    def poll(cls, context):
+        obj = context.object
+        return (super().poll(context) and getattr(obj, "cycles", None) is not None
+                and obj.type in _GEOMETRY | {"CAMERA", "EMPTY"})
+
+    def draw_header(self, context):
+        self.layout.prop(context.object.cycles, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        own = context.object.cycles
+        layout.active = context.scene.render.use_motion_blur and own.use_motion_blur
+        if context.object.type != "CAMERA":
+            layout.prop(own, "use_deform_motion", text="Deformation")
+
+
 class OBJECT_PT_bo2_lightmap(BO2Panel, bpy.types.Panel):
     """The object's lightmap: static or not, its UV map, density and bake."""
 
@@ -307,7 +332,8 @@ class OBJECT_PT_bo2_lightmap(BO2Panel, bpy.types.Panel):
             layout.label(text=f"File: {bake_files.image(obj).filepath}", icon="FILE")
 
 
-CLASSES = [OBJECT_PT_bo2_visibility, OBJECT_PT_bo2_lightmap, OBJECT_PT_bo2_lightgroup,
+CLASSES = [OBJECT_PT_bo2_visibility, OBJECT_PT_bo2_motion_blur, OBJECT_PT_bo2_lightmap,
+           OBJECT_PT_bo2_lightgroup,
            DATA_PT_bo2_light,
            DATA_PT_bo2_light_shadow, DATA_PT_bo2_light_beam, DATA_PT_bo2_lightprobe,
            DATA_PT_bo2_lightprobe_parallax, DATA_PT_bo2_lightprobe_display,

@@ -16,7 +16,7 @@ import numpy as np
 from ..core import scene as cs
 from ..core.lighting import lightmap
 from ..core.render import viewport
-from . import passes
+from . import motion, passes
 
 __all__ = ["PURPOSES", "BakeSettings", "bake_settings", "lightmap_settings", "methods",
            "render_border", "render_settings", "resolution"]
@@ -91,6 +91,8 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
     if purpose in ("FINAL", "PREVIEW") and view_layer is not None:
         fields["ao_pass"] = passes.enabled(view_layer, "AO")
         fields["shadow_catcher_pass"] = passes.enabled(view_layer, "Shadow Catcher")
+    if motion.wanted(scene, purpose):
+        fields["shutter_curve"] = motion.shutter_curve(scene)
     if purpose == "FINAL" and view_layer is not None:
         fields["cryptomatte"] = passes.cryptomatte(view_layer)
         fields["cryptomatte_levels"] = int(view_layer.pass_cryptomatte_depth)

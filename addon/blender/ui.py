@@ -225,6 +225,45 @@ class RENDER_PT_bo2_lookdev(_RenderSubPanel, bpy.types.Panel):
         layout.operator("bo2.review_report", icon="DOCUMENTS")
 
 
+class RENDER_PT_bo2_motion_blur(BO2Panel, bpy.types.Panel):
+    """Render > Motion Blur: Blender's shutter settings, as Cycles reads them
+    (``blender.motion``)."""
+
+    bl_label = "Motion Blur"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw_header(self, context):
+        self.layout.prop(context.scene.render, "use_motion_blur", text="")
+
+    def draw(self, context):
+        layout = self.split_layout()
+        r = context.scene.render
+        col = layout.column()
+        col.active = r.use_motion_blur
+        col.prop(r, "motion_blur_position", text="Position")
+        col.prop(r, "motion_blur_shutter")
+        self.note(layout, "Each sample at its own time; F12 and bo2 render, not the viewport")
+
+
+class RENDER_PT_bo2_motion_blur_curve(BO2Panel, bpy.types.Panel):
+    bl_label = "Shutter Curve"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_bo2_motion_blur"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        r = context.scene.render
+        layout.active = r.use_motion_blur
+        layout.template_curve_mapping(r, "motion_blur_shutter_curve")
+        row = layout.row(align=True)
+        for shape, icon in (("SMOOTH", "SMOOTHCURVE"), ("ROUND", "SPHERECURVE"),
+                            ("ROOT", "ROOTCURVE"), ("SHARP", "SHARPCURVE"),
+                            ("LINE", "LINCURVE"), ("MAX", "NOCURVE")):
+            row.operator("render.shutter_curve_preset", icon=icon, text="").shape = shape
+
+
 class VIEWLAYER_PT_bo2_passes(BO2Panel, bpy.types.Panel):
     bl_label = "Passes"
     bl_context = "view_layer"
@@ -379,6 +418,7 @@ class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):
 
 CLASSES = [RENDER_PT_bo2_settings, RENDER_PT_bo2_indirect, RENDER_PT_bo2_bake,
            RENDER_PT_bo2_lightmaps, RENDER_PT_bo2_viewport, RENDER_PT_bo2_lookdev,
+           RENDER_PT_bo2_motion_blur, RENDER_PT_bo2_motion_blur_curve,
            VIEWLAYER_PT_bo2_passes, VIEWLAYER_PT_bo2_passes_cryptomatte,
            VIEWLAYER_PT_bo2_passes_lightgroups, VIEWLAYER_PT_bo2_passes_aov,
            *object_panels.CLASSES,

@@ -116,6 +116,8 @@ def unsupported(frame: Frame) -> str | None:
         return "shadow catchers"
     if frame.blends is not None:
         return "blended materials"
+    if frame.motion_reach:
+        return "motion blur"
     wanted = {name for name, _ in scene.settings.aovs}
     if any(name in wanted for m in mats for name, *_ in m.program.aovs):
         return "shader AOVs"

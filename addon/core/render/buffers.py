@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..scene import Material, Scene, linking, material
-from . import cryptomatte, depth_of_field, projection, raster
+from . import cryptomatte, depth_of_field, motion_blur, projection, raster
 from . import sky as sky_light
 from .job import RenderJob
 
@@ -73,6 +73,12 @@ class Frame:
     blends: np.ndarray | None = None
     blend_rank: np.ndarray | None = None
     blend_solo: np.ndarray | None = None
+    # motion blur (``MeshBatch.motion``): per triangle its row in ``motion`` (T,) int32, -1 for
+    # a still one, and the moving triangles' corners over the shutter (S, M, 3, 3) float32;
+    # pixels by which a sample's time may move a triangle (``motion_blur.reach``)
+    motion_row: np.ndarray | None = None
+    motion: np.ndarray | None = None
+    motion_reach: int = 0
 
     @property
     def dithers(self) -> np.ndarray:
@@ -223,15 +229,18 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
     cut = np.array([m.program.holdout for m in mats], bool)
     if cut.any():  # a material whose surface is a Holdout node cuts a hole like an object
         holdout = holdout | cut[mat_index]
+    moving = (joined([np.full(len(m.positions), m.motion is not None) for m in meshes], bool)
+              if any(m.motion is not None for m in meshes) else None)
+    moves = moving
     keep, nonfinite, flat = broken_triangles(positions)
     if not keep.all():
         job.warn(f"Skipped {nonfinite} triangles with NaN or infinite vertices and {flat} "
                  "with zero area")
         positions, mat_index, has_uv, holdout, obj = (
             a[keep] for a in (positions, mat_index, has_uv, holdout, obj))
-        seen, casts, lightmap, lightmap_uvs, receives, blocks, batch, catcher = (
-            None if a is None else a[keep]
-            for a in (seen, casts, lightmap, lightmap_uvs, receives, blocks, batch, catcher))
+        seen, casts, lightmap, lightmap_uvs, receives, blocks, batch, catcher, moves = (
+            None if a is None else a[keep] for a in (seen, casts, lightmap, lightmap_uvs,
+                                                     receives, blocks, batch, catcher, moves))
         normals = np.nan_to_num(normals[keep])
         uvs = np.nan_to_num(uvs[keep]) if len(uvs) else uvs
         attributes = {k: a[keep] for k, a in attributes.items()}
@@ -259,6 +268,14 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
         group = of_mesh[batch]
     blends, blend_rank, blend_solo = _blending(scene, tables, mat_index, holdout, obj,
                                                world_to_object)
+    motion_row = motion = None
+    if moves is not None:
+        # the moving batches' steps, their broken triangles left out as above
+        motion = np.concatenate([np.asarray(m.motion, np.float32) for m in meshes
+                                 if m.motion is not None], axis=1)
+        motion = motion[:, keep[moving]]
+        motion_row = np.full(len(positions), -1, np.int32)
+        motion_row[moves] = np.arange(int(moves.sum()), dtype=np.int32)
     return Frame(scene, positions, normals, uvs, has_uv, holdout, mat_index, clip, cull,
                  shadow_maps, tables, attributes, obj, world_to_object, texspace, fades,
                  seen=seen, casts=casts, lightmap=lightmap, lightmap_uvs=lightmap_uvs,
@@ -266,7 +283,9 @@ def prepare_buffers(job: RenderJob, *, shadow_maps: list) -> Frame:
                  blocks=blocks, crypto=crypto, group=group, catcher=catcher,
                  lens_reach=depth_of_field.reach(cam, positions if seen is None
                                                  else positions[seen]),
-                 blends=blends, blend_rank=blend_rank, blend_solo=blend_solo)
+                 blends=blends, blend_rank=blend_rank, blend_solo=blend_solo,
+                 motion_row=motion_row, motion=motion,
+                 motion_reach=motion_blur.reach(cam, positions, motion_row, motion))
 
 
 def _blending(scene: Scene, tables: dict, mat_index, holdout, obj, world_to_object):
@@ -328,7 +347,9 @@ def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
         clip = clip_coordinates(frame.positions, camera, frame.seen)
     return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
                                clip=clip, tiles=None if frame.tiles is None else {},
-                               lens_reach=depth_of_field.reach(camera, frame.positions))
+                               lens_reach=depth_of_field.reach(camera, frame.positions),
+                               motion_reach=motion_blur.reach(camera, frame.positions,
+                                                              frame.motion_row, frame.motion))
 
 
 def with_materials(frame: Frame, scene: Scene) -> Frame | None:

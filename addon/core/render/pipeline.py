@@ -23,7 +23,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from . import cryptomatte, depth_of_field, transparency
+from . import cryptomatte, depth_of_field, motion_blur, projection, transparency
 from .buffers import Frame, prepare_buffers, with_camera
 from .contact_occlusion import tile_ambient
 from .job import Cancelled, RenderJob
@@ -98,14 +98,23 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     m, clip, _, cull, keep = margin
     cam = scene.camera
     lens = cam.aperture is not None and not cam.orthographic
-    if lens:  # each sample its lens point: its own projection of the tile, drawn alone
-        lens_at = depth_of_field.lens_points(cam.aperture,
-                                             first_sample + np.arange(len(offsets)))
-        # the triangles are gathered over the lens's reach (m), drawn over the filter's (mf)
-        mf = m - frame.lens_reach
+    moving = frame.motion_reach > 0
+    alone = lens or moving  # each sample its lens point or time: its own view, drawn alone
+    if alone:
+        numbers = first_sample + np.arange(len(offsets))
+        lens_at = depth_of_field.lens_points(cam.aperture, numbers) if lens else None
+        # the triangles are gathered over the lens's and the shutter's reach (m), drawn over
+        # the filter's (mf)
+        mf = m - frame.lens_reach - frame.motion_reach
         from_tile = np.linalg.inv(tile_matrix(cam.width, cam.height,
                                               (x0 - m, y0 - m, x1 + m, y1 + m)))
         to_tile = tile_matrix(cam.width, cam.height, (x0 - mf, y0 - mf, x1 + mf, y1 + mf))
+    if moving:
+        times = motion_blur.shutter_times(numbers, scene.settings.shutter_curve)
+        corners = frame.positions[margin[2]]
+        rows = np.full(len(corners), -1, np.int32) if frame.motion_row is None else \
+            frame.motion_row[margin[2]]
+        hidden = None if frame.seen is None else ~frame.seen[margin[2]]
     drawn = []
 
     def background(pixels, weight, sx, sy, shift) -> None:  # the world seen behind ``pixels``
@@ -124,18 +133,23 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     for k, offset in enumerate(offsets):
         tick()
         sample_margin, shift = margin, (0.0, 0.0)
-        if lens:
-            seen_clip = reprojected(clip, to_tile @ depth_of_field.clip_transform(
-                cam, lens_at[k]) @ from_tile)
+        if alone:
+            view = (depth_of_field.clip_transform(cam, lens_at[k]) if lens else np.eye(4))
+            if moving:
+                seen_clip = _moved_clip(frame, corners, rows, hidden, times[k],
+                                        to_tile @ view)
+            else:
+                seen_clip = reprojected(clip, to_tile @ view @ from_tile)
             sample_margin = (mf, seen_clip, margin[2], cull, None)
             drawn = draw_samples(cam, seen_clip, x1 - x0 + 2 * mf, y1 - y0 + 2 * mf, cull,
                                  offsets[k:k + 1], None, frame.fades.any())
-            shift = depth_of_field.background_shift(cam, lens_at[k])
+            if lens:
+                shift = depth_of_field.background_shift(cam, lens_at[k])
         elif k % SAMPLE_BATCH == 0:  # the next samples' fragments, drawn together
             drawn = draw_samples(cam, clip, x1 - x0 + 2 * m, y1 - y0 + 2 * m, cull,
                           offsets[k:k + SAMPLE_BATCH], keep, frame.fades.any())
         layer0 = sample_raster(frame, tile, sample_margin, offset,
-                               frags=drawn[0 if lens else k % SAMPLE_BATCH])
+                               frags=drawn[0 if alone else k % SAMPLE_BATCH])
         if frame.fades.any():
             tri, bary, depth, sx, sy = dither_sample(frame, tile, sample_margin, offset,
                                                      first_sample + k, layer0)
@@ -213,6 +227,24 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     acc[:, SAMPLED["Shadow Catcher"]] += empty[:, None]
     acc *= np.float32(1.0 / len(offsets))
     return acc, depth_acc, index_acc, crypto_passes(frame, seen_by), deep
+
+
+def _moved_clip(frame: Frame, corners, rows, hidden, t: float, view: np.ndarray) -> np.ndarray:
+    """Clip coordinates (K, 3, 4) of a tile's triangles (``corners`` (K, 3, 3) at the frame's
+    own time, ``rows`` their ``Frame.motion_row``, ``hidden`` those the camera does not see)
+    at shutter time ``t``, through the camera then ``view`` (the tile's and lens's clip-space
+    matrix)."""
+    cam = frame.scene.camera
+    moved = corners
+    live = rows >= 0
+    if live.any():
+        moved = corners.copy()
+        moved[live] = motion_blur.at_time(frame.motion[:, rows[live]], t)
+    clip = projection.project(moved, view @ np.asarray(cam.projection, np.float64)
+                              @ motion_blur.view_at(cam, t))
+    if hidden is not None:
+        clip[hidden] = (0.0, 0.0, 0.0, -1.0)
+    return clip
 
 
 def crypto_passes(frame: Frame, seen_by: list) -> dict:

@@ -136,7 +136,7 @@ def tile_margin(frame: Frame, tile):
     keeps its tiles: ``Frame.tiles``)."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
-    m = int(np.ceil(frame.scene.settings.filter_width)) + frame.lens_reach
+    m = int(np.ceil(frame.scene.settings.filter_width)) + frame.lens_reach + frame.motion_reach
     key = (tuple(tile), m)
     if frame.tiles is not None and key in frame.tiles:
         return frame.tiles[key]

@@ -56,6 +56,8 @@ class Camera:
     orthographic:    True for an orthographic camera (view direction is constant)
     aperture:        depth of field (``render.depth_of_field``), perspective cameras only;
                      None: a pinhole
+    motion:          (S, 4, 4) float64 world_to_camera at S evenly spaced times from the
+                     shutter's opening to its closing (``render.motion_blur``), or None: still
     """
 
     world_to_camera: np.ndarray
@@ -64,6 +66,7 @@ class Camera:
     height: int
     orthographic: bool = False
     aperture: Aperture | None = None
+    motion: np.ndarray | None = None
 
     @classmethod
     def look_at(cls, eye, target, fov_y: float, width: int, height: int,
@@ -188,6 +191,9 @@ class MeshBatch:
     light_sets, shadow_sets: the light and shadow linking sets it belongs to, bit k for set k
                (``linking``): the lights of receiver set k light it, it blocks the lights of
                blocker set k; every bit by default
+    motion:    (S, T, 3, 3) float32 corner positions at S evenly spaced times from the
+               shutter's opening to its closing (``render.motion_blur``; ``positions`` are
+               the frame's own time), or None: it does not move
     """
 
     positions: np.ndarray
@@ -209,6 +215,7 @@ class MeshBatch:
     shadow_catcher: bool = False
     light_sets: int = linking.EVERY
     shadow_sets: int = linking.EVERY
+    motion: np.ndarray | None = None
 
 
 @dataclass
@@ -392,6 +399,9 @@ class RenderSettings:
     shadow_catcher_pass: the Shadow Catcher pass is wanted: shadow catchers are then left out
                     of Combined (alpha 0), their shadows in the pass alone, as Cycles does
     blend_sort:     the order blended surfaces are composited in, of ``CHOICES["blend_sort"]``
+    shutter_curve:  the shutter's openness at evenly spaced times from its opening to its
+                    closing (Cycles' shutter curve), () for a flat one: the samples' times of
+                    motion blur are distributed as it (``motion_blur.shutter_times``)
     aovs:           the shader AOV passes wanted, (name, "COLOR" or "VALUE") each: what the
                     materials' AOV Output nodes of that name give (``Program.aovs``; a colour
                     with alpha 1), 0 elsewhere
@@ -427,6 +437,7 @@ class RenderSettings:
     shadow_catcher_pass: bool = False
     blend_sort: str = "pixel"
     aovs: tuple[tuple[str, str], ...] = ()
+    shutter_curve: tuple[float, ...] = ()
 
 
 @dataclass

@@ -1,0 +1,115 @@
+"""Motion blur (Render > Motion Blur, as Cycles reads it): the scene evaluated again at
+``STEPS`` times over the shutter, each object's corners and the camera's view there
+(``core.render.motion_blur`` draws each sample at its own time).
+
+The shutter opens at the frame (Position: Start), half the Shutter before it (Center) or the
+whole Shutter before it (End), and stays open Shutter frames. An object's Motion Blur toggle
+(Object > Motion Blur) turns its blur off, its Deformation toggle its deformation's (its
+transform's stays). An object whose triangles change in number over the shutter renders
+still, with one warning.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from ..core import scene as cs
+from ..core.render.job import Warnings
+
+STEPS = 3  # times read over the shutter: its opening, middle and closing (Cycles' default)
+_OPENS = {"START": 0.0, "CENTER": -0.5, "END": -1.0}  # the opening, in shutters from the frame
+
+
+def offsets(scene) -> list[float]:
+    """The ``STEPS`` times read, in frames from the current frame (subframe included)."""
+    r = scene.render
+    shutter = float(r.motion_blur_shutter)
+    first = _OPENS.get(r.motion_blur_position, -0.5) * shutter
+    return [first + shutter * k / (STEPS - 1) for k in range(STEPS)]
+
+
+def shutter_curve(scene) -> tuple[float, ...]:
+    """Render > Motion Blur > Shutter Curve as ``RenderSettings.shutter_curve``: its values at
+    33 times over the shutter, () when it is flat (the default)."""
+    curve = scene.render.motion_blur_shutter_curve
+    curve.initialize()
+    values = tuple(float(curve.evaluate(curve.curves[0], x)) for x in np.linspace(0, 1, 33))
+    return () if max(values) - min(values) < 1e-6 else values
+
+
+def wanted(scene, purpose: str) -> bool:
+    """Whether a render of ``purpose`` (``settings.PURPOSES``) draws motion blur: final
+    renders with Render > Motion Blur on, as Cycles (the viewport and previews do not)."""
+    r = scene.render
+    return purpose == "FINAL" and r.use_motion_blur and r.motion_blur_shutter > 0.0
+
+
+def attach(engine, depsgraph, core: cs.Scene, warnings: Warnings, should_stop=None) -> cs.Scene:
+    """``core`` (``extract.extract_scene`` of ``depsgraph`` at the current frame) with the
+    motion of its meshes and camera over the shutter, read by moving ``engine`` (the
+    ``RenderEngine`` rendering it) to each time and back."""
+    from . import extract  # (it reads the settings, which read this module)
+
+    scene = depsgraph.scene
+    now = scene.frame_current + scene.frame_subframe
+    steps: list[tuple[list[cs.MeshBatch], cs.Camera]] = []
+    try:
+        for dt in offsets(scene):
+            t = now + dt
+            engine.frame_set(int(math.floor(t)), t - math.floor(t))
+            meshes = extract._read_objects(depsgraph, extract.SceneCache(), Warnings(), [0],
+                                           should_stop)[0]
+            steps.append((meshes, extract.extract_camera(depsgraph)))
+    finally:  # back to the frame rendered
+        engine.frame_set(int(math.floor(now)), now - math.floor(now))
+    blur = {o.name: _toggles(o) for o in scene.objects}
+    meshes = [_moved(m, [s[0][k] if k < len(s[0]) else None for s in steps],
+                     blur.get(m.name, (True, True)), warnings)
+              for k, m in enumerate(core.meshes)]
+    views = np.stack([s[1].world_to_camera for s in steps])
+    camera = core.camera
+    if blur.get(scene.camera.name, (True, True))[0] and not np.allclose(
+            views, views[0], atol=0.0, rtol=0.0):
+        camera = dataclasses.replace(camera, motion=views)
+    return dataclasses.replace(core, meshes=meshes, camera=camera)
+
+
+def _toggles(obj) -> tuple[bool, bool]:
+    """Object > Motion Blur: (blurred, its deformation too)."""
+    own = getattr(obj, "cycles", None)
+    if own is None:
+        return True, True
+    return bool(own.use_motion_blur), bool(own.use_deform_motion)
+
+
+def _moved(mesh: cs.MeshBatch, later: list, toggles: tuple[bool, bool],
+           warnings: Warnings) -> cs.MeshBatch:
+    """``mesh`` with its ``motion`` from the same batch read at each step (``later``, None
+    where there was none), or as it is when it does not move or cannot."""
+    blurred, deform = toggles
+    if not blurred:
+        return mesh
+    if any(b is None or b.name != mesh.name or b.positions.shape != mesh.positions.shape
+           for b in later):
+        warnings.add(f"Object '{mesh.name}': its geometry changes over the shutter; rendered "
+                     "without motion blur")
+        return mesh
+    if deform:
+        steps = np.stack([b.positions for b in later]).astype(np.float32)
+    else:  # the transform's motion alone: the frame's corners carried by each step's matrix
+        here = np.eye(4) if mesh.world_to_object is None else np.asarray(mesh.world_to_object)
+        if here.ndim != 2:
+            return mesh  # instances read at once: their own matrices move them
+        steps = []
+        for b in later:
+            to = np.eye(4) if b.world_to_object is None else np.asarray(b.world_to_object)
+            m = np.linalg.inv(to) @ here
+            steps.append(mesh.positions @ m[:3, :3].T.astype(np.float32)
+                         + m[:3, 3].astype(np.float32))
+        steps = np.stack(steps).astype(np.float32)
+    if np.array_equal(steps, np.broadcast_to(mesh.positions, steps.shape)):
+        return mesh
+    return dataclasses.replace(mesh, motion=steps)

@@ -1,0 +1,114 @@
+"""Motion blur with the samples the engine already takes: each anti-aliasing sample sees the
+scene at its own time of the shutter, and their average is the streaked image (the
+accumulation buffer, Haeberli and Akeley 1990), as depth of field takes a lens point per
+sample (``depth_of_field``).
+
+The shutter is sampled at S positions (``MeshBatch.motion``, ``Camera.motion``: evenly spaced
+from the shutter's opening to its closing, Cycles' motion steps), linearly in between. A
+sample's time follows the Halton sequence in base 5 (independent of the pixel filter's R2
+positions and the lens's bases 2 and 3), through the inverse of the shutter curve's integral
+(Render > Motion Blur > Shutter Curve) where it is not flat. All pixels share a sample's time,
+so a streak of L pixels shows the samples' images apart until there are about L of them.
+
+Only what the camera sees moves: shading, shadows and reflections are those of the frame's
+own time (the shutter's middle for Position Center), at the point of the moved triangle.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..scene import Camera
+from . import projection
+
+_BASE = 5
+
+
+def _halton(index: np.ndarray) -> np.ndarray:
+    out = np.zeros(len(index))
+    f = 1.0
+    i = np.asarray(index, np.int64).copy()
+    while i.any():
+        f /= _BASE
+        out += f * (i % _BASE)
+        i //= _BASE
+    return out
+
+
+def shutter_times(sample: np.ndarray, curve: tuple[float, ...] = ()) -> np.ndarray:
+    """(N,) times in [0, 1] (0: the shutter opens, 1: it closes) of sample numbers ``sample``
+    (N,): uniform over the shutter, or distributed as ``curve`` (its openness at evenly spaced
+    times, K >= 2 values; Cycles' shutter curve) when given."""
+    u = _halton(np.asarray(sample, np.int64) + 1)
+    if len(curve) < 2:
+        return u
+    weight = np.maximum(np.asarray(curve, np.float64), 0.0)
+    if not weight.any():
+        return u
+    h = 1.0 / (len(weight) - 1)
+    # the openness is piecewise linear, its integral piecewise quadratic: at the knots, then
+    # solved within the segment a u falls in, a s + (b - a) s^2 / (2 h) = r
+    cdf = np.concatenate([[0.0], np.cumsum((weight[1:] + weight[:-1]) / 2.0 * h)])
+    r = u * cdf[-1]
+    i = np.clip(np.searchsorted(cdf, r, side="right") - 1, 0, len(weight) - 2)
+    a, b = weight[i], weight[i + 1]
+    r = r - cdf[i]
+    slope = (b - a) / h
+    flat = np.abs(slope) < 1e-9
+    root = np.sqrt(np.maximum(a * a + 2.0 * slope * r, 0.0))
+    s = np.where(flat, r / np.where(a > 0.0, a, 1.0),
+                 (root - a) / np.where(flat, 1.0, slope))
+    return np.clip((i + np.clip(s / h, 0.0, 1.0)) * h, 0.0, 1.0)
+
+
+def at_time(steps: np.ndarray, t: float) -> np.ndarray:
+    """``steps`` (S, ...) at shutter time ``t`` in [0, 1], linear between the S steps."""
+    s = len(steps)
+    u = min(max(float(t), 0.0), 1.0) * (s - 1)
+    i = min(int(np.floor(u)), s - 2)
+    f = u - i
+    return steps[i] * (1.0 - f) + steps[i + 1] * f
+
+
+def view_at(camera: Camera, t: float) -> np.ndarray:
+    """(4, 4) float64 world_to_camera of ``camera`` at shutter time ``t``."""
+    if camera.motion is None:
+        return np.asarray(camera.world_to_camera, np.float64)
+    return at_time(np.asarray(camera.motion, np.float64), t)
+
+
+def reach(camera: Camera, positions: np.ndarray, moving: np.ndarray | None,
+          motion: np.ndarray | None) -> int:
+    """Pixels by which a sample's time may move a point of the triangles ``positions``
+    (T, 3, 3) from where the frame's own time draws it (the widest streak, rounded up, at
+    most the frame's size): the margin a tile's triangles are gathered with. ``moving``,
+    ``motion``: ``Frame.motion_row`` and ``Frame.motion``. 0 when nothing moves."""
+    if camera.motion is None and motion is None:
+        return 0
+    rows = (np.arange(len(positions)) if camera.motion is not None
+            else np.flatnonzero(moving >= 0))  # a still camera: the moving triangles alone
+    here = np.asarray(positions[rows], np.float32)
+    where = None if motion is None else moving[rows]
+    proj = np.asarray(camera.projection, np.float64)
+    steps = len(camera.motion) if camera.motion is not None else len(motion)
+    base = _pixels(camera, projection.project(here, proj @ camera.world_to_camera, np.float64))
+    widest = 0.0
+    for k in range(steps):
+        moved = here
+        if where is not None:
+            moved = here.copy()
+            moved[where >= 0] = motion[k][where[where >= 0]]
+        seen = _pixels(camera, projection.project(moved, proj @ view_at(camera, k / (steps - 1)),
+                                                  np.float64))
+        both = np.isfinite(base).all(-1) & np.isfinite(seen).all(-1)
+        if both.any():
+            widest = max(widest, float(np.abs(seen[both] - base[both]).max()))
+    return int(np.ceil(min(widest, max(camera.width, camera.height)))) + 1
+
+
+def _pixels(camera: Camera, clip: np.ndarray) -> np.ndarray:
+    """(T, 3, 2) pixel positions of clip coordinates (T, 3, 4); NaN behind the camera."""
+    w = clip[..., 3:4]
+    ahead = w > 1e-6
+    ndc = np.where(ahead, clip[..., :2] / np.where(ahead, w, 1.0), np.nan)
+    return ndc * np.array([camera.width / 2.0, camera.height / 2.0])

@@ -1,0 +1,148 @@
+"""Motion blur (Render > Motion Blur) against Cycles and against the closed form: a card that
+moves 1 m per frame along x (linear keys), seen from above by an orthographic camera, with
+Shutter 0.5 at Position Center, Start and End; and a still card under a camera that moves.
+The streak's coverage along x is the share of the shutter the card covers each point, the
+overlap of two intervals.
+"""
+
+import bpy
+import numpy as np
+import pytest
+from util import add_ortho_camera, principled, render_passes, set_world_color
+
+W, H = 160, 40
+SCALE = 4.0  # metres across the frame
+CARD = 0.6
+SPEED = 1.0  # metres per frame
+
+
+def build(position="CENTER", camera_moves=False):
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = W, H
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = True
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 0.5
+    scene.render.motion_blur_position = position
+    set_world_color(scene)
+    bpy.ops.mesh.primitive_plane_add(size=CARD)
+    card = bpy.context.object
+    card.data.materials.append(principled("Card"))
+    cam = add_ortho_camera(scene, SCALE, height=2.0)
+    mover = cam if camera_moves else card
+    sign = -1.0 if camera_moves else 1.0
+    for frame, x in ((1, -1.0), (3, 1.0)):
+        mover.location.x = sign * x * SPEED
+        mover.keyframe_insert("location", index=0, frame=frame)
+    linear_keys(scene)
+    scene.frame_set(2)
+    return scene
+
+
+def linear_keys(scene):
+    """Blender 5's layered actions keep their curves in channel bags: every key linear."""
+    for obj in scene.objects:
+        action = obj.animation_data.action if obj.animation_data else None
+        if action is None:
+            continue
+        curves = list(getattr(action, "fcurves", []))
+        for layer in getattr(action, "layers", []):
+            for strip in layer.strips:
+                for bag in strip.channelbags:
+                    curves += list(bag.fcurves)
+        for fc in curves:
+            for key in fc.keyframe_points:
+                key.interpolation = "LINEAR"
+
+
+def coverage(x, start, travel=0.5 * SPEED, width=CARD):
+    lo = np.clip((x - width / 2 - start) / travel, 0.0, 1.0)
+    hi = np.clip((x + width / 2 - start) / travel, 0.0, 1.0)
+    return hi - lo
+
+
+OPENS = {"CENTER": -0.25, "START": 0.0, "END": -0.5}  # the card's x when the shutter opens
+
+
+@pytest.mark.parametrize(("position", "camera_moves"), [("CENTER", False), ("START", False),
+                                                         ("END", False), ("CENTER", True)])
+def test_the_streak_matches_cycles_and_the_closed_form(addon, position, camera_moves):
+    """The alpha along the frame's middle row within 0.08 of the closed form and of Cycles
+    at every pixel (64 samples: steps of 1/64, and the pixel filter), its mean within 0.01;
+    the streak as long as the card's width and its travel."""
+    scene = build(position, camera_moves)
+    ours = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=64)["Combined"]
+    cycles = render_passes(scene, "CYCLES", ["Combined"], samples=128)["Combined"]
+    x = (np.arange(W) + 0.5) / W * SCALE - SCALE / 2
+    row = H // 2
+    expected = coverage(x, OPENS[position])
+    a, b = ours[row, :, 3], cycles[row, :, 3]
+    print(position, camera_moves, "BO2", np.round(a[60:100], 2))
+    print(position, camera_moves, "Cycles", np.round(b[60:100], 2))
+    for name, got in (("closed form", expected), ("Cycles", b)):
+        assert np.abs(a - got).max() < 0.08, name
+        assert abs(a.mean() - got.mean()) < 0.01, name
+    assert (a > 0.02).sum() >= (CARD + 0.5 * SPEED - 0.1) / SCALE * W  # streaked
+
+
+def test_motion_blur_off_renders_the_frame_sharp(addon):
+    scene = build()
+    scene.render.use_motion_blur = False
+    ours = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=16)["Combined"]
+    x = (np.arange(W) + 0.5) / W * SCALE - SCALE / 2
+    inside = np.abs(x) < CARD / 2 - 0.05
+    outside = np.abs(x) > CARD / 2 + 0.05
+    assert (ours[H // 2, inside, 3] == 1.0).all() and (ours[H // 2, outside, 3] == 0.0).all()
+
+
+def test_changing_geometry_renders_still_with_one_warning(addon):
+    """A Build modifier adds faces every frame: the card cannot be followed over the shutter,
+    so it renders as the frame shows it, with one warning; a card with one key (nothing to
+    move between) renders sharp without any."""
+    from bo2_lighting.addon.blender import engine
+
+    scene = build()
+    card = scene.objects["Plane"]
+    bpy.ops.object.select_all(action="DESELECT")
+    card.select_set(True)
+    bpy.context.view_layer.objects.active = card
+    bpy.ops.object.modifier_add(type="SUBSURF")
+    card.modifiers[-1].subdivision_type = "SIMPLE"
+    card.modifiers[-1].levels = card.modifiers[-1].render_levels = 3
+    build_faces = card.modifiers.new("Build", "BUILD")
+    build_faces.frame_start, build_faces.frame_duration = 1.0, 4.0
+    scene.frame_set(2)
+    with engine.listening() as said:
+        image = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=8)["Combined"]
+    warned = [t for t in said.texts() if "changes over the shutter" in t]
+    assert len(warned) == 1 and "Plane" in warned[0], said.texts()
+    assert np.isfinite(image).all()
+    alpha = image[..., 3]
+    assert ((alpha > 0.0) & (alpha < 1.0)).sum() < 0.05 * alpha.size  # no streak
+
+
+def test_one_key_is_no_motion(addon):
+    from bo2_lighting.addon.blender import engine
+
+    scene = build()
+    card = scene.objects["Plane"]
+    card.animation_data_clear()
+    card.location.x = 0.0
+    card.keyframe_insert("location", index=0, frame=1)
+    with engine.listening() as said:
+        image = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=16)["Combined"]
+    assert not [t for t in said.texts() if "shutter" in t], said.texts()
+    x = (np.arange(W) + 0.5) / W * SCALE - SCALE / 2
+    assert (image[H // 2, np.abs(x) < CARD / 2 - 0.05, 3] == 1.0).all()
+    assert (image[H // 2, np.abs(x) > CARD / 2 + 0.05, 3] == 0.0).all()
+
+
+def test_the_gpu_leaves_motion_blur_to_the_cpu_and_says_why(addon):
+    from bo2_lighting.addon.blender import engine
+
+    scene = build()
+    scene.render.engine = "BO2_LIGHTING"
+    scene.bo2.device = "GPU"
+    with engine.listening() as said:
+        assert bpy.ops.render.render() == {"FINISHED"}
+    assert any("motion blur" in t or "no GPU context" in t for t in said.texts()), said.texts()

@@ -1,0 +1,114 @@
+"""Motion blur: each sample sees the scene at its own time of the shutter.
+
+Independent values: a card of width w that moves a distance d along x while the shutter is
+open covers a point x for the share of the shutter its span [c(t) - w/2, c(t) + w/2] holds x,
+c(t) = c0 + d t: the overlap of two intervals, written out below; a still card seen by a
+camera that moves by -d is the same streak. The shutter curve's times are checked against
+the curve's integral.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from test_pipeline import HALF_W, W, floor, lambert_scene, pixel_centres
+
+from bo2_lighting.addon.core.render import motion_blur, pipeline
+from bo2_lighting.addon.core.render.job import RenderJob
+from bo2_lighting.addon.core.scene import Light
+
+SUN = Light("SUN", color=np.ones(3), direction=np.array([0.0, 0.0, -1.0]))
+CARD, TRAVEL = 0.6, 1.6  # the card's width and the distance it moves, metres
+
+
+def coverage(x, width=CARD, travel=TRAVEL, start=-0.8):
+    """Share of the shutter during which a card centred at start + travel t (t in [0, 1])
+    covers x."""
+    lo = np.clip((x - width / 2 - start) / travel, 0.0, 1.0)
+    hi = np.clip((x + width / 2 - start) / travel, 0.0, 1.0)
+    return hi - lo
+
+
+def card_scene(samples=64):
+    scene = lambert_scene(SUN)
+    card = floor(size=CARD)
+    card.positions = card.positions + np.float32([0.0, 0.0, 0.5])
+    scene.meshes = [card]
+    scene.world.color = np.zeros(3, np.float32)
+    scene.settings = dataclasses.replace(scene.settings, samples=samples, film_transparent=True)
+    return scene, card
+
+
+def row_alpha(scene):
+    image = pipeline.render_frame(RenderJob(scene))["Combined"]
+    x = pixel_centres()[0, :, 0]
+    return x, image[image.shape[0] // 2, :, 3]
+
+
+def test_a_moving_card_streaks_by_its_travel():
+    scene, card = card_scene()
+    steps = np.stack([card.positions + np.float32([dx, 0.0, 0.0])
+                      for dx in (-TRAVEL / 2, 0.0, TRAVEL / 2)])
+    card.motion = steps
+    x, alpha = row_alpha(scene)
+    expected = coverage(x)
+    print(np.round(alpha, 2), np.round(expected, 2))
+    # 64 samples: the streak in steps of 1/64; the pixel filter smooths its corners
+    assert np.abs(alpha - expected).max() < 0.1
+    assert np.abs(alpha - expected).mean() < 0.02
+    still, _ = card_scene()
+    _, sharp = row_alpha(still)
+    assert (sharp > 0.5).sum() < (alpha > 0.05).sum() - 0.8 * TRAVEL / (2 * HALF_W) * W
+
+
+def test_a_moving_camera_streaks_a_still_card():
+    scene, _ = card_scene()
+    cam = scene.camera
+    steps = []
+    for dx in (TRAVEL / 2, 0.0, -TRAVEL / 2):  # the camera moves the other way
+        view = np.array(cam.world_to_camera, np.float64)
+        view[0, 3] -= dx
+        steps.append(view)
+    scene.camera = dataclasses.replace(cam, motion=np.stack(steps))
+    x, alpha = row_alpha(scene)
+    assert np.abs(alpha - coverage(x)).mean() < 0.02
+
+
+def test_without_motion_nothing_changes():
+    scene, card = card_scene(samples=8)
+    _, plain = row_alpha(scene)
+    card.motion = np.stack([card.positions] * 3)  # steps that stand still
+    _, held = row_alpha(scene)
+    np.testing.assert_allclose(held, plain, atol=1e-6)
+
+
+@pytest.mark.parametrize("curve", [(1.0, 1.0), (0.0, 1.0), (0.0, 1.0, 1.0, 0.0)])
+def test_shutter_times_follow_the_curve(curve):
+    """The times' distribution is the curve's normalized integral (piecewise linear)."""
+    t = motion_blur.shutter_times(np.arange(4096), curve)
+    x = np.linspace(0.0, 1.0, 201)
+    knots = np.linspace(0.0, 1.0, len(curve))
+    fine = np.linspace(0.0, 1.0, 20001)
+    density = np.interp(fine, knots, curve)
+    cdf = np.concatenate([[0.0], np.cumsum((density[1:] + density[:-1]) / 2)])
+    cdf /= cdf[-1]
+    empirical = (t[None, :] <= x[:, None]).mean(1)
+    np.testing.assert_allclose(empirical, np.interp(x, fine, cdf), atol=0.01)
+
+
+def test_with_depth_of_field_the_focus_plane_streaks_as_through_a_pinhole():
+    """A moving card in the focus plane: the lens changes nothing of its streak."""
+    from test_depth_of_field import edge_scene
+
+    from bo2_lighting.addon.core.scene import Aperture
+
+    rows = []
+    for aperture in (None, Aperture(radius=0.3, focus=2.0)):
+        scene = edge_scene(2.0, aperture, samples=32)
+        card = scene.meshes[0]
+        card.motion = np.stack([card.positions + np.float32([dx, 0.0, 0.0])
+                                for dx in (-0.2, 0.0, 0.2)])
+        image = pipeline.render_frame(RenderJob(scene))["Combined"]
+        rows.append(image[image.shape[0] // 2, :, 0])
+    np.testing.assert_allclose(rows[1], rows[0], atol=1e-4)
+    assert ((rows[0] > 0.02) & (rows[0] < 0.98)).sum() > 5  # a streak, not an edge
