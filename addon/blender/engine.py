@@ -120,7 +120,7 @@ class BO2RenderEngine(bpy.types.RenderEngine):
             should_stop = lambda: self.test_break() or interrupt.requested()  # noqa: E731
             frame, _ = extract.extract_scene(depsgraph, settings, indirect=scene.bo2.indirect.use,
                                              should_stop=should_stop, warnings=sink)
-            if motion.wanted(scene, "PREVIEW" if self.is_preview else "FINAL"):
+            if settings_of.motion_blur(scene, "PREVIEW" if self.is_preview else "FINAL"):
                 self.update_stats("BO2 Lighting", "Reading the motion over the shutter")
                 frame = motion.attach(self, depsgraph, frame, sink, should_stop)
             if not self.is_preview:

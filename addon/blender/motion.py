@@ -18,6 +18,7 @@ import numpy as np
 
 from ..core import scene as cs
 from ..core.render.job import Warnings
+from . import extract
 
 STEPS = 3  # times read over the shutter: its opening, middle and closing (Cycles' default)
 _OPENS = {"START": 0.0, "CENTER": -0.5, "END": -1.0}  # the opening, in shutters from the frame
@@ -31,28 +32,10 @@ def offsets(scene) -> list[float]:
     return [first + shutter * k / (STEPS - 1) for k in range(STEPS)]
 
 
-def shutter_curve(scene) -> tuple[float, ...]:
-    """Render > Motion Blur > Shutter Curve as ``RenderSettings.shutter_curve``: its values at
-    33 times over the shutter, () when it is flat (the default)."""
-    curve = scene.render.motion_blur_shutter_curve
-    curve.initialize()
-    values = tuple(float(curve.evaluate(curve.curves[0], x)) for x in np.linspace(0, 1, 33))
-    return () if max(values) - min(values) < 1e-6 else values
-
-
-def wanted(scene, purpose: str) -> bool:
-    """Whether a render of ``purpose`` (``settings.PURPOSES``) draws motion blur: final
-    renders with Render > Motion Blur on, as Cycles (the viewport and previews do not)."""
-    r = scene.render
-    return purpose == "FINAL" and r.use_motion_blur and r.motion_blur_shutter > 0.0
-
-
 def attach(engine, depsgraph, core: cs.Scene, warnings: Warnings, should_stop=None) -> cs.Scene:
     """``core`` (``extract.extract_scene`` of ``depsgraph`` at the current frame) with the
     motion of its meshes and camera over the shutter, read by moving ``engine`` (the
     ``RenderEngine`` rendering it) to each time and back."""
-    from . import extract  # (it reads the settings, which read this module)
-
     scene = depsgraph.scene
     now = scene.frame_current + scene.frame_subframe
     steps: list[tuple[list[cs.MeshBatch], cs.Camera]] = []

@@ -16,7 +16,7 @@ import numpy as np
 from ..core import scene as cs
 from ..core.lighting import lightmap
 from ..core.render import viewport
-from . import motion, passes
+from . import passes
 
 __all__ = ["PURPOSES", "BakeSettings", "bake_settings", "lightmap_settings", "methods",
            "render_border", "render_settings", "resolution"]
@@ -91,8 +91,8 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
     if purpose in ("FINAL", "PREVIEW") and view_layer is not None:
         fields["ao_pass"] = passes.enabled(view_layer, "AO")
         fields["shadow_catcher_pass"] = passes.enabled(view_layer, "Shadow Catcher")
-    if motion.wanted(scene, purpose):
-        fields["shutter_curve"] = motion.shutter_curve(scene)
+    if motion_blur(scene, purpose):
+        fields["shutter_curve"] = shutter_curve(scene)
     if purpose == "FINAL" and view_layer is not None:
         fields["cryptomatte"] = passes.cryptomatte(view_layer)
         fields["cryptomatte_levels"] = int(view_layer.pass_cryptomatte_depth)
@@ -102,6 +102,22 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         fields["tile_size"] = viewport.TILE_SIZE
     fields.update(_methods.get(scene.name_full, {}))
     return cs.RenderSettings(**fields)
+
+
+def shutter_curve(scene) -> tuple[float, ...]:
+    """Render > Motion Blur > Shutter Curve as ``RenderSettings.shutter_curve``: its values at
+    33 times over the shutter, () when it is flat (the default)."""
+    curve = scene.render.motion_blur_shutter_curve
+    curve.initialize()
+    values = tuple(float(curve.evaluate(curve.curves[0], x)) for x in np.linspace(0, 1, 33))
+    return () if max(values) - min(values) < 1e-6 else values
+
+
+def motion_blur(scene, purpose: str) -> bool:
+    """Whether a render of ``purpose`` (``settings.PURPOSES``) draws motion blur: final
+    renders with Render > Motion Blur on, as Cycles (the viewport and previews do not)."""
+    r = scene.render
+    return purpose == "FINAL" and r.use_motion_blur and r.motion_blur_shutter > 0.0
 
 
 @dataclass(frozen=True)

@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.formulas import occlusion as occlusion_formulas
-from ..core.render import depth_of_field, pipeline
+from ..core.render import depth_of_field, motion_blur, pipeline
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH, group_pass
 from ..core.render.shading import has_indirect
@@ -45,6 +45,8 @@ FRAME = Struct("FrameData", (
     ("flags", "ivec4", 0),  # (specular occlusion, peeling: the depth pre-pass, layered
     #                          diffuse, -)
     ("world", "vec4", 0),  # the background's radiance and alpha
+    ("shutter", "vec4", 0),  # (the sample's shutter time, 1 where it moves: the motion blur
+    #                          of the geometry's steps m0..m2; 0: the frame's own time, -, -)
 ))
 WORLD = Struct("WorldData", (
     ("clip_to_world", "mat4", 0),  # the camera's inverse projection and view
@@ -96,6 +98,7 @@ def memory(width: int, height: int, names: tuple[str, ...]) -> int:
     return pixels * (16 * (3 * len(names) + 3) + 4) + margin * (2 * 16 + 4) + pixels * 32
 
 
+MOTION_STEPS = 3  # shutter steps the vertex shader reads (m0, m1, m2; ``frame_vert.glsl``)
 GPU_LINK_SETS = 32  # light linking sets a triangle's ``links`` holds (set 0 included)
 
 
@@ -116,8 +119,8 @@ def unsupported(frame: Frame) -> str | None:
         return "shadow catchers"
     if frame.blends is not None:
         return "blended materials"
-    if frame.motion_reach:
-        return "motion blur"
+    if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
+        return f"motion blur of other than {MOTION_STEPS} steps"
     wanted = {name for name, _ in scene.settings.aovs}
     if any(name in wanted for m in mats for name, *_ in m.program.aovs):
         return "shader AOVs"
@@ -218,6 +221,15 @@ def _with_materials(program: programs.Program, mat: MaterialCode | None) -> prog
                                                           for k in range(mat.streams)),
         varyings=program.varyings + (("INT", "v_object", "flat"),) + tuple(
             ("VEC4", f"v_a{k}", "smooth") for k in range(mat.streams)))
+
+
+def _with_motion(program: programs.Program) -> programs.Program:
+    """``program`` (one drawing the frame's triangles) reading their corners at the shutter's
+    ``MOTION_STEPS`` steps (``core.render.motion_blur``)."""
+    return dataclasses.replace(
+        program, defines={**program.defines, "MOTION": 1},
+        inputs=program.inputs + tuple(("VEC3", f"m{k}") for k in range(MOTION_STEPS)),
+        varyings=program.varyings + (("VEC3", "v_moved", "smooth"),))
 
 
 def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
@@ -340,12 +352,14 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
 
 
 def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False,
-           ambient: bool = False, sky: bool = False, mat: MaterialCode | None = None):
+           ambient: bool = False, sky: bool = False, mat: MaterialCode | None = None,
+           motion: bool = False):
     """The compiled ``kind`` program ("depth", "center", "central", "dome_grid", "shade",
     "peel", "merge", "background", "compose") writing the targets ``names``; ``indirect``:
     with the probes' light (``glsl/indirect.glsl``), ``ambient``: its contact occlusion,
     ``sky``: the world's occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade"
-    and "peel" with the frame's material programs."""
+    and "peel" with the frame's material programs; ``motion``: the triangles' motion over
+    the shutter (the programs that draw them)."""
     if kind == "background":  # ``indirect``: the world is an image
         return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
                                                                    indirect))
@@ -353,9 +367,10 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
     ambient = ambient and kind == "shade" and bool(set(names) & LIT)
     sky = sky and indirect
     mat = mat if kind in ("shade", "peel") else None
-    key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key)
-    return programs.compiled(_with_materials(_program(kind, names, indirect, ambient, sky),
-                                             mat), key)
+    motion = motion and kind in ("depth", "center", "central", "dome_grid", "shade", "peel")
+    key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key, motion)
+    program = _with_materials(_program(kind, names, indirect, ambient, sky), mat)
+    return programs.compiled(_with_motion(program) if motion else program, key)
 
 
 @dataclass
@@ -393,6 +408,8 @@ class GPUFrame:
         if reason:
             raise Unsupported(reason)
         self.frame = frame
+        # the samples' times when anything moves (``_lens``), else None
+        self.shutter = frame.scene.settings.shutter_curve if frame.motion_reach else None
         keep = np.ones(len(frame.positions), bool) if frame.seen is None else frame.seen
         pos = np.ascontiguousarray(frame.positions[keep], np.float32)
         t = len(pos)
@@ -406,6 +423,10 @@ class GPUFrame:
         fmt.attr_add(id="uv", comp_type="F32", len=3, fetch_mode="FLOAT")
         fmt.attr_add(id="flags", comp_type="I32", len=1, fetch_mode="INT")
         fmt.attr_add(id="links", comp_type="I32", len=1, fetch_mode="INT")
+        self.motion = frame.motion is not None  # the triangles move over the shutter
+        if self.motion:
+            for k in range(MOTION_STEPS):
+                fmt.attr_add(id=f"m{k}", comp_type="F32", len=3, fetch_mode="FLOAT")
         self.mat, keys, texs = material_code(frame)
         if self.mat is not None:
             fmt.attr_add(id="inst", comp_type="I32", len=1, fetch_mode="INT")
@@ -441,6 +462,12 @@ class GPUFrame:
                  (frame.receives[keep] & np.uint64(0xFFFFFFFF)).astype(np.uint32)
                  .view(np.int32))
         vbo.attr_fill("links", np.repeat(links, 3))
+        if self.motion:
+            rows = frame.motion_row[keep]
+            for k in range(MOTION_STEPS):
+                step = pos.copy()
+                step[rows >= 0] = frame.motion[k][rows[rows >= 0]]
+                vbo.attr_fill(f"m{k}", step.reshape(-1, 3))
         self.mat_resources = None  # (ImageData buffer, samplers) of the material programs
         if self.mat is not None:
             vbo.attr_fill("inst", np.repeat(frame.obj[keep].astype(np.int32), 3))
@@ -563,7 +590,7 @@ class GPUFrame:
         ambient = self.ambient and lit and self._ambient(camera, targets, base)
         sky = self.dome is not None and lit and self._dome(camera, targets, base)
         shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
-                       self.dome is not None, self.mat)
+                       self.dome is not None, self.mat, self.motion)
         background = shader("background", targets.names, self.world is not None)
         world_block = self.world and gpu.types.GPUUniformBuf(self._world_block(camera))
         targets.clear_batch()
@@ -573,7 +600,7 @@ class GPUFrame:
             mode = ("MODE_EVERY" if settings.shade_every_sample else
                     "MODE_FIRST" if k == 0 else "MODE_REST")
             jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
-            lens = _lens(camera, first_sample + k)  # this sample's lens point, if any
+            lens = _lens(camera, first_sample + k, self.shutter)  # its lens point and time
 
             def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy),
                       lens=lens, **extra):
@@ -583,7 +610,7 @@ class GPUFrame:
                     "size": [w, h, first_sample + k, 0], **extra}])))
                 return blocks[-1]
 
-            if lens and self.world is not None:  # the background through the lens point
+            if "clip_to_world" in lens and self.world is not None:  # through the lens point
                 world_block = gpu.types.GPUUniformBuf(self._world_block(camera, lens))
                 blocks.append(world_block)
 
@@ -647,7 +674,7 @@ class GPUFrame:
         offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
         k = int(np.argmin(np.abs(offsets - 0.5).sum(-1)))
         w, h = camera.width, camera.height
-        record = _view_record(camera, offsets[k], k)
+        record = _view_record(camera, offsets[k], k, self.shutter)
         blocks = []
 
         def block(**extra):
@@ -658,7 +685,7 @@ class GPUFrame:
         z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
         prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
         fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(target,))
-        program = shader("central")
+        program = shader("central", motion=self.motion)
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
         self._visible(prepass, visible, block, k)
         with fb.bind():
@@ -691,7 +718,7 @@ class GPUFrame:
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
         out = []
         for k, offset in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
-            record = _view_record(camera, offset, first_sample + k)
+            record = _view_record(camera, offset, first_sample + k, self.shutter)
             blocks = []
 
             def block(record=record, blocks=blocks, **extra):
@@ -723,7 +750,7 @@ class GPUFrame:
         (``core.render.transparency.dither``). block(**fields): the sample's FrameData."""
         import gpu
 
-        depth = shader("depth")
+        depth = shader("depth", motion=self.motion)
         gpu.state.blend_set("NONE")
         with fb.bind():  # the nearest triangle of each pixel, and its depth
             fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
@@ -745,7 +772,7 @@ class GPUFrame:
                              after, gpu.types.GPUFrameBuffer(depth_slot=after_z,
                                                              color_slots=(after,)))
         _, floors, after, after_fb = self._peeling
-        peel, merge = shader("peel", mat=self.mat), shader("merge")
+        peel, merge = shader("peel", mat=self.mat, motion=self.motion), shader("merge")
         flags = [int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]
         for layer in range(DITHER_LAYERS):
             floor, floor_fb = floors[layer % 2]
@@ -813,7 +840,8 @@ class GPUFrame:
         frame_data = gpu.types.GPUUniformBuf(FRAME.pack([{
             **base, "jitter": shift, "ndc_scale": scale}]))
         batch = self.batches[0]
-        depth, program = shader("depth"), shader("dome_grid")
+        depth = shader("depth", motion=self.motion)
+        program = shader("dome_grid", motion=self.motion)
         saved = (gpu.state.depth_test_get(), gpu.state.depth_mask_get(),
                  gpu.state.blend_get())
         with fb.bind():
@@ -858,7 +886,7 @@ class GPUFrame:
         depth_tex, normal_tex, z = (gpu.types.GPUTexture(size, format=f) for f in
                                     ("RGBA32F", "RGBA32F", "DEPTH_COMPONENT32F"))
         fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(depth_tex, normal_tex))
-        program = shader("center")
+        program = shader("center", motion=self.motion)
         data = gpu.types.GPUUniformBuf(FRAME.pack([{
             **base, "jitter": (0.0, 0.0), "ndc_scale": (w / size[0], h / size[1])}]))
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
@@ -973,33 +1001,50 @@ def _group_frame(frame: Frame, group: str) -> tuple[Frame, np.ndarray]:
                                group=None), dark
 
 
-def _view_record(camera, offset, sample: int) -> dict:
+def _view_record(camera, offset, sample: int, shutter=None) -> dict:
     """The FrameData of sample number ``sample`` at ``offset`` (x, y in the pixel) through
-    ``camera`` (from its lens point, ``_lens``), for the passes that draw no light."""
+    ``camera`` (from its lens point and at its time, ``_lens``), for the passes that draw no
+    light."""
     w, h = camera.width, camera.height
     ox, oy = offset
     c2w = np.linalg.inv(np.asarray(camera.world_to_camera, np.float64))
     view_proj = np.asarray(camera.projection @ camera.world_to_camera, np.float64)
-    return {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
+    record = {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
             "world_to_camera": camera.world_to_camera, "ndc_scale": (1.0, 1.0),
             "eye": c2w[:3, 3], "ortho": int(camera.orthographic),
             "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
             "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
-            "sample_offset": (ox, oy), "size": [w, h, sample, 0], **_lens(camera, sample)}
+            "sample_offset": (ox, oy), "size": [w, h, sample, 0],
+            **_lens(camera, sample, shutter)}
+    if "shutter" in record:  # Depth: the view-axis distance in the camera of the sample's time
+        record["world_to_camera"] = motion_blur.view_at(camera, record["shutter"][0])
+    return record
 
 
-def _lens(camera, sample: int) -> dict:
+def _lens(camera, sample: int, shutter: tuple | None = None) -> dict:
     """The FrameData fields of sample number ``sample`` seen from its point of ``camera``'s
-    aperture (``core.render.depth_of_field``): its view_proj, clip_to_world and eye; {} for a
-    pinhole."""
-    if camera.aperture is None or camera.orthographic:
+    aperture (``core.render.depth_of_field``): its view_proj, clip_to_world and eye; and at
+    its time of the shutter (``core.render.motion_blur``; ``shutter``: the frame's shutter
+    curve when anything moves, else None): its view_proj through the camera then, and the
+    time (the shading keeps the frame's own view, as the CPU's); {} for a still pinhole."""
+    lens = camera.aperture is not None and not camera.orthographic
+    if not lens and shutter is None:
         return {}
-    point = depth_of_field.lens_points(camera.aperture, np.array([sample]))[0]
-    view_proj = depth_of_field.clip_transform(camera, point) @ (
-        np.asarray(camera.projection, np.float64) @ np.asarray(camera.world_to_camera,
-                                                                 np.float64))
-    return {"view_proj": view_proj, "clip_to_world": np.linalg.inv(view_proj),
-            "eye": depth_of_field.eye(camera, point)}
+    fields = {}
+    proj = np.asarray(camera.projection, np.float64)
+    view = np.asarray(camera.world_to_camera, np.float64)
+    through = np.eye(4)
+    if lens:
+        point = depth_of_field.lens_points(camera.aperture, np.array([sample]))[0]
+        through = depth_of_field.clip_transform(camera, point)
+        fields["clip_to_world"] = np.linalg.inv(through @ proj @ view)
+        fields["eye"] = depth_of_field.eye(camera, point)
+    if shutter is not None:
+        t = float(motion_blur.shutter_times(np.array([sample]), shutter)[0])
+        view = motion_blur.view_at(camera, t)
+        fields["shutter"] = (t, 1.0, 0.0, 0.0)
+    fields["view_proj"] = through @ proj @ view
+    return fields
 
 
 def _triangle_normals(pos: np.ndarray):

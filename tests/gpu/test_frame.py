@@ -451,3 +451,26 @@ def test_light_groups_match_the_cpu():
         assert value >= 40.0, name
     np.testing.assert_allclose(sum(gpu[n] for n in names), gpu["Combined"][..., :3],
                                rtol=1e-3, atol=1e-4)
+
+
+@pytest.mark.parametrize("camera_moves", [False, True])
+def test_motion_blur_matches_the_cpu(camera_moves):
+    """A box moving over the shutter (and the camera moving too): the GPU draws each sample
+    at the CPU's time, shaded at the frame's own corners; the frame against the CPU's, and
+    streaked where the still one is sharp."""
+    scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], samples=16)
+    still = _render_both(scene)[1]["Combined"]
+    box = scene.meshes[1]
+    box.motion = np.stack([box.positions + np.float32([dx, 0.3 * dx, 0.0])
+                           for dx in (-0.4, 0.0, 0.4)])
+    if camera_moves:
+        views = []
+        for dx in (0.15, 0.0, -0.15):
+            view = np.array(scene.camera.world_to_camera, np.float64)
+            view[1, 3] += dx
+            views.append(view)
+        scene.camera = dataclasses.replace(scene.camera, motion=np.stack(views))
+    cpu, gpu = _render_both(scene)
+    _check(cpu, gpu, "motion blur")
+    streaked = np.abs(gpu["Combined"] - still).max(-1) > 0.05
+    assert 0.01 < streaked.mean() < 0.8, streaked.mean()

@@ -212,6 +212,10 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                and (s.ao_pass or has_indirect(frame)) else None)
     eyes = (np.array([depth_of_field.eye(cam, p) for p in lens_at], np.float32)[
         sample - np.uint32(first_sample)] if lens and count else None)
+    if moving and eyes is None and count and not cam.orthographic:
+        # a moved point is shaded as the frame's own time sees it: from the camera's eye, not
+        # along the ray of the pixel it moved to
+        eyes = np.broadcast_to(np.asarray(cam.camera_to_world, np.float32)[:3, 3], (count, 3))
     for lo in range(0, count, SHADE_BLOCK):
         block = slice(lo, lo + SHADE_BLOCK)
         tick(len(pixel[block]) / count)

@@ -11,5 +11,10 @@ void main()
     return;
   }
   float index = texelFetch(materials, ivec2(4 * v_material + 3, 0), 0).r;
-  out_central = vec4(-(frame.world_to_camera * vec4(v_position, 1.0)).z, index, 0.0, 1.0);
+#ifdef MOTION
+  vec3 seen = v_moved;  /* where the sample's time draws it */
+#else
+  vec3 seen = v_position;
+#endif
+  out_central = vec4(-(frame.world_to_camera * vec4(seen, 1.0)).z, index, 0.0, 1.0);
 }

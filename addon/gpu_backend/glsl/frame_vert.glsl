@@ -2,7 +2,9 @@
  * triangle's flags: 1 culled when seen from behind (its material's Backface Culling), 2 a
  * holdout (it hides what is behind and is drawn as nothing), 4 its material may be
  * transparent (peel_frag.glsl), 8 its emission is left out (a light group's frame).
- * links: the light linking sets of its mesh (bit k: set k). */
+ * links: the light linking sets of its mesh (bit k: set k). With MOTION, the corners at the
+ * shutter's steps m0..m2 (core/render/motion_blur.py): the sample is drawn where they are at
+ * its time, and shaded at the frame's own corners (pos). */
 void main()
 {
   v_position = pos;
@@ -18,7 +20,15 @@ void main()
 #ifdef MATERIALS
   MATERIAL_VERTEX
 #endif
-  vec4 clip = frame.view_proj * vec4(pos, 1.0);
+  vec3 at = pos;
+#ifdef MOTION
+  if (frame.shutter.y > 0.0) { /* where the sample's time of the shutter sees it */
+    float u = frame.shutter.x * 2.0;
+    at = u < 1.0 ? mix(m0, m1, u) : mix(m1, m2, u - 1.0);
+  }
+  v_moved = at;
+#endif
+  vec4 clip = frame.view_proj * vec4(at, 1.0);
   clip.xy = clip.xy * frame.ndc_scale + frame.jitter * clip.w;
   gl_Position = clip;
 }
