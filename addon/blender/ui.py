@@ -243,7 +243,7 @@ class RENDER_PT_bo2_motion_blur(BO2Panel, bpy.types.Panel):
         col.active = r.use_motion_blur
         col.prop(r, "motion_blur_position", text="Position")
         col.prop(r, "motion_blur_shutter")
-        self.note(layout, "Each sample at its own time; F12 and bo2 render, not the viewport")
+        self.note(layout, "In F12 and bo2 render, not the viewport")
 
 
 class RENDER_PT_bo2_motion_blur_curve(BO2Panel, bpy.types.Panel):
@@ -369,12 +369,12 @@ class MATERIAL_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         col.prop(mat, "use_backface_culling", text="Camera")
         layout.prop(mat, "surface_render_method", text="Render Method")
         if mat.surface_render_method == "BLENDED":
-            layout.prop(mat, "use_transparency_overlap")
-            self.note(layout, f"Blended: sorted per pixel, up to {transparency.BLEND_LAYERS} "
-                      "layers; shadows dithered")
+            layout.prop(mat, "use_transparency_overlap", text="Transparency Overlap")
+            self.note(layout, f"Sorted per pixel, {transparency.BLEND_LAYERS} layers deep")
+            self.note(layout, "Shadows: dithered")
         else:
-            self.note(layout, "Dithered: stochastic, as EEVEE's")
-        self.note(layout, "Glass and Transmission: seen through, without refraction")
+            self.note(layout, "Dithered, as EEVEE's")
+        self.note(layout, "Glass: seen through, no refraction")
 
 
 class WORLD_PT_bo2_light(BO2Panel, bpy.types.Panel):
