@@ -661,6 +661,13 @@ def _read_objects(depsgraph, cache: SceneCache, warnings: Warnings, triangles: l
     return meshes, lights, objects, batches
 
 
+def read_meshes(depsgraph, should_stop: Callable[[], bool] | None = None
+                ) -> list[cs.MeshBatch]:
+    """The depsgraph's meshes as ``extract_scene`` reads them, afresh (no cache; lights,
+    world and materials left out): what ``motion`` reads at each step of the shutter."""
+    return _read_objects(depsgraph, SceneCache(), Warnings(), [0], should_stop)[0]
+
+
 def _lit_by(world: cs.World) -> bool:
     """Whether ``world`` sends any light."""
     if world.texture is not None:

@@ -43,9 +43,8 @@ def attach(engine, depsgraph, core: cs.Scene, warnings: Warnings, should_stop=No
         for dt in offsets(scene):
             t = now + dt
             engine.frame_set(int(math.floor(t)), t - math.floor(t))
-            meshes = extract._read_objects(depsgraph, extract.SceneCache(), Warnings(), [0],
-                                           should_stop)[0]
-            steps.append((meshes, extract.extract_camera(depsgraph)))
+            steps.append((extract.read_meshes(depsgraph, should_stop),
+                          extract.extract_camera(depsgraph)))
     finally:  # back to the frame rendered
         engine.frame_set(int(math.floor(now)), now - math.floor(now))
     blur = {o.name: _toggles(o) for o in scene.objects}
