@@ -280,6 +280,25 @@ def test_every_feature_under_every_light(addon, tmp_path, kind, shape):
     assert results[True][2] < 0.99 * results[False][2], (kind, shape, results)
 
 
+MOVER = (0.0, 4.0, 0.6)  # an upright card moving 1 m along x while the shutter is open
+
+
+def add_mover(scene):
+    """A card of 0.4 m in front of the empty background, moving 1 m per frame along x (linear
+    keys around the current frame, Shutter 1): it covers its centre 0.4 of the shutter."""
+    from test_motion_blur_cycles import linear_keys
+
+    plane(matte("Mover"), 0.4, MOVER, (math.pi / 2, 0.0, 0.0)).name = "Mover"
+    card = scene.objects["Mover"]
+    for frame, dx in ((scene.frame_current - 1, -1.0), (scene.frame_current + 1, 1.0)):
+        card.location.x = MOVER[0] + dx
+        card.keyframe_insert("location", index=0, frame=frame)
+    linear_keys(scene)
+    scene.render.use_motion_blur = True
+    scene.render.motion_blur_shutter = 1.0
+    scene.frame_set(scene.frame_current)
+
+
 HAIR = (2.1, 1.4)  # where the hair patch and the points stand (x, y on the floor)
 POINTS = (-2.1, 1.6)
 
@@ -297,11 +316,13 @@ def add_strands():
 @pytest.mark.parametrize(("kind", "shape"), LIGHTS, ids=[s or k for k, s in LIGHTS])
 def test_production_features_under_every_light(addon, tmp_path, kind, shape):
     """The scene above with hair and points, a light group for the light and one for the
-    world, Cryptomatte, and the stack of two ("Layers") Blended, in F12: the groups add up to
-    Combined, the Cryptomatte Object pass names the card under the pixel, the hair and the
-    points are drawn in their colours, the blended stack covers 3/4 exactly where the
-    dithered one is near it, its shadow is still dithered (the floor under it keeps about half
-    the light the single veil's keeps), and the light's linking holds as above."""
+    world, Cryptomatte, the stack of two ("Layers") Blended, a shader AOV and a card moving
+    over the shutter, in F12: the groups add up to Combined, the Cryptomatte Object pass names
+    the card under the pixel, the hair and the points are drawn in their colours, the blended
+    stack covers 3/4 exactly where the dithered one is near it, its shadow is still dithered
+    (the floor under it keeps about half the light the single veil's keeps), the AOV is its
+    node's value on its card and 0 beside it, the moving card streaks over its travel, and the
+    light's linking holds as above."""
     scene = build(tmp_path)
     light = add_light(scene, kind, shape)
     add_strands()
@@ -311,7 +332,14 @@ def test_production_features_under_every_light(addon, tmp_path, kind, shape):
     light.lightgroup, scene.world.lightgroup = "light", "world"
     layer.use_pass_cryptomatte_object = True
     bpy.data.materials["Layers"].surface_render_method = "BLENDED"
-    names = ["Combined", "Combined_light", "Combined_world", "CryptoObject00", "Emit"]
+    aov = layer.aovs.add()
+    aov.name, aov.type = "mask", "VALUE"
+    tree = bpy.data.materials["Plain"].node_tree
+    node = tree.nodes.new("ShaderNodeOutputAOV")
+    node.aov_name = "mask"
+    node.inputs["Value"].default_value = 0.7
+    add_mover(scene)
+    names = ["Combined", "Combined_light", "Combined_world", "CryptoObject00", "Emit", "mask"]
     passes = render_passes(scene, "BO2_LIGHTING", names, samples=SAMPLES)
     combined = passes["Combined"]
     # what no group holds is the emission of the meshes in none (all of them here)
@@ -330,8 +358,15 @@ def test_production_features_under_every_light(addon, tmp_path, kind, shape):
         return combined[H - 1 - row - 2:H - row + 2, col - 2:col + 3, :3].mean((0, 1))
 
     for where, (a, b) in ((HAIR, (0, 2)), (POINTS, (2, 0))):  # orange hair, blue points
-        patch, floor = colour((*where, 0.12)), colour((where[0], where[1] - 1.0, 0.0))
-        assert patch[a] / patch[b] > 1.1 * floor[a] / floor[b], (kind, where, patch, floor)
+        seen, floor = colour((*where, 0.12)), colour((where[0], where[1] - 1.0, 0.0))
+        assert seen[a] / seen[b] > 1.1 * floor[a] / floor[b], (kind, where, seen, floor)
     m = measure(scene, kind, combined[::-1])
     assert m["layers_cover"] == pytest.approx(0.75, abs=0.005), (kind, m)
     assert 0.3 < m["layers_floor"] / m["veil_floor"] < 0.75, (kind, m)
+    mask = passes["mask"][::-1, :, 0]
+    assert patch(mask, pixel(scene, (1.5, -1.6, 0.01)), 1).mean() == pytest.approx(0.7)
+    assert patch(mask, pixel(scene, (0.0, -2.5, 0.0)), 1).max() == 0.0
+    alpha = combined[::-1, :, 3]
+    centre = patch(alpha, pixel(scene, MOVER), 0)[0, 0]
+    ahead = patch(alpha, pixel(scene, (MOVER[0] + 0.4, MOVER[1], MOVER[2])), 0)[0, 0]
+    assert 0.25 < centre < 0.6 and 0.02 < ahead < 0.4, (kind, centre, ahead)  # 0.4, 0.2
