@@ -1,8 +1,10 @@
 """What a frame holds in memory, and the words for running out of it.
 
 A render keeps, per triangle, its corners and corner normals in world space (float32), its
-material, object instance and a few flags, UVs and attributes where meshes have them; per
-object instance its world-to-object matrix; per light a shadow map (six faces, one for a spot,
+material, object instance and a few flags, UVs and attributes where meshes have them, its
+corners at each step of the shutter where it moves (motion blur), its Cryptomatte ids and
+linking sets where wanted; per object instance its world-to-object matrix; per light a shadow
+map (six faces, one for a spot,
 up to four sun cascades). ``frame_bytes`` adds these up (the figure a message gives when
 memory runs out: Blender's own memory and the render's transient buffers come on top).
 """
@@ -37,8 +39,13 @@ def frame_bytes(scene) -> int:
         if m.uvs is not None:
             total += tris * 24
         total += sum(int(a.size) * 4 for a in m.attributes.values())
+        if m.motion is not None:
+            total += int(m.motion.size) * 4 + tris * 4  # the steps, and the triangle's row
+        total += tris * 8 * len(scene.settings.cryptomatte)
         w2o = m.world_to_object
         total += (1 if w2o is None or w2o.ndim == 2 else len(w2o)) * _PER_INSTANCE
+    if any(light.receivers or light.blockers for light in scene.lights):
+        total += sum(len(m.positions) for m in scene.meshes) * 16  # the linking sets
     res = int(scene.settings.shadow_resolution)
     for light in scene.lights:
         if light.shadow:
