@@ -131,9 +131,9 @@ def nearest_faces(frame: Frame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 def tile_margin(frame: Frame, tile):
     """The tile grown by the filter's reach (samples drawn from the pixel filter land up to its
     width beyond their pixel, so triangles next to the tile must not be rejected) and by the
-    lens's (``Frame.lens_reach``): the margin m, pixels, ``tile_clip`` of the grown tile with
-    the culling flags of its triangles, and the raster's ``keep`` dict (None unless the frame
-    keeps its tiles: ``Frame.tiles``)."""
+    lens's and the shutter's (``Frame.lens_reach``, ``motion_reach``): the margin m, pixels,
+    ``tile_clip`` of the grown tile with the culling flags of its triangles, and the raster's
+    ``keep`` dict (None unless the frame keeps its tiles: ``Frame.tiles``)."""
     cam = frame.scene.camera
     x0, y0, x1, y1 = tile
     m = int(np.ceil(frame.scene.settings.filter_width)) + frame.lens_reach + frame.motion_reach
