@@ -150,3 +150,13 @@ def test_blended_passes_sum_to_combined():
                   materials=mats, lights=[], settings=RenderSettings(samples=2))
     image = pipeline.render_frame(RenderJob(dataclasses.replace(scene)))
     np.testing.assert_allclose(image["Emit"][CENTRE], image["Combined"][CENTRE][:3], rtol=1e-5)
+
+
+def test_a_holdout_behind_a_stack_cuts_its_hole():
+    """Behind a blended card, a holdout object: the card over nothing (alpha a), as over a
+    transparent film."""
+    mats = [glow(BACK, 1.0), glow(RED, 0.3, blended=True)]
+    hole = plane(1, 0, 4)
+    hole.holdout = True
+    image, _ = render(mats, [plane(0, 0, 10), hole, plane(2, 1)])
+    np.testing.assert_allclose(image[CENTRE], [*over([(0.3, RED)], 0.0), 0.3], rtol=1e-5)
