@@ -311,14 +311,14 @@ def _arith(c, operation, a, b):
 
 
 def _see_through(c, color, weight, ior):
-    """Transmission as EEVEE shows it without refraction: a Transparent BSDF of ``color`` times
-    ``weight`` times one less the dielectric's reflectance at normal incidence,
-    F0 = ((ior - 1) / (ior + 1))^2."""
+    """Transmission as EEVEE shows it without refraction: seen through (``see_through``: as a
+    Transparent BSDF, but casting shadows) by ``color`` times ``weight`` times one less the
+    dielectric's reflectance at normal incidence, F0 = ((ior - 1) / (ior + 1))^2."""
     one = c.b.const(1.0)
     r = _arith(c, "DIVIDE", _arith(c, "SUBTRACT", ior, one), _arith(c, "ADD", ior, one))
     through = _arith(c, "MULTIPLY", weight, _arith(c, "SUBTRACT", one, _arith(c, "MULTIPLY", r, r)))
     zero = c.b.const(0.0, 0.0, 0.0)
-    return c.b.add("transparent", c.b.add("vector_math", color, zero, zero, through,
+    return c.b.add("see_through", c.b.add("vector_math", color, zero, zero, through,
                                           param=("SCALE",)))
 
 

@@ -377,7 +377,7 @@ class _Emitter:
         if kind == "emission":
             return (f"n_closure({zero}, {zero}, 0.0, 0.0, {a[0]}.xyz * {a[1]}.x, false, {zero}, "
                     "0.0, false)")
-        if kind == "transparent":
+        if kind in ("transparent", "see_through"):  # (casting a shadow: the CPU's maps)
             return (f"n_closure({zero}, {zero}, 0.0, 0.0, {zero}, false, {zero}, "
                     f"dot(clamp({a[0]}.xyz, 0.0, 1.0), vec3(0.2126, 0.7152, 0.0722)), true)")
         if kind == "holdout":

@@ -160,3 +160,27 @@ def test_a_holdout_behind_a_stack_cuts_its_hole():
     hole.holdout = True
     image, _ = render(mats, [plane(0, 0, 10), hole, plane(2, 1)])
     np.testing.assert_allclose(image[CENTRE], [*over([(0.3, RED)], 0.0), 0.3], rtol=1e-5)
+
+
+@pytest.mark.parametrize("kind", ["transparent", "see_through"])
+def test_glass_casts_a_shadow_a_transparent_surface_does_not(kind):
+    """A pane 96% see-through over a floor under a sun straight down: through a Transparent
+    BSDF 96% of the light reaches the floor, through a transmission (Glass, as Cycles and
+    EEVEE cast it without caustics) none; the camera sees through both alike."""
+    from test_pipeline import lambert_scene
+
+    from bo2_lighting.addon.core.scene import Light
+
+    b = ProgramBuilder()
+    pane = b.add(kind, b.const(0.96, 0.96, 0.96))
+    mirror = b.add("glossy", b.const(0.04, 0.04, 0.04), b.const(0.0), None)
+    glass = Material("pane", b.build(b.add("add_shader", mirror, pane)), blended=True)
+    scene = lambert_scene(Light("SUN", color=np.ones(3), direction=np.array([0.0, 0.0, -1.0])))
+    card = plane(1.0, 2, size=1.0)
+    card.camera = False  # the floor under it is seen
+    scene.meshes = [scene.meshes[0], card]
+    scene.materials = [*scene.materials, glass]
+    scene.settings = dataclasses.replace(scene.settings, samples=16)
+    under = pipeline.render_frame(RenderJob(scene))["Combined"][CENTRE][0]
+    lit = 0.6 / np.pi
+    assert under == pytest.approx(0.96 * lit if kind == "transparent" else 0.0, abs=0.03)

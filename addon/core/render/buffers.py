@@ -97,12 +97,14 @@ def _constant_tables(materials: list[Material]) -> dict:
     n = len(materials)
     table = {k: np.zeros((n, c), np.float32) for k, c in
              (("albedo", 3), ("rf0", 3), ("emission", 3), ("gloss", 1), ("alpha", 1),
-              ("layer", 1), ("layer_f0", 1))}
+              ("layer", 1), ("layer_f0", 1), ("shadow_alpha", 1))}
     varying = np.array([not m.program.constant for m in materials], bool)
     table["occlusion"] = np.ones((n, 1), np.float32)
     for i, m in enumerate(materials):
         if not varying[i]:
             p = material.evaluate(m.program, _constant_points())
+            if p.shadow_alpha is None:
+                p.shadow_alpha = p.alpha
             for k in table:
                 value = getattr(p, k)
                 if value is not None:

@@ -96,6 +96,7 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         return s if s.normal is not None else dataclasses.replace(s, normal=n)
     albedo, rf0 = t["albedo"][mid], t["rf0"][mid]
     emission, gloss, alpha = t["emission"][mid], t["gloss"][mid, 0], t["alpha"][mid, 0]
+    shadow_alpha = t["shadow_alpha"][mid, 0]
     layered = frame.scene.settings.layered_diffuse  # the layer is gathered only when read
     layer, layer_f0 = ((t["layer"][mid, 0], t["layer_f0"][mid, 0]) if layered
                        else (None, None))
@@ -110,6 +111,7 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
         s = material.evaluate(mats[m].program, pts)
         albedo[sel], rf0[sel], emission[sel] = s.albedo, s.rf0, s.emission
         gloss[sel], alpha[sel] = s.gloss, s.alpha
+        shadow_alpha[sel] = s.alpha if s.shadow_alpha is None else s.shadow_alpha
         if layered:
             layer[sel], layer_f0[sel] = s.layer, s.layer_f0
         if s.normal is not None:
@@ -119,7 +121,7 @@ def _surface_params(frame: Frame, tri, bary, p, n, geo, v, sx, sy,
             occlusion = np.ones(len(tri), np.float32) if occlusion is None else occlusion
             occlusion[sel] = s.occlusion
     return material.SurfaceParams(albedo, rf0, gloss, emission, alpha, normal, occlusion,
-                                  layer, layer_f0)
+                                  layer, layer_f0, shadow_alpha)
 
 
 def surface_alpha(frame: Frame, tri, bary, sx, sy) -> np.ndarray:
@@ -142,7 +144,8 @@ def caster_alpha(frame: Frame, tri, bary) -> np.ndarray:
     n = nodes.unit_vectors(np.einsum("nk,nkc->nc", bary, frame.normals[tri]))
     geo = nodes.unit_vectors(np.cross(q[:, 1] - q[:, 0], q[:, 2] - q[:, 0]))
     zero = np.zeros(len(tri), np.float32)
-    return _surface_params(frame, tri, bary, p, n, geo, geo, zero, zero, False).alpha
+    s = _surface_params(frame, tri, bary, p, n, geo, geo, zero, zero, False)
+    return s.alpha if s.shadow_alpha is None else s.shadow_alpha
 
 
 def surface_aovs(frame: Frame, tri, bary, p, n, geo, v, sx, sy) -> np.ndarray:

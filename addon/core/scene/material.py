@@ -44,6 +44,8 @@ __all__ = ["Points", "SurfaceParams", "evaluate", "evaluate_aovs"]
 @dataclass
 class SurfaceParams:
     """The talk's parameters at N points: albedo, rf0, emission (N, 3); gloss, alpha (N,);
+    shadow_alpha (N,) the alpha it casts shadows with (a transmission seen through is opaque
+    to them; None: ``alpha``);
     normal (N, 3) unit shading normal or None (the geometry's); occlusion (N,) or None; layer
     (N,) the weight of the closures whose albedo lies under a specular layer and layer_f0 (N,)
     that times the layer's rf0 (``Closure.layer``, ``layer_f0``; the albedo is weighted by
@@ -58,6 +60,7 @@ class SurfaceParams:
     occlusion: np.ndarray | None = None
     layer: np.ndarray | None = None
     layer_f0: np.ndarray | None = None
+    shadow_alpha: np.ndarray | None = None
 
 
 class Points:
@@ -234,7 +237,9 @@ def evaluate(program: Program, points: Points) -> SurfaceParams:
         emission=out(c.emission if opaque else c.emission * inv, 3),
         alpha=out(alpha, 1)[:, 0], normal=normal, occlusion=occlusion,
         layer=out(np.clip(c.layer if opaque else c.layer * inv, 0.0, 1.0), 1)[:, 0],
-        layer_f0=out(np.clip(c.layer_f0 if opaque else c.layer_f0 * inv, 0.0, 1.0), 1)[:, 0])
+        layer_f0=out(np.clip(c.layer_f0 if opaque else c.layer_f0 * inv, 0.0, 1.0), 1)[:, 0],
+        shadow_alpha=None if not np.any(c.through) else out(
+            np.clip(1.0 - c.transparent + c.through, 0.0, 1.0), 1)[:, 0])
 
 
 def evaluate_aovs(program: Program, points: Points, wanted) -> np.ndarray:

@@ -56,9 +56,11 @@ class Closure:
 
     albedo, rf0, emission: (N, 3); spec: (N, 1) weight of closures with a specular lobe;
     gloss: (N, 1) spec-weighted gloss; normal: (N, 3) weighted normal and nweight (N, 1) the
-    weight of closures with one; transparent: (N, 1) transparent weight; weight: (N, 1) weight
-    of the other closures; layer: (N, 1) weight of the closures whose diffuse lies under their
-    specular (Principled BSDF: Cycles weights its diffuse by one less the specular's albedo);
+    weight of closures with one; transparent: (N, 1) transparent weight, and through (N, 1) the
+    part of it that is a transmission seen through (it casts shadows: ``_op_see_through``);
+    weight: (N, 1) weight of the other closures; layer: (N, 1) weight of the closures whose
+    diffuse lies under their specular (Principled BSDF: Cycles weights its diffuse by one less
+    the specular's albedo);
     layer_f0: (N, 1) weight times the largest channel of that specular's rf0 (the dielectric's:
     a Principled BSDF's metal is not above its diffuse)
     """
@@ -74,13 +76,14 @@ class Closure:
     weight: np.ndarray
     layer: np.ndarray
     layer_f0: np.ndarray
+    through: np.ndarray
 
     def scaled(self, w) -> Closure:
         return Closure(*(getattr(self, f) * w for f in _CLOSURE_FIELDS))
 
 
 _CLOSURE_FIELDS = ("albedo", "rf0", "spec", "gloss", "emission", "normal", "nweight",
-                   "transparent", "weight", "layer", "layer_f0")
+                   "transparent", "weight", "layer", "layer_f0", "through")
 _Z1 = np.zeros((1, 1), np.float32)
 _Z3 = np.zeros((1, 3), np.float32)
 _ONE = np.ones((1, 1), np.float32)
@@ -89,12 +92,12 @@ for _shared in (_Z1, _Z3, _ONE):  # shared by every closure: never written (copi
 
 
 def _closure(albedo=_Z3, rf0=_Z3, spec=_Z1, gloss=_Z1, emission=_Z3, normal=None,
-             transparent=None, layer=_Z1, layer_f0=_Z1) -> Closure:
+             transparent=None, layer=_Z1, layer_f0=_Z1, through=_Z1) -> Closure:
     nweight = _Z1 if normal is None else _ONE
     weight = _ONE if transparent is None else _Z1
     return Closure(albedo, rf0, spec, gloss * spec, emission, _Z3 if normal is None else normal,
                    nweight, _Z1 if transparent is None else transparent, weight, layer,
-                   layer_f0)
+                   layer_f0, through)
 
 
 def principled_to_talk(base, metallic, roughness, ior, level, tint, transmission):
@@ -464,6 +467,15 @@ def _op_transparent(ev, op, pts):
     return _closure(transparent=(c @ nm.LUMINANCE[:, None]).astype(np.float32))
 
 
+def _op_see_through(ev, op, pts):
+    """A transmission seen without refraction (Glass BSDF, Principled Transmission): the
+    camera sees through it by its colour's luminance, as through a Transparent BSDF, but it
+    casts a shadow, as glass does in Cycles and EEVEE (no caustics)."""
+    c = _op_transparent(ev, op, pts)
+    c.through = c.transparent
+    return c
+
+
 def _op_holdout(ev, op, pts):
     return _closure(transparent=_Z1)
 
@@ -600,7 +612,9 @@ NODES: dict[str, Node] = {n.kind: n for n in (
     Node("emission", ("color", "strength"), (), "closure", _op_emission,
          blender=("ShaderNodeEmission",)),
     Node("transparent", ("color",), (), "closure", _op_transparent,
-         blender=("ShaderNodeBsdfTransparent", "ShaderNodeBsdfGlass")),
+         blender=("ShaderNodeBsdfTransparent",)),
+    Node("see_through", ("color",), (), "closure", _op_see_through,
+         blender=("ShaderNodeBsdfGlass",)),
     Node("holdout", (), (), "closure", _op_holdout, blender=("ShaderNodeHoldout",)),
     Node("add_shader", ("a", "b"), (), "closure", _op_add_shader,
          blender=("ShaderNodeAddShader",)),

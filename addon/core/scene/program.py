@@ -56,12 +56,12 @@ class Program:
 
     @property
     def fades(self) -> bool:
-        """True when the surface may be less than opaque somewhere: a Transparent BSDF or
-        Holdout, or an Alpha input that is not the constant 1."""
+        """True when the surface may be less than opaque somewhere: a Transparent BSDF, a
+        transmission seen through or a Holdout, or an Alpha input that is not the constant 1."""
         if self.holdout:
             return False
         for op in self.ops:
-            if op.kind in ("transparent", "holdout"):
+            if op.kind in ("transparent", "see_through", "holdout"):
                 return True
             if op.kind in ("principled", "bo2"):
                 alpha = self.ops[op.args[NODES[op.kind].index("alpha")]]
