@@ -82,5 +82,6 @@ def render(job, view_layer) -> tuple[object, dict | str]:
     wanted = [name for name in PASSES if name == "Combined" or passes.enabled(view_layer, name)]
     wanted += passes.cryptomatte_passes(view_layer)
     wanted += [group_pass(group.name) for group in view_layer.lightgroups]
+    wanted += [name for name, _ in s.aovs]
     return frame, gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)),
                                                          s.filter_width), wanted)

@@ -121,9 +121,6 @@ def unsupported(frame: Frame) -> str | None:
         return "blended materials"
     if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
         return f"motion blur of other than {MOTION_STEPS} steps"
-    wanted = {name for name, _ in scene.settings.aovs}
-    if any(name in wanted for m in mats for name, *_ in m.program.aovs):
-        return "shader AOVs"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
         return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
@@ -166,12 +163,17 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
     mats = frame.scene.materials
     varying = [(k, m.program) for k, (m, v) in enumerate(zip(mats, frame.tables["varying"],
                                                             strict=False)) if v]
-    if not varying:
+    wanted = frame.scene.settings.aovs
+    names = {name for name, _ in wanted}
+    writers = [(k, m.program) for k, m in enumerate(mats)
+               if any(name in names for name, *_ in m.program.aovs)]
+    if not varying and not writers:
         return None, [], []
-    keys = [k for k in materials.streams([p for _, p in varying]) if k in frame.attributes]
+    read = varying + [w for w in writers if w not in varying]
+    keys = [k for k in materials.streams([p for _, p in read]) if k in frame.attributes]
     streams = {key: k for k, key in enumerate(keys)}
     texs, numbers = [], {}
-    for _, program in varying:
+    for _, program in read:
         for op in program.ops:
             if op.kind == "image" and op.param[0] is not None and id(op.param[0]) not in numbers:
                 numbers[id(op.param[0])] = len(texs)
@@ -195,9 +197,35 @@ def material_code(frame: Frame) -> tuple[MaterialCode | None, list, list]:
         "  switch (material) {", cases + "    default: return;", "  }",
         "  s.albedo = m.albedo;", "  s.rf0 = m.rf0;", "  s.emission = m.emission;",
         "  s.gloss = m.gloss;", "  s.n = m.normal;", "  s.occlusion = m.occlusion;",
-        "  s.alpha = m.alpha;", "  s.layer = m.layer;", "  s.layer_f0 = m.layer_f0;", "}", ""])
+        "  s.alpha = m.alpha;", "  s.layer = m.layer;", "  s.layer_f0 = m.layer_f0;", "}", "",
+        _aov_code(writers, wanted, numbers, streams, constants)])
     return (MaterialCode(code, len(keys), len(texs), hashlib.sha256(code.encode()).hexdigest(),
                          constants.array()), keys, texs)
+
+
+def _aov_code(writers, wanted, numbers, streams, constants) -> str:
+    """GLSL of ``vec4 material_aov(int material, int which, Surface s)``: the shader AOV
+    ``wanted[which]`` of a material at a point (``core.scene.material.evaluate_aovs``: its
+    colour and 1, or its value), 0 where the material writes none; each writer's registers
+    through ``materials.value_function``."""
+    parts, cases = [], []
+    for k, program in writers:
+        own = {name: (color, value) for name, color, value in program.aovs}
+        regs, rows = [], []
+        for j, (name, kind) in enumerate(wanted):
+            if name in own:
+                regs.append(own[name][0 if kind == "COLOR" else 1])
+                x = f"aov_{k}(p, {len(regs) - 1})"
+                rows.append(f"      case {j}: return " + (
+                    f"vec4({x}.xyz, 1.0);" if kind == "COLOR" else f"vec4({x}.x, 0.0, 0.0, 1.0);"))
+        parts.append(materials.value_function(program, regs, f"aov_{k}", numbers, streams,
+                                              constants))
+        cases.append(f"    case {k}:\n      switch (which) {{\n" + "\n".join(rows)
+                     + "\n      }\n      break;")
+    return "\n".join(parts + [
+        "vec4 material_aov(int material, int which, Surface s)", "{",
+        "  MatPoint p = mp_point(s.p, s.n, s.geo, s.v);",
+        "  switch (material) {", *cases, "  }", "  return vec4(0.0);", "}", ""])
 
 
 def _with_materials(program: programs.Program, mat: MaterialCode | None) -> programs.Program:
@@ -265,6 +293,12 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                 samplers=(("FLOAT_2D", "peel_floor"),
                                           ("FLOAT_2D", "next_visible")),
                                 inputs=corner, outputs=(("VEC4", "out_visible"),))
+    if kind == "aov":
+        return programs.Program("draw", ("surface",), (vert, programs.source("aov_frag")),
+                                structs=(FRAME,), blocks=frame_block,
+                                samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "visible")),
+                                inputs=vertex_in, varyings=varyings,
+                                outputs=(("VEC4", "out_aov"),))
     if kind == "central":
         return programs.Program("draw", ("surface",), (vert, programs.source("central_frag")),
                                 structs=(FRAME,), blocks=frame_block,
@@ -355,10 +389,10 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
            ambient: bool = False, sky: bool = False, mat: MaterialCode | None = None,
            motion: bool = False):
     """The compiled ``kind`` program ("depth", "center", "central", "dome_grid", "shade",
-    "peel", "merge", "background", "compose") writing the targets ``names``; ``indirect``:
+    "peel", "merge", "background", "compose", "aov") writing the targets ``names``; ``indirect``:
     with the probes' light (``glsl/indirect.glsl``), ``ambient``: its contact occlusion,
-    ``sky``: the world's occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade"
-    and "peel" with the frame's material programs; ``motion``: the triangles' motion over
+    ``sky``: the world's occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade",
+    "peel" and "aov" with the frame's material programs; ``motion``: the triangles' motion over
     the shutter (the programs that draw them)."""
     if kind == "background":  # ``indirect``: the world is an image
         return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
@@ -366,8 +400,9 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
     ambient = ambient and kind == "shade" and bool(set(names) & LIT)
     sky = sky and indirect
-    mat = mat if kind in ("shade", "peel") else None
-    motion = motion and kind in ("depth", "center", "central", "dome_grid", "shade", "peel")
+    mat = mat if kind in ("shade", "peel", "aov") else None
+    motion = motion and kind in ("depth", "center", "central", "dome_grid", "shade", "peel",
+                                 "aov")
     key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key, motion)
     program = _with_materials(_program(kind, names, indirect, ambient, sky), mat)
     return programs.compiled(_with_motion(program) if motion else program, key)
@@ -704,6 +739,56 @@ class GPUFrame:
         image = textures.read(target)[::-1]
         return {"Depth": np.ascontiguousarray(image[..., :1]),
                 "IndexMA": np.ascontiguousarray(image[..., 1:2])}
+
+    def aovs(self, camera, offsets, first_sample: int = 0) -> dict[str, np.ndarray]:
+        """The shader AOVs of the settings through ``camera``, averaged over the samples of
+        ``offsets`` (their surfaces dithered as theirs): {name: (H, W, 4) colour, or (H, W, 1)
+        value, float32}, row 0 at the top (``pipeline.render_tile``'s AOV columns)."""
+        import gpu
+
+        wanted = self.frame.scene.settings.aovs
+        offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
+        w, h = camera.width, camera.height
+        out = {name: np.zeros((h, w, 4 if kind == "COLOR" else 1), np.float32)
+               for name, kind in wanted}
+        if self.mat is None:  # no material writes any
+            return out
+        visible = gpu.types.GPUTexture((w, h), format="RGBA32F")
+        z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+        prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
+        sums = [gpu.types.GPUTexture((w, h), format="RGBA32F") for _ in wanted]
+        fbs = [gpu.types.GPUFrameBuffer(color_slots=(t,)) for t in sums]
+        for fb in fbs:
+            with fb.bind():
+                fb.clear(color=(0.0, 0.0, 0.0, 0.0))
+        program = shader("aov", mat=self.mat, motion=self.motion)
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        for k, offset in enumerate(offsets):
+            record = _view_record(camera, offset, first_sample + k, self.shutter)
+            blocks = []
+
+            def block(record=record, blocks=blocks, **extra):
+                blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{**record, **extra}])))
+                return blocks[-1]
+
+            self._visible(prepass, visible, block, first_sample + k)
+            for j, fb in enumerate(fbs):
+                with fb.bind():
+                    gpu.state.depth_test_set("ALWAYS")
+                    gpu.state.depth_mask_set(False)
+                    gpu.state.blend_set("ADDITIVE_PREMULT")
+                    program.bind()
+                    program.uniform_block("frame", block(counts=[j, 0, 0, 0]))
+                    self._bind_materials(program)
+                    program.uniform_sampler("visible", visible)
+                    self.batch.draw(program)
+        gpu.state.depth_test_set(saved[0])
+        gpu.state.depth_mask_set(saved[1])
+        gpu.state.blend_set(saved[2])
+        for (name, _), texture in zip(wanted, sums, strict=True):
+            image = textures.read(texture)[::-1] / np.float32(len(offsets))
+            out[name] = np.ascontiguousarray(image[..., :out[name].shape[-1]], np.float32)
+        return out
 
     def seen(self, camera, offsets, first_sample: int = 0) -> list[np.ndarray]:
         """The triangle each sample of ``offsets`` sees through ``camera`` (its surfaces
@@ -1090,6 +1175,9 @@ def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
                 targets = Targets(cam.width, cam.height, ("combined",))
                 GPUFrame(sub, dark).draw(cam, offsets, targets)
                 out[name] = np.ascontiguousarray(targets.passes()["Combined"][..., :3])
+        if frame.scene.settings.aovs and (passes is None or any(
+                name in passes for name, _ in frame.scene.settings.aovs)):
+            out.update(drawn.aovs(cam, offsets))
         if frame.crypto and (passes is None or any(p.startswith("Crypto") for p in passes)):
             crypto = pipeline.crypto_passes(frame, drawn.seen(cam, offsets))
             out.update({name: ranks.reshape(cam.height, cam.width, 4)

@@ -474,3 +474,30 @@ def test_motion_blur_matches_the_cpu(camera_moves):
     _check(cpu, gpu, "motion blur")
     streaked = np.abs(gpu["Combined"] - still).max(-1) > 0.05
     assert 0.01 < streaked.mean() < 0.8, streaked.mean()
+
+
+def test_shader_aovs_match_the_cpu():
+    """The ball writes its position (a colour AOV) and its facing (a value AOV), the box a
+    constant colour AOV: each pass against the CPU's; an AOV no material writes is 0."""
+    scene = scenes.objects_scene([scenes.LIGHTS["SUN"]], samples=8)
+    b = program.ProgramBuilder()
+    metal = b.add("bo2", b.const(0.0, 0.0, 0.0), b.const(0.9, 0.7, 0.4), b.const(0.8), None,
+                  b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(1.0))
+    position = b.add("geometry", param=("Position",))
+    facing = b.add("swizzle", b.add("layer_weight", b.const(0.5), None), param=(1, 2))
+    scene.materials[2] = Material("metal", b.build(metal, aovs=(
+        ("where", position, b.const(0.0)), ("facing", b.const(0.0, 0.0, 0.0), facing))))
+    b = program.ProgramBuilder()
+    box = b.add("bo2", b.const(0.7, 0.2, 0.1), b.const(0.04, 0.04, 0.04), b.const(0.6), None,
+                b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(1.0))
+    scene.materials[1] = Material("box", b.build(box, aovs=(
+        ("where", b.const(0.25, 0.5, 0.75), b.const(0.0)),)))
+    scene.settings = dataclasses.replace(scene.settings, aovs=(
+        ("where", "COLOR"), ("facing", "VALUE"), ("nobody", "VALUE")))
+    cpu, gpu = _render_both(scene)
+    for name in ("where", "facing", "nobody"):
+        assert gpu[name].shape == cpu[name].shape, name
+        value = compare.psnr(gpu[name], cpu[name])
+        print(f"{name}: {value:.1f} dB")
+        assert value >= 40.0, (name, value)
+    assert not gpu["nobody"].any() and gpu["where"][..., 3].max() == pytest.approx(1.0)
