@@ -43,7 +43,7 @@ FRAME = Struct("FrameData", (
     ("counts", "ivec4", 0),  # (lights in the batch, specular model, first batch, MODES)
     ("size", "ivec4", 0),  # (width, height, the sample's number, -)
     ("flags", "ivec4", 0),  # (specular occlusion, peeling: the depth pre-pass, layered
-    #                          diffuse, -)
+    #                          diffuse, a transparent film)
     ("world", "vec4", 0),  # the background's radiance and alpha
     ("shutter", "vec4", 0),  # (the sample's shutter time, 1 where it moves: the motion blur
     #                          of the geometry's steps m0..m2; 0: the frame's own time, -, -)
@@ -73,7 +73,7 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
            "Lightmap Texels": ("texels", slice(0, 3))}
 # a triangle's flags (``glsl/frame_vert.glsl``)
-FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES, FLAG_DARK = 1, 2, 4, 8
+FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES, FLAG_DARK, FLAG_CATCHER = 1, 2, 4, 8, 16
 # Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
 CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
@@ -116,7 +116,17 @@ def unsupported(frame: Frame) -> str | None:
         if why:
             return why
     if frame.catcher is not None:
-        return "shadow catchers"
+        # a catcher's share is held over free irradiance of all lights: one batch of them
+        first = (DOME_BATCH_LIGHTS if has_indirect(frame) and frame.sky is not None
+                 else BATCH_LIGHTS)
+        if len(scene.lights) > first:
+            return f"shadow catchers with more than {first} lights"
+        if scene.settings.shadow_catcher_pass:
+            return "the Shadow Catcher pass"
+        if scene.world.texture is not None and not scene.settings.film_transparent:
+            return "shadow catchers over an image world"
+        if scene.settings.light_groups:
+            return "shadow catchers with light groups"
     if frame.blends is not None:
         return "blended materials"
     if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
@@ -489,6 +499,8 @@ class GPUFrame:
             flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
         flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
         flags |= frame.fades[keep].astype(np.int32) * FLAG_FADES
+        if frame.catcher is not None:
+            flags |= frame.catcher[keep].astype(np.int32) * FLAG_CATCHER
         if dark is not None:  # (a light group's frame: the emission of other groups' meshes)
             flags |= dark[keep].astype(np.int32) * FLAG_DARK
         vbo.attr_fill("flags", np.repeat(flags, 3))
@@ -617,7 +629,7 @@ class GPUFrame:
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                 "world": np.append(np.asarray(scene.world.color, np.float32), 1.0),
                 "flags": [int(settings.specular_occlusion), 0, int(settings.layered_diffuse),
-                          0]}
+                          int(settings.film_transparent)]}
         from ..core.kernels import shading as shading_kernel
 
         model = shading_kernel.MODELS[settings.specular_model]

@@ -76,11 +76,21 @@ def test_the_catcher_holds_the_shadow_as_cycles_does(addon, with_pass):
     assert ball[3] == 1.0  # the ball itself is drawn, opaque
 
 
-def test_the_gpu_leaves_catchers_to_the_cpu_and_says_why(addon):
+def test_the_gpu_draws_catchers_as_the_cpu(addon):
+    """Device GPU: the catcher's Combined as the CPU's; with the Shadow Catcher pass on, the
+    frame renders on the CPU, saying why (where there is no GPU context: the CPU, said so)."""
     scene = build()
-    scene.render.engine = "BO2_LIGHTING"
-    scene.bo2.device = "GPU"
+    images = {}
+    for device in ("CPU", "GPU"):
+        scene.bo2.device = device
+        with engine.listening() as said:
+            images[device] = render_passes(scene, "BO2_LIGHTING", ["Combined"],
+                                           samples=8)["Combined"]
+    if any("no GPU context" in t for t in said.texts()):
+        return
+    assert any("Rendered on the GPU" in t for t in said.texts()), said.texts()
+    np.testing.assert_allclose(images["GPU"], images["CPU"], atol=0.02)
+    bpy.context.view_layer.bo2.use_pass_shadow_catcher = True
     with engine.listening() as said:
-        assert bpy.ops.render.render() == {"FINISHED"}
-    assert any("shadow catchers" in t or "Shadow Catcher" in t or "no GPU context" in t
-               for t in said.texts()), said.texts()
+        render_passes(scene, "BO2_LIGHTING", ["Combined", "Shadow Catcher"], samples=4)
+    assert any("Shadow Catcher pass" in t for t in said.texts()), said.texts()

@@ -501,3 +501,21 @@ def test_shader_aovs_match_the_cpu():
         print(f"{name}: {value:.1f} dB")
         assert value >= 40.0, (name, value)
     assert not gpu["nobody"].any() and gpu["where"][..., 3].max() == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("transparent", [False, True])
+def test_shadow_catchers_match_the_cpu(transparent):
+    """The ground a shadow catcher under a sun and a point light: the world times the share
+    of light the shadows let through (or black of their opacity with a transparent film), the
+    frame against the CPU's."""
+    scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], samples=8)
+    scene.meshes[0].shadow_catcher = True
+    scene.world.color = np.array([0.3, 0.4, 0.5], np.float32)
+    scene.settings = dataclasses.replace(scene.settings, film_transparent=transparent)
+    frame = pipeline.prepare(RenderJob(scene))
+    assert gpu_frame.unsupported(frame) is None
+    cpu, gpu = _render_both(scene)
+    _check(cpu, gpu, "shadow catcher")
+    alpha = gpu["Combined"][..., 3]
+    if transparent:  # the shadows' opacity, nothing else of the ground
+        assert 0.005 < ((alpha > 0.05) & (alpha < 0.999)).mean() < 0.5

@@ -41,6 +41,7 @@ void main()
   int row = frame.size.y - 1 - pixel.y;
   uvec3 seed = uvec3(uint(pixel.x) | (uint(row) << 16u), uint(v_tri), uint(frame.size.z));
   vec3 diffuse = vec3(0.0), specular = vec3(0.0);
+  vec3 held = vec3(0.0), free = vec3(0.0);  /* a shadow catcher's irradiance, shadowed or not */
 #ifndef SURFACE_ONLY
   for (int i = 0; i < frame.counts.x; i++) {
     vec3 l, e;
@@ -52,6 +53,11 @@ void main()
                                        shadow_visibility(lights[i].shadow, s.p, s.geo, seed);
     accumulate(s.n, s.v, l, e, vis, s.albedo, s.rf0, s.gloss, frame.counts.y, diffuse,
                specular);
+    if ((v_flags & 16) != 0) {
+      vec3 c = e * max(dot(s.n, l), 0.0);
+      free += c;
+      held += c * vis;
+    }
   }
 #endif
   vec3 diff_ind = vec3(0.0), gloss_ind = vec3(0.0);
@@ -111,8 +117,18 @@ void main()
   reflections_view = influence_colour(0, s.p);
   volumes_view = influence_colour(1, s.p);
 #endif
-  WRITE_TARGETS(vec4((((diffuse + specular) + diff_ind) + gloss_ind) + emit,
-                     first_batch ? 1.0 : 0.0),
+  vec4 combined = vec4((((diffuse + specular) + diff_ind) + gloss_ind) + emit,
+                       first_batch ? 1.0 : 0.0);
+  if ((v_flags & 16) != 0) {
+    /* a shadow catcher (core/render/shading.catch_shadows; the lights in one batch): the
+     * world behind it times the share of light its shadows let through, or with a
+     * transparent film (frame.flags.w) black of their opacity */
+    vec3 share = clamp(mix(vec3(1.0), held / max(free, vec3(1e-30)),
+                           greaterThan(free, vec3(0.0))), 0.0, 1.0);
+    combined = frame.flags.w != 0 ? vec4(0.0, 0.0, 0.0, 1.0 - (share.x + share.y + share.z) / 3.0)
+                                  : vec4(frame.world.rgb * share, 1.0);
+  }
+  WRITE_TARGETS(combined,
                 vec4(diffuse, 0.0), vec4(specular, 0.0), vec4(diff_ind, 0.0),
                 vec4(gloss_ind, 0.0), vec4(emit, 0.0),
                 first_batch ? vec4(s.albedo, s.gloss) : vec4(0.0),
