@@ -310,13 +310,19 @@ def _arith(c, operation, a, b):
     return c.b.add("math", a, b, c.b.const(0.0), param=(operation, False))
 
 
+def _f0(c, ior):
+    """The register of a dielectric's reflectance at normal incidence, ((ior - 1) / (ior +
+    1))^2."""
+    one = c.b.const(1.0)
+    r = _arith(c, "DIVIDE", _arith(c, "SUBTRACT", ior, one), _arith(c, "ADD", ior, one))
+    return _arith(c, "MULTIPLY", r, r)
+
+
 def _see_through(c, color, weight, ior):
     """Transmission as EEVEE shows it without refraction: seen through (``see_through``: as a
     Transparent BSDF, but casting shadows) by ``color`` times ``weight`` times one less the
     dielectric's reflectance at normal incidence, F0 = ((ior - 1) / (ior + 1))^2."""
-    one = c.b.const(1.0)
-    r = _arith(c, "DIVIDE", _arith(c, "SUBTRACT", ior, one), _arith(c, "ADD", ior, one))
-    through = _arith(c, "MULTIPLY", weight, _arith(c, "SUBTRACT", one, _arith(c, "MULTIPLY", r, r)))
+    through = _arith(c, "MULTIPLY", weight, _arith(c, "SUBTRACT", c.b.const(1.0), _f0(c, ior)))
     zero = c.b.const(0.0, 0.0, 0.0)
     return c.b.add("see_through", c.b.add("vector_math", color, zero, zero, through,
                                           param=("SCALE",)))
@@ -326,11 +332,8 @@ def _glass(c, node, out, ctx):
     """Glass BSDF: its reflection (a Glossy BSDF of the colour times F0) plus what it lets
     through (``_see_through``), without refraction."""
     color, ior = _in(c, node, "Color", "color", ctx), _in(c, node, "IOR", "float", ctx)
-    r = _arith(c, "DIVIDE", _arith(c, "SUBTRACT", ior, c.b.const(1.0)),
-              _arith(c, "ADD", ior, c.b.const(1.0)))
     zero = c.b.const(0.0, 0.0, 0.0)
-    tint = c.b.add("vector_math", color, zero, zero, _arith(c, "MULTIPLY", r, r),
-                   param=("SCALE",))
+    tint = c.b.add("vector_math", color, zero, zero, _f0(c, ior), param=("SCALE",))
     mirror = c.b.add("glossy", tint, _in(c, node, "Roughness", "float", ctx),
                      c.normal(node, "Normal", ctx))
     return c.b.add("add_shader", mirror, _see_through(c, color, c.b.const(1.0), ior)), "shader"

@@ -48,15 +48,28 @@ def attach(engine, depsgraph, core: cs.Scene, warnings: Warnings, should_stop=No
     finally:  # back to the frame rendered
         engine.frame_set(int(math.floor(now)), now - math.floor(now))
     blur = {o.name: _toggles(o) for o in scene.objects}
-    meshes = [_moved(m, [s[0][k] if k < len(s[0]) else None for s in steps],
-                     blur.get(m.name, (True, True)), warnings)
-              for k, m in enumerate(core.meshes)]
+    # a batch is followed by its object's name and its place among that object's batches (an
+    # object that appears or leaves over the shutter leaves the others followed)
+    named = [_by_name(s[0]) for s in steps]
+    seen: dict[str, int] = {}
+    meshes = []
+    for m in core.meshes:
+        k = seen[m.name] = seen.get(m.name, -1) + 1
+        later = [n[m.name][k] if k < len(n.get(m.name, ())) else None for n in named]
+        meshes.append(_moved(m, later, blur.get(m.name, (True, True)), warnings))
     views = np.stack([s[1].world_to_camera for s in steps])
     camera = core.camera
     if blur.get(scene.camera.name, (True, True))[0] and not np.allclose(
             views, views[0], atol=0.0, rtol=0.0):
         camera = dataclasses.replace(camera, motion=views)
     return dataclasses.replace(core, meshes=meshes, camera=camera)
+
+
+def _by_name(meshes: list) -> dict[str, list]:
+    out: dict[str, list] = {}
+    for m in meshes:
+        out.setdefault(m.name, []).append(m)
+    return out
 
 
 def _toggles(obj) -> tuple[bool, bool]:
@@ -82,16 +95,22 @@ def _moved(mesh: cs.MeshBatch, later: list, toggles: tuple[bool, bool],
     if deform:
         steps = np.stack([b.positions for b in later]).astype(np.float32)
     else:  # the transform's motion alone: the frame's corners carried by each step's matrix
-        here = np.eye(4) if mesh.world_to_object is None else np.asarray(mesh.world_to_object)
-        if here.ndim != 2:
-            return mesh  # instances read at once: their own matrices move them
+        here = _matrices(mesh)
+        corners = mesh.positions.reshape(len(here), -1, 3, 3)  # (instances, their triangles)
         steps = []
         for b in later:
-            to = np.eye(4) if b.world_to_object is None else np.asarray(b.world_to_object)
-            m = np.linalg.inv(to) @ here
-            steps.append(mesh.positions @ m[:3, :3].T.astype(np.float32)
-                         + m[:3, 3].astype(np.float32))
+            m = np.linalg.inv(_matrices(b)) @ here  # (I, 4, 4) frame -> step, per instance
+            steps.append((np.einsum("itcj,ikj->itck", corners, m[:, :3, :3])
+                          + m[:, None, None, :3, 3]).reshape(mesh.positions.shape))
         steps = np.stack(steps).astype(np.float32)
+    if not np.isfinite(steps).all():  # a step the frame cannot follow: its own corners there
+        steps = np.where(np.isfinite(steps), steps, mesh.positions[None]).astype(np.float32)
     if np.array_equal(steps, np.broadcast_to(mesh.positions, steps.shape)):
         return mesh
     return dataclasses.replace(mesh, motion=steps)
+
+
+def _matrices(mesh: cs.MeshBatch) -> np.ndarray:
+    """(I, 4, 4) world_to_object of the batch's I instances (one for a plain object)."""
+    w2o = np.eye(4) if mesh.world_to_object is None else np.asarray(mesh.world_to_object)
+    return w2o.reshape(-1, 4, 4)

@@ -370,7 +370,9 @@ class MATERIAL_PT_bo2_settings(BO2Panel, bpy.types.Panel):
         layout.prop(mat, "surface_render_method", text="Render Method")
         if mat.surface_render_method == "BLENDED":
             layout.prop(mat, "use_transparency_overlap", text="Transparency Overlap")
-            self.note(layout, f"Sorted per pixel, {transparency.BLEND_LAYERS} layers deep")
+            order = ("per pixel" if context.scene.bo2.blend_sort == "pixel"
+                     else "by object origin")
+            self.note(layout, f"Sorted {order}, {transparency.BLEND_LAYERS} layers deep")
             self.note(layout, "Shadows: dithered")
         else:
             self.note(layout, "Dithered, as EEVEE's")

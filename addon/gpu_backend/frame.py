@@ -741,7 +741,9 @@ class GPUFrame:
             gpu.state.depth_mask_set(False)
             gpu.state.blend_set("NONE")
             program.bind()
-            program.uniform_block("frame", block())
+            # Depth: the view-axis distance in the camera of the sample's time
+            program.uniform_block("frame", block() if "shutter" not in record else block(
+                world_to_camera=motion_blur.view_at(camera, record["shutter"][0])))
             program.uniform_sampler("materials", self.materials)
             program.uniform_sampler("visible", visible)
             self.batch.draw(program)
@@ -1113,8 +1115,6 @@ def _view_record(camera, offset, sample: int, shutter=None) -> dict:
             "jitter": ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h),
             "sample_offset": (ox, oy), "size": [w, h, sample, 0],
             **_lens(camera, sample, shutter)}
-    if "shutter" in record:  # Depth: the view-axis distance in the camera of the sample's time
-        record["world_to_camera"] = motion_blur.view_at(camera, record["shutter"][0])
     return record
 
 

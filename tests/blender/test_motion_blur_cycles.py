@@ -153,3 +153,19 @@ def test_the_gpu_draws_the_streak_as_the_cpu(addon):
         return
     assert any("Rendered on the GPU" in t for t in said.texts()), said.texts()
     np.testing.assert_allclose(images["GPU"][..., 3], images["CPU"][..., 3], atol=0.01)
+
+
+def test_deformation_off_keeps_the_transforms_motion(addon):
+    """Object > Motion Blur > Deformation off: the card still streaks by its transform (the
+    frame's corners carried by each step's matrix); Motion Blur off: it renders sharp."""
+    scene = build()
+    card = scene.objects["Plane"]
+    card.cycles.use_deform_motion = False
+    x = (np.arange(W) + 0.5) / W * SCALE - SCALE / 2
+    alpha = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=64)["Combined"][H // 2,
+                                                                                          :, 3]
+    assert np.abs(alpha - coverage(x, OPENS["CENTER"])).mean() < 0.02
+    card.cycles.use_motion_blur = False
+    alpha = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=16)["Combined"][H // 2,
+                                                                                          :, 3]
+    assert (alpha[np.abs(x) < CARD / 2 - 0.05] == 1.0).all()

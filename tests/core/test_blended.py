@@ -184,3 +184,12 @@ def test_glass_casts_a_shadow_a_transparent_surface_does_not(kind):
     under = pipeline.render_frame(RenderJob(scene))["Combined"][CENTRE][0]
     lit = 0.6 / np.pi
     assert under == pytest.approx(0.96 * lit if kind == "transparent" else 0.0, abs=0.03)
+
+
+def test_the_shadow_catcher_pass_is_1_through_a_stack_over_the_world():
+    """Where no shadow catcher is, the Shadow Catcher pass is 1, blended stack or not."""
+    mats = [glow(BACK, 1.0), glow(RED, 0.3, blended=True)]
+    scene = Scene(camera=ortho_camera(), meshes=[plane(2, 1)], materials=mats, lights=[],
+                  settings=RenderSettings(samples=2))
+    image = pipeline.render_frame(RenderJob(scene))
+    np.testing.assert_allclose(image["Shadow Catcher"], 1.0, rtol=1e-6)

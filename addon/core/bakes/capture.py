@@ -56,10 +56,12 @@ class Capture:
         settings = dataclasses.replace(scene.settings, film_transparent=False, border=None,
                                        ambient_occlusion=False, nearest_reflections=False,
                                        cryptomatte=(), light_groups=(), aovs=())
-        meshes = scene.meshes  # a shadow catcher is a surface like any other to the probes
-        if any(m.shadow_catcher for m in meshes):
-            meshes = [dataclasses.replace(m, shadow_catcher=False) for m in meshes]
-        self.scene = dataclasses.replace(scene, settings=settings, probes=None, meshes=meshes)
+        meshes = scene.meshes  # a shadow catcher is a surface like any other to the probes,
+        # and they see the frame's own time (no motion blur)
+        if any(m.shadow_catcher or m.motion is not None for m in meshes):
+            meshes = [dataclasses.replace(m, shadow_catcher=False, motion=None) for m in meshes]
+        self.scene = dataclasses.replace(scene, settings=settings, probes=None, meshes=meshes,
+                                         camera=dataclasses.replace(scene.camera, motion=None))
         self.job, self.focus = job, focus
         self._frame = None  # the geometry, prepared once for every view
         # the dome directions its shadow maps were built for (``shadow_maps.dome_lit``; None:

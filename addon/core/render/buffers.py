@@ -295,19 +295,26 @@ def _blending(scene: Scene, tables: dict, mat_index, holdout, obj, world_to_obje
     blends = tables["blended"][mat_index] & ~holdout
     if not blends.any():
         return None, None, None
-    rank = solo = None
-    if scene.settings.blend_sort == "object":
-        # EEVEE draws blended objects back to front by the distance of their origins, each
-        # object's triangles in their order: front to back is the reverse
-        origin = np.linalg.pinv(world_to_object)[:, :3, 3]
-        eye = np.linalg.inv(np.asarray(scene.camera.world_to_camera, np.float64))[:3, 3]
-        far = np.linalg.norm(origin - eye, axis=1)[obj]
-        rank = np.empty(len(obj), np.int64)
-        rank[np.lexsort((-np.arange(len(obj)), far))] = np.arange(len(obj))
+    solo = None
     lone = ~tables["overlap"][mat_index] & blends
     if lone.any():
         solo = np.where(lone, obj, -1).astype(np.int64)
-    return blends, rank, solo
+    return blends, blend_order(scene, obj, world_to_object), solo
+
+
+def blend_order(scene: Scene, obj: np.ndarray, world_to_object: np.ndarray) -> np.ndarray | None:
+    """``Frame.blend_rank`` of triangles of object instances ``obj`` (T,) through the scene's
+    camera: EEVEE draws blended objects back to front by their origins' depth along the view
+    axis, each object's triangles in their order, so front to back is the reverse; None for
+    the per-pixel order."""
+    if scene.settings.blend_sort != "object":
+        return None
+    origin = np.linalg.inv(world_to_object)[:, :3, 3]
+    row = np.asarray(scene.camera.world_to_camera, np.float64)[2]
+    far = -(origin @ row[:3] + row[3])[obj]
+    rank = np.empty(len(obj), np.int64)
+    rank[np.lexsort((-np.arange(len(obj)), far))] = np.arange(len(obj))
+    return rank
 
 
 def mesh_flags(frame: Frame, values) -> np.ndarray | None:
@@ -347,8 +354,11 @@ def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
                                  np.flatnonzero(frame.seen))
     else:
         clip = clip_coordinates(frame.positions, camera, frame.seen)
-    return dataclasses.replace(frame, scene=dataclasses.replace(frame.scene, camera=camera),
+    scene = dataclasses.replace(frame.scene, camera=camera)
+    return dataclasses.replace(frame, scene=scene,
                                clip=clip, tiles=None if frame.tiles is None else {},
+                               blend_rank=None if frame.blends is None else blend_order(
+                                   scene, frame.obj, frame.world_to_object),
                                lens_reach=depth_of_field.reach(camera, frame.positions),
                                motion_reach=motion_blur.reach(camera, frame.positions,
                                                               frame.motion_row, frame.motion))

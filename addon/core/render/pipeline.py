@@ -174,8 +174,10 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                     frame, tile, sample_margin, offset, first_sample + k,
                     (tri, bary, depth, sx, sy, layer0[5]), np.flatnonzero(front))
                 background(bg, bg_weight, sx, sy, shift)
+                empty[bg] += bg_weight  # (the share that sees no surface)
                 if frame.holdout.any():  # a holdout behind the stack: nothing there
                     shown = ~frame.holdout[t]
+                    np.add.at(empty, at[~shown], w[~shown])
                     at, t, b, w = at[shown], t[shown], b[shown], w[shown]
                 layered.append((t, b, sx[at], sy[at], at,
                                 np.full(len(at), first_sample + k, np.uint32)))

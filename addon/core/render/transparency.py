@@ -94,6 +94,8 @@ def dither(layer0, at, fades, alpha, thresholds, next_layer):
 
 BLEND_LAYERS = 8  # blended surfaces composited per sample; the surface behind the last is drawn
 #                   as if opaque (``blend``)
+PEELS = 4 * BLEND_LAYERS + DITHER_LAYERS  # layers a stack may peel in all (some only to skip
+#                                           them: dithered, or an object's farther layers)
 
 
 def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, rank=None,
@@ -104,7 +106,9 @@ def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, 
     Duff, "Compositing Digital Images", 1984): surface i of alpha a_i weighs a_i prod_{j<i}
     (1 - a_j), the surface or background behind them all prod_j (1 - a_j). A dithered surface
     met on the way is peeled or kept as ``dither`` peels it (thresholds of layer
-    ``DITHER_LAYERS`` + k); one more blended surface than ``BLEND_LAYERS`` ends the stack.
+    ``DITHER_LAYERS`` + k); one more blended surface than ``BLEND_LAYERS`` ends the stack, and
+    so does running out of peels (``PEELS``: then what is left shows the world, and the pixel
+    counts as cut).
 
     layer0:  (tri (N,), bary (N, 3), depth (N,), keys (K,)) of the pixels, as ``dither`` (not
              changed)
@@ -130,7 +134,7 @@ def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, 
     end_bary = np.zeros((m, 3), np.float32)
     deep = 0
     pending = np.arange(m)
-    for layer in range(layers + DITHER_LAYERS + 1):
+    for layer in range(PEELS):
         px = start[pending]
         t = tri[px]
         t0 = np.maximum(t, 0)
@@ -157,7 +161,7 @@ def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, 
             lt[j, k], lb[j, k] = t[take], bary[px[take]]
             count[k] += 1
         peel |= take
-        ends = ~peel if layer < layers + DITHER_LAYERS else np.ones(len(t), bool)
+        ends = ~peel
         end_tri[pending[ends]], end_bary[pending[ends]] = t[ends], bary[px[ends]]
         pending = pending[~ends]
         if not len(pending):
@@ -168,6 +172,8 @@ def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, 
         px = start[pending]
         tri[px], bary[px], depth[px] = tri2[px], bary2[px], depth2[px]
         keys[at[px]] = keys2[at[px]]
+    else:  # out of peels: the world behind what is left
+        deep += len(pending)
     # "over", front to back in ``order``: each layer's share is its alpha times what the
     # layers before it let through
     sort = np.argsort(order, axis=0, kind="stable")

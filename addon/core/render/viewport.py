@@ -25,7 +25,7 @@ from .. import kernels
 from ..lighting import world_probes
 from ..scene import Camera, Scene
 from . import pipeline
-from .buffers import Frame, with_camera, with_materials
+from .buffers import Frame, blend_order, with_camera, with_materials
 from .job import Cancelled, RenderJob, Warnings
 from .passes import EMPTY_DEPTH
 from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
@@ -352,6 +352,9 @@ class Session:
             if frame is None:
                 frame = dataclasses.replace(old, scene=dataclasses.replace(
                     scene, camera=old.scene.camera))
+                if frame.blends is not None:  # (the Blended Order may be what changed)
+                    frame = dataclasses.replace(frame, blend_rank=blend_order(
+                        frame.scene, frame.obj, frame.world_to_object))
             if "camera" in changed:
                 frame = with_camera(frame, scene.camera)
                 self.stats["projections"] += 1
