@@ -337,8 +337,8 @@ CHOICES: dict[str, tuple[Choice, ...]] = {
     "blend_sort": (
         Choice("pixel", "Per Pixel", "Blended surfaces composited in the order of their depths "
                "at each pixel: exact, as Cycles sees them"),
-        Choice("object", "Object Origin", "As EEVEE sorts them: whole objects by the distance "
-               "of their origins, an object's faces in their order"),
+        Choice("object", "Object Origin", "As EEVEE sorts them: whole objects by their "
+               "origins' depth along the view axis, an object's faces in their order"),
     ),
     "prefilter": (
         Choice("bo1", "BO1 Angular Gaussian", "Slide 'Black Ops: environment map "
