@@ -767,9 +767,6 @@ class GPUFrame:
                for name, kind in wanted}
         if self.mat is None:  # no material writes any
             return out
-        visible = gpu.types.GPUTexture((w, h), format="RGBA32F")
-        z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
-        prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
         sums = [gpu.types.GPUTexture((w, h), format="RGBA32F") for _ in wanted]
         fbs = [gpu.types.GPUFrameBuffer(color_slots=(t,)) for t in sums]
         for fb in fbs:
@@ -777,15 +774,7 @@ class GPUFrame:
                 fb.clear(color=(0.0, 0.0, 0.0, 0.0))
         program = shader("aov", mat=self.mat, motion=self.motion)
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
-        for k, offset in enumerate(offsets):
-            record = _view_record(camera, offset, first_sample + k, self.shutter)
-            blocks = []
-
-            def block(record=record, blocks=blocks, **extra):
-                blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{**record, **extra}])))
-                return blocks[-1]
-
-            self._visible(prepass, visible, block, first_sample + k)
+        for block, visible in self._each_visible(camera, offsets, first_sample):
             for j, fb in enumerate(fbs):
                 with fb.bind():
                     gpu.state.depth_test_set("ALWAYS")
@@ -804,27 +793,35 @@ class GPUFrame:
             out[name] = np.ascontiguousarray(image[..., :out[name].shape[-1]], np.float32)
         return out
 
-    def seen(self, camera, offsets, first_sample: int = 0) -> list[np.ndarray]:
-        """The triangle each sample of ``offsets`` sees through ``camera`` (its surfaces
-        dithered as that sample's; holdouts count as none): S arrays (H W,) int32 in row-major
-        order from the top row, -1 where none (``pipeline.render_tile``'s ``seen_by``)."""
+    def _each_visible(self, camera, offsets, first_sample: int):
+        """Per sample of ``offsets`` through ``camera``: (its FrameData maker ``block(**extra)``,
+        the texture of its visible surfaces, drawn by ``_visible``), one texture for all."""
         import gpu
 
         w, h = camera.width, camera.height
         visible = gpu.types.GPUTexture((w, h), format="RGBA32F")
         z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
         prepass = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=(visible,))
-        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
-        out = []
         for k, offset in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
             record = _view_record(camera, offset, first_sample + k, self.shutter)
-            blocks = []
+            blocks = []  # the uniform buffers live until the sample is drawn
 
             def block(record=record, blocks=blocks, **extra):
                 blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{**record, **extra}])))
                 return blocks[-1]
 
             self._visible(prepass, visible, block, first_sample + k)
+            yield block, visible
+
+    def seen(self, camera, offsets, first_sample: int = 0) -> list[np.ndarray]:
+        """The triangle each sample of ``offsets`` sees through ``camera`` (its surfaces
+        dithered as that sample's; holdouts count as none): S arrays (H W,) int32 in row-major
+        order from the top row, -1 where none (``pipeline.render_tile``'s ``seen_by``)."""
+        import gpu
+
+        saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        out = []
+        for _, visible in self._each_visible(camera, offsets, first_sample):
             key = textures.read(visible)[::-1].reshape(-1, 4)
             tri = key[:, 0].astype(np.int32) * 4096 + key[:, 1].astype(np.int32) - 1
             tri[(tri >= 0) & self.frame.holdout[np.maximum(tri, 0)]] = -1

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from bpy_extras.object_utils import world_to_camera_view
 from mathutils import Vector
-from util import render_passes, set_world_color
+from util import film, render_passes
 
 from bo2_lighting.addon.blender import engine
 
@@ -72,11 +72,7 @@ def card(name, size, location, material):
 
 def build(method="BLENDED"):
     scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = W, H
-    scene.render.resolution_percentage = 100
-    scene.render.film_transparent = True
-    scene.view_settings.view_transform = "Standard"
-    set_world_color(scene)
+    film(scene, W, H)
     back = card("Backdrop", 1.0, (-1.2, 2.0, 0.0), glowing("Back", (0.2, 0.3, 0.5), 1.0))
     back.scale = (3.0, 3.0, 1.0)  # the frame's left, the world on its right
     card("Red", 1.2, (-0.1, 0.0, 0.2), glowing("Red", (1.0, 0.2, 0.1), 0.4, method))

@@ -28,6 +28,33 @@ def set_world_color(scene, color=(0.0, 0.0, 0.0)) -> None:
     scene.world = world
 
 
+def film(scene, width: int, height: int, transparent: bool = True) -> None:
+    """``scene`` renders ``width`` x ``height`` pixels at 100%, its film transparent or not,
+    the Standard view transform, and a black world."""
+    scene.render.resolution_x, scene.render.resolution_y = width, height
+    scene.render.resolution_percentage = 100
+    scene.render.film_transparent = transparent
+    scene.view_settings.view_transform = "Standard"
+    set_world_color(scene)
+
+
+def render_on_devices(scene, names, samples: int = 8) -> dict | None:
+    """BO2's ``render_passes`` of ``scene`` with Device CPU and with Device GPU: {"CPU": its
+    passes, "GPU": its passes}, or None where there is no GPU context (the GPU's frame then
+    rendered on the CPU, saying so); fails when the GPU's frame did not render there."""
+    from bo2_lighting.addon.blender import engine
+
+    out = {}
+    for device in ("CPU", "GPU"):
+        scene.bo2.device = device
+        with engine.listening() as said:
+            out[device] = render_passes(scene, "BO2_LIGHTING", names, samples=samples)
+    if any("no GPU context" in t for t in said.texts()):
+        return None
+    assert any("Rendered on the GPU" in t for t in said.texts()), said.texts()
+    return out
+
+
 def add_ortho_camera(scene, scale: float, height: float = 1.0):
     """An orthographic camera ``scale`` m wide at (0, 0, height) looking down; the scene's."""
     data = bpy.data.cameras.new("Camera")

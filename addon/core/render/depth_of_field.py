@@ -23,7 +23,9 @@ import numpy as np
 from ..scene import Aperture, Camera
 
 
-def _halton(index: np.ndarray, base: int) -> np.ndarray:
+def halton(index: np.ndarray, base: int) -> np.ndarray:
+    """(N,) float64 in [0, 1): the Halton (van der Corput) sequence in ``base`` at positions
+    ``index`` (N,) >= 1."""
     out = np.zeros(len(index))
     f = 1.0
     i = np.asarray(index, np.int64).copy()
@@ -54,7 +56,7 @@ def unit_aperture(samples: np.ndarray, blades: int, rotation: float) -> np.ndarr
 def lens_points(aperture: Aperture, sample: np.ndarray) -> np.ndarray:
     """(N, 2) lens points (camera space x, y, metres) of sample numbers ``sample`` (N,)."""
     index = np.asarray(sample, np.int64) + 1
-    unit = unit_aperture(np.stack([_halton(index, 2), _halton(index, 3)], -1),
+    unit = unit_aperture(np.stack([halton(index, 2), halton(index, 3)], -1),
                          int(aperture.blades), float(aperture.rotation))
     unit[:, 0] /= max(float(aperture.ratio), 1e-6)
     return unit * float(aperture.radius)

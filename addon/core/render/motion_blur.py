@@ -20,26 +20,16 @@ import numpy as np
 
 from ..scene import Camera
 from . import projection
+from .depth_of_field import halton
 
 _BASE = 5
-
-
-def _halton(index: np.ndarray) -> np.ndarray:
-    out = np.zeros(len(index))
-    f = 1.0
-    i = np.asarray(index, np.int64).copy()
-    while i.any():
-        f /= _BASE
-        out += f * (i % _BASE)
-        i //= _BASE
-    return out
 
 
 def shutter_times(sample: np.ndarray, curve: tuple[float, ...] = ()) -> np.ndarray:
     """(N,) times in [0, 1] (0: the shutter opens, 1: it closes) of sample numbers ``sample``
     (N,): uniform over the shutter, or distributed as ``curve`` (its openness at evenly spaced
     times, K >= 2 values; Cycles' shutter curve) when given."""
-    u = _halton(np.asarray(sample, np.int64) + 1)
+    u = halton(np.asarray(sample, np.int64) + 1, _BASE)
     if len(curve) < 2:
         return u
     weight = np.maximum(np.asarray(curve, np.float64), 0.0)
