@@ -87,8 +87,7 @@ def _moved(mesh: cs.MeshBatch, later: list, toggles: tuple[bool, bool],
     blurred, deform = toggles
     if not blurred:
         return mesh
-    if any(b is None or b.name != mesh.name or b.positions.shape != mesh.positions.shape
-           for b in later):
+    if any(b is None or b.positions.shape != mesh.positions.shape for b in later):
         warnings.add(f"Object '{mesh.name}': its geometry changes over the shutter; rendered "
                      "without motion blur")
         return mesh
