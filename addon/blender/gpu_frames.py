@@ -76,6 +76,13 @@ def render(job, view_layer) -> tuple[object, dict | str]:
                       f"{gpu_frame.GPU_BUDGET >> 30} GiB)")
     frame = pipeline.prepare(job, on_gpu=True)
     why = gpu_frame.unsupported(frame)
+    if not why and frame.blends is not None:
+        need = max(gpu_frame.memory(cam.width, cam.height, names, blended=True)
+                   for names in gpu_frame.GROUPS)
+        if need > gpu_frame.GPU_BUDGET:
+            why = (f"blended materials in a frame of {cam.width} x {cam.height} (they need "
+                   f"{need / (1 << 30):.1f} GiB of GPU memory, more than "
+                   f"{gpu_frame.GPU_BUDGET >> 30} GiB)")
     if why:
         return pipeline.cpu_maps(job, frame), why
     s = job.scene.settings
@@ -84,4 +91,4 @@ def render(job, view_layer) -> tuple[object, dict | str]:
     wanted += [group_pass(group.name) for group in view_layer.lightgroups]
     wanted += [name for name, _ in s.aovs]
     return frame, gpu_frame.render(frame, sample_offsets(max(1, int(s.samples)),
-                                                         s.filter_width), wanted)
+                                                         s.filter_width), wanted, job.warn)

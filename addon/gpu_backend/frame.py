@@ -24,7 +24,7 @@ from ..core.render import depth_of_field, motion_blur, pipeline
 from ..core.render.buffers import Frame
 from ..core.render.passes import EMPTY_DEPTH, group_pass
 from ..core.render.shading import has_indirect
-from ..core.render.transparency import DITHER_LAYERS
+from ..core.render.transparency import BLEND_LAYERS, DITHER_LAYERS, PEELS, cut_warning
 from . import dome, images, lightmaps, lights, materials, occlusion, probes, programs, textures
 from .uniforms import Struct
 
@@ -47,6 +47,8 @@ FRAME = Struct("FrameData", (
     ("world", "vec4", 0),  # the background's radiance and alpha
     ("shutter", "vec4", 0),  # (the sample's shutter time, 1 where it moves: the motion blur
     #                          of the geometry's steps m0..m2; 0: the frame's own time, -, -)
+    ("options", "ivec4", 0),  # (the blended stacks' layer drawn plus 1, 0: the sample's own
+    #                          surfaces (``glsl/stack.glsl``); the Shadow Catcher pass, -, -)
 ))
 WORLD = Struct("WorldData", (
     ("clip_to_world", "mat4", 0),  # the camera's inverse projection and view
@@ -63,7 +65,7 @@ MODES = {"MODE_FIRST": 0, "MODE_REST": 1, "MODE_EVERY": 2}
 # six targets: the key and five)
 TARGETS = ("combined", "diffuse", "specular", "diff_ind", "gloss_ind", "emit", "surface",
            "normal", "position", "uv", "rf0", "ao", "lightmap", "texels", "reflections",
-           "volumes")
+           "volumes", "catcher")
 PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0, 3)),
            "GlossDir": ("specular", slice(0, 3)), "DiffInd": ("diff_ind", slice(0, 3)),
            "GlossInd": ("gloss_ind", slice(0, 3)), "Albedo": ("surface", slice(0, 3)),
@@ -71,33 +73,43 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "Emit": ("emit", slice(0, 3)), "Position": ("position", slice(0, 3)),
            "UV": ("uv", slice(0, 3)), "Specular Color": ("rf0", slice(0, 3)),
            "AO": ("ao", slice(0, 1)), "Lightmap": ("lightmap", slice(0, 3)),
-           "Lightmap Texels": ("texels", slice(0, 3))}
+           "Lightmap Texels": ("texels", slice(0, 3)),
+           "Shadow Catcher": ("catcher", slice(0, 3))}
 # a triangle's flags (``glsl/frame_vert.glsl``)
-FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES, FLAG_DARK, FLAG_CATCHER = 1, 2, 4, 8, 16
+FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES, FLAG_DARK, FLAG_CATCHER, FLAG_BLENDED = 1, 2, 4, 8, 16, 32
 # Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
 CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
           ("emit", "surface", "normal", "position", "uv"),
-          ("rf0", "ao", "lightmap", "texels"))
+          ("rf0", "ao", "lightmap", "texels", "catcher"))
 # the targets that need the lights or the indirect light (the others: the surface alone);
 # the probes' influence views ("reflections", "volumes") are no pass: the viewport's alone
 LIT = {"combined", "diffuse", "specular", "diff_ind", "gloss_ind", "ao", "lightmap", "texels",
-       "reflections", "volumes"}
+       "reflections", "volumes", "catcher"}
 DOME_TEXTURES = ("dome_grid", "dome_points", "dome_normals")  # dome_grid_frag's outputs
 
 
 GPU_BUDGET = 4 << 30  # bytes of GPU memory a frame may take (the gpu module cannot tell)
 
 
-def memory(width: int, height: int, names: tuple[str, ...]) -> int:
+def memory(width: int, height: int, names: tuple[str, ...], blended: bool = False) -> int:
     """Bytes of GPU memory the targets of one group ``names`` take at width x height: the
     first and later samples' (each with its key), the total, the pre-pass's triangle and the
-    depth; the contact occlusion's buffers (the frame and its margin) beside them."""
+    depth; the contact occlusion's buffers (the frame and its margin) beside them; with
+    ``blended``, the blended stacks' (``GPUFrame._stack``)."""
     pixels = width * height
     margin = (width + 2 * 64) * (height + 2 * 64)
-    return pixels * (16 * (3 * len(names) + 3) + 4) + margin * (2 * 16 + 4) + pixels * 32
+    stacks = pixels * (16 * STACK_TEXTURES + 4) if blended else 0
+    return (pixels * (16 * (3 * len(names) + 3) + 4) + margin * (2 * 16 + 4) + pixels * 32
+            + stacks)
 
 
+STACK_TEXTURES = 15  # float32 RGBA per pixel of a sample's blended stacks (``GPUFrame._stack``)
+STACK_SLOTS = BLEND_LAYERS // 2  # textures holding a stack's layers, two to a texel
+STACK_SAMPLERS = (("FLOAT_2D", "stack_state"),) + tuple(
+    ("FLOAT_2D", f"stack_slots{k}") for k in range(STACK_SLOTS)) + (("FLOAT_2D", "stack_order"),)
+STACK_DEFINES = {"BLEND_LAYERS": BLEND_LAYERS, "DITHER_LAYERS": DITHER_LAYERS,
+                 "ORDER_ROW": textures.ROW_WIDTH}
 MOTION_STEPS = 3  # shutter steps the vertex shader reads (m0, m1, m2; ``frame_vert.glsl``)
 GPU_LINK_SETS = 32  # light linking sets a triangle's ``links`` holds (set 0 included)
 
@@ -121,14 +133,12 @@ def unsupported(frame: Frame) -> str | None:
                  else BATCH_LIGHTS)
         if len(scene.lights) > first:
             return f"shadow catchers with more than {first} lights"
-        if scene.settings.shadow_catcher_pass:
-            return "the Shadow Catcher pass"
         if scene.world.texture is not None and not scene.settings.film_transparent:
             return "shadow catchers over an image world"
         if scene.settings.light_groups:
             return "shadow catchers with light groups"
-    if frame.blends is not None:
-        return "blended materials"
+    if frame.blends is not None and len(frame.positions) >= 1 << 24:
+        return "blended materials among more than 16.7 million triangles"
     if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
         return f"motion blur of other than {MOTION_STEPS} steps"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
@@ -143,12 +153,13 @@ def unsupported(frame: Frame) -> str | None:
 def _writes(names: tuple[str, ...]) -> dict:
     """The defines that store shading's values into the targets ``names``."""
     args = ", ".join(f"v_{name}" for name in TARGETS)
-    stores = " ".join(f"out_{name} = v_{name};" for name in names)
+    stores = " ".join(f"out_{name} = stack_weight * (v_{name});" for name in names)
     compose = " ".join(f"out_{name} = texelFetch(rest_{name}, pixel, 0) + weight * "
                        f"texelFetch(first_{name}, pixel, 0);" for name in names)
     return {f"WRITE_TARGETS({args})": stores, "COMPOSE_TARGETS": compose,
             "WRITE_ZEROS": " ".join(f"out_{name} = vec4(0.0);" for name in names),
-            "WRITE_COMBINED(c)": "out_combined = c;" if "combined" in names else ""}
+            "WRITE_COMBINED(c)": "out_combined = c;" if "combined" in names else "",
+            "WRITE_CATCHER(c)": "out_catcher = c;" if "catcher" in names else ""}
 
 
 @dataclass
@@ -297,6 +308,22 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                                               ("FLOAT_2D", "peel_prev")),
                                 inputs=vertex_in, varyings=varyings,
                                 outputs=(("VEC4", "out_floor"),))
+    if kind == "stack":
+        return programs.Program("draw", ("dither", "surface", "stack"),
+                                (vert, programs.source("stack_frag")), defines=STACK_DEFINES,
+                                structs=(FRAME,), blocks=frame_block,
+                                samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "visible"))
+                                + STACK_SAMPLERS, inputs=vertex_in, varyings=varyings,
+                                outputs=(("VEC4", "out_floor"), ("VEC4", "out_record")))
+    if kind == "stack_merge":
+        return programs.Program(
+            "draw", (), (programs.source("background_vert"), programs.source("stack_merge_frag")),
+            structs=(FRAME,), blocks=frame_block,
+            samplers=(("FLOAT_2D", "visible"),) + STACK_SAMPLERS[:-1] + (
+                ("FLOAT_2D", "stack_record"), ("FLOAT_2D", "peel_floor"),
+                ("FLOAT_2D", "next_visible")), inputs=corner,
+            outputs=(("VEC4", "out_visible"), ("VEC4", "out_state")) + tuple(
+                ("VEC4", f"out_slots{k}") for k in range(STACK_SLOTS)))
     if kind == "merge":
         return programs.Program("draw", (), (programs.source("background_vert"),
                                              programs.source("merge_frag")),
@@ -395,26 +422,40 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
         varyings=varyings, outputs=outputs)
 
 
+def _with_stacks(program: programs.Program) -> programs.Program:
+    """``program`` (a "shade", "background" or "aov" one) drawing the blended stacks' layers
+    too (``glsl/stack.glsl``)."""
+    return dataclasses.replace(
+        program, sources=program.sources + ("stack",),
+        defines={**program.defines, **STACK_DEFINES, "BLENDED": 1},
+        samplers=program.samplers + STACK_SAMPLERS)
+
+
 def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False,
            ambient: bool = False, sky: bool = False, mat: MaterialCode | None = None,
-           motion: bool = False):
+           motion: bool = False, blended: bool = False):
     """The compiled ``kind`` program ("depth", "center", "central", "dome_grid", "shade",
-    "peel", "merge", "background", "compose", "aov") writing the targets ``names``; ``indirect``:
+    "peel", "merge", "background", "compose", "aov", "stack", "stack_merge") writing the
+    targets ``names``; ``indirect``:
     with the probes' light (``glsl/indirect.glsl``), ``ambient``: its contact occlusion,
     ``sky``: the world's occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade",
     "peel" and "aov" with the frame's material programs; ``motion``: the triangles' motion over
-    the shutter (the programs that draw them)."""
+    the shutter (the programs that draw them); ``blended``: "shade", "background" and "aov"
+    drawing the blended stacks' layers too."""
+    blended = blended and kind in ("shade", "background", "aov")
     if kind == "background":  # ``indirect``: the world is an image
-        return programs.compiled(_program(kind, names, indirect), ("frame", kind, names,
-                                                                   indirect))
+        program = _program(kind, names, indirect)
+        return programs.compiled(_with_stacks(program) if blended else program,
+                                 ("frame", kind, names, indirect, blended))
     indirect = indirect and kind == "shade" and bool(set(names) & LIT)
     ambient = ambient and kind == "shade" and bool(set(names) & LIT)
     sky = sky and indirect
-    mat = mat if kind in ("shade", "peel", "aov") else None
+    mat = mat if kind in ("shade", "peel", "aov", "stack") else None
     motion = motion and kind in ("depth", "center", "central", "dome_grid", "shade", "peel",
-                                 "aov")
-    key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key, motion)
+                                 "aov", "stack")
+    key = ("frame", kind, names, indirect, ambient, sky, mat and mat.key, motion, blended)
     program = _with_materials(_program(kind, names, indirect, ambient, sky), mat)
+    program = _with_stacks(program) if blended else program
     return programs.compiled(_with_motion(program) if motion else program, key)
 
 
@@ -498,7 +539,9 @@ class GPUFrame:
         if frame.cull is not None:
             flags |= frame.cull[keep].astype(np.int32) * FLAG_CULL
         flags |= frame.holdout[keep].astype(np.int32) * FLAG_HOLDOUT
-        flags |= frame.fades[keep].astype(np.int32) * FLAG_FADES
+        flags |= frame.dithers[keep].astype(np.int32) * FLAG_FADES
+        if frame.blends is not None:
+            flags |= frame.blends[keep].astype(np.int32) * FLAG_BLENDED
         if frame.catcher is not None:
             flags |= frame.catcher[keep].astype(np.int32) * FLAG_CATCHER
         if dark is not None:  # (a light group's frame: the emission of other groups' meshes)
@@ -535,6 +578,16 @@ class GPUFrame:
                  ("mat_consts", textures.rows(self.mat.constants))))
         self.triangles = t
         self.batch = gpu.types.GPUBatch(type="TRIS", buf=vbo)
+        self.blended = frame.blends is not None  # blended stacks (``_stack``)
+        self.stack_order = None  # per triangle (its rank, its object shown once or -1)
+        self.cut = 0  # pixel samples whose blended stack was cut (``transparency.blend``)
+        if self.blended:
+            n = len(frame.positions)
+            rank = np.zeros(n) if frame.blend_rank is None else frame.blend_rank
+            solo = np.full(n, -1.0) if frame.blend_solo is None else frame.blend_solo
+            self.stack_order = textures.rows(np.column_stack([rank, solo]))
+        self._stacks = None  # (size, textures and framebuffers) of the blended stacks
+        self._stack_state = None  # the last sample's stacks: (state, layers) textures
         self.background = textures.full_screen()
         tab = frame.tables
         table = np.zeros((max(1, len(tab["albedo"])), 4, 4), np.float32)
@@ -629,7 +682,8 @@ class GPUFrame:
                 "forward": -c2w[:3, 2] / np.linalg.norm(c2w[:3, 2]),
                 "world": np.append(np.asarray(scene.world.color, np.float32), 1.0),
                 "flags": [int(settings.specular_occlusion), 0, int(settings.layered_diffuse),
-                          int(settings.film_transparent)]}
+                          int(settings.film_transparent)],
+                "options": [0, int(settings.shadow_catcher_pass), 0, 0]}
         from ..core.kernels import shading as shading_kernel
 
         model = shading_kernel.MODELS[settings.specular_model]
@@ -637,8 +691,10 @@ class GPUFrame:
         ambient = self.ambient and lit and self._ambient(camera, targets, base)
         sky = self.dome is not None and lit and self._dome(camera, targets, base)
         shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
-                       self.dome is not None, self.mat, self.motion)
-        background = shader("background", targets.names, self.world is not None)
+                       self.dome is not None, self.mat, self.motion, self.blended)
+        background = shader("background", targets.names, self.world is not None,
+                            blended=self.blended)
+        catcher_pass = int(settings.shadow_catcher_pass)
         world_block = self.world and gpu.types.GPUUniformBuf(self._world_block(camera))
         targets.clear_batch()
         blocks = []  # uniform buffers stay alive until drawn
@@ -661,51 +717,72 @@ class GPUFrame:
                 world_block = gpu.types.GPUUniformBuf(self._world_block(camera, lens))
                 blocks.append(world_block)
 
-            self._visible(targets.prepass, targets.textures["visible"],
-                          lambda **extra: block(0, True, **extra), first_sample + k)
-            fb = targets.first if mode == "MODE_FIRST" else targets.rest
-            with fb.bind():  # only that triangle shades (not another at the same depth)
-                gpu.state.depth_mask_set(False)
-                gpu.state.blend_set("ADDITIVE_PREMULT")
-                gpu.state.depth_test_set("ALWAYS" if self.frame.fades.any() else "EQUAL")
-                shade.bind()
-                self._bind_materials(shade)
-                shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
-                                      else targets.textures["first_key"])
-                shade.uniform_sampler("visible", targets.textures["visible"])
-                if ambient:
-                    shade.uniform_block("ao", ambient[0])
-                    shade.uniform_sampler("ambient", ambient[1])
-                if sky:
-                    shade.uniform_block("dome", sky[0])
-                    for name, texture in zip(DOME_TEXTURES, sky[1], strict=True):
-                        shade.uniform_sampler(name, texture)
-                if lit and self.indirect is not None:
-                    for name, buffer in self.indirect[0]:
-                        shade.uniform_block(name, buffer)
-                    for name, texture in self.indirect[1]:
-                        shade.uniform_sampler(name, texture)
-                for b, batch in enumerate(self.batches if lit else self.batches[:1]):
-                    shade.uniform_block("frame", block(batch.count, b == 0))
-                    if lit:
-                        shade.uniform_block("lights", batch.light_block)
-                        shade.uniform_block("shadows", batch.shadow_block)
-                        for _, name, texture in batch.shadows.samplers():
+            def shade_into(fb, visible, stack=None, mode=mode, block=block):
+                """The visible points (or ``stack``'s layer: options) shaded into ``fb``."""
+                with fb.bind():  # only that triangle shades (not another at the same depth)
+                    gpu.state.depth_mask_set(False)
+                    gpu.state.blend_set("ADDITIVE_PREMULT")
+                    gpu.state.depth_test_set("ALWAYS" if self.frame.dithers.any() or stack
+                                             else "EQUAL")
+                    shade.bind()
+                    self._bind_materials(shade)
+                    shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
+                                          else targets.textures["first_key"])
+                    shade.uniform_sampler("visible", visible)
+                    self._bind_stacks(shade)
+                    if ambient:
+                        shade.uniform_block("ao", ambient[0])
+                        shade.uniform_sampler("ambient", ambient[1])
+                    if sky:
+                        shade.uniform_block("dome", sky[0])
+                        for name, texture in zip(DOME_TEXTURES, sky[1], strict=True):
                             shade.uniform_sampler(name, texture)
-                    self.batch.draw(shade)
-            if not settings.film_transparent:
+                    if lit and self.indirect is not None:
+                        for name, buffer in self.indirect[0]:
+                            shade.uniform_block(name, buffer)
+                        for name, texture in self.indirect[1]:
+                            shade.uniform_sampler(name, texture)
+                    for b, batch in enumerate(self.batches if lit else self.batches[:1]):
+                        shade.uniform_block("frame", block(batch.count, b == 0, mode=mode,
+                                                           **(stack or {})))
+                        if lit:
+                            shade.uniform_block("lights", batch.light_block)
+                            shade.uniform_block("shadows", batch.shadow_block)
+                            for _, name, texture in batch.shadows.samplers():
+                                shade.uniform_sampler(name, texture)
+                        self.batch.draw(shade)
+
+            def world_into(visible, stack=None, block=block, world_block=world_block):
+                """The world where no surface is seen (or behind ``stack``'s layers)."""
                 with targets.rest.bind():  # a miss adds the world in every sample
                     gpu.state.depth_test_set("ALWAYS")  # where no surface is (visible)
                     gpu.state.blend_set("ADDITIVE_PREMULT")
                     background.bind()
-                    background.uniform_block("frame", block(0, True))
-                    background.uniform_sampler("visible", targets.textures["visible"])
+                    background.uniform_block("frame", block(0, True, **(stack or {})))
+                    background.uniform_sampler("visible", visible)
+                    self._bind_stacks(background)
                     if self.world is not None:
                         background.uniform_block("world", world_block)
                         background.uniform_block("images", self.world[0])
                         background.uniform_sampler("world_texels", self.world[1])
                         background.uniform_sampler("srgb_table", self.world[2])
                     self.background.draw(background)
+
+            visible = targets.textures["visible"]
+            self._visible(targets.prepass, visible, lambda **extra: block(0, True, **extra),
+                          first_sample + k)
+            shade_into(targets.first if mode == "MODE_FIRST" else targets.rest, visible)
+            world = not settings.film_transparent or "catcher" in targets.names
+            if world:
+                world_into(visible)
+            if self.blended:  # each layer of the stacks on its own, weighted by its share
+                behind, layers = self._stack(visible, lambda **extra: block(0, True, **extra),
+                                             first_sample + k)
+                for slot in [*range(layers), BLEND_LAYERS]:
+                    stack = {"options": [slot + 1, catcher_pass, 0, 0]}
+                    shade_into(targets.rest, behind, stack, "MODE_EVERY")
+                if world:
+                    world_into(behind, {"options": [BLEND_LAYERS + 1, catcher_pass, 0, 0]})
         targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
@@ -772,19 +849,26 @@ class GPUFrame:
         for fb in fbs:
             with fb.bind():
                 fb.clear(color=(0.0, 0.0, 0.0, 0.0))
-        program = shader("aov", mat=self.mat, motion=self.motion)
+        program = shader("aov", mat=self.mat, motion=self.motion, blended=self.blended)
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
-        for block, visible in self._each_visible(camera, offsets, first_sample):
+        for block, visible, sample in self._each_visible(camera, offsets, first_sample):
+            draws = [(visible, 0)]  # (the surfaces, the blended stacks' layer drawn + 1)
+            if self.blended:
+                behind, layers = self._stack(visible, block, sample)
+                draws += [(behind, slot + 1) for slot in [*range(layers), BLEND_LAYERS]]
             for j, fb in enumerate(fbs):
-                with fb.bind():
-                    gpu.state.depth_test_set("ALWAYS")
-                    gpu.state.depth_mask_set(False)
-                    gpu.state.blend_set("ADDITIVE_PREMULT")
-                    program.bind()
-                    program.uniform_block("frame", block(counts=[j, 0, 0, 0]))
-                    self._bind_materials(program)
-                    program.uniform_sampler("visible", visible)
-                    self.batch.draw(program)
+                for seen, layer in draws:
+                    with fb.bind():
+                        gpu.state.depth_test_set("ALWAYS")
+                        gpu.state.depth_mask_set(False)
+                        gpu.state.blend_set("ADDITIVE_PREMULT")
+                        program.bind()
+                        program.uniform_block("frame", block(counts=[j, 0, 0, 0],
+                                                             options=[layer, 0, 0, 0]))
+                        self._bind_materials(program)
+                        self._bind_stacks(program)
+                        program.uniform_sampler("visible", seen)
+                        self.batch.draw(program)
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
@@ -795,7 +879,8 @@ class GPUFrame:
 
     def _each_visible(self, camera, offsets, first_sample: int):
         """Per sample of ``offsets`` through ``camera``: (its FrameData maker ``block(**extra)``,
-        the texture of its visible surfaces, drawn by ``_visible``), one texture for all."""
+        the texture of its visible surfaces, drawn by ``_visible``, one texture for all; its
+        number)."""
         import gpu
 
         w, h = camera.width, camera.height
@@ -811,7 +896,7 @@ class GPUFrame:
                 return blocks[-1]
 
             self._visible(prepass, visible, block, first_sample + k)
-            yield block, visible
+            yield block, visible, first_sample + k
 
     def seen(self, camera, offsets, first_sample: int = 0) -> list[np.ndarray]:
         """The triangle each sample of ``offsets`` sees through ``camera`` (its surfaces
@@ -821,7 +906,7 @@ class GPUFrame:
 
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
         out = []
-        for _, visible in self._each_visible(camera, offsets, first_sample):
+        for _, visible, _ in self._each_visible(camera, offsets, first_sample):
             key = textures.read(visible)[::-1].reshape(-1, 4)
             tri = key[:, 0].astype(np.int32) * 4096 + key[:, 1].astype(np.int32) - 1
             tri[(tri >= 0) & self.frame.holdout[np.maximum(tri, 0)]] = -1
@@ -856,18 +941,19 @@ class GPUFrame:
             depth.uniform_block("frame", block())
             depth.uniform_sampler("peel_floor", self.dummy)  # (not read)
             self.batch.draw(depth)
-        if not self.frame.fades.any():
+        if not self.frame.dithers.any():
             return
         w, h = visible.width, visible.height
         if self._peeling is None or self._peeling[0] != (w, h):
             floors = [gpu.types.GPUTexture((w, h), format="RGBA32F") for _ in range(2)]
             after = gpu.types.GPUTexture((w, h), format="RGBA32F")
             after_z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+            # (the depth texture is kept: a texture freed leaves the framebuffers it was in)
             self._peeling = ((w, h), [(f, gpu.types.GPUFrameBuffer(color_slots=(f,)))
                                       for f in floors],
                              after, gpu.types.GPUFrameBuffer(depth_slot=after_z,
-                                                             color_slots=(after,)))
-        _, floors, after, after_fb = self._peeling
+                                                             color_slots=(after,)), after_z)
+        _, floors, after, after_fb, _ = self._peeling
         peel, merge = shader("peel", mat=self.mat, motion=self.motion), shader("merge")
         flags = [int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]
         for layer in range(DITHER_LAYERS):
@@ -898,6 +984,94 @@ class GPUFrame:
                 merge.uniform_sampler("peel_floor", floor)
                 merge.uniform_sampler("next_visible", after)
                 self.background.draw(merge)
+
+    def _stack(self, visible, block, sample: int):
+        """The blended stacks of one sample (``core.render.transparency.blend``) behind the
+        pixels of ``visible`` whose surface is blended: a step per layer, front to back
+        (``glsl/stack_frag.glsl``, a depth peel, ``glsl/stack_merge_frag.glsl``), until no
+        stack goes on or after ``PEELS`` steps; their layers kept for ``_bind_stacks``, the
+        pixels cut or out of peels added to ``cut``. block(**fields): the sample's
+        FrameData. Returns (the texture of the surface behind each stack, the most layers
+        a stack holds)."""
+        import gpu
+
+        w, h = visible.width, visible.height
+        if self._stacks is None or self._stacks[0] != (w, h):
+            def texture():
+                return gpu.types.GPUTexture((w, h), format="RGBA32F")
+
+            sets = []  # (visible, state, layers, their framebuffer), one written per step
+            for _ in range(2):
+                made = (texture(), texture(), tuple(texture() for _ in range(STACK_SLOTS)))
+                sets.append((*made, gpu.types.GPUFrameBuffer(color_slots=(
+                    made[0], made[1], *made[2]))))
+            floor, record, after = texture(), texture(), texture()
+            z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+            self._stacks = ((w, h), sets, floor, record, gpu.types.GPUFrameBuffer(
+                color_slots=(floor, record)), after, gpu.types.GPUFrameBuffer(
+                depth_slot=z, color_slots=(after,)), z)
+        _, sets, floor, record, step_fb, after, after_fb, _ = self._stacks
+        with sets[0][3].bind():
+            sets[0][3].clear(color=(0.0, 0.0, 0.0, 0.0))
+        step_program = shader("stack", mat=self.mat, motion=self.motion)
+        merge, depth = shader("stack_merge"), shader("depth", motion=self.motion)
+        peel_flags = [int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]
+        gpu.state.blend_set("NONE")
+        prev = (visible, *sets[0][1:3])
+        # a step takes, peels or ends at one triangle: the fading ones and one more suffice
+        steps = min(PEELS, int(self.frame.fades.sum()) + 1)
+        for step in range(steps):
+            with step_fb.bind():  # what each stack's surface is: a layer, peeled or its end
+                step_fb.clear(color=(0.0, 0.0, 0.0, 0.0))
+                gpu.state.depth_test_set("NONE")
+                gpu.state.depth_mask_set(False)
+                step_program.bind()
+                step_program.uniform_block("frame", block(counts=[step, 0, 0, 0]))
+                self._bind_materials(step_program)
+                step_program.uniform_sampler("visible", prev[0])
+                self._bind_stacks(step_program, prev[1:])
+                self.batch.draw(step_program)
+            with after_fb.bind():  # the nearest surface behind it where the stack goes on
+                gpu.state.depth_test_set("LESS")
+                gpu.state.depth_mask_set(True)
+                after_fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+                depth.bind()
+                depth.uniform_block("frame", block(flags=peel_flags))
+                depth.uniform_sampler("peel_floor", floor)
+                self.batch.draw(depth)
+            out = sets[(step + 1) % 2]
+            with out[3].bind():
+                gpu.state.depth_test_set("NONE")
+                gpu.state.depth_mask_set(False)
+                merge.bind()
+                merge.uniform_block("frame", block(counts=[step, 0, 0, 0]))
+                merge.uniform_sampler("visible", prev[0])
+                merge.uniform_sampler("stack_state", prev[1])
+                for k, texture in enumerate(prev[2]):
+                    merge.uniform_sampler(f"stack_slots{k}", texture)
+                merge.uniform_sampler("stack_record", record)
+                merge.uniform_sampler("peel_floor", floor)
+                merge.uniform_sampler("next_visible", after)
+                self.background.draw(merge)
+            prev = out[:3]
+            if 2 <= step + 1 < steps and (step + 1) & step == 0:  # now and then: any left?
+                if not (textures.read(prev[1])[..., 1] > 0.0).any():
+                    break
+        state = textures.read(prev[1])
+        self.cut += int((state[..., 1] + state[..., 2]).sum())
+        self._stack_state = prev[1:]
+        return prev[0], int(state[..., 0].max())
+
+    def _bind_stacks(self, program, state=None) -> None:
+        """The blended stacks' textures (``glsl/stack.glsl``): ``state`` (the state's
+        texture, the layers'), else the last sample's (``_stack``)."""
+        if not self.blended:
+            return
+        state = state or self._stack_state or (self.dummy, (self.dummy,) * STACK_SLOTS)
+        program.uniform_sampler("stack_state", state[0])
+        for k, texture in enumerate(state[1]):
+            program.uniform_sampler(f"stack_slots{k}", texture)
+        program.uniform_sampler("stack_order", self.stack_order)
 
     def _world_block(self, camera, lens: dict | None = None) -> bytes:
         """The WorldData of the frame's image world seen through ``camera`` (from a lens
@@ -1159,11 +1333,12 @@ def _padded(block: bytes, struct: Struct, count: int) -> bytes:
     return block[:count * size] + bytes(count * size - min(len(block), count * size))
 
 
-def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
+def render(frame: Frame, offsets, passes=None, warn=None) -> dict[str, np.ndarray]:
     """The frame's passes through its own camera, drawn on the GPU: {name: (H, W, C)
     float32}, row 0 at the top (``pipeline.render_frame``'s layout); ``passes``: the names
     wanted (``PASS_OF``, ``CENTRAL``, the settings' Cryptomatte and light group passes;
-    default all), Combined always."""
+    default all), Combined always. warn(text): told of cut blended stacks, as the CPU's
+    render tells."""
     cam = frame.scene.camera
     wanted = set(PASS_OF) | set(CENTRAL) if passes is None else set(passes) | {"Combined"}
     try:
@@ -1174,6 +1349,9 @@ def render(frame: Frame, offsets, passes=None) -> dict[str, np.ndarray]:
                 continue
             targets = Targets(cam.width, cam.height, names)
             drawn.draw(cam, offsets, targets)
+            if drawn.cut and warn is not None:
+                warn(cut_warning(drawn.cut))
+                warn = None  # (once: every group draws the same stacks)
             out.update({p: image for p, image in targets.passes().items() if p in wanted})
         if wanted & set(CENTRAL):
             out.update(drawn.central(cam, offsets))

@@ -476,9 +476,11 @@ def test_motion_blur_matches_the_cpu(camera_moves):
     assert 0.01 < streaked.mean() < 0.8, streaked.mean()
 
 
-def test_shader_aovs_match_the_cpu():
+@pytest.mark.parametrize("blended", [False, True])
+def test_shader_aovs_match_the_cpu(blended):
     """The ball writes its position (a colour AOV) and its facing (a value AOV), the box a
-    constant colour AOV: each pass against the CPU's; an AOV no material writes is 0."""
+    constant colour AOV: each pass against the CPU's; an AOV no material writes is 0. The box
+    ``blended`` (alpha 0.5): its AOV and the ball's behind it by their shares."""
     scene = scenes.objects_scene([scenes.LIGHTS["SUN"]], samples=8)
     b = program.ProgramBuilder()
     metal = b.add("bo2", b.const(0.0, 0.0, 0.0), b.const(0.9, 0.7, 0.4), b.const(0.8), None,
@@ -489,9 +491,11 @@ def test_shader_aovs_match_the_cpu():
         ("where", position, b.const(0.0)), ("facing", b.const(0.0, 0.0, 0.0), facing))))
     b = program.ProgramBuilder()
     box = b.add("bo2", b.const(0.7, 0.2, 0.1), b.const(0.04, 0.04, 0.04), b.const(0.6), None,
-                b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(1.0))
+                b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(0.5 if blended else 1.0))
     scene.materials[1] = Material("box", b.build(box, aovs=(
-        ("where", b.const(0.25, 0.5, 0.75), b.const(0.0)),)))
+        ("where", b.const(0.25, 0.5, 0.75), b.const(0.0)),)), blended=blended)
+    lifted = scene.meshes[1].positions + np.float32([0.0, 0.0, 0.02])  # no tie with the ground
+    scene.meshes[1] = dataclasses.replace(scene.meshes[1], positions=lifted)
     scene.settings = dataclasses.replace(scene.settings, aovs=(
         ("where", "COLOR"), ("facing", "VALUE"), ("nobody", "VALUE")))
     cpu, gpu = _render_both(scene)
@@ -503,19 +507,110 @@ def test_shader_aovs_match_the_cpu():
     assert not gpu["nobody"].any() and gpu["where"][..., 3].max() == pytest.approx(1.0)
 
 
-@pytest.mark.parametrize("transparent", [False, True])
-def test_shadow_catchers_match_the_cpu(transparent):
+@pytest.mark.parametrize("transparent,caught", [(False, False), (True, False), (False, True),
+                                                (True, True)])
+def test_shadow_catchers_match_the_cpu(transparent, caught):
     """The ground a shadow catcher under a sun and a point light: the world times the share
     of light the shadows let through (or black of their opacity with a transparent film), the
-    frame against the CPU's."""
+    frame against the CPU's; with the Shadow Catcher pass (``caught``), that share in the pass
+    and the catcher left out of Combined."""
     scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], samples=8)
     scene.meshes[0].shadow_catcher = True
     scene.world.color = np.array([0.3, 0.4, 0.5], np.float32)
-    scene.settings = dataclasses.replace(scene.settings, film_transparent=transparent)
+    scene.settings = dataclasses.replace(scene.settings, film_transparent=transparent,
+                                         shadow_catcher_pass=caught)
     frame = pipeline.prepare(RenderJob(scene))
     assert gpu_frame.unsupported(frame) is None
     cpu, gpu = _render_both(scene)
     _check(cpu, gpu, "shadow catcher")
     alpha = gpu["Combined"][..., 3]
-    if transparent:  # the shadows' opacity, nothing else of the ground
+    if caught:  # the ground left out of Combined; its shadows in the pass alone
+        share = gpu["Shadow Catcher"][..., 0]
+        assert (alpha < 1e-6).mean() > 0.2 and 0.005 < (share < 0.9).mean() < 0.5
+    elif transparent:  # the shadows' opacity, nothing else of the ground
         assert 0.005 < ((alpha > 0.05) & (alpha < 0.999)).mean() < 0.5
+
+
+def _see_through(color, alpha: float):
+    """The talk's material of coverage ``alpha``."""
+    b = program.ProgramBuilder()
+    return b.build(b.add("bo2", b.const(*color), b.const(0.04, 0.04, 0.04), b.const(0.6),
+                         None, b.const(0.0, 0.0, 0.0), b.const(1.0), b.const(alpha)))
+
+
+def _blended_scene(sort="pixel", overlap=True):
+    """The objects under every light type, the box and the ball Blended (the ball's alpha from
+    an image, its object's layers shown once without ``overlap``) and three crossing cards in
+    front of them: two Blended, one Dithered (peeled inside the stacks)."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+    from bo2_lighting.addon.core.scene import MeshBatch
+
+    scene = scenes.objects_scene(list(scenes.LIGHTS.values()), samples=8)
+    rng = np.random.default_rng(5)
+    holes = core_texture.make_texture(rng.uniform(0.2, 0.9, (16, 16, 4)).astype(np.float32),
+                                      srgb=False, interpolation="Closest")
+    b = program.ProgramBuilder()
+    look = b.add("image", b.add("texcoord", param=("Object",)), param=(holes, 0))
+    ball = b.build(b.add("bo2", b.add("swizzle", look, param=(0, 3)), b.const(0.04, 0.04, 0.04),
+                         b.const(0.6), None, b.const(0.0, 0.0, 0.0), b.const(1.0),
+                         b.add("swizzle", look, param=(3, 4))))
+    scene.materials[1] = Material("box", _see_through((0.7, 0.2, 0.1), 0.45), pass_index=3,
+                                  blended=True)
+    scene.materials[2] = Material("ball", ball, blended=True, transparency_overlap=overlap)
+    lifted = scene.meshes[1].positions + np.float32([0.0, 0.0, 0.02])  # its bottom and the
+    scene.meshes[1] = dataclasses.replace(scene.meshes[1], positions=lifted)  # ground: no tie
+    colors = [(0.9, 0.3, 0.1), (0.1, 0.7, 0.3), (0.2, 0.3, 0.9)]
+    for k, (color, alpha) in enumerate(zip(colors, (0.5, 0.35, 0.6), strict=True)):
+        scene.materials.append(Material(f"card {k}", _see_through(color, alpha),
+                                        blended=k != 1))
+        x = -0.8 + 0.7 * k
+        card = np.array([[[x, -1.2, 0.2], [x + 1.4, 0.4, 0.2], [x + 1.4, 0.4, 1.8]],
+                         [[x, -1.2, 0.2], [x + 1.4, 0.4, 1.8], [x, -1.2, 1.8]]], np.float32)
+        card += np.float32([0.3 * k, -0.25 * k, 0.0])
+        scene.meshes.append(MeshBatch(card, scenes.flat_normals(card),
+                                      np.full(2, len(scene.materials) - 1, np.int32)))
+    scene.settings = dataclasses.replace(scene.settings, blend_sort=sort)
+    return scene
+
+
+@pytest.mark.parametrize("sort", ["pixel", "object"])
+def test_blended_transparency_matches_the_cpu(sort):
+    """Blended stacks peeled and composited "over" per sample as the CPU's
+    ``transparency.blend`` (per pixel, or EEVEE's order by object origin with the ball's
+    layers shown once), a Dithered card peeled inside them; every pass against the CPU's."""
+    scene = _blended_scene(sort, overlap=sort == "pixel")
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.blends.any() and frame.dithers.any() and gpu_frame.unsupported(frame) is None
+    _check(*_render_both(scene), f"blended, {sort} order")
+
+
+def test_a_deep_blended_stack_and_a_holdout_behind_one_match_the_cpu():
+    """Ten crossing cards of alpha 0.3, more than ``BLEND_LAYERS``: the surface behind the
+    eighth drawn opaque, and the pixel samples cut counted and said as the CPU says them; a
+    holdout card behind part of the stack cuts its hole there."""
+    from bo2_lighting.addon.core.render.transparency import BLEND_LAYERS
+    from bo2_lighting.addon.core.scene import MeshBatch
+
+    scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["SPOT"]], samples=4)
+    for k in range(BLEND_LAYERS + 2):
+        scene.materials.append(Material(f"card {k}", _see_through(
+            (0.1 + 0.08 * k, 0.9 - 0.08 * k, 0.5), 0.3), blended=True))
+        y = -1.2 + 0.18 * k
+        card = np.array([[[-1.6, y, 0.1], [1.6, y, 0.1], [1.6, y + 0.1, 1.9]],
+                         [[-1.6, y, 0.1], [1.6, y + 0.1, 1.9], [-1.6, y, 1.9]]], np.float32)
+        scene.meshes.append(MeshBatch(card, scenes.flat_normals(card),
+                                      np.full(2, len(scene.materials) - 1, np.int32)))
+    hole = np.array([[[0.2, 1.0, 0.3], [1.4, 1.0, 0.3], [1.4, 1.0, 1.5]],
+                     [[0.2, 1.0, 0.3], [1.4, 1.0, 1.5], [0.2, 1.0, 1.5]]], np.float32)
+    scene.meshes.append(MeshBatch(hole, scenes.flat_normals(hole), np.zeros(2, np.int32),
+                                  holdout=True))
+    job = RenderJob(scene)
+    cpu = pipeline.render_frame(job)
+    said = []
+    gpu = gpu_frame.render(pipeline.prepare(RenderJob(scene), on_gpu=True),
+                           sample_offsets(scene.settings.samples, scene.settings.filter_width),
+                           warn=lambda text, *_: said.append(text))
+    _check(cpu, gpu, "deep stack")
+    cut = [t for t in job.warnings.texts() if "blended" in t]
+    assert len(cut) == 1 and said == cut, (said, cut)
+    assert (gpu["Combined"][..., 3] < 0.9).any()  # through the stack onto the holdout

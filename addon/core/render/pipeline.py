@@ -353,8 +353,7 @@ def _tile_results(job: RenderJob, frame: Frame | None, cameras=None, offsets=Non
     finally:
         results.close()  # a caller that stops early stops the threads too
     if deep:
-        job.warn(f"{deep} pixel samples see more than {transparency.BLEND_LAYERS} blended "
-                 "surfaces in a row: the surface behind the last is drawn opaque")
+        job.warn(transparency.cut_warning(deep))
     if progress is not None:
         progress(1.0)
 

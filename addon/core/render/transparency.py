@@ -98,6 +98,12 @@ PEELS = 4 * BLEND_LAYERS + DITHER_LAYERS  # layers a stack may peel in all (some
 #                                           them: dithered, or an object's farther layers)
 
 
+def cut_warning(cut: int) -> str:
+    """The warning of ``cut`` pixel samples whose blended stack was cut (``blend``)."""
+    return (f"{cut} pixel samples see more than {BLEND_LAYERS} blended surfaces in a row: "
+            "the surface behind the last is drawn opaque")
+
+
 def blend(layer0, at, start, blends, dithers, alpha, thresholds, next_layer, *, rank=None,
           solo=None):
     """Blended transparency (Blender's "Blended" render method) of one sample position:

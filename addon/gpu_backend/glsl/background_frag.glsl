@@ -1,9 +1,21 @@
 /* The world seen where no surface is (core/render/shading.background_radiance), added per
  * sample: its constant colour with alpha 1, or (WORLD_IMAGE) its equirect image along the
  * sample's ray (rotated by the world's mapping, at the background's level of detail) times
- * its strength, plus its sun's disc, times the background's opacity, which is the alpha. */
+ * its strength, plus its sun's disc, times the background's opacity, which is the alpha;
+ * nothing with a transparent film (frame.flags.w). The Shadow Catcher pass counts 1 there. */
 void main()
 {
+  float weight = 1.0;
+#ifdef BLENDED
+  if (frame.options.x > 0) { /* the world behind the blended stacks, by their share */
+    int tri = 0;
+    weight = stack_share(ivec2(gl_FragCoord.xy), BLEND_LAYERS, tri);
+    if (weight < 0.0 || tri >= 0) {
+      discard;
+    }
+  }
+  else
+#endif
   if (texelFetch(visible, ivec2(gl_FragCoord.xy), 0).g > 0.0) {
     discard;  /* a surface (or a holdout) is seen */
   }
@@ -28,5 +40,6 @@ void main()
   color = vec4(radiance * world.params.y, world.params.y);
 #endif
   WRITE_ZEROS
-  WRITE_COMBINED(color)
+  WRITE_COMBINED(frame.flags.w != 0 ? vec4(0.0) : color * weight)
+  WRITE_CATCHER(vec4(weight))
 }

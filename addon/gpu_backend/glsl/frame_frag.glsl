@@ -6,22 +6,37 @@
  * triangle (an edge) is shaded on its own. Lights come in batches (frame.counts.x of them;
  * frame.counts.z: the first batch, which also adds the surface's own terms). WRITE_TARGETS
  * (defined from Python) stores the values of TARGETS the targets drawn into hold; with
- * SURFACE_ONLY (targets that need no light) the lights are left out. */
+ * SURFACE_ONLY (targets that need no light) the lights are left out. With BLENDED, a blended
+ * stack's front is not the sample's own surface: frame.options.x names the layer drawn
+ * (stack.glsl; its share weighs every target), each on its own. */
 void main()
 {
 #ifdef MATERIALS
   material_derivatives();  /* screen derivatives: before any fragment of the quad stops */
 #endif
-  vec4 nearest = texelFetch(visible, ivec2(gl_FragCoord.xy), 0);
-  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
+  ivec2 pixel = ivec2(gl_FragCoord.xy);
+  vec4 nearest = texelFetch(visible, pixel, 0);
+  int seen = int(nearest.r) * 4096 + int(nearest.g) - 1;
+  float stack_weight = 1.0;  /* the point's share of the sample (a blended stack's layer) */
+#ifdef BLENDED
+  if (!stack_drawn(pixel, v_tri, v_flags, seen, stack_weight)) {
+    discard;
+  }
+#endif
+  if (seen != v_tri) {
     discard;  /* culled, or another triangle at the same depth drew the pixel */
   }
   bool first_batch = frame.counts.z != 0;
   int mode = frame.counts.w;
-  ivec2 pixel = ivec2(gl_FragCoord.xy);
   out_key = vec4(0.0);
-  if ((v_flags & 2) != 0) { /* a holdout: nothing, alpha 0, and no sample reuses it */
+  if ((v_flags & 2) != 0) { /* a holdout: nothing, alpha 0, and no sample reuses it; the
+                             * Shadow Catcher pass counts it as no surface (the first
+                             * sample's is counted once by compose_frag: out_key.b) */
     WRITE_ZEROS
+    if (first_batch) {
+      WRITE_CATCHER(vec4(stack_weight))
+      out_key.b = mode == MODE_FIRST ? 1.0 : 0.0;
+    }
     return;
   }
   if (mode == MODE_FIRST) {
@@ -119,14 +134,18 @@ void main()
 #endif
   vec4 combined = vec4((((diffuse + specular) + diff_ind) + gloss_ind) + emit,
                        first_batch ? 1.0 : 0.0);
+  vec4 caught = vec4(first_batch ? 1.0 : 0.0);  /* the Shadow Catcher pass: 1 but on catchers */
   if ((v_flags & 16) != 0) {
     /* a shadow catcher (core/render/shading.catch_shadows; the lights in one batch): the
      * world behind it times the share of light its shadows let through, or with a
-     * transparent film (frame.flags.w) black of their opacity */
+     * transparent film (frame.flags.w) black of their opacity; nothing with the Shadow
+     * Catcher pass (frame.options.y), which holds the share */
     vec3 share = clamp(mix(vec3(1.0), held / max(free, vec3(1e-30)),
                            greaterThan(free, vec3(0.0))), 0.0, 1.0);
-    combined = frame.flags.w != 0 ? vec4(0.0, 0.0, 0.0, 1.0 - (share.x + share.y + share.z) / 3.0)
+    combined = frame.options.y != 0 ? vec4(0.0) :
+               frame.flags.w != 0 ? vec4(0.0, 0.0, 0.0, 1.0 - (share.x + share.y + share.z) / 3.0)
                                   : vec4(frame.world.rgb * share, 1.0);
+    caught = vec4(share, 0.0);
   }
   WRITE_TARGETS(combined,
                 vec4(diffuse, 0.0), vec4(specular, 0.0), vec4(diff_ind, 0.0),
@@ -137,5 +156,5 @@ void main()
                 first_batch ? vec4(s.rf0, 0.0) : vec4(0.0), vec4(first_batch ? ao_out : 0.0),
                 vec4(lightmap_e, 0.0), vec4(texels, 0.0),
                 first_batch ? vec4(reflections_view, 0.0) : vec4(0.0),
-                first_batch ? vec4(volumes_view, 0.0) : vec4(0.0));
+                first_batch ? vec4(volumes_view, 0.0) : vec4(0.0), caught);
 }
