@@ -778,10 +778,10 @@ class GPUFrame:
             if self.blended:  # each layer of the stacks on its own, weighted by its share
                 behind, layers = self._stack(visible, lambda **extra: block(0, True, **extra),
                                              first_sample + k)
-                for slot in [*range(layers), BLEND_LAYERS]:
+                for slot in [*range(layers), BLEND_LAYERS] if layers else []:
                     stack = {"options": [slot + 1, catcher_pass, 0, 0]}
                     shade_into(targets.rest, behind, stack, "MODE_EVERY")
-                if world:
+                if world and layers:
                     world_into(behind, {"options": [BLEND_LAYERS + 1, catcher_pass, 0, 0]})
         targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
         gpu.state.depth_test_set(saved[0])
@@ -855,7 +855,7 @@ class GPUFrame:
             draws = [(visible, 0)]  # (the surfaces, the blended stacks' layer drawn + 1)
             if self.blended:
                 behind, layers = self._stack(visible, block, sample)
-                draws += [(behind, slot + 1) for slot in [*range(layers), BLEND_LAYERS]]
+                draws += [(behind, slot + 1) for slot in [*range(layers), BLEND_LAYERS] if layers]
             for j, fb in enumerate(fbs):
                 for seen, layer in draws:
                     with fb.bind():
@@ -1054,7 +1054,7 @@ class GPUFrame:
                 merge.uniform_sampler("next_visible", after)
                 self.background.draw(merge)
             prev = out[:3]
-            if 2 <= step + 1 < steps and (step + 1) & step == 0:  # now and then: any left?
+            if step + 1 < steps and (step + 1) & step == 0:  # after steps 1, 2, 4 ...: any left?
                 if not (textures.read(prev[1])[..., 1] > 0.0).any():
                     break
         state = textures.read(prev[1])
@@ -1355,6 +1355,7 @@ def render(frame: Frame, offsets, passes=None, warn=None) -> dict[str, np.ndarra
             out.update({p: image for p, image in targets.passes().items() if p in wanted})
         if wanted & set(CENTRAL):
             out.update(drawn.central(cam, offsets))
+        drawn._stacks = drawn._stack_state = drawn._peeling = None  # (a group's frame: its own)
         for group in frame.scene.settings.light_groups:
             name = group_pass(group)
             if passes is None or name in passes:
