@@ -1344,8 +1344,10 @@ def render(frame: Frame, offsets, passes=None, warn=None) -> dict[str, np.ndarra
     try:
         drawn = GPUFrame(frame)
         out = {}
-        for names in GROUPS:
-            if not any(PASS_OF[p][0] in names for p in wanted if p in PASS_OF):
+        drawn_targets = {PASS_OF[p][0] for p in wanted if p in PASS_OF}
+        for group in GROUPS:
+            names = tuple(name for name in group if name in drawn_targets)
+            if not names:
                 continue
             targets = Targets(cam.width, cam.height, names)
             drawn.draw(cam, offsets, targets)
