@@ -436,10 +436,10 @@ def shader(kind: str, names: tuple[str, ...] = GROUPS[0], indirect: bool = False
            motion: bool = False, blended: bool = False):
     """The compiled ``kind`` program ("depth", "center", "central", "dome_grid", "shade",
     "peel", "merge", "background", "compose", "aov", "stack", "stack_merge") writing the
-    targets ``names``; ``indirect``:
-    with the probes' light (``glsl/indirect.glsl``), ``ambient``: its contact occlusion,
-    ``sky``: the world's occlusion through the dome (``glsl/dome.glsl``); ``mat``: "shade",
-    "peel" and "aov" with the frame's material programs; ``motion``: the triangles' motion over
+    targets ``names``; ``indirect``: with the probes' light (``glsl/indirect.glsl``),
+    ``ambient``: its contact occlusion, ``sky``: the world's occlusion through the dome
+    (``glsl/dome.glsl``); ``mat``: "shade", "peel", "aov" and "stack" with the frame's
+    material programs; ``motion``: the triangles' motion over
     the shutter (the programs that draw them); ``blended``: "shade", "background" and "aov"
     drawing the blended stacks' layers too."""
     blended = blended and kind in ("shade", "background", "aov")
