@@ -136,7 +136,7 @@ def upsampled(evaluate: Callable[[np.ndarray], np.ndarray], x: np.ndarray, y: np
     points:  (N, 3) world positions; normals (N, 3) unit normals
     """
     n = len(x)
-    out = np.empty(n, np.float32)
+    out = np.zeros(n, np.float32)  # (rows not yet evaluated are read, and masked, below)
     if stride <= 1 or n == 0:
         out[:] = evaluate(np.arange(n))
         return out
