@@ -296,12 +296,12 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
     vert = programs.source("frame_vert")
     corner = (("VEC2", "corner"),)
     if kind == "depth":
-        return programs.Program("draw", (), (vert, programs.source("depth_frag")),
+        return programs.Program("draw", ("key",), (vert, programs.source("depth_frag")),
                                 structs=(FRAME,), blocks=frame_block,
                                 samplers=(("FLOAT_2D", "peel_floor"),), inputs=vertex_in,
                                 varyings=varyings, outputs=(("VEC4", "out_visible"),))
     if kind == "peel":
-        return programs.Program("draw", ("dither", "surface"),
+        return programs.Program("draw", ("key", "dither", "surface"),
                                 (vert, programs.source("peel_frag")), structs=(FRAME,),
                                 blocks=frame_block, samplers=(("FLOAT_2D", "materials"),
                                                               ("FLOAT_2D", "visible"),
@@ -309,7 +309,7 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                 inputs=vertex_in, varyings=varyings,
                                 outputs=(("VEC4", "out_floor"),))
     if kind == "stack":
-        return programs.Program("draw", ("dither", "surface", "stack"),
+        return programs.Program("draw", ("key", "dither", "surface", "stack"),
                                 (vert, programs.source("stack_frag")), defines=STACK_DEFINES,
                                 structs=(FRAME,), blocks=frame_block,
                                 samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "visible"))
@@ -317,7 +317,8 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                 outputs=(("VEC4", "out_floor"), ("VEC4", "out_record")))
     if kind == "stack_merge":
         return programs.Program(
-            "draw", (), (programs.source("background_vert"), programs.source("stack_merge_frag")),
+            "draw", ("key",), (programs.source("background_vert"),
+                               programs.source("stack_merge_frag")),
             structs=(FRAME,), blocks=frame_block,
             samplers=(("FLOAT_2D", "visible"),) + STACK_SAMPLERS[:-1] + (
                 ("FLOAT_2D", "stack_record"), ("FLOAT_2D", "peel_floor"),
@@ -331,13 +332,13 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
                                           ("FLOAT_2D", "next_visible")),
                                 inputs=corner, outputs=(("VEC4", "out_visible"),))
     if kind == "aov":
-        return programs.Program("draw", ("surface",), (vert, programs.source("aov_frag")),
+        return programs.Program("draw", ("key", "surface"), (vert, programs.source("aov_frag")),
                                 structs=(FRAME,), blocks=frame_block,
                                 samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "visible")),
                                 inputs=vertex_in, varyings=varyings,
                                 outputs=(("VEC4", "out_aov"),))
     if kind == "central":
-        return programs.Program("draw", ("surface",), (vert, programs.source("central_frag")),
+        return programs.Program("draw", ("key", "surface"), (vert, programs.source("central_frag")),
                                 structs=(FRAME,), blocks=frame_block,
                                 samplers=(("FLOAT_2D", "materials"), ("FLOAT_2D", "visible")),
                                 inputs=vertex_in, varyings=varyings,
@@ -381,11 +382,11 @@ def _program(kind: str, names: tuple[str, ...], indirect: bool = False,
             outputs=(("VEC4", "out_vis"), ("VEC4", "out_point"), ("VEC4", "out_normal")))
     if not set(names) & LIT:
         return programs.Program(
-            "draw", ("surface",), (vert, programs.source("frame_frag")),
+            "draw", ("key", "surface"), (vert, programs.source("frame_frag")),
             defines={**MODES, **_writes(names), "SURFACE_ONLY": 1}, structs=(FRAME,),
             blocks=frame_block, samplers=samplers, inputs=vertex_in, varyings=varyings,
             outputs=outputs)
-    sources = ("direct", "shadow_filter", "surface")
+    sources = ("key", "direct", "shadow_filter", "surface")
     defines = {**lights.filter_defines(), **MODES, **_writes(names)}
     structs = (FRAME, lights.LIGHT, lights.SHADOW)
     blocks = frame_block + (("LightData", f"lights[{BATCH_LIGHTS}]"),
@@ -587,6 +588,7 @@ class GPUFrame:
             solo = np.full(n, -1.0) if frame.blend_solo is None else frame.blend_solo
             self.stack_order = textures.rows(np.column_stack([rank, solo]))
         self._stacks = None  # (size, textures and framebuffers) of the blended stacks
+        self._after = None  # (size, texture, framebuffer, depth) of ``_behind``
         self._stack_state = None  # the last sample's stacks: (state, layers) textures
         self.background = textures.full_screen()
         tab = frame.tables
@@ -946,16 +948,10 @@ class GPUFrame:
         w, h = visible.width, visible.height
         if self._peeling is None or self._peeling[0] != (w, h):
             floors = [gpu.types.GPUTexture((w, h), format="RGBA32F") for _ in range(2)]
-            after = gpu.types.GPUTexture((w, h), format="RGBA32F")
-            after_z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
-            # (the depth texture is kept: a texture freed leaves the framebuffers it was in)
             self._peeling = ((w, h), [(f, gpu.types.GPUFrameBuffer(color_slots=(f,)))
-                                      for f in floors],
-                             after, gpu.types.GPUFrameBuffer(depth_slot=after_z,
-                                                             color_slots=(after,)), after_z)
-        _, floors, after, after_fb, _ = self._peeling
+                                      for f in floors])
+        _, floors = self._peeling
         peel, merge = shader("peel", mat=self.mat, motion=self.motion), shader("merge")
-        flags = [int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]
         for layer in range(DITHER_LAYERS):
             floor, floor_fb = floors[layer % 2]
             with floor_fb.bind():  # the pixels whose surface lets the sample through
@@ -969,14 +965,7 @@ class GPUFrame:
                 peel.uniform_sampler("peel_prev", floors[(layer + 1) % 2][0] if layer
                                      else self.dummy)
                 self.batch.draw(peel)
-            with after_fb.bind():  # the nearest surface behind it there
-                after_fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-                gpu.state.depth_test_set("LESS")
-                gpu.state.depth_mask_set(True)
-                depth.bind()
-                depth.uniform_block("frame", block(flags=flags))
-                depth.uniform_sampler("peel_floor", floor)
-                self.batch.draw(depth)
+            after = self._behind(floor, block)
             with fb.bind():
                 gpu.state.depth_test_set("NONE")
                 gpu.state.depth_mask_set(False)
@@ -984,6 +973,32 @@ class GPUFrame:
                 merge.uniform_sampler("peel_floor", floor)
                 merge.uniform_sampler("next_visible", after)
                 self.background.draw(merge)
+
+    def _behind(self, floor, block):
+        """The nearest surface behind the peeled pixels of ``floor`` (``glsl/depth_frag.glsl``
+        peeling; ``peel_frag.glsl``'s floor) into a texture of its size, returned (the same
+        texture every call). block(**fields): the sample's FrameData."""
+        import gpu
+
+        w, h = floor.width, floor.height
+        if self._after is None or self._after[0] != (w, h):
+            after = gpu.types.GPUTexture((w, h), format="RGBA32F")
+            z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+            # (the depth texture is kept: a texture freed leaves the framebuffers it was in)
+            self._after = ((w, h), after, gpu.types.GPUFrameBuffer(depth_slot=z,
+                                                                   color_slots=(after,)), z)
+        _, after, fb, _ = self._after
+        depth = shader("depth", motion=self.motion)
+        with fb.bind():
+            gpu.state.depth_test_set("LESS")
+            gpu.state.depth_mask_set(True)
+            fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
+            depth.bind()
+            depth.uniform_block("frame", block(flags=[
+                int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]))
+            depth.uniform_sampler("peel_floor", floor)
+            self.batch.draw(depth)
+        return after
 
     def _stack(self, visible, block, sample: int):
         """The blended stacks of one sample (``core.render.transparency.blend``) behind the
@@ -1005,17 +1020,14 @@ class GPUFrame:
                 made = (texture(), texture(), tuple(texture() for _ in range(STACK_SLOTS)))
                 sets.append((*made, gpu.types.GPUFrameBuffer(color_slots=(
                     made[0], made[1], *made[2]))))
-            floor, record, after = texture(), texture(), texture()
-            z = gpu.types.GPUTexture((w, h), format="DEPTH_COMPONENT32F")
+            floor, record = texture(), texture()
             self._stacks = ((w, h), sets, floor, record, gpu.types.GPUFrameBuffer(
-                color_slots=(floor, record)), after, gpu.types.GPUFrameBuffer(
-                depth_slot=z, color_slots=(after,)), z)
-        _, sets, floor, record, step_fb, after, after_fb, _ = self._stacks
+                color_slots=(floor, record)))
+        _, sets, floor, record, step_fb = self._stacks
         with sets[0][3].bind():
             sets[0][3].clear(color=(0.0, 0.0, 0.0, 0.0))
         step_program = shader("stack", mat=self.mat, motion=self.motion)
-        merge, depth = shader("stack_merge"), shader("depth", motion=self.motion)
-        peel_flags = [int(self.frame.scene.settings.specular_occlusion), 1, 0, 0]
+        merge = shader("stack_merge")
         gpu.state.blend_set("NONE")
         prev = (visible, *sets[0][1:3])
         # a step takes, peels or ends at one triangle: the fading ones and one more suffice
@@ -1031,14 +1043,7 @@ class GPUFrame:
                 step_program.uniform_sampler("visible", prev[0])
                 self._bind_stacks(step_program, prev[1:])
                 self.batch.draw(step_program)
-            with after_fb.bind():  # the nearest surface behind it where the stack goes on
-                gpu.state.depth_test_set("LESS")
-                gpu.state.depth_mask_set(True)
-                after_fb.clear(color=(0.0, 0.0, 0.0, 0.0), depth=1.0)
-                depth.bind()
-                depth.uniform_block("frame", block(flags=peel_flags))
-                depth.uniform_sampler("peel_floor", floor)
-                self.batch.draw(depth)
+            after = self._behind(floor, block)  # where the stack goes on
             out = sets[(step + 1) % 2]
             with out[3].bind():
                 gpu.state.depth_test_set("NONE")
@@ -1357,7 +1362,8 @@ def render(frame: Frame, offsets, passes=None, warn=None) -> dict[str, np.ndarra
             out.update({p: image for p, image in targets.passes().items() if p in wanted})
         if wanted & set(CENTRAL):
             out.update(drawn.central(cam, offsets))
-        drawn._stacks = drawn._stack_state = drawn._peeling = None  # (a group's frame: its own)
+        # a light group's frame makes its own peeling buffers: these are let go
+        drawn._stacks = drawn._stack_state = drawn._peeling = drawn._after = None
         for group in frame.scene.settings.light_groups:
             name = group_pass(group)
             if passes is None or name in passes:

@@ -295,22 +295,26 @@ def test_what_the_gpu_does_not_draw_is_named():
         gpu_frame.GPUFrame(frame)
 
 
+def _holed(seed: int, low: float, high: float):
+    """The talk's material whose colour and alpha come from a 16 x 16 image of random texels
+    in [low, high) (Closest), through Object coordinates."""
+    from bo2_lighting.addon.core.formulas import texture as core_texture
+
+    texels = np.random.default_rng(seed).uniform(low, high, (16, 16, 4)).astype(np.float32)
+    holes = core_texture.make_texture(texels, srgb=False, interpolation="Closest")
+    b = program.ProgramBuilder()
+    look = b.add("image", b.add("texcoord", param=("Object",)), param=(holes, 0))
+    return b.build(b.add("bo2", b.add("swizzle", look, param=(0, 3)), b.const(0.04, 0.04, 0.04),
+                         b.const(0.6), None, b.const(0.0, 0.0, 0.0), b.const(1.0),
+                         b.add("swizzle", look, param=(3, 4))))
+
+
 def test_dithered_transparency_matches_the_cpu():
     """Stochastic transparency: a constant alpha on the box, an alpha from an image on the
     sphere (and its shadow cut out), in front of each other; the layers peeled per sample as
     the CPU peels them, with the same thresholds."""
-    from bo2_lighting.addon.core.formulas import texture as core_texture
-
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()), samples=8)
-    rng = np.random.default_rng(3)
-    holes = core_texture.make_texture(rng.uniform(0, 1, (16, 16, 4)).astype(np.float32),
-                                      srgb=False, interpolation="Closest")
-    b = program.ProgramBuilder()
-    look = b.add("image", b.add("texcoord", param=("Object",)), param=(holes, 0))
-    alpha = b.add("swizzle", look, param=(3, 4))
-    sphere = b.build(b.add("bo2", b.add("swizzle", look, param=(0, 3)),
-                           b.const(0.04, 0.04, 0.04), b.const(0.6), None,
-                           b.const(0.0, 0.0, 0.0), b.const(1.0), alpha))
+    sphere = _holed(3, 0.0, 1.0)
     b = program.ProgramBuilder()
     box = b.build(b.add("principled", b.const(0.2, 0.5, 0.9), b.const(0.0), b.const(0.4),
                         b.const(1.5), b.const(0.5), b.const(1.0, 1.0, 1.0), b.const(0.0),
@@ -542,18 +546,10 @@ def _blended_scene(sort="pixel", overlap=True):
     """The objects under every light type, the box and the ball Blended (the ball's alpha from
     an image, its object's layers shown once without ``overlap``) and three crossing cards in
     front of them: two Blended, one Dithered (peeled inside the stacks)."""
-    from bo2_lighting.addon.core.formulas import texture as core_texture
     from bo2_lighting.addon.core.scene import MeshBatch
 
     scene = scenes.objects_scene(list(scenes.LIGHTS.values()), samples=8)
-    rng = np.random.default_rng(5)
-    holes = core_texture.make_texture(rng.uniform(0.2, 0.9, (16, 16, 4)).astype(np.float32),
-                                      srgb=False, interpolation="Closest")
-    b = program.ProgramBuilder()
-    look = b.add("image", b.add("texcoord", param=("Object",)), param=(holes, 0))
-    ball = b.build(b.add("bo2", b.add("swizzle", look, param=(0, 3)), b.const(0.04, 0.04, 0.04),
-                         b.const(0.6), None, b.const(0.0, 0.0, 0.0), b.const(1.0),
-                         b.add("swizzle", look, param=(3, 4))))
+    ball = _holed(5, 0.2, 0.9)
     scene.materials[1] = Material("box", _see_through((0.7, 0.2, 0.1), 0.45), pass_index=3,
                                   blended=True)
     scene.materials[2] = Material("ball", ball, blended=True, transparency_overlap=overlap)

@@ -9,7 +9,7 @@ void main()
 #endif
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   vec4 nearest = texelFetch(visible, pixel, 0);
-  int seen = int(nearest.r) * 4096 + int(nearest.g) - 1;
+  int seen = key_triangle(nearest);
   float weight = 1.0;
 #ifdef BLENDED
   if (!stack_drawn(pixel, v_tri, v_flags, seen, weight)) {

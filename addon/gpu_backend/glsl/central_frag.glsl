@@ -3,7 +3,7 @@
 void main()
 {
   vec4 nearest = texelFetch(visible, ivec2(gl_FragCoord.xy), 0);
-  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
+  if (key_triangle(nearest) != v_tri) {
     discard;  /* culled, behind, or peeled (the pre-pass's triangle) */
   }
   if ((v_flags & 2) != 0) { /* a holdout: no surface */

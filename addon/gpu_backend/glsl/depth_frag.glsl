@@ -9,7 +9,7 @@ void main()
   }
   if (frame.flags.y != 0) {
     vec4 f = texelFetch(peel_floor, ivec2(gl_FragCoord.xy), 0);
-    int peeled = int(f.r) * 4096 + int(f.g) - 1;
+    int peeled = key_triangle(f);
     if (f.a == 0.0 || gl_FragCoord.z < f.b || (gl_FragCoord.z == f.b && v_tri <= peeled)) {
       discard;
     }

@@ -16,7 +16,7 @@ void main()
 #endif
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   vec4 nearest = texelFetch(visible, pixel, 0);
-  int seen = int(nearest.r) * 4096 + int(nearest.g) - 1;
+  int seen = key_triangle(nearest);
   float stack_weight = 1.0;  /* the point's share of the sample (a blended stack's layer) */
 #ifdef BLENDED
   if (!stack_drawn(pixel, v_tri, v_flags, seen, stack_weight)) {
@@ -46,7 +46,7 @@ void main()
   }
   else if (mode == MODE_REST) {
     vec4 first = texelFetch(first_key, pixel, 0);
-    if (first.g > 0.0 && int(first.r) * 4096 + int(first.g) - 1 == v_tri) {
+    if (first.g > 0.0 && key_triangle(first) == v_tri) {
       out_key = vec4(first_batch ? 1.0 : 0.0, 0.0, 0.0, 0.0);
       WRITE_ZEROS
       return;

@@ -11,7 +11,7 @@ void main()
 #endif
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   vec4 nearest = texelFetch(visible, pixel, 0);
-  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri || (v_flags & 4) == 0 ||
+  if (key_triangle(nearest) != v_tri || (v_flags & 4) == 0 ||
       (frame.counts.x > 0 && texelFetch(peel_prev, pixel, 0).a == 0.0)) {
     discard;
   }

@@ -13,7 +13,7 @@ void main()
 #endif
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   vec4 nearest = texelFetch(visible, pixel, 0);
-  if (int(nearest.r) * 4096 + int(nearest.g) - 1 != v_tri) {
+  if (key_triangle(nearest) != v_tri) {
     discard;
   }
   int step = frame.counts.x;

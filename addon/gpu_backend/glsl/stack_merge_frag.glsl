@@ -16,7 +16,7 @@ void main()
     st.a = what >= 3 ? 1.0 : 0.0;
     if (what == 1) {
       int k = int(st.r);
-      vec2 layer = vec2(float(int(seen.r) * 4096 + int(seen.g)), rec.g);
+      vec2 layer = vec2(float(key_triangle(seen) + 1), rec.g);
       if ((k & 1) == 0) {
         slots[k >> 1].xy = layer;
       }
