@@ -337,8 +337,9 @@ class Viewport:
     @property
     def gpu_busy(self) -> bool:
         """The GPU draws and has samples to add."""
-        return (self.session.frame() is not None and not self.gpu_failure
-                and self.gpu is not None and self.gpu.samples < self.session.samples)
+        drawn = self.session.frame()
+        return (drawn is not None and not self.gpu_failure and self.gpu is not None
+                and self.gpu.samples(drawn[0]) < self.session.samples)
 
     def status(self) -> str:
         """The viewport's status text: the error, or the samples done, the probe hint and
@@ -347,9 +348,10 @@ class Viewport:
         if error:
             return f"Error: {error}"
         image = self.session.image()
-        on_gpu = self.session.frame() is not None and not self.gpu_failure
+        drawn = self.session.frame()
+        on_gpu = drawn is not None and not self.gpu_failure
         if on_gpu:
-            done = 0 if self.gpu is None else self.gpu.samples
+            done = 0 if self.gpu is None else self.gpu.samples(drawn[0])
             parts = [f"GPU: sample {done}/{self.session.samples}"]
         elif image is None:
             parts = [kernels.status() or "Preparing"]

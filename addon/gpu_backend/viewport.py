@@ -41,9 +41,9 @@ class ViewportDrawing:
         self._view = None
         self._image = None  # (texture, its framebuffer)
 
-    @property
-    def samples(self) -> int:
-        return 0 if self._targets is None else self._targets.samples
+    def samples(self, frame) -> int:
+        """The samples drawn of ``frame`` (0 until the first draw of a frame not yet drawn)."""
+        return 0 if self._targets is None or frame is not self._frame else self._targets.samples
 
     def draw(self, frame, camera, view: str, samples: int):
         """Add one sample of ``frame`` through ``camera`` (a ``core.scene.Camera``) for look-dev
