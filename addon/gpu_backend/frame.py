@@ -141,6 +141,8 @@ def unsupported(frame: Frame) -> str | None:
         return "blended materials among more than 16.7 million triangles"
     if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
         return f"motion blur of other than {MOTION_STEPS} steps"
+    if frame.at_times is not None:
+        return "motion blur's shading at the samples' times"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
         return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]

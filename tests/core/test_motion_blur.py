@@ -3,8 +3,10 @@
 Independent values: a card of width w that moves a distance d along x while the shutter is
 open covers a point x for the share of the shutter its span [c(t) - w/2, c(t) + w/2] holds x,
 c(t) = c0 + d t: the overlap of two intervals, written out below; a still card seen by a
-camera that moves by -d is the same streak. The shutter curve's times are checked against
-the curve's integral.
+camera that moves by -d is the same streak, and the card's shadow under a sun takes the
+sun from a point of the floor for that same share of the shutter. The shutter curve's times
+are checked against the curve's integral; normals carried over the shutter against a rotation
+applied to them.
 """
 
 import dataclasses
@@ -112,3 +114,50 @@ def test_with_depth_of_field_the_focus_plane_streaks_as_through_a_pinhole():
         rows.append(image[image.shape[0] // 2, :, 0])
     np.testing.assert_allclose(rows[1], rows[0], atol=1e-4)
     assert ((rows[0] > 0.02) & (rows[0] < 0.98)).sum() > 5  # a streak, not an edge
+
+
+def test_a_moving_cards_shadow_streaks_and_never_falls_on_the_card():
+    """A card 0.5 m above the floor under a sun tilted towards +y: along a row that sees the
+    floor in its shadow alone, the share of the sun taken is the card's coverage of its travel
+    (within 1/8 plus the filter: the shutter is shaded in ``SHUTTER_TIMES`` shares); along
+    the card's row, card and floor as lit as a still card and the floor (the card's shadow
+    maps are those of its own time: no shadow from another time falls on it)."""
+    d = np.array([0.0, 0.6, -0.8])
+    sun = Light("SUN", color=np.ones(3), direction=d)
+    scene = lambert_scene(sun)
+    card = floor(size=CARD)
+    card.positions = card.positions + np.float32([0.0, 0.0, 0.5])
+    scene.meshes = [floor(), card]
+    scene.settings = dataclasses.replace(scene.settings, samples=64)
+    lit = 0.6 / np.pi * 0.8  # a lambert floor under a unit sun at cos 0.8
+    still = pipeline.render_frame(RenderJob(scene))["Combined"]
+    card.motion = np.stack([card.positions + np.float32([dx, 0.0, 0.0])
+                            for dx in (-TRAVEL / 2, 0.0, TRAVEL / 2)])
+    image = pipeline.render_frame(RenderJob(scene))["Combined"]
+    centres = pixel_centres()
+    x, y = centres[0, :, 0], centres[:, 0, 1]
+    row = int(np.argmin(np.abs(y - 0.5)))  # the shadow spans y in [0.075, 0.675]
+    taken = 1.0 - image[row, :, 0] / lit
+    expected = coverage(x)
+    print(np.round(taken, 2), np.round(expected, 2))
+    assert np.abs(taken - expected).max() < 0.2
+    assert np.abs(taken - expected).mean() < 0.03
+    card_row = int(np.argmin(np.abs(y + 0.15)))  # (away from the shadow's filtered edge)
+    assert (image[card_row, :, 3] == 1.0).all()
+    np.testing.assert_allclose(image[card_row, :, 0], lit, rtol=0.01)
+    np.testing.assert_allclose(still[card_row, :, 0], lit, rtol=0.01)
+
+
+def test_normals_turn_with_their_triangles():
+    """Corner normals carried to each step by the triangle's motion: those a rotation and
+    a uniform scale give them (computed by applying the rotation), unit length."""
+    rng = np.random.default_rng(3)
+    corners = rng.normal(size=(20, 3, 3))
+    normals = rng.normal(size=(20, 3, 3))
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    a = 1.1
+    turn = np.array([[1.0, 0.0, 0.0], [0.0, np.cos(a), -np.sin(a)], [0.0, np.sin(a), np.cos(a)]])
+    steps = np.stack([corners, 2.5 * corners @ turn.T + np.array([1.0, -2.0, 0.5])])
+    moved = motion_blur.moved_normals(corners, normals, steps)
+    np.testing.assert_allclose(moved[0], normals, atol=1e-6)
+    np.testing.assert_allclose(moved[1], normals @ turn.T, atol=1e-5)

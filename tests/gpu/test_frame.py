@@ -458,12 +458,11 @@ def test_light_groups_match_the_cpu():
 
 
 @pytest.mark.parametrize("camera_moves", [False, True])
-def test_motion_blur_matches_the_cpu(camera_moves):
-    """A box moving over the shutter (and the camera moving too): the GPU draws each sample
-    at the CPU's time, shaded at the frame's own corners; the frame against the CPU's, and
-    streaked where the still one is sharp."""
+def test_motion_blur_is_left_to_the_cpu(camera_moves):
+    """A box moving over the shutter (and the camera moving too): its samples are shaded at
+    their times of the shutter with the shadow maps of those times, which the GPU does not
+    draw yet: refused, saying so (the render goes to the CPU)."""
     scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], samples=16)
-    still = _render_both(scene)[1]["Combined"]
     box = scene.meshes[1]
     box.motion = np.stack([box.positions + np.float32([dx, 0.3 * dx, 0.0])
                            for dx in (-0.4, 0.0, 0.4)])
@@ -474,10 +473,9 @@ def test_motion_blur_matches_the_cpu(camera_moves):
             view[1, 3] += dx
             views.append(view)
         scene.camera = dataclasses.replace(scene.camera, motion=np.stack(views))
-    cpu, gpu = _render_both(scene)
-    _check(cpu, gpu, "motion blur")
-    streaked = np.abs(gpu["Combined"] - still).max(-1) > 0.05
-    assert 0.01 < streaked.mean() < 0.8, streaked.mean()
+    frame = pipeline.prepare(RenderJob(scene))
+    assert frame.at_times is not None and frame.shadows_move
+    assert "motion blur" in gpu_frame.unsupported(frame)
 
 
 @pytest.mark.parametrize("blended", [False, True])

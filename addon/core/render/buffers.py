@@ -79,6 +79,12 @@ class Frame:
     motion_row: np.ndarray | None = None
     motion: np.ndarray | None = None
     motion_reach: int = 0
+    # the frame as each share of the shutter sees it (``motion_blur.SHUTTER_TIMES`` frames:
+    # the moving triangles' corners and normals, the camera and the shadow maps at the share's
+    # middle; ``pipeline.prepare``), None when nothing moves; whether a moving triangle casts
+    # shadows (then a still surface's shadows change over the shutter too)
+    at_times: list | None = None
+    shadows_move: bool = False
 
     @property
     def dithers(self) -> np.ndarray:
@@ -355,7 +361,7 @@ def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
     else:
         clip = clip_coordinates(frame.positions, camera, frame.seen)
     scene = dataclasses.replace(frame.scene, camera=camera)
-    return dataclasses.replace(frame, scene=scene,
+    return dataclasses.replace(frame, scene=scene, at_times=None, shadows_move=False,
                                clip=clip, tiles=None if frame.tiles is None else {},
                                blend_rank=None if frame.blends is None else blend_order(
                                    scene, frame.obj, frame.world_to_object),
@@ -367,10 +373,11 @@ def with_camera(frame: Frame, camera, once: bool = False) -> Frame:
 def with_materials(frame: Frame, scene: Scene) -> Frame | None:
     """``frame`` with ``scene``'s materials (same geometry, lights and camera): only the
     material tables are built again. None when the shadow maps or the holdout triangles depend
-    on the materials (transparent or holdout surfaces, before or after): ``prepare`` instead."""
+    on the materials (transparent or holdout surfaces, before or after) or the frame moves
+    over the shutter (``at_times``): ``prepare`` instead."""
     mats = scene.materials or [Material()]
     old = frame.scene.materials or [Material()]
-    if len(mats) != len(old) or frame.fades.any() or any(
+    if len(mats) != len(old) or frame.fades.any() or frame.at_times is not None or any(
             m.program.holdout or m.program.fades for m in (*mats, *old)):
         return None
     tables = _constant_tables(mats)

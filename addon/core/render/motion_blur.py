@@ -10,8 +10,11 @@ positions and the lens's bases 2 and 3), through the inverse of the shutter curv
 (Render > Motion Blur > Shutter Curve) where it is not flat. All pixels share a sample's time,
 so a streak of L pixels shows the samples' images apart until there are about L of them.
 
-Only what the camera sees moves: shading, shadows and reflections are those of the frame's
-own time (the shutter's middle for Position Center), at the point of the moved triangle.
+A sample is shaded in the scene as it is at the middle of its time's share of the shutter,
+one of ``SHUTTER_TIMES`` even shares (``shares``): the moving triangles' corners and normals
+there (``moved_normals``), the camera there, and the shadow maps they cast there
+(``pipeline.prepare``), so a moving object's shadow streaks as the object does, with that
+many images of it blended, and never falls on the object from another time.
 """
 
 from __future__ import annotations
@@ -23,6 +26,7 @@ from . import projection
 from .depth_of_field import halton
 
 _BASE = 5
+SHUTTER_TIMES = 8  # shares of the shutter a sample is shaded at the middle of
 
 
 def shutter_times(sample: np.ndarray, curve: tuple[float, ...] = ()) -> np.ndarray:
@@ -58,6 +62,44 @@ def at_time(steps: np.ndarray, t: float) -> np.ndarray:
     i = min(int(np.floor(u)), s - 2)
     f = u - i
     return steps[i] * (1.0 - f) + steps[i + 1] * f
+
+
+def shares(times: np.ndarray, count: int = SHUTTER_TIMES) -> np.ndarray:
+    """(N,) int: the share of the shutter (of ``count`` even ones) each of ``times`` (N,) in
+    [0, 1] falls in; share k is shaded at its middle, ``share_time``."""
+    return np.minimum((np.asarray(times, np.float64) * count).astype(np.int64), count - 1)
+
+
+def share_time(k: int, count: int = SHUTTER_TIMES) -> float:
+    """The shutter time in [0, 1] share ``k`` of ``count`` is shaded at (its middle)."""
+    return (k + 0.5) / count
+
+
+def moved_normals(corners: np.ndarray, normals: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """(S, R, 3, 3) float32 unit corner normals of R triangles at the shutter's S steps: their
+    ``normals`` (R, 3, 3) at the frame's own time carried by the linear map that takes each
+    triangle's edges and face normal there (``corners`` (R, 3, 3)) to those at each step
+    (``steps`` (S, R, 3, 3)), through its inverse transpose. Exact for a rigid motion and a
+    uniform scale (for other deformations the face's own normal is); a triangle without area
+    keeps its normals."""
+    def frame_of(q):  # (..., 3, 3): columns the two edges and the normal scaled as an edge
+        e1, e2 = q[..., 1, :] - q[..., 0, :], q[..., 2, :] - q[..., 0, :]
+        c = np.cross(e1, e2)
+        area = np.linalg.norm(c, axis=-1, keepdims=True)
+        c = c / np.sqrt(np.maximum(area, 1e-30))
+        return np.stack([e1, e2, c], -1), area[..., 0]
+
+    here, area = frame_of(np.asarray(corners, np.float64))
+    there, area_t = frame_of(np.asarray(steps, np.float64))
+    flat = (area < 1e-20)[None] | (area_t < 1e-20)
+    safe = np.where(flat[..., None, None], np.eye(3), here[None])
+    # M = there @ here^-1 takes the frame to the step; normals go by M^-T = there^-T @ here^T
+    to = np.where(flat[..., None, None], np.eye(3), there)
+    m_inv_t = np.linalg.solve(np.swapaxes(to, -1, -2), np.swapaxes(safe, -1, -2))
+    moved = np.einsum("srij,rcj->srci", m_inv_t, np.asarray(normals, np.float64))
+    moved = np.where(flat[..., None, None], np.asarray(normals, np.float64)[None], moved)
+    length = np.linalg.norm(moved, axis=-1, keepdims=True)
+    return (moved / np.where(length > 0.0, length, 1.0)).astype(np.float32)
 
 
 def view_at(camera: Camera, t: float) -> np.ndarray:

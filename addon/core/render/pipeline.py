@@ -18,6 +18,7 @@ the background counting as 0 in all but Combined, as Cycles accumulates them.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from collections.abc import Iterator
 
@@ -38,7 +39,13 @@ from .passes import (
 )
 from .shading import background_radiance, has_indirect, shade_points
 from .shadow_filter import pixel_seeds
-from .shadow_maps import build_shadow_maps, drawn_on_gpu, shadow_map_count
+from .shadow_maps import (
+    build_shadow_maps,
+    drawn_on_gpu,
+    moving_casters,
+    shadow_map_count,
+    shutter_maps,
+)
 from .visibility import (
     blend_sample,
     dither_sample,
@@ -84,13 +91,11 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                    if scene.world.group in groups else None)
     central = int(np.argmin(np.abs(np.asarray(offsets) - 0.5).sum(-1)))  # Depth and IndexMA
     depth_acc = index_acc = None
-    first_tri = None
-    reuse_count = np.zeros(npx, np.float32)  # samples that reuse the first sample's shading
     empty = np.zeros(npx, np.float32)  # samples that see no surface (the Shadow Catcher's 1)
     miss_count = np.zeros(npx, np.float32)  # samples that see a constant-colour background
     constant_world = scene.world.texture is None
     rgba = SAMPLED["Combined"]
-    points = []  # per sample: (tri, bary, sx, sy, pixel, sample) of the points it shades
+    points = []  # per sample: (tri, bary, sx, sy, pixel, sample, share) of the points it shades
     layered, layered_weight = [], []  # the same of blended stacks' surfaces, and their shares
     deep = 0
     seen_by = []  # per sample, with Cryptomatte: the triangle it sees, -1 none
@@ -115,6 +120,17 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         rows = np.full(len(corners), -1, np.int32) if frame.motion_row is None else \
             frame.motion_row[margin[2]]
         hidden = None if frame.seen is None else ~frame.seen[margin[2]]
+    # a sample is shaded in the frame of its share of the shutter; a pixel's samples that see
+    # the same still triangle through a still camera reuse a shading (one per share where the
+    # shadows move); moving triangles, or all under a moving camera, are shaded per sample
+    timed = moving and frame.at_times is not None
+    share = (motion_blur.shares(times) if timed else np.zeros(len(offsets), np.int64))
+    groups = motion_blur.SHUTTER_TIMES if timed and frame.shadows_move else 1
+    per_sample = scene.settings.shade_every_sample or (timed and cam.motion is not None)
+    still = frame.motion_row < 0 if timed and frame.motion_row is not None else None
+    first_tri = [None] * groups
+    reuse_count = np.zeros((groups, npx), np.float32)  # samples reusing a group's first shading
+    leaders = [None] * groups  # the sample whose shading a group's later samples reuse
     drawn = []
 
     def background(pixels, weight, sx, sy, shift) -> None:  # the world seen behind ``pixels``
@@ -180,34 +196,42 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                     np.add.at(empty, at[~shown], w[~shown])
                     at, t, b, w = at[shown], t[shown], b[shown], w[shown]
                 layered.append((t, b, sx[at], sy[at], at,
-                                np.full(len(at), first_sample + k, np.uint32)))
+                                np.full(len(at), first_sample + k, np.uint32),
+                                np.full(len(at), share[k], np.int64)))
                 layered_weight.append(w)
                 deep += cut
-        if first_tri is None:
-            first_tri, fresh = tri, solid
-            reuse_count += solid
-        elif scene.settings.shade_every_sample:
+        g = int(share[k]) if groups > 1 else 0
+        if first_tri[g] is None:
+            first_tri[g], fresh, leaders[g] = tri, solid, k
+            reuse_count[g] += solid
+        elif per_sample:
             fresh = solid
         else:
-            reuse = solid & (tri == first_tri)
-            reuse_count += reuse
+            reuse = solid & (tri == first_tri[g])
+            if still is not None:
+                reuse &= still[np.maximum(tri, 0)]
+            reuse_count[g] += reuse
             fresh = solid & ~reuse
         pixel = np.flatnonzero(fresh)
         points.append((tri[pixel], bary[pixel], sx[pixel], sy[pixel], pixel,
-                       np.full(len(pixel), first_sample + k, np.uint32)))
+                       np.full(len(pixel), first_sample + k, np.uint32),
+                       np.full(len(pixel), share[k], np.int64)))
         if k == central:
             depth_acc = np.where(hit, depth, np.float32(EMPTY_DEPTH))
             index_acc = np.zeros(npx, np.float32)
             index_acc[hit] = frame.tables["pass_index"][frame.material[tri[hit]]]
-    # the later samples' own points first, the blended stacks' next, then the first sample's,
-    # weighted by its reuses
-    weight = [np.ones(len(p[4]), np.float32) for p in points[1:]] + layered_weight
-    points = points[1:] + layered + points[:1]
-    tri, bary, sx, sy, pixel, sample = (np.concatenate(a) for a in zip(*points, strict=True))
+    # the other samples' own points first, the blended stacks' next, then the groups' first
+    # samples', weighted by their reuses
+    lead = [k for k in leaders if k is not None]
+    others = [p for k, p in enumerate(points) if k not in lead]
+    weight = [np.ones(len(p[4]), np.float32) for p in others] + layered_weight + [
+        reuse_count[g][points[k][4]] for g, k in enumerate(leaders) if k is not None]
+    points = others + layered + [points[k] for k in leaders if k is not None]
+    tri, bary, sx, sy, pixel, sample, share = (np.concatenate(a)
+                                               for a in zip(*points, strict=True))
     width = x1 - x0
     seeds = pixel_seeds(x0 + pixel % width, y0 + pixel // width, tri, sample)
-    first = len(pixel) - len(points[-1][4])
-    weight = np.concatenate(weight + [reuse_count[pixel[first:]]]).astype(np.float32)
+    weight = np.concatenate(weight).astype(np.float32)
     count = len(pixel)
     if not count:
         tick()
@@ -217,17 +241,22 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                and (s.ao_pass or has_indirect(frame)) else None)
     eyes = (np.array([depth_of_field.eye(cam, p) for p in lens_at], np.float32)[
         sample - np.uint32(first_sample)] if lens and count else None)
-    if moving and eyes is None and count and not cam.orthographic:
-        # a moved point is shaded as the frame's own time sees it: from the camera's eye, not
-        # along the ray of the pixel it moved to
-        eyes = np.broadcast_to(np.asarray(cam.camera_to_world, np.float32)[:3, 3], (count, 3))
-    for lo in range(0, count, SHADE_BLOCK):
-        block = slice(lo, lo + SHADE_BLOCK)
-        tick(len(pixel[block]) / count)
-        shading.splat(acc, pixel[block], weight[block],
-                      shade_points(frame, tri[block], bary[block], sx[block], sy[block],
-                                    tick, ao_tile, seeds[block],
-                                    None if eyes is None else eyes[block]))
+    for g in range(motion_blur.SHUTTER_TIMES if timed else 1):
+        mine = np.flatnonzero(share == g) if timed else np.arange(count)
+        shown = frame.at_times[g] if timed else frame
+        seen_from = eyes
+        if moving and eyes is None and len(mine) and not cam.orthographic:
+            # a moved point is seen from the camera of its time, not along the ray of the
+            # pixel it moved to
+            seen_from = np.broadcast_to(shown.scene.camera.position.astype(np.float32),
+                                        (count, 3))
+        for lo in range(0, len(mine), SHADE_BLOCK):
+            block = mine[lo:lo + SHADE_BLOCK]
+            tick(len(block) / count)
+            shading.splat(acc, pixel[block], weight[block],
+                          shade_points(shown, tri[block], bary[block], sx[block], sy[block],
+                                       tick, ao_tile, seeds[block],
+                                       None if seen_from is None else seen_from[block]))
     if constant_world and miss_count.any():
         color = np.append(np.asarray(scene.world.color, np.float32), np.float32(1.0))
         acc[:, rgba] += miss_count[:, None] * color
@@ -285,9 +314,46 @@ def prepare(job: RenderJob, *, shadow_maps: list | None = None,
                  builds them here if the GPU does not draw the frame after all
     """
     if shadow_maps is not None:
-        return prepare_buffers(job, shadow_maps=shadow_maps)
-    frame = prepare_buffers(job, shadow_maps=[None] * shadow_map_count(job.scene))
-    frame.shadow_maps = build_shadow_maps(job, frame, fit_shadows=fit_shadows, on_gpu=on_gpu)
+        frame = prepare_buffers(job, shadow_maps=shadow_maps)
+    else:
+        frame = prepare_buffers(job, shadow_maps=[None] * shadow_map_count(job.scene))
+        frame.shadow_maps = build_shadow_maps(job, frame, fit_shadows=fit_shadows,
+                                              on_gpu=on_gpu)
+    return _over_the_shutter(job, frame, fit_shadows=fit_shadows, on_gpu=on_gpu)
+
+
+def _over_the_shutter(job: RenderJob, frame: Frame, **kwargs) -> Frame:
+    """``frame`` with its ``at_times`` when something moves over the shutter: per share of the
+    shutter (``motion_blur.shares``) the moving triangles' corners and normals at its middle,
+    the camera there and the shadow maps they cast there (``shadow_maps.shutter_maps`` of
+    ``kwargs``)."""
+    cam = frame.scene.camera
+    if frame.motion is None and cam.motion is None:
+        return frame
+    rows = normals = None
+    if frame.motion is not None:
+        rows = np.flatnonzero(frame.motion_row >= 0)  # in the order of their motion rows
+        normals = motion_blur.moved_normals(frame.positions[rows], frame.normals[rows],
+                                            frame.motion)
+    frame.shadows_move = moving_casters(frame)
+    frames = []
+    for k in range(motion_blur.SHUTTER_TIMES):
+        job.poll()
+        t = motion_blur.share_time(k)
+        moved = dataclasses.replace(frame, at_times=None, scene=dataclasses.replace(
+            frame.scene, camera=dataclasses.replace(
+                cam, world_to_camera=motion_blur.view_at(cam, t))))
+        if rows is not None:
+            moved.positions = frame.positions.copy()
+            moved.positions[rows] = motion_blur.at_time(frame.motion, t)
+            moved.normals = frame.normals.copy()
+            n = motion_blur.at_time(normals, t)
+            moved.normals[rows] = n / np.maximum(np.linalg.norm(n, axis=-1, keepdims=True),
+                                                 np.float32(1e-20))
+        if frame.shadows_move:
+            moved.shadow_maps = shutter_maps(job, frame, moved, **kwargs)
+        frames.append(moved)
+    frame.at_times = frames
     return frame
 
 
@@ -296,6 +362,9 @@ def cpu_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True) -> Frame
     (the same frame when none was)."""
     if drawn_on_gpu(frame.shadow_maps):
         frame.shadow_maps = build_shadow_maps(job, frame, fit_shadows=fit_shadows)
+        if frame.at_times is not None:
+            frame.at_times = None
+            frame = _over_the_shutter(job, frame, fit_shadows=fit_shadows)
     return frame
 
 

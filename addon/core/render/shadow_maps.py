@@ -47,7 +47,7 @@ def dome_lit(scene: Scene, count: int, world_sh: np.ndarray | None = None) -> np
 def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
                       sky: bool | None = None, world_sh: np.ndarray | None = None,
                       every_direction: bool = False, focus: tuple | None = None,
-                      on_gpu: bool = False) -> list:
+                      on_gpu: bool = False, kept: dict | None = None) -> list:
     """Every light's shadow map of ``frame``'s geometry (None for a light without shadows),
     then the sky's dome (``sky.dome_lights``: suns of ``settings.sky_resolution`` texels,
     fitted as the lights' are; None towards directions the world sends no light from,
@@ -61,8 +61,11 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     sky, world_sh: as ``shadow_map_count`` and ``dome_lit``
     on_gpu:      leave the depths to a GPU (``shadows.ShadowMap.on_gpu``): only the maps'
                  frames, fits and constants are computed here
+    kept:        {index: map} taken as they are instead of built (``shutter_maps``; the
+                 dome's all or none)
     """
     scene = frame.scene
+    kept = kept or {}
     count = shadow_map_count(scene, sky)
     if not len(frame.positions):
         return [None] * count
@@ -73,8 +76,11 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     s = scene.settings
     view = scene.camera if fit_shadows else None
     plans = []
-    for light in scene.lights:
+    for i, light in enumerate(scene.lights):
         job.poll()
+        if i in kept:
+            plans.append(([], lambda done, m=kept[i]: m))
+            continue
         mine, own_cutout = (positions, cutout) if not light.blockers else casters(
             frame, light.blockers)  # a shadow-linked light: its blockers alone
         plans.append(shadows.shadow_map_jobs(light, mine, view, focus=focus,
@@ -83,10 +89,13 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
                      ([], lambda done: None))
     dome = count - len(scene.lights)
     lit = np.ones(dome, bool) if every_direction else dome_lit(scene, dome, world_sh)
-    key = None if cutout is not None or not lit.any() else _dome_key(
-        positions, view, focus, s.sky_resolution, lit, on_gpu)
-    kept = _domes.get(key) if key is not None else None
-    if kept is None:
+    if len(scene.lights) in kept:
+        key, cached = None, [kept[len(scene.lights) + k] for k in range(dome)]
+    else:
+        key = None if cutout is not None or not lit.any() else _dome_key(
+            positions, view, focus, s.sky_resolution, lit, on_gpu)
+        cached = _domes.get(key) if key is not None else None
+    if cached is None:
         view_range = (shadows.camera_depth_range(view, positions)
                       if view is not None and lit.any() else None)  # the same for every sun
         for light, on in zip(sky_light.dome_lights(dome), lit, strict=True):
@@ -98,11 +107,37 @@ def build_shadow_maps(job: RenderJob, frame: Frame, *, fit_shadows: bool = True,
     done = iter(list(job.ordered([work for works, _ in plans for work in works],
                                  threading.Event())))
     maps = [finish([next(done) for _ in works]) for works, finish in plans]
-    if kept is not None:
-        return maps + kept
+    if cached is not None:
+        return maps + cached
     if key is not None:
         _domes.put(key, maps[len(scene.lights):])
     return maps
+
+
+def shutter_maps(job: RenderJob, frame: Frame, moved: Frame, **kwargs) -> list:
+    """The shadow maps of ``moved`` (``frame`` at a time of the shutter, ``Frame.at_times``):
+    those of ``frame`` where no moving triangle casts into them (a light none of whose
+    blockers move; the dome when no caster moves), the others built anew
+    (``build_shadow_maps``'s ``kwargs``)."""
+    lights = frame.scene.lights
+    kept = {i: m for i, m in enumerate(frame.shadow_maps[:len(lights)])
+            if m is None or not moving_casters(frame, lights[i].blockers)}
+    if not moving_casters(frame):
+        kept.update((len(lights) + k, m) for k, m in enumerate(frame.shadow_maps[len(lights):]))
+    return build_shadow_maps(job, moved, kept=kept, **kwargs)
+
+
+def moving_casters(frame: Frame, blockers: int = 0) -> bool:
+    """Whether a triangle that moves over the shutter casts shadows in ``frame`` (among
+    those of shadow linking set ``blockers``, as ``casters``)."""
+    if frame.motion_row is None:
+        return False
+    keep = frame.motion_row >= 0
+    if frame.casts is not None:
+        keep &= frame.casts
+    if blockers and frame.blocks is not None:
+        keep &= linking.in_set(frame.blocks, blockers)
+    return bool(keep.any())
 
 
 def casters(frame: Frame, blockers: int = 0) -> tuple[np.ndarray, tuple | None]:
