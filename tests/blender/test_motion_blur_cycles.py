@@ -188,7 +188,7 @@ def test_a_moving_cards_shadow_streaks_as_cycles_and_the_closed_form(addon):
     """The card's shadow on the floor streaks as the card does: along the row through the
     shadow's middle, the share of the sun it takes within 0.15 of Cycles' and of the closed
     form (the coverage of the card's travel) at every pixel (the shutter shaded in
-    ``SHUTTER_TIMES`` shares: steps of 1/8), its mean within 0.02; the card itself lit as in
+    ``SHUTTER_TIMES`` shares: steps of 1/16), its mean within 0.02; the card itself lit as in
     Cycles (it never shadows itself from another time)."""
     scene = shadow_build()
     ours = render_passes(scene, "BO2_LIGHTING", ["Combined"], samples=64)["Combined"]

@@ -119,7 +119,7 @@ def test_with_depth_of_field_the_focus_plane_streaks_as_through_a_pinhole():
 def test_a_moving_cards_shadow_streaks_and_never_falls_on_the_card():
     """A card 0.5 m above the floor under a sun tilted towards +y: along a row that sees the
     floor in its shadow alone, the share of the sun taken is the card's coverage of its travel
-    (within 1/8 plus the filter: the shutter is shaded in ``SHUTTER_TIMES`` shares); along
+    (within 1/16 plus the filter: the shutter is shaded in ``SHUTTER_TIMES`` shares); along
     the card's row, card and floor as lit as a still card and the floor (the card's shadow
     maps are those of its own time: no shadow from another time falls on it)."""
     d = np.array([0.0, 0.6, -0.8])

@@ -44,6 +44,10 @@ def frame_bytes(scene) -> int:
         total += tris * 8 * len(scene.settings.cryptomatte)
         w2o = m.world_to_object
         total += (1 if w2o is None or w2o.ndim == 2 else len(w2o)) * _PER_INSTANCE
+    if any(m.motion is not None for m in scene.meshes):  # each share's corners and normals
+        from .motion_blur import SHUTTER_TIMES
+
+        total += SHUTTER_TIMES * 72 * sum(len(m.positions) for m in scene.meshes)
     if any(light.receivers or light.blockers for light in scene.lights):
         total += sum(len(m.positions) for m in scene.meshes) * 16  # the linking sets
     res = int(scene.settings.shadow_resolution)

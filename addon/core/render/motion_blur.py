@@ -26,7 +26,7 @@ from . import projection
 from .depth_of_field import halton
 
 _BASE = 5
-SHUTTER_TIMES = 8  # shares of the shutter a sample is shaded at the middle of
+SHUTTER_TIMES = 16  # shares of the shutter a sample is shaded at the middle of
 
 
 def shutter_times(sample: np.ndarray, curve: tuple[float, ...] = ()) -> np.ndarray:
@@ -64,13 +64,13 @@ def at_time(steps: np.ndarray, t: float) -> np.ndarray:
     return steps[i] * (1.0 - f) + steps[i + 1] * f
 
 
-def shares(times: np.ndarray, count: int = SHUTTER_TIMES) -> np.ndarray:
+def shares(times: np.ndarray, count: int) -> np.ndarray:
     """(N,) int: the share of the shutter (of ``count`` even ones) each of ``times`` (N,) in
     [0, 1] falls in; share k is shaded at its middle, ``share_time``."""
     return np.minimum((np.asarray(times, np.float64) * count).astype(np.int64), count - 1)
 
 
-def share_time(k: int, count: int = SHUTTER_TIMES) -> float:
+def share_time(k: int, count: int) -> float:
     """The shutter time in [0, 1] share ``k`` of ``count`` is shaded at (its middle)."""
     return (k + 0.5) / count
 

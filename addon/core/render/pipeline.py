@@ -124,8 +124,9 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     # the same still triangle through a still camera reuse a shading (one per share where the
     # shadows move); moving triangles, or all under a moving camera, are shaded per sample
     timed = moving and frame.at_times is not None
-    share = (motion_blur.shares(times) if timed else np.zeros(len(offsets), np.int64))
-    groups = motion_blur.SHUTTER_TIMES if timed and frame.shadows_move else 1
+    parts = len(frame.at_times) if timed else 1
+    share = (motion_blur.shares(times, parts) if timed else np.zeros(len(offsets), np.int64))
+    groups = parts if frame.shadows_move else 1
     per_sample = scene.settings.shade_every_sample or (timed and cam.motion is not None)
     still = frame.motion_row < 0 if timed and frame.motion_row is not None else None
     first_tri = [None] * groups
@@ -241,7 +242,7 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
                and (s.ao_pass or has_indirect(frame)) else None)
     eyes = (np.array([depth_of_field.eye(cam, p) for p in lens_at], np.float32)[
         sample - np.uint32(first_sample)] if lens and count else None)
-    for g in range(motion_blur.SHUTTER_TIMES if timed else 1):
+    for g in range(parts):
         mine = np.flatnonzero(share == g) if timed else np.arange(count)
         shown = frame.at_times[g] if timed else frame
         seen_from = eyes
@@ -339,7 +340,7 @@ def _over_the_shutter(job: RenderJob, frame: Frame, **kwargs) -> Frame:
     frames = []
     for k in range(motion_blur.SHUTTER_TIMES):
         job.poll()
-        t = motion_blur.share_time(k)
+        t = motion_blur.share_time(k, motion_blur.SHUTTER_TIMES)
         moved = dataclasses.replace(frame, at_times=None, scene=dataclasses.replace(
             frame.scene, camera=dataclasses.replace(
                 cam, world_to_camera=motion_blur.view_at(cam, t))))
