@@ -75,7 +75,10 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     first sample reuses that sample's shading (weighted by the number of samples that do);
     only samples that see another triangle (edges) are shaded on their own. The points of all
     samples are shaded together, in blocks of ``SHADE_BLOCK``.
-    ``settings.shade_every_sample`` shades every sample instead. A sample that sees a blended
+    ``settings.shade_every_sample`` shades every sample instead. With motion blur a sample is
+    shaded in the frame of its share of the shutter (``Frame.at_times``): the reuse is then
+    per share where shadows move, and none for moving triangles or under a moving camera.
+    A sample that sees a blended
     surface shades each layer of its stack (``visibility.blend_sample``), weighted by its
     share. Last, the number of pixel samples whose blended stack was cut
     (``transparency.BLEND_LAYERS``).
