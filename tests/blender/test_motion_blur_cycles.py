@@ -8,7 +8,7 @@ overlap of two intervals.
 import bpy
 import numpy as np
 import pytest
-from util import add_ortho_camera, film, principled, render_on_devices, render_passes
+from util import add_ortho_camera, film, principled, render_passes
 
 W, H = 160, 40
 SCALE = 4.0  # metres across the frame
