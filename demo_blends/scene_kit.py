@@ -1,7 +1,7 @@
 """Helpers that the demo scene scripts share: materials, lights, light probes and a sky.
 
 Imported by the ``build_*.py`` scripts next to it (run as scripts, their folder is on the path)
-and by ``tools/make_probe_images.py``.
+and by ``tools/make_probe_images.py`` and ``tools/make_motion_blur_images.py``.
 """
 
 import math

@@ -48,7 +48,9 @@ FRAME = Struct("FrameData", (
     ("shutter", "vec4", 0),  # (the sample's shutter time, 1 where it moves: the motion blur
     #                          of the geometry's steps m0..m2; 0: the frame's own time, -, -)
     ("options", "ivec4", 0),  # (the blended stacks' layer drawn plus 1, 0: the sample's own
-    #                          surfaces (``glsl/stack.glsl``); the Shadow Catcher pass, -, -)
+    #                          surfaces (``glsl/stack.glsl``); the Shadow Catcher pass; the
+    #                          share of the shutter shaded at plus 1, 0: the frame's own time
+    #                          (``Frame.at_times``); the moving triangles' count)
 ))
 WORLD = Struct("WorldData", (
     ("clip_to_world", "mat4", 0),  # the camera's inverse projection and view
@@ -77,6 +79,7 @@ PASS_OF = {"Combined": ("combined", slice(0, 4)), "DiffDir": ("diffuse", slice(0
            "Shadow Catcher": ("catcher", slice(0, 3))}
 # a triangle's flags (``glsl/frame_vert.glsl``)
 FLAG_CULL, FLAG_HOLDOUT, FLAG_FADES, FLAG_DARK, FLAG_CATCHER, FLAG_BLENDED = 1, 2, 4, 8, 16, 32
+FLAG_MOVES = 64  # the triangle moves over the shutter: a sample never reuses its shading
 # Depth and IndexMA come from one sample, the one nearest the pixel centre (``central``)
 CENTRAL = ("Depth", "IndexMA")
 GROUPS = (("combined", "diffuse", "specular", "diff_ind", "gloss_ind"),
@@ -141,8 +144,6 @@ def unsupported(frame: Frame) -> str | None:
         return "blended materials among more than 16.7 million triangles"
     if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
         return f"motion blur of other than {MOTION_STEPS} steps"
-    if frame.at_times is not None:
-        return "motion blur's shading at the samples' times"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):
         return f"more than {GPU_LINK_SETS - 1} light linking collections"
     varying = [m.program for m, v in zip(mats, frame.tables["varying"], strict=False) if v]
@@ -278,8 +279,9 @@ def _with_motion(program: programs.Program) -> programs.Program:
     """``program`` (one drawing the frame's triangles) reading their corners at the shutter's
     ``MOTION_STEPS`` steps (``core.render.motion_blur``)."""
     return dataclasses.replace(
-        program, defines={**program.defines, "MOTION": 1},
+        program, defines={**program.defines, "MOTION": 1, "SHARE_ROW": textures.ROW_WIDTH},
         inputs=program.inputs + tuple(("VEC3", f"m{k}") for k in range(MOTION_STEPS)),
+        samplers=program.samplers + (("FLOAT_2D", "share_rows"), ("FLOAT_2D", "share_corners")),
         varyings=program.varyings + (("VEC3", "v_moved", "smooth"),))
 
 
@@ -547,6 +549,8 @@ class GPUFrame:
             flags |= frame.blends[keep].astype(np.int32) * FLAG_BLENDED
         if frame.catcher is not None:
             flags |= frame.catcher[keep].astype(np.int32) * FLAG_CATCHER
+        if frame.motion_row is not None:
+            flags |= (frame.motion_row[keep] >= 0).astype(np.int32) * FLAG_MOVES
         if dark is not None:  # (a light group's frame: the emission of other groups' meshes)
             flags |= dark[keep].astype(np.int32) * FLAG_DARK
         vbo.attr_fill("flags", np.repeat(flags, 3))
@@ -622,50 +626,74 @@ class GPUFrame:
                              + [("lightmaps", gpu.types.GPUUniformBuf(block))],
                              [(name, texture) for _, name, texture in drawn.samplers()]
                              + [("lightmap_texels", texels)])
-        scene_lights = frame.scene.lights
-        maps = frame.shadow_maps[:len(scene_lights)]
         sky = frame.sky if self.indirect is not None else None
-        self.dome = None  # (the dome's map numbers in the first draw's ShadowData)
         self._peeling = None  # (size, textures and framebuffers) of the layers peeled
         self.dummy = gpu.types.GPUTexture((1, 1), format="RGBA32F")
-        self.batches = []
         # the shadow maps of the frame before, when this one has the same (a material tweak)
         key = (id(frame.positions), id(frame.casts), sky is not None,
                tuple(id(m) for m in frame.shadow_maps))
         with _kept_lock:
             last = _kept_shadows[0] if _kept_shadows else None
         kept = last[1] if last is not None and last[0] == key else None
-        sets = [] if kept is None else kept
-        casters = {}  # the shadow casters by blocker set, for maps the GPU draws
-        if kept is None and any(m is not None and m.on_gpu for m in frame.shadow_maps):
-            from ..core.render.shadow_maps import casters as caster_set
-            from .shadow_depths import Casters
-
-            for k in {0} | {light.blockers for light in scene_lights}:
-                casters[k] = Casters(caster_set(frame, k)[0])
-        lo = 0
-        while lo < max(1, len(scene_lights)):
-            size = DOME_BATCH_LIGHTS if sky is not None and lo == 0 else BATCH_LIGHTS
-            group = scene_lights[lo:lo + size]
-            extra = sky.maps if sky is not None and lo == 0 else []
-            if kept is None:
-                sets.append(lights.shadow_set(
-                    maps[lo:lo + size] + list(extra),
-                    jitter=[True] * len(group) + [False] * len(extra),
-                    casters=[casters.get(light.blockers) for light in group]
-                    + [casters.get(0)] * len(extra)))
-            shadow_set = sets[len(self.batches)]
-            if extra:
-                self.dome = shadow_set.index[len(group):]
-            self.batches.append(_Batch(
-                len(group), gpu.types.GPUUniformBuf(_light_bytes(group, shadow_set)),
-                shadow_set, gpu.types.GPUUniformBuf(
-                    _padded(shadow_set.block, lights.SHADOW, SHADOW_RECORDS))))
-            lo += size
+        # the lights' draws; the dome's map numbers in the first draw's ShadowData
+        self.batches, sets, self.dome = _light_batches(frame, sky, kept)
         # kept with what the key names, so that no id is another object's while kept
         with _kept_lock:
             _kept_shadows[:] = [(key, sets, (frame.positions, frame.casts,
                                              list(frame.shadow_maps)))]
+        self.shares = None  # per share of the shutter: (its light batches, eye, forward)
+        self.share_textures = None  # (each triangle's motion row, the shares' corners)
+        if frame.at_times is not None:
+            self._upload_shares(frame)
+
+    def _upload_shares(self, frame: Frame) -> None:
+        """The frame at each share of the shutter (``Frame.at_times``): the moving triangles'
+        corners and normals there (read by ``frame_vert.glsl`` when FrameData.options.z names
+        the share), the camera there and the light batches of its shadow maps (the frame's
+        own where its maps are the same)."""
+        moving = (np.flatnonzero(frame.motion_row >= 0) if frame.motion_row is not None
+                  else np.zeros(0, np.int64))
+        self.moving = len(moving)
+        corners = np.zeros((len(frame.at_times), len(moving), 3, 2, 4), np.float32)
+        self.shares = []
+        for g, moved in enumerate(frame.at_times):
+            corners[g, :, :, 0, :3] = moved.positions[moving]
+            corners[g, :, :, 1, :3] = moved.normals[moving]
+            batches = self.batches
+            if moved.shadow_maps is not frame.shadow_maps:
+                sky = moved.sky if self.indirect is not None else None
+                batches = _light_batches(moved, sky, like=(frame, self.batches))[0]
+            cam = moved.scene.camera
+            self.shares.append((batches, cam.position, cam.forward))
+        rows = (np.full(len(frame.positions), -1.0) if frame.motion_row is None
+                else frame.motion_row)
+        self.share_textures = (textures.rows(np.asarray(rows, np.float32)[:, None]),
+                               textures.rows(corners.reshape(-1, 4)))
+
+    def _sample_groups(self, count: int, first_sample: int):
+        """How ``count`` samples from number ``first_sample`` are shaded, as
+        ``pipeline.render_tile`` does: (the batches of sample indices whose shading is reused
+        within each, (count,) each sample's share of the shutter or -1, whether each is
+        shaded on its own). Where shadows move, a batch per share; under a moving camera every
+        sample on its own."""
+        every = self.frame.scene.settings.shade_every_sample
+        if self.shares is None or not self.frame.motion_reach:
+            return [list(range(count))], np.full(count, -1), every
+        times = motion_blur.shutter_times(first_sample + np.arange(count),
+                                          self.frame.scene.settings.shutter_curve)
+        share_of = motion_blur.shares(times, len(self.shares))
+        every = every or self.frame.scene.camera.motion is not None
+        if not self.frame.shadows_move:
+            return [list(range(count))], share_of, every
+        return ([list(np.flatnonzero(share_of == g)) for g in range(len(self.shares))
+                 if (share_of == g).any()], share_of, every)
+
+    def _bind_shares(self, program) -> None:
+        """The shares' textures (``_upload_shares``) for a program reading the triangles'
+        motion."""
+        rows, corners = self.share_textures or (self.dummy, self.dummy)
+        program.uniform_sampler("share_rows", rows)
+        program.uniform_sampler("share_corners", corners)
 
     def draw(self, camera, offsets, targets: Targets, first_sample: int = 0) -> None:
         """Add the samples at ``offsets`` ((S, 2) positions in the pixel, top-left origin;
@@ -693,101 +721,115 @@ class GPUFrame:
         model = shading_kernel.MODELS[settings.specular_model]
         lit = bool(set(targets.names) & LIT)
         ambient = self.ambient and lit and self._ambient(camera, targets, base)
-        sky = self.dome is not None and lit and self._dome(camera, targets, base)
         shade = shader("shade", targets.names, self.indirect is not None, self.ambient,
                        self.dome is not None, self.mat, self.motion, self.blended)
         background = shader("background", targets.names, self.world is not None,
                             blended=self.blended)
         catcher_pass = int(settings.shadow_catcher_pass)
         world_block = self.world and gpu.types.GPUUniformBuf(self._world_block(camera))
-        targets.clear_batch()
         blocks = []  # uniform buffers stay alive until drawn
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
-        for k, (ox, oy) in enumerate(np.asarray(offsets, np.float64).reshape(-1, 2)):
-            mode = ("MODE_EVERY" if settings.shade_every_sample else
-                    "MODE_FIRST" if k == 0 else "MODE_REST")
-            jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
-            lens = _lens(camera, first_sample + k, self.shutter)  # its lens point and time
+        offsets = np.asarray(offsets, np.float64).reshape(-1, 2)
+        groups, share_of, every = self._sample_groups(len(offsets), first_sample)
+        for group in groups:  # a batch of samples each: their shading reused within it
+            targets.clear_batch()
+            for j, k in enumerate(group):
+                ox, oy = offsets[k]
+                mode = ("MODE_EVERY" if every else "MODE_FIRST" if j == 0 else "MODE_REST")
+                g = int(share_of[k])  # its share of the shutter, -1: the frame's own time
+                moves = [0, 0] if g < 0 else [g + 1, self.moving]  # FrameData.options.zw
+                share = {} if g < 0 else {"eye": self.shares[g][1],
+                                          "forward": self.shares[g][2],
+                                          "options": [0, catcher_pass, *moves]}
+                batches = self.batches if g < 0 else self.shares[g][0]
+                sky = self.dome is not None and lit and self._dome(camera, targets, base, g)
+                jitter = ((0.5 - ox) * 2.0 / w, -(0.5 - oy) * 2.0 / h)
+                lens = _lens(camera, first_sample + k, self.shutter)  # its lens point and time
 
-            def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy),
-                      lens=lens, **extra):
-                blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{
-                    **base, **lens, "jitter": jitter, "sample_offset": offset,
-                    "counts": [count, model, int(first_batch), MODES[mode]],
-                    "size": [w, h, first_sample + k, 0], **extra}])))
-                return blocks[-1]
+                def block(count, first_batch, mode=mode, jitter=jitter, k=k, offset=(ox, oy),
+                          lens=lens, share=share, **extra):
+                    blocks.append(gpu.types.GPUUniformBuf(FRAME.pack([{
+                        **base, **share, **lens, "jitter": jitter, "sample_offset": offset,
+                        "counts": [count, model, int(first_batch), MODES[mode]],
+                        "size": [w, h, first_sample + k, 0], **extra}])))
+                    return blocks[-1]
 
-            if "clip_to_world" in lens and self.world is not None:  # through the lens point
-                world_block = gpu.types.GPUUniformBuf(self._world_block(camera, lens))
-                blocks.append(world_block)
+                if "clip_to_world" in lens and self.world is not None:  # through the lens point
+                    world_block = gpu.types.GPUUniformBuf(self._world_block(camera, lens))
+                    blocks.append(world_block)
 
-            def shade_into(fb, visible, stack=None, mode=mode, block=block):
-                """The visible points (or ``stack``'s layer: options) shaded into ``fb``."""
-                with fb.bind():  # only that triangle shades (not another at the same depth)
-                    gpu.state.depth_mask_set(False)
-                    gpu.state.blend_set("ADDITIVE_PREMULT")
-                    gpu.state.depth_test_set("ALWAYS" if self.frame.dithers.any() or stack
-                                             else "EQUAL")
-                    shade.bind()
-                    self._bind_materials(shade)
-                    shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
-                                          else targets.textures["first_key"])
-                    shade.uniform_sampler("visible", visible)
-                    self._bind_stacks(shade)
-                    if ambient:
-                        shade.uniform_block("ao", ambient[0])
-                        shade.uniform_sampler("ambient", ambient[1])
-                    if sky:
-                        shade.uniform_block("dome", sky[0])
-                        for name, texture in zip(DOME_TEXTURES, sky[1], strict=True):
-                            shade.uniform_sampler(name, texture)
-                    if lit and self.indirect is not None:
-                        for name, buffer in self.indirect[0]:
-                            shade.uniform_block(name, buffer)
-                        for name, texture in self.indirect[1]:
-                            shade.uniform_sampler(name, texture)
-                    for b, batch in enumerate(self.batches if lit else self.batches[:1]):
-                        shade.uniform_block("frame", block(batch.count, b == 0, mode=mode,
-                                                           **(stack or {})))
-                        if lit:
-                            shade.uniform_block("lights", batch.light_block)
-                            shade.uniform_block("shadows", batch.shadow_block)
-                            for _, name, texture in batch.shadows.samplers():
+                def shade_into(fb, visible, stack=None, mode=mode, block=block,
+                               batches=batches, sky=sky):
+                    """The visible points (or ``stack``'s layer: options) shaded into ``fb``."""
+                    with fb.bind():  # only that triangle shades (not another at the same depth)
+                        gpu.state.depth_mask_set(False)
+                        gpu.state.blend_set("ADDITIVE_PREMULT")
+                        gpu.state.depth_test_set("ALWAYS" if self.frame.dithers.any() or stack
+                                                 else "EQUAL")
+                        shade.bind()
+                        self._bind_materials(shade)
+                        shade.uniform_sampler("first_key", targets.dummy if mode == "MODE_FIRST"
+                                              else targets.textures["first_key"])
+                        shade.uniform_sampler("visible", visible)
+                        self._bind_stacks(shade)
+                        if ambient:
+                            shade.uniform_block("ao", ambient[0])
+                            shade.uniform_sampler("ambient", ambient[1])
+                        if sky:
+                            shade.uniform_block("dome", sky[0])
+                            for name, texture in zip(DOME_TEXTURES, sky[1], strict=True):
                                 shade.uniform_sampler(name, texture)
-                        self.batch.draw(shade)
+                        if lit and self.indirect is not None:
+                            for name, buffer in self.indirect[0]:
+                                shade.uniform_block(name, buffer)
+                            for name, texture in self.indirect[1]:
+                                shade.uniform_sampler(name, texture)
+                        if self.motion:
+                            self._bind_shares(shade)
+                        for b, batch in enumerate(batches if lit else batches[:1]):
+                            shade.uniform_block("frame", block(batch.count, b == 0, mode=mode,
+                                                               **(stack or {})))
+                            if lit:
+                                shade.uniform_block("lights", batch.light_block)
+                                shade.uniform_block("shadows", batch.shadow_block)
+                                for _, name, texture in batch.shadows.samplers():
+                                    shade.uniform_sampler(name, texture)
+                            self.batch.draw(shade)
 
-            def world_into(visible, stack=None, block=block, world_block=world_block):
-                """The world where no surface is seen (or behind ``stack``'s layers)."""
-                with targets.rest.bind():  # a miss adds the world in every sample
-                    gpu.state.depth_test_set("ALWAYS")  # where no surface is (visible)
-                    gpu.state.blend_set("ADDITIVE_PREMULT")
-                    background.bind()
-                    background.uniform_block("frame", block(0, True, **(stack or {})))
-                    background.uniform_sampler("visible", visible)
-                    self._bind_stacks(background)
-                    if self.world is not None:
-                        background.uniform_block("world", world_block)
-                        background.uniform_block("images", self.world[0])
-                        background.uniform_sampler("world_texels", self.world[1])
-                        background.uniform_sampler("srgb_table", self.world[2])
-                    self.background.draw(background)
+                def world_into(visible, stack=None, block=block, world_block=world_block):
+                    """The world where no surface is seen (or behind ``stack``'s layers)."""
+                    with targets.rest.bind():  # a miss adds the world in every sample
+                        gpu.state.depth_test_set("ALWAYS")  # where no surface is (visible)
+                        gpu.state.blend_set("ADDITIVE_PREMULT")
+                        background.bind()
+                        background.uniform_block("frame", block(0, True, **(stack or {})))
+                        background.uniform_sampler("visible", visible)
+                        self._bind_stacks(background)
+                        if self.world is not None:
+                            background.uniform_block("world", world_block)
+                            background.uniform_block("images", self.world[0])
+                            background.uniform_sampler("world_texels", self.world[1])
+                            background.uniform_sampler("srgb_table", self.world[2])
+                        self.background.draw(background)
 
-            visible = targets.textures["visible"]
-            self._visible(targets.prepass, visible, lambda **extra: block(0, True, **extra),
-                          first_sample + k)
-            shade_into(targets.first if mode == "MODE_FIRST" else targets.rest, visible)
-            world = not settings.film_transparent or "catcher" in targets.names
-            if world:
-                world_into(visible)
-            if self.blended:  # each layer of the stacks on its own, weighted by its share
-                behind, layers = self._stack(visible, lambda **extra: block(0, True, **extra),
-                                             first_sample + k)
-                for slot in [*range(layers), BLEND_LAYERS] if layers else []:
-                    stack = {"options": [slot + 1, catcher_pass, 0, 0]}
-                    shade_into(targets.rest, behind, stack, "MODE_EVERY")
-                if world and layers:
-                    world_into(behind, {"options": [BLEND_LAYERS + 1, catcher_pass, 0, 0]})
-        targets.compose(self.background, len(np.reshape(offsets, (-1, 2))))
+                visible = targets.textures["visible"]
+                def unshared(**extra):  # (the raster is the sample's own time's)
+                    return block(0, True, share={}, **extra)
+
+                self._visible(targets.prepass, visible, unshared, first_sample + k)
+                shade_into(targets.first if mode == "MODE_FIRST" else targets.rest, visible)
+                world = not settings.film_transparent or "catcher" in targets.names
+                if world:
+                    world_into(visible)
+                if self.blended:  # each layer of the stacks on its own, weighted by its share
+                    behind, layers = self._stack(visible, unshared, first_sample + k)
+                    for slot in [*range(layers), BLEND_LAYERS] if layers else []:
+                        stack = {"options": [slot + 1, catcher_pass, *moves]}
+                        shade_into(targets.rest, behind, stack, "MODE_EVERY")
+                    if world and layers:
+                        world_into(behind, {"options": [BLEND_LAYERS + 1, catcher_pass,
+                                                        *moves]})
+            targets.compose(self.background, len(group))
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
@@ -855,7 +897,15 @@ class GPUFrame:
                 fb.clear(color=(0.0, 0.0, 0.0, 0.0))
         program = shader("aov", mat=self.mat, motion=self.motion, blended=self.blended)
         saved = gpu.state.depth_test_get(), gpu.state.depth_mask_get(), gpu.state.blend_get()
+        share_of = self._sample_groups(len(offsets), first_sample)[1]
         for block, visible, sample in self._each_visible(camera, offsets, first_sample):
+            g = int(share_of[sample - first_sample])  # shaded at its share of the shutter
+            moves, share = [0, 0], {}
+            if g >= 0:
+                moves = [g + 1, self.moving]
+                share = {"forward": self.shares[g][2]}
+                if camera.aperture is None or camera.orthographic:  # (else the lens point)
+                    share["eye"] = self.shares[g][1]
             draws = [(visible, 0)]  # (the surfaces, the blended stacks' layer drawn + 1)
             if self.blended:
                 behind, layers = self._stack(visible, block, sample)
@@ -868,8 +918,11 @@ class GPUFrame:
                         gpu.state.blend_set("ADDITIVE_PREMULT")
                         program.bind()
                         program.uniform_block("frame", block(counts=[j, 0, 0, 0],
-                                                             options=[layer, 0, 0, 0]))
+                                                             options=[layer, 0, *moves],
+                                                             **share))
                         self._bind_materials(program)
+                        if self.motion:
+                            self._bind_shares(program)
                         self._bind_stacks(program)
                         program.uniform_sampler("visible", seen)
                         self.batch.draw(program)
@@ -1100,23 +1153,27 @@ class GPUFrame:
             record["sun_color"] = np.asarray(sun.color, np.float32) / np.float32(solid)
         return WORLD.pack([record])
 
-    def _dome(self, camera, targets: Targets, base: dict):
+    def _dome(self, camera, targets: Targets, base: dict, share: int = -1):
         """(the DomeData block, its grid's textures) through ``camera``: the dome's visibility
-        at the anchor pixels of ``sky.upsampled``, made once per camera and targets."""
+        at the anchor pixels of ``sky.upsampled``, made once per camera, targets and share of
+        the shutter (-1: the frame's own time; else its geometry and dome there)."""
         import gpu
 
-        kept = targets.kept.get("dome")
+        kept = targets.kept.get(("dome", share))
         if kept is not None and kept[0] is camera:
             return kept[1]
+        if share >= 0:
+            base = {**base, "options": [0, 0, share + 1, self.moving]}
         _, _, gw, gh = dome.grid(camera)
         scale, shift = dome.grid_projection(camera)
         grid_textures = [gpu.types.GPUTexture((gw, gh), format="RGBA32F") for _ in range(3)]
         z = gpu.types.GPUTexture((gw, gh), format="DEPTH_COMPONENT32F")
         fb = gpu.types.GPUFrameBuffer(depth_slot=z, color_slots=tuple(grid_textures))
-        data = gpu.types.GPUUniformBuf(dome.block(self.frame, self.dome, camera))
+        seen = self.frame if share < 0 else self.frame.at_times[share]
+        data = gpu.types.GPUUniformBuf(dome.block(seen, self.dome, camera))
         frame_data = gpu.types.GPUUniformBuf(FRAME.pack([{
             **base, "jitter": shift, "ndc_scale": scale}]))
-        batch = self.batches[0]
+        batch = (self.batches if share < 0 else self.shares[share][0])[0]
         depth = shader("depth", motion=self.motion)
         program = shader("dome_grid", motion=self.motion)
         saved = (gpu.state.depth_test_get(), gpu.state.depth_mask_get(),
@@ -1130,6 +1187,8 @@ class GPUFrame:
             depth.bind()
             depth.uniform_block("frame", frame_data)
             depth.uniform_sampler("peel_floor", self.dummy)  # (not read)
+            if self.motion:
+                self._bind_shares(depth)
             self.batch.draw(depth)
             gpu.state.color_mask_set(True, True, True, True)
             gpu.state.depth_mask_set(False)
@@ -1141,12 +1200,14 @@ class GPUFrame:
             program.uniform_sampler("materials", self.materials)
             for _, name, texture in batch.shadows.samplers():
                 program.uniform_sampler(name, texture)
+            if self.motion:
+                self._bind_shares(program)
             self.batch.draw(program)
         gpu.state.depth_test_set(saved[0])
         gpu.state.depth_mask_set(saved[1])
         gpu.state.blend_set(saved[2])
         result = (data, grid_textures)
-        targets.kept["dome"] = (camera, result)
+        targets.kept[("dome", share)] = (camera, result)
         return result
 
     def _ambient(self, camera, targets: Targets, base: dict):
@@ -1327,6 +1388,57 @@ def _triangle_normals(pos: np.ndarray):
     a, b = pos[:, 1] - pos[:, 0], pos[:, 2] - pos[:, 0]
     return (a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1], a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2],
             a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0])
+
+
+def _light_batches(frame: Frame, sky, kept=None, like=None):
+    """The frame's lights in draws of ``BATCH_LIGHTS`` (``DOME_BATCH_LIGHTS`` in the first
+    when the world's dome ``sky`` shares its block): ([_Batch], their shadow sets, the dome's
+    map numbers in the first's ShadowData or None). ``kept``: the shadow sets of a frame with
+    the same maps, used as they are; ``like``: (a frame, its batches) whose batch is taken
+    where it holds the same maps (a share of the shutter whose casters there do not move)."""
+    import gpu
+
+    scene_lights = frame.scene.lights
+    maps = frame.shadow_maps[:len(scene_lights)]
+    sets = [] if kept is None else kept
+    casters = {}  # the shadow casters by blocker set, for maps the GPU draws
+    if kept is None and any(m is not None and m.on_gpu for m in frame.shadow_maps):
+        from ..core.render.shadow_maps import casters as caster_set
+        from .shadow_depths import Casters
+
+        for k in {0} | {light.blockers for light in scene_lights}:
+            casters[k] = Casters(caster_set(frame, k)[0])
+    batches, dome_index, lo = [], None, 0
+    while lo < max(1, len(scene_lights)):
+        size = DOME_BATCH_LIGHTS if sky is not None and lo == 0 else BATCH_LIGHTS
+        group = scene_lights[lo:lo + size]
+        extra = list(sky.maps) if sky is not None and lo == 0 else []
+        mine = list(maps[lo:lo + size]) + extra
+        if like is not None:
+            theirs = like[0].shadow_maps[:len(scene_lights)][lo:lo + size] + (
+                list(like[0].sky.maps) if extra else [])
+            if len(theirs) == len(mine) and all(a is b for a, b in zip(mine, theirs, strict=True)):
+                batches.append(like[1][len(batches)])
+                if extra:
+                    dome_index = batches[-1].shadows.index[len(group):]
+                lo += size
+                continue
+        if kept is None:
+            shadow_set = lights.shadow_set(
+                mine, jitter=[True] * len(group) + [False] * len(extra),
+                casters=[casters.get(light.blockers) for light in group]
+                + [casters.get(0)] * len(extra))
+            sets.append(shadow_set)
+        else:
+            shadow_set = kept[len(batches)]
+        if extra:
+            dome_index = shadow_set.index[len(group):]
+        batches.append(_Batch(
+            len(group), gpu.types.GPUUniformBuf(_light_bytes(group, shadow_set)),
+            shadow_set, gpu.types.GPUUniformBuf(
+                _padded(shadow_set.block, lights.SHADOW, SHADOW_RECORDS))))
+        lo += size
+    return batches, sets, dome_index
 
 
 def _light_bytes(group, shadow_set) -> bytes:

@@ -457,12 +457,18 @@ def test_light_groups_match_the_cpu():
                                rtol=1e-3, atol=1e-4)
 
 
-@pytest.mark.parametrize("camera_moves", [False, True])
-def test_motion_blur_is_left_to_the_cpu(camera_moves):
-    """A box moving over the shutter (and the camera moving too): its samples are shaded at
-    their times of the shutter with the shadow maps of those times, which the GPU does not
-    draw yet: refused, saying so (the render goes to the CPU)."""
+@pytest.mark.parametrize(("camera_moves", "probes"), [(False, False), (True, False),
+                                                      (False, True)])
+def test_motion_blur_matches_the_cpu(camera_moves, probes):
+    """A box moving over the shutter (and the camera moving too; and a scene with probes, the
+    world's dome and its contact occlusion): the GPU draws each sample at the CPU's time,
+    shaded at the middle of its share of the shutter with that share's shadow maps (the
+    box's shadow streaks); the frame against the CPU's, streaked where the still one is
+    sharp."""
     scene = scenes.objects_scene([scenes.LIGHTS["SUN"], scenes.LIGHTS["POINT"]], samples=16)
+    if probes:
+        scene = scenes.with_probes(scene)
+    still = _render_both(scene)[1]["Combined"]
     box = scene.meshes[1]
     box.motion = np.stack([box.positions + np.float32([dx, 0.3 * dx, 0.0])
                            for dx in (-0.4, 0.0, 0.4)])
@@ -475,7 +481,11 @@ def test_motion_blur_is_left_to_the_cpu(camera_moves):
         scene.camera = dataclasses.replace(scene.camera, motion=np.stack(views))
     frame = pipeline.prepare(RenderJob(scene))
     assert frame.at_times is not None and frame.shadows_move
-    assert "motion blur" in gpu_frame.unsupported(frame)
+    assert gpu_frame.unsupported(frame) is None
+    cpu, gpu = _render_both(scene)
+    _check(cpu, gpu, "motion blur")
+    streaked = np.abs(gpu["Combined"] - still).max(-1) > 0.05
+    assert 0.01 < streaked.mean() < 0.8, streaked.mean()
 
 
 @pytest.mark.parametrize("blended", [False, True])

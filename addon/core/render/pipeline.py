@@ -246,17 +246,18 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
     eyes = (np.array([depth_of_field.eye(cam, p) for p in lens_at], np.float32)[
         sample - np.uint32(first_sample)] if lens and count else None)
     for g in range(parts):
-        mine = np.flatnonzero(share == g) if timed else np.arange(count)
+        mine = np.flatnonzero(share == g) if timed else None  # (None: every point)
+        todo = count if mine is None else len(mine)
         shown = frame.at_times[g] if timed else frame
         seen_from = eyes
-        if moving and eyes is None and len(mine) and not cam.orthographic:
+        if moving and eyes is None and todo and not cam.orthographic:
             # a moved point is seen from the camera of its time, not along the ray of the
             # pixel it moved to
             seen_from = np.broadcast_to(shown.scene.camera.position.astype(np.float32),
                                         (count, 3))
-        for lo in range(0, len(mine), SHADE_BLOCK):
-            block = mine[lo:lo + SHADE_BLOCK]
-            tick(len(block) / count)
+        for lo in range(0, todo, SHADE_BLOCK):
+            block = slice(lo, lo + SHADE_BLOCK) if mine is None else mine[lo:lo + SHADE_BLOCK]
+            tick(len(pixel[block]) / count)
             shading.splat(acc, pixel[block], weight[block],
                           shade_points(shown, tri[block], bary[block], sx[block], sy[block],
                                        tick, ao_tile, seeds[block],

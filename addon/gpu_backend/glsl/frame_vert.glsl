@@ -5,7 +5,10 @@
  * shadow catcher (frame_frag.glsl), 32 blended (stack_frag.glsl).
  * links: the light linking sets of its mesh (bit k: set k). With MOTION, the corners at the
  * shutter's steps m0..m2 (core/render/motion_blur.py): the sample is drawn where they are at
- * its time, and shaded at the frame's own corners (pos). */
+ * its time; it is shaded where the triangle is at the share of the shutter frame.options.z
+ * names (its corners and normals there in share_corners, at its row of share_rows among the
+ * frame.options.w moving triangles; core/render/pipeline.py's Frame.at_times), or at the
+ * frame's own corners (pos) when that is 0. */
 void main()
 {
   v_position = pos;
@@ -21,7 +24,25 @@ void main()
 #ifdef MATERIALS
   MATERIAL_VERTEX
 #endif
-  vec3 at = pos;
+#ifdef MOTION
+  if (frame.options.z > 0) {
+    int row = int(texelFetch(share_rows, ivec2(tri % SHARE_ROW, tri / SHARE_ROW), 0).x);
+    if (row >= 0) {
+      int first = ((frame.options.z - 1) * frame.options.w + row) * 6;
+      vec3 c[3];
+      for (int k = 0; k < 3; k++) {
+        int i = first + 2 * k;
+        c[k] = texelFetch(share_corners, ivec2(i % SHARE_ROW, i / SHARE_ROW), 0).xyz;
+      }
+      int corner = gl_VertexID % 3;
+      int i = first + 2 * corner + 1;
+      v_position = c[corner];
+      v_normal = texelFetch(share_corners, ivec2(i % SHARE_ROW, i / SHARE_ROW), 0).xyz;
+      v_geo = cross(c[1] - c[0], c[2] - c[0]);
+    }
+  }
+#endif
+  vec3 at = v_position; /* (the share's corners, where no sample's time is given) */
 #ifdef MOTION
   if (frame.shutter.y > 0.0) { /* where the sample's time of the shutter sees it */
     float u = frame.shutter.x * 2.0;
