@@ -642,6 +642,7 @@ class GPUFrame:
             _kept_shadows[:] = [(key, sets, (frame.positions, frame.casts,
                                              list(frame.shadow_maps)))]
         self.shares = None  # per share of the shutter: (its light batches, eye, forward)
+        self.moving = 0  # triangles that move over the shutter
         self.share_textures = None  # (each triangle's motion row, the shares' corners)
         if frame.at_times is not None:
             self._upload_shares(frame)
@@ -700,7 +701,8 @@ class GPUFrame:
         the first being sample ``first_sample`` of the whole) of the frame through ``camera``
         (``core.scene.Camera`` of the targets' size) to ``targets``, shaded once per pixel and
         triangle within these samples (``pipeline.render_tile``; every sample on its own with
-        the setting ``shade_every_sample``)."""
+        the setting ``shade_every_sample``). With motion blur, each sample is shaded at its
+        share of the shutter (``_sample_groups``: a batch per share where shadows move)."""
         import gpu
 
         scene = self.frame.scene

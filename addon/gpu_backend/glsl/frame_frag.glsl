@@ -3,7 +3,8 @@
  * into its own targets with its triangle (out_key: the triangle's number in two parts, the
  * low one plus 1); a later sample that sees the same triangle only counts itself (out_key.r
  * = 1) and is weighted into the first's shading by the compose pass; one that sees another
- * triangle (an edge) is shaded on its own. Lights come in batches (frame.counts.x of them;
+ * triangle (an edge), or a triangle that moves over the shutter (flag 64), is shaded on its
+ * own. Lights come in batches (frame.counts.x of them;
  * frame.counts.z: the first batch, which also adds the surface's own terms). WRITE_TARGETS
  * (defined from Python) stores the values of TARGETS the targets drawn into hold; with
  * SURFACE_ONLY (targets that need no light) the lights are left out. With BLENDED, a blended
@@ -46,7 +47,7 @@ void main()
   }
   else if (mode == MODE_REST) {
     vec4 first = texelFetch(first_key, pixel, 0);
-    if (first.g > 0.0 && key_triangle(first) == v_tri) {
+    if (first.g > 0.0 && key_triangle(first) == v_tri && (v_flags & 64) == 0) {
       out_key = vec4(first_batch ? 1.0 : 0.0, 0.0, 0.0, 0.0);
       WRITE_ZEROS
       return;

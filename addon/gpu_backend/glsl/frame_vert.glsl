@@ -2,7 +2,8 @@
  * triangle's flags: 1 culled when seen from behind (its material's Backface Culling), 2 a
  * holdout (it hides what is behind and is drawn as nothing), 4 its material may be
  * transparent (peel_frag.glsl), 8 its emission is left out (a light group's frame), 16 a
- * shadow catcher (frame_frag.glsl), 32 blended (stack_frag.glsl).
+ * shadow catcher (frame_frag.glsl), 32 blended (stack_frag.glsl), 64 it moves over the
+ * shutter (its shading is never reused).
  * links: the light linking sets of its mesh (bit k: set k). With MOTION, the corners at the
  * shutter's steps m0..m2 (core/render/motion_blur.py): the sample is drawn where they are at
  * its time; it is shaded where the triangle is at the share of the shutter frame.options.z
