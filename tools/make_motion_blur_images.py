@@ -69,7 +69,7 @@ def render(scene, engine: str, samples: int) -> np.ndarray:
         scene.bo2.device = "CPU"
         scene.bo2.indirect.use = False
     assert bpy.ops.render.render() == {"FINISHED"}
-    return images.render_result_pixels(scene)[::-1, :, :3]  # row 0 at the top
+    return images.render_result_pixels(scene)[..., :3]  # row 0 at the top
 
 
 def main() -> int:
