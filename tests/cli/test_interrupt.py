@@ -5,9 +5,11 @@ Run as a user runs it: the command in a subprocess, SIGINT sent once work is und
 
 import hashlib
 import json
+import re
 import shutil
 import signal
 import subprocess
+import threading
 import time
 import zlib
 
@@ -16,15 +18,29 @@ from test_cli import BO2, ROOT, bo2
 
 
 def interrupted(cmd, ready, limit=120.0):
-    """Run ``cmd``, send SIGINT once ``ready()`` is true, return the finished process."""
+    """Run ``cmd``, send SIGINT once ``ready(said)`` is true (``said``: its stderr so far),
+    return the finished process (its output in ``stdout_text``, ``stderr_text``)."""
     proc = subprocess.Popen([str(BO2), *map(str, cmd)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
+    said = []
+    reader = threading.Thread(target=lambda: said.extend(iter(lambda: proc.stderr.read(1), "")))
+    reader.start()
     start = time.monotonic()
-    while not ready() and proc.poll() is None and time.monotonic() - start < limit:
+    while (not ready("".join(said)) and proc.poll() is None
+           and time.monotonic() - start < limit):
         time.sleep(0.05)
     proc.send_signal(signal.SIGINT)
-    proc.stdout_text, proc.stderr_text = proc.communicate(timeout=limit)
+    proc.stdout_text = proc.stdout.read()  # (stderr is the reader's)
+    proc.wait(timeout=limit)
+    reader.join(timeout=limit)
+    proc.stderr_text = "".join(said)
     return proc
+
+
+def progress(said: str) -> float:
+    """The last percentage a progress bar printed in ``said``, 0 before the first."""
+    found = re.findall(r"(\d+(?:\.\d+)?)%", said)
+    return float(found[-1]) if found else 0.0
 
 
 def test_render_stops_keeps_finished_frames_and_writes_no_partial_one(tmp_path):
@@ -33,7 +49,7 @@ def test_render_stops_keeps_finished_frames_and_writes_no_partial_one(tmp_path):
     proc = interrupted(("render", ROOT / "demo_blends" / "room.blend", "--frames", "1-4",
                         "-o", out, "--samples", "8", "--resolution", "320x180",
                         "--summary", summary),
-                       ready=lambda: (tmp_path / "f_1.png").exists())
+                       ready=lambda said: (tmp_path / "f_1.png").exists())
     assert proc.returncode == 130, proc.stderr_text
     assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
     names = sorted(p.name for p in tmp_path.iterdir())
@@ -55,8 +71,8 @@ def test_bake_stops_and_keeps_the_previous_files(tmp_path):
     folder = tmp_path / "bo2_bake" / "closed_room"
     before = digests(folder)
     saved = blend.read_bytes()
-    began = time.monotonic()
-    proc = interrupted(("bake", blend), ready=lambda: time.monotonic() - began > 4.0)
+    # under way: a third of the bake done, far from its end (a time could fall after it)
+    proc = interrupted(("bake", blend), ready=lambda said: progress(said) > 30.0)
     assert proc.returncode == 130, proc.stderr_text
     assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
     assert digests(folder) == before  # nothing replaced, no temporary file left
@@ -69,9 +85,8 @@ def test_lightmap_bake_stops_and_keeps_the_previous_lightmaps(tmp_path):
     assert bo2("bake", blend, "--lightmaps", "--backend", "bo2").returncode == 0
     folder = tmp_path / "bo2_bake" / "closed_room" / "lightmaps"
     before = digests(folder)
-    began = time.monotonic()
     proc = interrupted(("bake", blend, "--lightmaps"),
-                       ready=lambda: time.monotonic() - began > 6.0)
+                       ready=lambda said: progress(said) > 30.0)
     assert proc.returncode == 130, proc.stderr_text
     assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
     assert digests(folder) == before  # nothing replaced, no temporary file left
@@ -82,7 +97,7 @@ def test_the_finished_frame_is_whole(tmp_path):
     args = ("--samples", "8", "--resolution", "320x180")
     proc = interrupted(("render", ROOT / "demo_blends" / "room.blend", "--frames", "1-3",
                         "-o", tmp_path / "a_#.png", *args),
-                       ready=lambda: (tmp_path / "a_1.png").exists())
+                       ready=lambda said: (tmp_path / "a_1.png").exists())
     assert proc.returncode == 130
     assert bo2("render", ROOT / "demo_blends" / "room.blend", "--frame", "1",
                "-o", tmp_path / "b.png", *args).returncode == 0
@@ -110,7 +125,7 @@ def test_a_cycles_render_is_ended_too(tmp_path):
     began = time.monotonic()
     proc = interrupted(("render", ROOT / "demo_blends" / "room.blend", "--engine", "cycles",
                         "--samples", "100000", "-o", tmp_path / "c.png"),
-                       ready=lambda: time.monotonic() - began > 6.0)
+                       ready=lambda said: time.monotonic() - began > 6.0)
     assert proc.returncode == 130, proc.stderr_text
     assert proc.stderr_text.strip().splitlines()[-1] == "bo2: interrupted"
     assert list(tmp_path.iterdir()) == []
