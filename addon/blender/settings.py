@@ -93,6 +93,7 @@ def render_settings(scene, purpose: str = "FINAL", view_layer=None) -> cs.Render
         fields["shadow_catcher_pass"] = passes.enabled(view_layer, "Shadow Catcher")
     if motion_blur(scene, purpose):
         fields["shutter_curve"] = shutter_curve(scene)
+        fields["rolling_shutter"] = rolling_shutter(scene)
     if purpose == "FINAL" and view_layer is not None:
         fields["cryptomatte"] = passes.cryptomatte(view_layer)
         fields["cryptomatte_levels"] = int(view_layer.pass_cryptomatte_depth)
@@ -111,6 +112,15 @@ def shutter_curve(scene) -> tuple[float, ...]:
     curve.initialize()
     values = tuple(float(curve.evaluate(curve.curves[0], x)) for x in np.linspace(0, 1, 33))
     return () if max(values) - min(values) < 1e-6 else values
+
+
+def rolling_shutter(scene) -> float | None:
+    """Render > Motion Blur > Rolling Shutter (Cycles' setting, read where Cycles is enabled)
+    as ``RenderSettings.rolling_shutter``: its Duration when Top-Bottom, else None."""
+    cycles = getattr(scene, "cycles", None)
+    if getattr(cycles, "rolling_shutter_type", "NONE") != "TOP":
+        return None
+    return float(cycles.rolling_shutter_duration)
 
 
 def motion_blur(scene, purpose: str) -> bool:

@@ -243,6 +243,13 @@ class RENDER_PT_bo2_motion_blur(BO2Panel, bpy.types.Panel):
         col.active = r.use_motion_blur
         col.prop(r, "motion_blur_position", text="Position")
         col.prop(r, "motion_blur_shutter")
+        cycles = getattr(context.scene, "cycles", None)
+        if cycles is not None and hasattr(cycles, "rolling_shutter_type"):
+            col.separator()
+            col.prop(cycles, "rolling_shutter_type", text="Rolling Shutter")
+            sub = col.column()
+            sub.active = cycles.rolling_shutter_type != "NONE"
+            sub.prop(cycles, "rolling_shutter_duration", text="Duration")
         self.note(layout, "In F12 and bo2 render, not the viewport")
 
 

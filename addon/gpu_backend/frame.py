@@ -142,6 +142,8 @@ def unsupported(frame: Frame) -> str | None:
             return "shadow catchers with light groups"
     if frame.blends is not None and len(frame.positions) >= 1 << 24:
         return "blended materials among more than 16.7 million triangles"
+    if frame.motion_reach and scene.settings.rolling_shutter is not None:
+        return "a rolling shutter (a time per band of pixel rows)"
     if frame.motion is not None and len(frame.motion) != MOTION_STEPS:
         return f"motion blur of other than {MOTION_STEPS} steps"
     if any(light.receivers >= GPU_LINK_SETS for light in scene.lights):

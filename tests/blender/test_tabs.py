@@ -107,8 +107,9 @@ def test_every_tab_draws(studio):
     scene, objs = studio
     _, props = tab(scene, "render")
     assert {"BO2SceneSettings.samples", "BO2SceneSettings.shadow_resolution",
-            "RenderSettings.preview_pixel_size", "ColorManagedViewSettings.view_transform"} \
-        <= set(props)
+            "RenderSettings.preview_pixel_size", "ColorManagedViewSettings.view_transform",
+            "RenderSettings.motion_blur_shutter", "CyclesRenderSettings.rolling_shutter_type",
+            "CyclesRenderSettings.rolling_shutter_duration"} <= set(props)
     _, props = tab(scene, "output")
     assert "RenderSettings.resolution_x" in props
     _, props = tab(scene, "view_layer")

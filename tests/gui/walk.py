@@ -176,6 +176,7 @@ def walk():
     tab_check("Render tab", "render", {"BO2SceneSettings.samples",
                                        "BO2SceneSettings.shadow_resolution",
                                        "RenderSettings.preview_pixel_size",
+                                       "CyclesRenderSettings.rolling_shutter_type",
                                        "BO2LightmapSettings.density",
                                        "BO2LookDevSettings.report_source",
                                        "BO2LookDevSettings.report_folder"})

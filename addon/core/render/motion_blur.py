@@ -8,7 +8,9 @@ from the shutter's opening to its closing, Cycles' motion steps), linearly in be
 sample's time follows the Halton sequence in base 5 (independent of the pixel filter's R2
 positions and the lens's bases 2 and 3), through the inverse of the shutter curve's integral
 (Render > Motion Blur > Shutter Curve) where it is not flat. All pixels share a sample's time,
-so a streak of L pixels shows the samples' images apart until there are about L of them.
+so a streak of L pixels shows the samples' images apart until there are about L of them;
+through a rolling shutter (Cycles' Rolling Shutter), each band of rows has its own
+(``rolling``, ``band_rows``): the frame's tiles are then bands of rows.
 
 A sample is shaded in the scene as it is at the middle of its time's share of the shutter,
 one of ``SHUTTER_TIMES`` even shares (``shares``): the moving triangles' corners and normals
@@ -53,6 +55,26 @@ def shutter_times(sample: np.ndarray, curve: tuple[float, ...] = ()) -> np.ndarr
     s = np.where(flat, r / np.where(a > 0.0, a, 1.0),
                  (root - a) / np.where(flat, 1.0, slope))
     return np.clip((i + np.clip(s / h, 0.0, 1.0)) * h, 0.0, 1.0)
+
+
+def rolling(times: np.ndarray, row: float, height: int, duration: float) -> np.ndarray:
+    """(N,) shutter times in [0, 1] of samples at ``times`` (N,) on pixel row ``row`` (top-left
+    origin, fractional for a band's middle) of a frame ``height`` rows tall, through a rolling
+    shutter that reads the rows from top to bottom, each open for ``duration`` of the shutter
+    (Cycles' Rolling Shutter Top-Bottom and its Duration, kernel/camera/camera.h: the row's
+    time (row + 1) / height, the sample's time spread about it by ``duration``)."""
+    row_time = (row + 1.0) / height
+    t = (np.asarray(times, np.float64) - 0.5) * duration + (row_time - 0.5) * (1.0 - duration)
+    return np.clip(t + 0.5, 0.0, 1.0)
+
+
+def band_rows(reach: int, height: int, duration: float) -> int:
+    """Rows that may share a rolling shutter's time (their middle row's, ``rolling``): those
+    over which a point moves at most half a pixel, so that no row's time moves it by more
+    than a quarter pixel; at least 1. ``reach``: the pixels a point moves from where the
+    frame's own time draws it at most (``reach``), twice that over the whole shutter."""
+    per_row = 2.0 * reach * (1.0 - duration) / height  # pixels moved from a row to the next
+    return max(1, int(0.5 / per_row)) if per_row > 0.0 else height
 
 
 def at_time(steps: np.ndarray, t: float) -> np.ndarray:

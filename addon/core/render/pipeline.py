@@ -119,6 +119,9 @@ def render_tile(frame: Frame, tile, offsets, tick, first_sample: int = 0):
         to_tile = tile_matrix(cam.width, cam.height, (x0 - mf, y0 - mf, x1 + mf, y1 + mf))
     if moving:
         times = motion_blur.shutter_times(numbers, scene.settings.shutter_curve)
+        if scene.settings.rolling_shutter is not None:  # the tile is a band of rows
+            times = motion_blur.rolling(times, (y0 + y1 - 1) / 2.0, cam.height,
+                                        scene.settings.rolling_shutter)
         corners = frame.positions[margin[2]]
         rows = np.full(len(corners), -1, np.int32) if frame.motion_row is None else \
             frame.motion_row[margin[2]]
@@ -390,7 +393,7 @@ def _tile_results(job: RenderJob, frame: Frame | None, cameras=None, offsets=Non
                                  scene.settings.filter_width)
     views = [frame] if cameras is None else [None] * len(cameras)
     view_locks = [threading.Lock() for _ in views]
-    todo = [(k, tile) for k in range(len(views)) for tile in tiles(scene)]
+    todo = [(k, tile) for k in range(len(views)) for tile in frame_tiles(frame)]
     total = len(todo) * (len(offsets) + 1)  # per tile: its samples' rasters, then the shading
     done = [0.0, 0.0]  # work finished over all tiles; that amount when progress was last called
     lock, stop, caller = threading.Lock(), threading.Event(), threading.get_ident()
@@ -412,7 +415,7 @@ def _tile_results(job: RenderJob, frame: Frame | None, cameras=None, offsets=Non
     def view(k: int) -> Frame:
         with view_locks[k]:
             if views[k] is None:
-                views[k] = with_camera(frame, cameras[k], once=len(tiles(scene)) == 1)
+                views[k] = with_camera(frame, cameras[k], once=len(todo) == len(views))
             return views[k]
 
     def work(k, tile):
@@ -432,13 +435,23 @@ def _tile_results(job: RenderJob, frame: Frame | None, cameras=None, offsets=Non
         progress(1.0)
 
 
+def frame_tiles(frame: Frame) -> list[tuple[int, int, int, int]]:
+    """The tiles ``frame`` is rendered in (``visibility.tiles``): through a rolling shutter
+    bands of rows that share a time (``motion_blur.band_rows``) when something moves."""
+    settings = frame.scene.settings
+    rows = (motion_blur.band_rows(frame.motion_reach, frame.scene.camera.height,
+                                  settings.rolling_shutter)
+            if settings.rolling_shutter is not None and frame.motion_reach else 0)
+    return tiles(frame.scene, rows)
+
+
 def render_tiles(job: RenderJob, *, frame: Frame | None = None
                  ) -> Iterator[tuple[tuple[int, int, int, int], dict[str, np.ndarray]]]:
     """Render the job's scene tile by tile.
 
     frame:  ``prepare(job)`` done already (its shadow maps reused), or None
     yields: ((x0, y0, x1, y1), {pass name: (y1 - y0, x1 - x0, C) float32}), row 0 at the top,
-            for every tile of ``visibility.tiles(scene)``
+            for every tile of ``frame_tiles``
     """
     for _, tile, arrays in _tile_results(job, frame):
         yield tile, tile_passes(tile, *arrays, extra=extras(job.scene.settings))

@@ -50,13 +50,17 @@ def sample_offsets(count: int, filter_width: float = 1.5) -> np.ndarray:
     return 0.5 + np.interp(u, cdf, xs)
 
 
-def tiles(scene: Scene) -> list[tuple[int, int, int, int]]:
-    """(x0, y0, x1, y1) tiles covering the render border (or the frame), top-left origin."""
+def tiles(scene: Scene, rows: int = 0) -> list[tuple[int, int, int, int]]:
+    """(x0, y0, x1, y1) tiles covering the render border (or the frame), top-left origin;
+    when ``rows`` is given, at most that many rows tall (a rolling shutter's bands,
+    ``motion_blur.band_rows``) and as wide as holds a tile's pixels."""
     cam, st = scene.camera, scene.settings
     bx0, by0, bx1, by1 = st.border or (0, 0, cam.width, cam.height)
     size = max(16, int(st.tile_size))
-    return [(x, y, min(x + size, bx1), min(y + size, by1))
-            for y in range(by0, by1, size) for x in range(bx0, bx1, size)]
+    tall = min(size, rows) if rows > 0 else size
+    wide = max(size, size * size // tall)
+    return [(x, y, min(x + wide, bx1), min(y + tall, by1))
+            for y in range(by0, by1, tall) for x in range(bx0, bx1, wide)]
 
 
 def tile_matrix(width: int, height: int, tile) -> np.ndarray:

@@ -402,6 +402,9 @@ class RenderSettings:
     shutter_curve:  the shutter's openness at evenly spaced times from its opening to its
                     closing (Cycles' shutter curve), () for a flat one: the samples' times of
                     motion blur are distributed as it (``motion_blur.shutter_times``)
+    rolling_shutter: None for a global shutter; else the rows are read from top to bottom
+                    over the shutter, each open for this share of it, in [0, 1] (Cycles'
+                    Rolling Shutter Top-Bottom and its Duration; ``motion_blur.rolling``)
     aovs:           the shader AOV passes wanted, (name, "COLOR" or "VALUE") each: what the
                     materials' AOV Output nodes of that name give (``Program.aovs``; a colour
                     with alpha 1), 0 elsewhere
@@ -438,6 +441,7 @@ class RenderSettings:
     blend_sort: str = "pixel"
     aovs: tuple[tuple[str, str], ...] = ()
     shutter_curve: tuple[float, ...] = ()
+    rolling_shutter: float | None = None
 
 
 @dataclass
