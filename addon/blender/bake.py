@@ -107,13 +107,17 @@ def kernels_ready(modules):
     kernels.load(None, modules)
 
 
-def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = None):
+def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = None,
+               cluster=None):
     """Bake ``objs`` (light probe objects); a generator of progress fractions in [0, 1] that
     returns the number of probes written.
 
     backend: "BO2" (the engine's pipeline, ``scene.bo2.probes.bounces`` bounces) or "CYCLES"
              (one Cycles render per face, full global illumination: one bounce)
     warnings: the sink of the bake's warnings (``core.render.job.Warnings``)
+    cluster: None to capture here, or a cluster whose ``probe_runner(backend, focus)`` runs
+             the captures on its workers (``cluster.session``), each from this file as
+             ``capture_scene`` and ``grabbers`` read it there
     The scene is read as a final render evaluates it (``render_graph``). Closing the
     generator early (cancel) writes nothing.
     """
@@ -123,32 +127,26 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     yield from kernels_ready(kernels.FRAME_MODULES)
     folder = probes.writable_folder(scene)
     start = time.perf_counter()
-    rs = settings_of.render_settings(scene, "PROBE_BAKE")
-    worlds.ensure(scene)  # a world of any nodes: rendered by Cycles first
-
     said = Warnings()  # the scene's, said once the probes are known to bake
 
-    def read(depsgraph):
-        core_scene, _ = extract.extract_scene(depsgraph, rs, camera=False,
-                                              should_stop=interrupt.requested, warnings=said)
+    def inside(depsgraph):
         for obj in objs:
             if obj.data.type != "SPHERE":
                 continue
             # an enclosing object smaller than the probe's reach is a prop it sits in; a larger
             # one is the room around it (walls modelled with outward normals)
             reach = 2.0 * float(obj.data.influence_distance)
-            inside = [name for name in enclosing_objects(scene, depsgraph,
-                                                         obj.matrix_world.translation)
-                      if scene.objects[name].dimensions.length < reach
-                      and not scene.objects[name].hide_probe_sphere]  # not in its captures
-            if inside:
+            names = [name for name in enclosing_objects(scene, depsgraph,
+                                                        obj.matrix_world.translation)
+                     if scene.objects[name].dimensions.length < reach
+                     and not scene.objects[name].hide_probe_sphere]  # not in its captures
+            if names:
                 said.add(f"Light probe '{obj.name}' seems to be inside object "
-                         f"{', '.join(repr(n) for n in inside)}: its captures see the "
+                         f"{', '.join(repr(n) for n in names)}: its captures see the "
                          "inside; move the probe out, or raise its Clip Start past the "
                          "surface")
-        return core_scene
 
-    core_scene = _read_for_render(scene, read)
+    core_scene = capture_scene(scene, said, inside)
     odd = Warnings()
     specs = bake.check([probes.spec(o) for o in objs], odd)
     if not specs:  # every probe was refused: the refusals are the error
@@ -159,20 +157,19 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     face_size = b.face_size
     _check_room(folder, sum(probe_file.size_bound(len(s.points), face_size if s.kind ==
                                                   "reflection" else None) for s in specs))
-    # the volumes' surroundings too, with either backend; Ctrl-C of the bo2 command stops it
-    captures = capture.Capture(RenderJob(core_scene, should_stop=interrupt.requested),
-                               focus=bake.capture_region(specs))
-    if backend == "BO2":
-        grab = captures.cube
+    focus = bake.capture_region(specs)
+    if cluster is None:
+        grab, surfaces = grabbers(scene, core_scene, focus, backend)
+        runner = None
     else:
-        def grab(position, size, near, far, _probes, kind):
-            return cycles_cube(scene, position, size, near, far, kind)
+        grab = surfaces = None
+        runner = cluster.probe_runner(backend, focus)
     job = bake.Bake(specs, core_scene.world, grab,
                     bounces=b.bounces,
                     converge=b.converge,
                     face_size=face_size,
                     volume_face_size=b.volume_face_size,
-                    surfaces=captures.surfaces)
+                    surfaces=surfaces, runner=runner)
     yield from job.steps()
     for baked in job.results:
         if baked.validity is not None and not baked.validity.all():
@@ -198,6 +195,41 @@ def bake_steps(scene, objs, backend: str = "BO2", warnings: Warnings | None = No
     _declare(scene, targets)
     yield 1.0
     return len(targets)
+
+
+def capture_scene(scene, warnings: Warnings | None = None, check=None):
+    """The core scene the probe captures of ``scene`` see (its Light Probe Bake settings; a
+    world of any nodes rendered by Cycles first), read as a final render evaluates it;
+    ``check(depsgraph)`` looks at that evaluation too. BakeError when Blender cannot render."""
+    rs = settings_of.render_settings(scene, "PROBE_BAKE")
+    worlds.ensure(scene)
+
+    def read(depsgraph):
+        core_scene, _ = extract.extract_scene(depsgraph, rs, camera=False,
+                                              should_stop=interrupt.requested,
+                                              warnings=warnings)
+        if check is not None:
+            check(depsgraph)
+        return core_scene
+
+    return _read_for_render(scene, read)
+
+
+def grabbers(scene, core_scene, focus, backend: str):
+    """(the capture, the surroundings' look) of a probe bake of ``core_scene``
+    (``capture_scene``) by ``backend``, "BO2" or "CYCLES" (``bake.CaptureFn``,
+    ``bake.SurfacesFn``); the suns' shadows sharp over ``focus``
+    (``bake.capture_region``). The volumes' look at their surroundings is the engine's with
+    either backend; Ctrl-C of the bo2 command stops a capture."""
+    captures = capture.Capture(RenderJob(core_scene, should_stop=interrupt.requested),
+                               focus=focus)
+    if backend == "BO2":
+        return captures.cube, captures.surfaces
+
+    def grab(position, size, near, far, _probes, kind):
+        return cycles_cube(scene, position, size, near, far, kind)
+
+    return grab, captures.surfaces
 
 
 def _read_for_render(scene, read):

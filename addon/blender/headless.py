@@ -74,6 +74,13 @@ def has_camera(scene) -> bool:
     return scene.camera is not None
 
 
+def current_scene():
+    """The loaded file's scene."""
+    import bpy
+
+    return bpy.context.scene
+
+
 def current_frame(scene) -> int:
     """The scene's current frame."""
     return scene.frame_current
@@ -144,6 +151,22 @@ def apply_render_options(scene, engine: str, resolution: tuple[int, int] | None 
         set_samples(scene, engine, samples)
     if all_passes:
         enable_all_passes(view_layer(), engine)
+
+
+def apply_comparison_options(scene, frame: int | None = None,
+                             resolution: tuple[int, int] | None = None,
+                             samples: int | None = None,
+                             cycles_samples: int | None = None) -> None:
+    """``bo2 compare``'s and ``bo2 report``'s options on the loaded scene, where given: the
+    frame, the resolution, BO2's samples and Cycles'."""
+    if frame is not None:
+        set_frame(scene, frame)
+    if resolution:
+        set_resolution(scene, resolution)
+    if samples:
+        set_samples(scene, "bo2", samples)
+    if cycles_samples:
+        set_samples(scene, "cycles", cycles_samples)
 
 
 def render_frame(scene, path: Path, fmt: str) -> tuple[float, list[str]]:

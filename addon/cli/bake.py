@@ -8,17 +8,35 @@ import time
 from pathlib import Path
 
 from ..blender import interrupt
-from . import CommandError, load_blend
+from . import CommandError, connect, load_blend
 from .terminal import progress_bar, quiet_blender, stderr_copy
 
 
 def run(args) -> int:
-    """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file."""
-    scene = load_blend(Path(args.scene), bakes=args.lightmaps is not None)
+    """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file (on the
+    Dask cluster of ``--scheduler``)."""
+    lightmapping = args.lightmaps is not None
+    if lightmapping and args.scheduler:
+        raise CommandError("--lightmaps does not run on a cluster yet: bake the lightmaps "
+                           "without --scheduler")
+    scene = load_blend(Path(args.scene), bakes=lightmapping)
+    cluster = connect(args.scheduler)
+    try:
+        return _bake(args, scene, cluster)
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def _bake(args, scene, cluster) -> int:
     from ..blender import bake, bake_files, lightmaps, probes
+    from ..cluster.session import ClusterError
     from ..core.render.job import Cancelled, Warnings
 
     lightmapping = args.lightmaps is not None
+    if cluster is not None:
+        with quiet_blender():
+            scene = cluster.ship(Path(args.scene))
     if lightmapping:
         if args.probes:
             raise CommandError("--probes and --lightmaps: bake the probes first, then the "
@@ -45,11 +63,15 @@ def run(args) -> int:
                 folder = folder / bake_files.LIGHTMAPS
                 steps = bake.lightmap_steps(scene, objs, warnings, backend=args.backend.upper())
             else:
-                steps = bake.bake_steps(scene, objs, args.backend.upper(), warnings)
+                steps = bake.bake_steps(scene, objs, args.backend.upper(), warnings,
+                                        cluster=cluster)
             try:
                 count = _drive(steps, lambda fraction: progress_bar(terminal, fraction, start))
             except Cancelled:  # a capture stopped by Ctrl-C
                 raise KeyboardInterrupt from None
+            except ClusterError as exc:
+                raise CommandError(f"{exc}; nothing was written, the previous bake files "
+                                   "are as they were") from None
     except probes.BakeError as exc:
         raise CommandError(str(exc)) from None
     finally:

@@ -18,15 +18,14 @@ def load_scene(path: Path, args):
     scene = load_blend(path)
     if not headless.has_camera(scene):
         raise CommandError(f"{path}: the scene has no active camera")
-    if getattr(args, "frame", None) is not None:
-        headless.set_frame(scene, args.frame)
-    if args.resolution:
-        headless.set_resolution(scene, args.resolution)
-    if args.samples:
-        headless.set_samples(scene, "bo2", args.samples)
-    if args.cycles_samples:
-        headless.set_samples(scene, "cycles", args.cycles_samples)
+    headless.apply_comparison_options(scene, **comparison_options(args))
     return scene
+
+
+def comparison_options(args) -> dict:
+    """The arguments of ``headless.apply_comparison_options`` that the command was given."""
+    return {"frame": getattr(args, "frame", None), "resolution": args.resolution,
+            "samples": args.samples, "cycles_samples": args.cycles_samples}
 
 
 def run(args) -> int:

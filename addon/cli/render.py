@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..blender import headless, interrupt
 from ..core.system import atomic
-from . import CommandError, load_blend, patterns, too_many_samples, usage_error
+from . import CommandError, connect, load_blend, patterns, too_many_samples, usage_error
 from .terminal import BatchProgress, quiet_blender
 
 
@@ -49,6 +49,35 @@ def render_frame(scene, out: Path) -> tuple[float, list[str]]:
     return seconds, warnings
 
 
+def fetch_frame(cluster, future, out: Path) -> tuple[float, list[str]]:
+    """A frame rendered on the cluster (``cluster.tasks.frame``), written to ``out``
+    (replaced atomically); its render time and warnings."""
+    from ..cluster.session import ClusterError
+
+    check_output(out)
+    try:
+        data, seconds, warnings = cluster.result(future)
+    except ClusterError as exc:
+        raise CommandError(str(exc)) from None
+    with interrupt.writing():
+        atomic.write_bytes(out, data)
+    return seconds, warnings
+
+
+def _submit(cluster, blend: Path, frames, args) -> dict:
+    """The frames of ``blend`` (its current frame for None) sent to the cluster, the file
+    shipped: {frame: its task}."""
+    from ..cluster import tasks
+
+    with quiet_blender():
+        scene = cluster.ship(blend)
+    suffix = patterns.output_path(args.output, blend.stem, 0).suffix
+    options = {"engine": args.engine, "resolution": args.resolution, "samples": args.samples,
+               "specular_model": args.specular_model, "all_passes": args.all_passes}
+    return {frame: cluster.submit(tasks.frame, headless.current_frame(scene) if frame is None
+                                  else frame, options, suffix) for frame in frames}
+
+
 def _error_text(exc: Exception) -> str:
     text = str(exc) if isinstance(exc, CommandError) else f"{type(exc).__name__}: {exc}"
     return " ".join(text.split())
@@ -69,7 +98,18 @@ def _write_summary(path: Path, args, images: list[dict], seconds: float,
 
 
 def run(args) -> int:
-    """Render frames of .blend files, one image each; the others go on when one fails."""
+    """Render frames of .blend files, one image each; the others go on when one fails (on
+    the Dask cluster of ``--scheduler``: every frame of a file sent out at once, the images
+    written here as they come, in order)."""
+    cluster = connect(args.scheduler)
+    try:
+        return _run(args, cluster)
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def _run(args, cluster) -> int:
     # --samples is checked here, where the engine is known
     if args.samples and (reason := too_many_samples(args.samples, args.engine)):
         usage_error(f"argument --samples: {reason}")
@@ -126,6 +166,8 @@ def run(args) -> int:
                 progress.draw(f"{blend.name} (loading)")
             try:
                 scene = load_blend(blend)  # once per file
+                sent = _submit(cluster, blend, per_file, args) if cluster else {}
+                scene = headless.current_scene() if cluster else scene
                 headless.apply_render_options(scene, args.engine, args.resolution, args.samples,
                                               args.specular_model, args.all_passes)
             except Exception as exc:  # noqa: BLE001 - the other files still render
@@ -152,7 +194,10 @@ def run(args) -> int:
                     key = patterns.path_key(out)
                     if key in written:
                         raise CommandError(f"{out}: already written by this command")
-                    seconds, warnings = render_frame(scene, out)
+                    if cluster is not None:
+                        seconds, warnings = fetch_frame(cluster, sent[frame], out)
+                    else:
+                        seconds, warnings = render_frame(scene, out)
                     written.add(key)
                 except Exception as exc:  # noqa: BLE001 - the other frames still render
                     error = f"{where}: {_error_text(exc)}"

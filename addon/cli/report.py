@@ -8,8 +8,8 @@ import sys
 from pathlib import Path
 
 from ..blender import headless, interrupt
-from . import CommandError
-from .compare import load_scene
+from . import CommandError, connect
+from .compare import comparison_options, load_scene
 from .terminal import BatchProgress, exit_on_interrupt, quiet_blender
 
 
@@ -54,7 +54,17 @@ def distinct_names(paths: list[Path]) -> list[str]:
 
 
 def run(args) -> int:
-    """Compare each scene with Cycles and write the review page (docs/report.md)."""
+    """Compare each scene with Cycles and write the review page (docs/report.md); on the
+    Dask cluster of ``--scheduler``, a task per scene."""
+    cluster = connect(args.scheduler)
+    try:
+        return _run(args, cluster)
+    finally:
+        if cluster is not None:
+            cluster.close()
+
+
+def _run(args, cluster) -> int:
     from ..core.review import flip
 
     if args.fail_above is not None and flip.unavailable():
@@ -93,13 +103,22 @@ def run(args) -> int:
     failures = 0
     names = distinct_names([p.with_suffix("") if kind == "blend" else p for kind, p in todo])
     with exit_on_interrupt(interrupted):
+        sent = {}  # on a cluster: scene index -> its task, or the error of its sending
+        for i, (kind, path) in enumerate(todo):
+            if cluster is not None and kind == "blend":
+                state["stage"] = f"{names[i]}: sending"
+                progress.draw(state["stage"])
+                sent[i] = send_blend(cluster, path, args)
         for i, (kind, path) in enumerate(todo):
             pending = names[i + 1:]
             state.update(base=sum(steps[:i]), end=sum(steps[:i + 1]), calls=0)
             state["stage"] = f"{names[i]}: {'loading' if kind == 'blend' else 'reading'}"
             progress.draw(state["stage"])
             try:
-                if kind == "blend":
+                if kind == "blend" and cluster is not None:
+                    stage(f"{names[i]}: on the cluster")
+                    folder = receive(cluster, sent[i], page.scene_folder(names[i]))
+                elif kind == "blend":
                     folder = render_blend(path, names[i], args, page, stage)
                 else:
                     folder = path
@@ -136,4 +155,37 @@ def render_blend(path: Path, name: str, args, page, stage) -> Path:
     with quiet_blender():
         report.render_scene(scene, headless.view_layer(), folder, args.old_methods,
                             on_stage=lambda text: stage(f"{name}: {text}"))
+    return folder
+
+
+def send_blend(cluster, path: Path, args):
+    """``path``'s comparison sent to the cluster (``cluster.tasks.review``): its task, or the
+    CommandError of its loading."""
+    from ..cluster import tasks
+
+    try:
+        load_scene(path, args)  # (the checks of a scene compared here)
+        with quiet_blender():
+            cluster.ship(path)
+    except CommandError as exc:
+        return exc
+    return cluster.submit(tasks.review, comparison_options(args), args.old_methods)
+
+
+def receive(cluster, task, folder: Path) -> Path:
+    """The files of a comparison done on the cluster (``send_blend``) written into
+    ``folder``; returns it."""
+    from ..cluster.session import ClusterError
+    from ..core.system import atomic
+
+    if isinstance(task, Exception):
+        raise task
+    try:
+        files = cluster.result(task)
+    except ClusterError as exc:
+        raise CommandError(str(exc)) from None
+    with interrupt.writing():
+        for name, data in files.items():
+            (folder / name).parent.mkdir(parents=True, exist_ok=True)
+            atomic.write_bytes(folder / name, data)
     return folder

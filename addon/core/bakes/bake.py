@@ -50,8 +50,8 @@ from ..render.job import Warnings
 from ..scene import World
 from . import capture, series
 
-__all__ = ["Bake", "BakedProbe", "ProbeSpec", "VolumeSettings", "check", "dilate", "escape",
-           "metadata"]
+__all__ = ["Bake", "BakedProbe", "Here", "Look", "ProbeSpec", "Shot", "VolumeSettings", "check",
+           "dilate", "escape", "look", "looks", "metadata", "shoot"]
 
 KINDS = ("reflection", "irradiance")
 FILTERS = {"bo2": "cosine power", "bo1": "angular gaussian"}
@@ -272,38 +272,116 @@ def dilate(coeffs: np.ndarray, ratio: np.ndarray, settings: VolumeSettings) -> t
     return out, validity
 
 
-def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
-           far: float) -> Iterator[None]:
-    """A volume's capture positions (``VolumeSettings``) and what each sees, one sample per
-    step: a sample whose front-facing ratio is below ``dilation_threshold`` moves through the
-    nearest back face it sees when that face is within ``escape_bias`` sample spacings (to a
-    point a tenth of that beyond it), if its ratio is at or above the threshold there.
+@dataclass(frozen=True)
+class Look:
+    """One volume sample's look at its surroundings (``look``): where it is, the captures'
+    face size and clip distances, the dilation threshold, how far it may escape (metres) and
+    the depth moments' clamp (``sample_visibility.max_distance``)."""
 
-    Yields once per sample; returns (positions (K, 3) float64, ratios (K,) float64, how many
-    samples moved, depth moments (K, 6, M, M, 2) float32 seen from the positions,
-    ``sample_visibility.moments``; the look-up measures a point's distance from the grid's
-    position, at most a tenth of a spacing beyond an escaped sample's).
-    """
+    position: np.ndarray
+    size: int
+    near: float
+    far: float
+    threshold: float
+    reach: float
+    clamp: float
+
+
+def look(job: Look, surfaces: SurfacesFn) -> tuple[np.ndarray, float, bool, np.ndarray]:
+    """A volume sample's capture position (``VolumeSettings``): a sample whose front-facing
+    ratio is below the dilation threshold moves through the nearest back face it sees when
+    that face is within its reach (to a point a tenth of that beyond it), if its ratio is at
+    or above the threshold there. Returns (position (3,) float64, ratio, whether it moved,
+    depth moments (6, M, M, 2) float32 seen from the position, ``sample_visibility.moments``)."""
+    p = np.asarray(job.position, np.float64)
+    seen = surfaces(p, job.size, job.near, job.far)
+    ratio, moved = float(seen.front_ratio), False
+    if seen.front_ratio < job.threshold and seen.back_direction is not None \
+            and seen.back_distance <= job.reach:
+        out = p + seen.back_direction * (seen.back_distance + 0.1 * job.reach)
+        there = surfaces(out, job.size, job.near, job.far)
+        if there.front_ratio >= job.threshold:
+            p, ratio, seen, moved = out, float(there.front_ratio), there, True
+    return p, ratio, moved, sample_visibility.moments(seen.distances, job.clamp)
+
+
+def looks(spec: ProbeSpec, size: int, near: float, far: float) -> list[Look]:
+    """The looks (``look``) of a volume's samples, in the order of ``spec.points``."""
     settings = spec.volume
     reach = settings.escape_bias * grid_spacing(spec.local_to_world, spec.resolution)
     clamp = sample_visibility.max_distance(spec.local_to_world, spec.resolution)
-    points = spec.points.copy()
-    ratios = np.ones(len(points))
-    depth = []
-    moved = 0
-    for k, p in enumerate(points):
-        seen = surfaces(p, size, near, far)
-        ratios[k] = seen.front_ratio
-        if seen.front_ratio < settings.dilation_threshold and seen.back_direction is not None \
-                and seen.back_distance <= reach:
-            out = p + seen.back_direction * (seen.back_distance + 0.1 * reach)
-            there = surfaces(out, size, near, far)
-            if there.front_ratio >= settings.dilation_threshold:
-                points[k], ratios[k], seen = out, there.front_ratio, there
-                moved += 1
-        depth.append(sample_visibility.moments(seen.distances, clamp))
+    return [Look(p, size, near, far, float(settings.dilation_threshold), float(reach),
+                 float(clamp)) for p in spec.points]
+
+
+def escape(spec: ProbeSpec, surfaces: SurfacesFn, size: int, near: float,
+           far: float) -> Iterator[None]:
+    """A volume's capture positions and what each sees (``look``), one sample per step.
+
+    Yields once per sample; returns (positions (K, 3) float64, ratios (K,) float64, how many
+    samples moved, depth moments (K, 6, M, M, 2) float32 seen from the positions; the look-up
+    measures a point's distance from the grid's position, at most a tenth of a spacing beyond
+    an escaped sample's).
+    """
+    found = []
+    for job in looks(spec, size, near, far):
+        found.append(look(job, surfaces))
         yield
-    return points, ratios, moved, np.stack(depth)
+    return _placed(found)
+
+
+def _placed(found: list) -> tuple:
+    """``escape``'s result from its samples' ``look`` results."""
+    points, ratios, moved, depth = zip(*found, strict=True)
+    return (np.stack(points), np.array(ratios, np.float64), int(sum(moved)),
+            np.stack(depth))
+
+
+@dataclass(frozen=True)
+class Shot:
+    """One capture (``CaptureFn``) of a bake: at ``position`` (3,), metres, faces of ``size``
+    texels, clip distances ``near`` and ``far``, for a probe of ``kind``."""
+
+    position: np.ndarray
+    size: int
+    near: float
+    far: float
+    kind: str
+
+
+def shoot(job: Shot, capture: CaptureFn, seen: Probes) -> tuple[np.ndarray, dict | None]:
+    """A capture lit by the probes ``seen``, as the bake keeps it: (SH (9, 3) float32, the
+    prefiltered chains of a reflection probe or None)."""
+    cube = capture(job.position, job.size, job.near, job.far, seen, job.kind)
+    if job.kind == "reflection":
+        c, chains = filtered(cube)
+        return np.asarray(c, np.float32), chains
+    return np.asarray(_sh_of_cube(cube), np.float32), None
+
+
+class Here:
+    """A bake's captures run here, one after the other (``Bake.runner``). Another runner
+    (a cluster's) has the same two generators: each yields the number of jobs finished so far
+    and returns their results in the jobs' order."""
+
+    def __init__(self, capture: CaptureFn, surfaces: SurfacesFn | None):
+        self.capture, self.surfaces = capture, surfaces
+
+    def looks(self, jobs: list[Look]) -> Iterator[int]:
+        """``look`` of each of ``jobs``."""
+        out = []
+        for job in jobs:
+            out.append(look(job, self.surfaces))
+            yield len(out)
+        return out
+
+    def shots(self, jobs: list[Shot], seen: Probes) -> Iterator[int]:
+        """``shoot`` of each of ``jobs``, lit by ``seen``."""
+        out = []
+        for job in jobs:
+            out.append(shoot(job, self.capture, seen))
+            yield len(out)
+        return out
 
 
 @dataclass
@@ -316,6 +394,8 @@ class Bake:
                       to the second says little of the later ones)
     face_size:        cube face size of reflection probes' captures, texels
     volume_face_size: cube face size of irradiance volumes' captures, texels
+    runner:           where the captures run (``Here`` by default, through ``capture`` and
+                      ``surfaces``; a cluster's runner has the same generators)
     results:          filled by ``steps()`` once every bounce is done
     """
 
@@ -327,6 +407,7 @@ class Bake:
     face_size: int = 128
     volume_face_size: int = 16
     surfaces: SurfacesFn | None = None
+    runner: object | None = None
     results: list[BakedProbe] = field(default_factory=list)
 
     @property
@@ -341,61 +422,70 @@ class Bake:
 
     def steps(self) -> Iterator[float]:
         """Run the bake, yielding the finished fraction in (0, 1] after every capture (and
-        every volume's look at its surroundings); closing the generator early (cancel) leaves
-        ``results`` empty."""
+        every volume sample's look at its surroundings); closing the generator early (cancel)
+        leaves ``results`` empty."""
+        runner = self.runner or Here(self.capture, self.surfaces)
         volumes = ([k for k, s in enumerate(self.specs) if s.kind == "irradiance"]
-                   if self.surfaces else [])
+                   if self.surfaces or self.runner else [])
         total = (max(1, self.bounces) * sum(len(s.points) for s in self.specs)
                  + sum(len(self.specs[k].points) for k in volumes))
-        done = 0
-        placed = {}  # spec index -> (positions, ratios, moved, moments)
-        for k in volumes:
-            steps = escape(self.specs[k], self.surfaces, self.volume_face_size,
-                           *self._clip(self.specs[k]))
+        done = [0]
+
+        def counted(work):  # ``work``'s results, its finished jobs counted into the fraction
+            start = done[0]
             while True:
                 try:
-                    next(steps)
+                    finished = next(work)
                 except StopIteration as end:
-                    placed[k] = end.value
-                    break
-                done += 1
-                yield done / total
+                    return end.value
+                done[0] = start + finished
+                yield done[0] / total
+
+        placed = {}  # spec index -> (positions, ratios, moved, moments)
+        jobs = [looks(self.specs[k], self.volume_face_size, *self._clip(self.specs[k]))
+                for k in volumes]
+        found = yield from counted(runner.looks([j for part in jobs for j in part]))
+        first = 0
+        for k, part in zip(volumes, jobs, strict=True):
+            placed[k] = _placed(found[first:first + len(part)])
+            first += len(part)
         lighting = world_probes(self.world)
         results: list[BakedProbe] = []
-        # the volumes first: a bounce's reflection probes see the surfaces lit by this
-        # bounce's volumes, as a frame does (the same number of diffuse bounces)
-        order = sorted(range(len(self.specs)), key=lambda k: self.specs[k].kind != "irradiance")
         history: list[list[BakedProbe]] = []  # the last three bounces' results
         for _ in range(max(1, self.bounces)):
-            found: dict[int, BakedProbe] = {}
+            found_probes: dict[int, BakedProbe] = {}
             baked = world_probes(self.world)
-            for k in order:
-                spec = self.specs[k]
-                size = self.face_size if spec.kind == "reflection" else self.volume_face_size
-                pos, ratios, moved, depth = placed.get(k, (spec.points, None, 0, None))
-                seen = lighting if spec.kind == "irradiance" else replace(
+            # the volumes first: a bounce's reflection probes see the surfaces lit by this
+            # bounce's volumes, as a frame does (the same number of diffuse bounces)
+            for kind in ("irradiance", "reflection"):
+                ks = [k for k, s in enumerate(self.specs) if s.kind == kind]
+                if not ks:
+                    continue
+                size = self.face_size if kind == "reflection" else self.volume_face_size
+                seen = lighting if kind == "irradiance" else replace(
                     lighting, volumes=list(baked.volumes))
-                coeffs, chains = [], None
-                for p in pos:
-                    cube = self.capture(p, size, *self._clip(spec), seen, spec.kind)
-                    if spec.kind == "reflection":
-                        c, chains = filtered(cube)
-                    else:
-                        c = _sh_of_cube(cube)
-                    coeffs.append(np.asarray(c, np.float32))
-                    done += 1
-                    yield done / total
-                coeffs, validity = np.stack(coeffs), None
-                if ratios is not None:
-                    res = tuple(spec.resolution)
-                    dilated, validity = dilate(coeffs.reshape(*res, 9, 3), ratios.reshape(res),
-                                               spec.volume)
-                    coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
-                result = BakedProbe(spec, coeffs, chains, size, validity, moved, depth)
-                found[k] = result
-                probe = spec.probe(result.coeffs, chains, validity, depth)
-                (baked.reflection if spec.kind == "reflection" else baked.volumes).append(probe)
-            results = [found[k] for k in range(len(self.specs))]
+                where = {k: placed.get(k, (self.specs[k].points, None, 0, None)) for k in ks}
+                shots = [Shot(p, size, *self._clip(self.specs[k]), kind)
+                         for k in ks for p in where[k][0]]
+                taken = yield from counted(runner.shots(shots, seen))
+                first = 0
+                for k in ks:
+                    spec = self.specs[k]
+                    _, ratios, moved, depth = where[k]
+                    mine = taken[first:first + len(where[k][0])]
+                    first += len(mine)
+                    coeffs, validity = np.stack([c for c, _ in mine]), None
+                    chains = mine[-1][1]
+                    if ratios is not None:
+                        res = tuple(spec.resolution)
+                        dilated, validity = dilate(coeffs.reshape(*res, 9, 3),
+                                                   ratios.reshape(res), spec.volume)
+                        coeffs, validity = dilated.reshape(-1, 9, 3), validity.reshape(-1)
+                    result = BakedProbe(spec, coeffs, chains, size, validity, moved, depth)
+                    found_probes[k] = result
+                    probe = spec.probe(result.coeffs, chains, validity, depth)
+                    (baked.reflection if kind == "reflection" else baked.volumes).append(probe)
+            results = [found_probes[k] for k in range(len(self.specs))]
             if self.converged:
                 history = [*history[-2:], results]
             lighting = baked

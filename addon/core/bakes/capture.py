@@ -123,11 +123,13 @@ class Capture:
 
     def _cameras(self, position, size: int, near: float, far: float) -> list[Camera]:
         """The six face cameras at ``position``; the geometry prepared on first use, without
-        shadow maps."""
+        shadow maps, through a camera of its own (so that no capture depends on which came
+        first: a cluster's workers take them in any order)."""
         far = max(far, 2.0 * near)
         cams = [face_camera(position, face, size, near, far) for face in range(6)]
         if self._frame is None:
-            scene = dataclasses.replace(self.scene, camera=cams[0])
+            scene = dataclasses.replace(self.scene,
+                                        camera=face_camera(np.zeros(3), 0, 16, 0.1, 100.0))
             maps = [None] * shadow_map_count(scene, sky=True)
             frame = pipeline.prepare(self.job.on(scene), shadow_maps=maps)
             # objects hidden from the camera are still in the light a probe gathers, as in

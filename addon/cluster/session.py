@@ -1,0 +1,243 @@
+"""The client's side of a Dask cluster: the connection and its checks, the shipped .blend, tasks
+submitted and gathered in order with progress, Ctrl-C and the cluster's faults as one error.
+
+Faults: a worker lost while it runs a task loses nothing (Dask runs the task again on another
+worker); a task that workers die of ``ALLOWED_FAILURES`` times in turn (out of memory, say) is
+one error with their memory limit; the scheduler lost is one error. Nothing is written by
+these functions: the commands write their files once every task is done, so a failure leaves
+the previous files as they were.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+
+from . import tasks
+
+CONNECT_SECONDS = 8.0  # an unreachable scheduler is said within this long (and 10 s of the start)
+POLL_SECONDS = 0.25  # how often Ctrl-C and the scheduler are looked at while tasks run
+LOOK_BLOCK = 64  # volume samples' looks per task
+SHOT_BLOCK = 32  # volume samples' captures per task (a reflection probe's: one per task)
+
+
+class ClusterError(Exception):
+    """A failure of the cluster, in one line."""
+
+
+class Cluster:
+    """A connection to the Dask scheduler at ``address`` whose workers run this package and
+    this Blender (``tasks.identity``); ClusterError when it cannot be reached within
+    ``CONNECT_SECONDS``, has no worker by then, or a worker differs."""
+
+    def __init__(self, address: str, timeout: float = CONNECT_SECONDS):
+        try:
+            from distributed import Client
+        except ImportError:
+            raise ClusterError("--scheduler needs Dask: pip install 'bo2-lighting[cluster]' "
+                               "(dask and distributed)") from None
+        import logging
+
+        for logger in ("distributed", *(n for n in logging.root.manager.loggerDict
+                                        if n.startswith("distributed."))):
+            logging.getLogger(logger).setLevel(logging.CRITICAL)  # its errors are ours to say
+        self.address = address
+        self.identity = tasks.identity()
+        try:
+            self.client = Client(address, timeout=timeout)  # (the default: wait() takes it)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise ClusterError(f"cannot reach the Dask scheduler at {address} within "
+                               f"{timeout:.0f} s ({_reason(exc)})") from None
+        self.blend = None  # (future of the shipped .blend's bytes, its digest, its name)
+        try:
+            self._check(timeout)
+        except BaseException:
+            self.close()
+            raise
+
+    def _check(self, timeout: float) -> None:
+        try:
+            self.client.wait_for_workers(1, timeout=timeout)
+        except (TimeoutError, OSError):
+            raise ClusterError(f"the Dask scheduler at {self.address} has no workers (start "
+                               f"them with: bo2 worker {self.address})") from None
+        try:
+            found = self.client.run(tasks.worker_identity)
+        except Exception as exc:  # noqa: BLE001 - whatever a worker without us raises
+            raise ClusterError(f"the workers of {self.address} cannot run BO2 Lighting "
+                               f"({_reason(exc)}): start them in an environment with bpy and "
+                               f"this package (bo2 worker {self.address})") from None
+        for worker, who in sorted(found.items()):
+            if who != self.identity:
+                raise ClusterError(f"worker {worker} runs {tasks.describe(who)}; this machine "
+                                   f"runs {tasks.describe(self.identity)}: install the same "
+                                   "on every worker")
+
+    @property
+    def workers(self) -> int:
+        """The workers the scheduler has now."""
+        return len(self.client.scheduler_info(n_workers=-1)["workers"])
+
+    def close(self) -> None:
+        try:
+            self.client.close(timeout=2)
+        except Exception:  # noqa: BLE001, S110 - a lost scheduler: nothing to close
+            pass
+
+    def ship(self, path: Path):
+        """Send the open .blend ``path`` to the workers with every external file packed in (a
+        copy: the open file is opened again as it was); returns its scene, open again."""
+        import bpy
+
+        with tempfile.TemporaryDirectory(prefix="bo2_ship_") as tmp:
+            copy = Path(tmp) / path.name
+            try:
+                bpy.ops.file.pack_all()
+            except RuntimeError:  # a missing file: the workers miss it too, as here
+                pass
+            bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=True)
+            data = copy.read_bytes()
+        bpy.ops.wm.open_mainfile(filepath=str(path.resolve()), load_ui=False)
+        digest = hashlib.sha256(data).hexdigest()
+        self.blend = (self.scatter(data), digest, path.name)
+        return bpy.context.scene
+
+    def submit(self, fn, *args):
+        """A task of ``fn(identity, blend, digest, name, *args)`` on the shipped .blend."""
+        future, digest, name = self.blend
+        with self.talking():
+            return self.client.submit(fn, self.identity, future, digest, name, *args,
+                                      pure=False)
+
+    def scatter(self, data):
+        """``data`` sent to every worker: its future."""
+        with self.talking():
+            return self.client.scatter(data, broadcast=True, hash=False)
+
+    @contextlib.contextmanager
+    def talking(self):
+        """A call to the scheduler: its loss is ClusterError."""
+        from concurrent.futures import CancelledError
+
+        try:
+            yield
+        except (OSError, CancelledError) as exc:
+            raise ClusterError(f"lost the Dask scheduler at {self.address} "
+                               f"({_reason(exc)})") from None
+
+    def as_done(self, futures: list) -> Iterator[tuple[int, object, ClusterError | None]]:
+        """Wait for ``futures``: yields (index, result, None) or (index, None, the task's
+        error) as each ends. Ctrl-C (``interrupt``) cancels those left and raises
+        KeyboardInterrupt; the scheduler lost raises ClusterError, those left cancelled."""
+        from distributed import wait
+
+        from ..blender import interrupt
+
+        index = {f.key: k for k, f in enumerate(futures)}
+        pending = set(futures)
+        try:
+            while pending:
+                interrupt.check()
+                if self.client.status not in ("running", "connecting"):
+                    raise ClusterError(f"lost the Dask scheduler at {self.address}")
+                try:
+                    finished, pending = wait(pending, timeout=POLL_SECONDS,
+                                             return_when="FIRST_COMPLETED")
+                except TimeoutError:  # (none ended yet; or the scheduler's loss, seen above)
+                    continue
+                except OSError as exc:
+                    raise ClusterError(f"lost the Dask scheduler at {self.address} "
+                                       f"({_reason(exc)})") from None
+                for f in finished:
+                    if f.status == "finished":
+                        yield index[f.key], f.result(), None
+                    else:
+                        yield index[f.key], None, self._failure(f)
+        except BaseException:
+            try:
+                self.client.cancel(list(pending))
+            except Exception:  # noqa: BLE001, S110 - a lost scheduler cancels them itself
+                pass
+            raise
+
+    def gather(self, futures: list, sizes: list[int] | None = None) -> Iterator[int]:
+        """Wait for ``futures`` (``as_done``): yields the work finished so far (``sizes``:
+        each one's, 1 by default) as they end, returns their results in order; the first
+        failed task raises its ClusterError, the others cancelled."""
+        sizes = sizes or [1] * len(futures)
+        results, done = [None] * len(futures), 0
+        waiting = self.as_done(futures)
+        for k, result, error in waiting:
+            if error is not None:
+                waiting.throw(error)
+            results[k] = result
+            done += sizes[k]
+            yield done
+        return results
+
+    def result(self, future):
+        """``future``'s result once it ends (``as_done``); its ClusterError if it failed."""
+        for _, result, error in self.as_done([future]):
+            if error is not None:
+                raise error
+            return result
+
+    def _failure(self, future) -> ClusterError:
+        from distributed import KilledWorker
+
+        if future.status == "cancelled":
+            return ClusterError(f"lost the Dask scheduler at {self.address} (the task was "
+                                "cancelled)")
+        exc = future.exception()
+        if isinstance(exc, KilledWorker):
+            limits = [w.get("memory_limit") or 0 for w in
+                      self.client.scheduler_info(n_workers=-1)["workers"].values()]
+            limit = (f"their memory limit is {min(limits) / 2**30:.1f} GiB" if any(limits)
+                     else "they have no memory limit")
+            return ClusterError(f"a task ended {ALLOWED_FAILURES} workers in turn (killed, or "
+                                f"out of memory: {limit})")
+        return ClusterError(f"a worker failed: {_reason(exc)}")
+
+    def probe_runner(self, backend: str, focus):
+        """The runner of a probe bake's captures on the workers (``core.bakes.bake.Bake``):
+        by ``backend``, the suns' shadows sharp over ``focus``."""
+        return ProbeRunner(self, backend, focus)
+
+
+ALLOWED_FAILURES = 3  # Dask's distributed.scheduler.allowed-failures default
+
+
+class ProbeRunner:
+    """``core.bakes.bake.Here``'s generators, on the cluster: the jobs in blocks, a task
+    each; the probes lighting a bounce's captures sent to every worker once."""
+
+    def __init__(self, cluster: Cluster, backend: str, focus):
+        self.cluster, self.backend = cluster, backend
+        self.focus = tuple(tuple(float(v) for v in side) for side in focus)
+
+    def looks(self, jobs: list) -> Iterator[int]:
+        return (yield from self._run(tasks.looks, jobs, [LOOK_BLOCK] * len(jobs)))
+
+    def shots(self, jobs: list, seen) -> Iterator[int]:
+        seen = self.cluster.scatter(seen)
+        return (yield from self._run(tasks.shots, jobs, [1 if j.kind == "reflection"
+                                                         else SHOT_BLOCK for j in jobs], seen))
+
+    def _run(self, fn, jobs: list, blocks: list[int], *shared) -> Iterator[int]:
+        parts, k = [], 0
+        while k < len(jobs):
+            parts.append(jobs[k:k + blocks[k]])
+            k += len(parts[-1])
+        futures = [self.cluster.submit(fn, self.backend, self.focus, *shared, part)
+                   for part in parts]
+        found = yield from self.cluster.gather(futures, [len(p) for p in parts])
+        return [r for part in found for r in part]
+
+
+def _reason(exc: BaseException) -> str:
+    text = " ".join(str(exc).split()) or type(exc).__name__
+    return text if len(text) < 300 else text[:297] + "..."
+

@@ -1,0 +1,304 @@
+"""``--scheduler``: bakes, frames and reviews on a Dask cluster of two local worker processes
+(``LocalCluster``, the workers started as ``bo2 worker`` starts them), compared with the same
+commands run alone; the cluster's faults.
+
+The scene: a floor textured from an image file beside the .blend (relative path: the workers
+read it only from the shipped copy, where it is packed), a box, a sun and a point light, a
+Volume probe of 5 x 4 x 2 samples and a Sphere probe; 2 bounces.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from test_cli import BO2, bo2, one_error_line
+from test_interrupt import interrupted, progress
+
+distributed = pytest.importorskip("distributed")
+
+SCENE = r'''
+import math, sys
+import bpy
+import numpy as np
+bpy.ops.wm.read_factory_settings(use_empty=True)
+import bo2_lighting
+bo2_lighting.register()
+scene = bpy.context.scene
+scene.render.engine = "BO2_LIGHTING"
+scene.render.resolution_x, scene.render.resolution_y = 96, 64
+scene.bo2.samples = 2
+scene.bo2.probes.bounces = 2
+scene.bo2.bake_pack = False
+pixels = np.indices((32, 32)).sum(0) % 2 * 0.8 + 0.1
+image = bpy.data.images.new("checker", 32, 32)
+image.pixels = np.repeat(pixels.reshape(-1, 1), 4, 1).astype(np.float32).ravel()
+import os
+os.makedirs(os.path.join(os.path.dirname(sys.argv[1]), "tex"), exist_ok=True)
+image.filepath_raw = os.path.join(os.path.dirname(sys.argv[1]), "tex", "checker.png")
+image.file_format = "PNG"
+image.save()
+def material(name, color, texture=False):
+    m = bpy.data.materials.new(name)
+    if m.node_tree is None:
+        m.use_nodes = True
+    p = m.node_tree.nodes["Principled BSDF"]
+    p.inputs["Base Color"].default_value = (*color, 1)
+    if texture:
+        t = m.node_tree.nodes.new("ShaderNodeTexImage")
+        t.image = image
+        m.node_tree.links.new(t.outputs["Color"], p.inputs["Base Color"])
+    return m
+bpy.ops.mesh.primitive_plane_add(size=8)
+bpy.context.object.data.materials.append(material("Floor", (0.8, 0.8, 0.8), texture=True))
+bpy.ops.mesh.primitive_cube_add(size=1.2, location=(0.8, 0.4, 0.6))
+box = bpy.context.object
+box.data.materials.append(material("Box", (0.8, 0.2, 0.1)))
+for frame, z in ((1, 0.0), (3, 1.0)):
+    box.rotation_euler.z = z
+    box.keyframe_insert("rotation_euler", index=2, frame=frame)
+for kind, loc, energy in (("SUN", (0, 0, 5), 3.0), ("POINT", (-1.5, -1.0, 2.0), 300.0)):
+    data = bpy.data.lights.new(kind, kind)
+    data.energy = energy
+    obj = bpy.data.objects.new(kind, data)
+    obj.location = loc
+    obj.rotation_euler = (math.radians(40), 0, math.radians(30))
+    scene.collection.objects.link(obj)
+bpy.ops.object.lightprobe_add(type="VOLUME", location=(0, 0, 1.2))
+volume = bpy.context.object
+volume.scale = (3.0, 2.5, 1.0)
+volume.data.resolution_x, volume.data.resolution_y, volume.data.resolution_z = 5, 4, 2
+bpy.ops.object.lightprobe_add(type="SPHERE", location=(-1.0, 0.5, 1.0))
+cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+cam.location, cam.rotation_euler = (0, -7, 4), (math.radians(62), 0, 0)
+scene.collection.objects.link(cam)
+scene.camera = cam
+bpy.ops.wm.save_as_mainfile(filepath=sys.argv[1], relative_remap=True)
+'''
+
+
+def build(folder: Path) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "level.blend"
+    subprocess.run([sys.executable, "-c", SCENE, str(path)], check=True, capture_output=True)
+    assert (folder / "tex" / "checker.png").is_file()
+    return path
+
+
+@pytest.fixture(scope="module")
+def cluster():
+    """A scheduler and two worker processes of one thread each, Blender preloaded."""
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0",
+                                  preload=["bo2_lighting.addon.cluster.tasks"]) as local, \
+            distributed.Client(local) as client:
+        yield local, client
+
+
+def baked(blend: Path) -> dict:
+    """{probe name: (SH, chains)} of the bake folder beside ``blend``."""
+    from bo2_lighting.addon.core.files import probe_file
+
+    files = sorted((blend.parent / "bo2_bake").rglob("*.exr"))
+    assert files, "no bake files"
+    read = [probe_file.read(p) for p in files]
+    return {meta["probe"]: (sh, chains) for meta, sh, chains in read}
+
+
+def same(a: dict, b: dict) -> bool:
+    return a.keys() == b.keys() and all(
+        np.array_equal(a[k][0], b[k][0]) and all(
+            np.array_equal(x, y) for name in (a[k][1] or {})
+            for x, y in zip(a[k][1][name], b[k][1][name], strict=True))
+        for k in a)
+
+
+@pytest.fixture(scope="module")
+def alone(tmp_path_factory):
+    """The scene baked on this machine alone."""
+    blend = build(tmp_path_factory.mktemp("alone"))
+    proc = bo2("bake", blend)
+    assert proc.returncode == 0, proc.stderr
+    return blend, baked(blend)
+
+
+def test_a_bake_on_two_workers_is_the_bake_made_alone(cluster, alone, tmp_path):
+    """Bit-identical: the same captures, whichever worker takes them, in whatever order."""
+    local, client = cluster
+    blend = build(tmp_path)
+    proc = bo2("bake", blend, "--scheduler", local.scheduler_address)
+    assert proc.returncode == 0, proc.stderr
+    assert "baked 2 probes" in proc.stdout
+    assert same(baked(blend), alone[1])
+    # both workers took captures, each from its own copy of the file
+    opened = client.run(opened_file)
+    assert len(opened) == 2 and all(opened.values()), opened
+    assert blend not in {Path(p) for p in opened.values()}
+
+
+def opened_file():
+    """The .blend a worker has open (``cluster.tasks``), or None."""
+    from bo2_lighting.addon.cluster import tasks
+
+    return str(tasks._open.get("path") or "") or None
+
+
+def watched(cmd, look, limit=300.0):
+    """Run ``bo2 cmd`` to its end, ``look(stderr so far)`` called as it comes; returns the
+    process, its stderr in ``stderr_text``."""
+    import threading
+
+    proc = subprocess.Popen([str(BO2), *map(str, cmd)], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    said = []
+    reader = threading.Thread(target=lambda: said.extend(iter(lambda: proc.stderr.read(1), "")))
+    reader.start()
+    start = time.monotonic()
+    while proc.poll() is None and time.monotonic() - start < limit:
+        look("".join(said))
+        time.sleep(0.05)
+    proc.stdout_text = proc.stdout.read()
+    proc.wait(timeout=limit)
+    reader.join(timeout=limit)
+    proc.stderr_text = "".join(said)
+    return proc
+
+
+def test_frames_on_the_cluster_are_the_frames_rendered_alone(cluster, tmp_path):
+    """Frames 1-3 (the box turns): the same pixels, the floor's texture read from the
+    shipped copy (its file is beside the client's .blend only)."""
+    from PIL import Image
+
+    local, _ = cluster
+    blend = build(tmp_path / "scene")
+    there = bo2("render", blend, "--frames", "1-3", "-o", tmp_path / "there_#.png",
+                "--scheduler", local.scheduler_address)
+    assert there.returncode == 0, there.stderr
+    here = bo2("render", blend, "--frames", "1-3", "-o", tmp_path / "here_#.png")
+    assert here.returncode == 0, here.stderr
+    for k in (1, 2, 3):
+        a = np.asarray(Image.open(tmp_path / f"there_{k}.png"))
+        b = np.asarray(Image.open(tmp_path / f"here_{k}.png"))
+        assert np.array_equal(a, b), k
+    floor = np.asarray(Image.open(tmp_path / "here_1.png"))[50:, :, 0].astype(float)
+    assert floor.std() > 10.0  # the checker texture, not a flat colour
+
+
+def test_a_review_on_the_cluster_is_the_review_made_alone(cluster, tmp_path):
+    import json
+
+    local, _ = cluster
+    blend = build(tmp_path / "scene")
+    options = ("--resolution", "64x48", "--samples", "2", "--cycles-samples", "4")
+    there = bo2("report", blend, "-o", tmp_path / "there", *options,
+                "--scheduler", local.scheduler_address)
+    assert there.returncode == 0, there.stderr
+    here = bo2("report", blend, "-o", tmp_path / "here", *options)
+    assert here.returncode == 0, here.stderr
+    metrics = [json.loads(next((tmp_path / side).rglob("metrics.json")).read_text())
+               for side in ("there", "here")]
+    assert metrics[0]["passes"] == metrics[1]["passes"]
+    assert (tmp_path / "there" / "index.html").is_file()
+
+
+def test_a_worker_killed_during_a_bake_loses_nothing(cluster, alone, tmp_path):
+    """A worker process killed while it captures: Dask runs its tasks again elsewhere (the
+    nanny starts a new worker) and the bake is the same."""
+    local, client = cluster
+    blend = build(tmp_path)
+    pids = list(client.run(os.getpid).values())
+    killed = []
+
+    def look(said):
+        if progress(said) > 20.0 and not killed:
+            os.kill(pids[0], signal.SIGKILL)
+            killed.append(pids[0])
+
+    proc = watched(("bake", blend, "--scheduler", local.scheduler_address), look)
+    assert proc.returncode == 0, proc.stderr_text
+    assert killed, "the bake ended before a worker could be killed"
+    assert same(baked(blend), alone[1])
+    client.wait_for_workers(2, timeout=60)
+
+
+def test_ctrl_c_cancels_the_clusters_tasks_and_keeps_the_previous_bake(cluster, alone,
+                                                                       tmp_path):
+    local, client = cluster
+    blend = build(tmp_path)
+    assert bo2("bake", blend).returncode == 0
+    before = {p: p.read_bytes() for p in (blend.parent / "bo2_bake").rglob("*.exr")}
+    proc = interrupted(("bake", blend, "--scheduler", local.scheduler_address),
+                       ready=lambda said: progress(said) > 10.0)
+    assert proc.returncode == 130, proc.stderr_text
+    assert {p: p.read_bytes() for p in (blend.parent / "bo2_bake").rglob("*.exr")} == before
+    for _ in range(100):  # the scheduler forgets the cancelled tasks
+        if not client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks)):
+            break
+        time.sleep(0.1)
+    assert not client.run_on_scheduler(lambda dask_scheduler: len(dask_scheduler.tasks))
+
+
+def test_an_unreachable_scheduler_is_one_error(alone):
+    start = time.monotonic()
+    proc = bo2("bake", alone[0], "--scheduler", "tcp://127.0.0.1:9")
+    print(f"refused after {time.monotonic() - start:.1f} s")
+    assert proc.returncode == 1
+    assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in one_error_line(proc)
+
+
+MISMATCH = '''
+from bo2_lighting.addon.cluster import tasks
+
+def dask_setup(worker):
+    tasks.identity = lambda: {"BO2 Lighting": "0.0.9", "code": "0", "Blender": "4.2.0"}
+'''
+
+
+def test_a_worker_of_another_version_is_refused_naming_both(alone, tmp_path):
+    preload = tmp_path / "other_version.py"
+    preload.write_text(MISMATCH)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0", preload=[str(preload)]) as local:
+        proc = bo2("bake", alone[0], "--scheduler", local.scheduler_address)
+    assert proc.returncode == 1
+    line = one_error_line(proc)
+    assert "runs BO2 Lighting 0.0.9 (code 0) with Blender 4.2.0" in line
+    from bo2_lighting.addon.cluster.tasks import identity
+
+    assert f"with Blender {identity()['Blender']}" in line
+
+
+def test_the_scheduler_lost_during_a_bake_is_one_error_and_the_previous_bake_stays(
+        alone, tmp_path):
+    blend = build(tmp_path)
+    assert bo2("bake", blend).returncode == 0
+    before = {p: p.read_bytes() for p in (blend.parent / "bo2_bake").rglob("*.exr")}
+    dask = Path(sys.executable).parent / "dask"
+    scheduler = subprocess.Popen([str(dask), "scheduler", "--host", "127.0.0.1", "--port",
+                                  "0", "--no-dashboard", "--scheduler-file",
+                                  str(tmp_path / "s.json")], stderr=subprocess.DEVNULL)
+    worker = None
+    try:
+        for _ in range(100):
+            if (tmp_path / "s.json").exists():
+                break
+            time.sleep(0.1)
+        import json
+
+        address = json.loads((tmp_path / "s.json").read_text())["address"]
+        worker = subprocess.Popen([str(BO2), "worker", address], stdout=subprocess.DEVNULL,
+                                  stderr=subprocess.DEVNULL)
+        proc = watched(("bake", blend, "--scheduler", address),
+                       lambda said: progress(said) > 10.0 and scheduler.kill())
+    finally:
+        scheduler.kill()
+        if worker is not None:
+            worker.kill()
+    assert proc.returncode == 1, proc.stderr_text
+    assert "lost the Dask scheduler" in proc.stderr_text, proc.stderr_text
+    assert "previous bake files are as they were" in proc.stderr_text
+    assert {p: p.read_bytes() for p in (blend.parent / "bo2_bake").rglob("*.exr")} == before
