@@ -401,12 +401,15 @@ def cycles_lightmap(scene, obj, mesh, target, uv_map: str | None) -> np.ndarray:
         scene.render.engine, scene.cycles.samples, obj.hide_render = saved[2:]
 
 
-def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str = "BO2"):
+def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str = "BO2",
+                   cluster=None):
     """Bake the lightmaps of ``objs``: a generator of progress fractions in [0, 1] that
     returns the number of lightmaps written; the files are written at the end, all or
     nothing (closing it early writes nothing); ``warnings``: the sink of its warnings.
     backend: "BO2" (``core.bakes.lightmap_bake``) or "CYCLES" (``cycles_lightmap``, one object at
     a time; irradiance only).
+    cluster: None to bake here, or a cluster whose ``lightmap_runner()`` runs the BO2
+    backend's gathers on its workers (``cluster.session``).
 
     The objects are baked as a final render evaluates them (``render_graph``: Render levels,
     render-only modifiers), which is what F12 draws. Where the viewport's mesh of an object
@@ -455,7 +458,8 @@ def lightmap_steps(scene, objs, warnings: Warnings | None = None, backend: str =
                 yield (k + 1) / (len(targets) + 1)
         else:
             job = RenderJob(core_scene, should_stop=interrupt.requested, warnings=warnings)
-            yield from lightmap_bake.steps(job, targets, s, results)
+            yield from lightmap_bake.steps(job, targets, s, results,
+                                           cluster and cluster.lightmap_runner())
     finally:
         bpy.data.batch_remove(list(meshes.values()))
     stamp = time.strftime("%Y-%m-%d %H:%M:%S")

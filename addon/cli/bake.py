@@ -16,9 +16,9 @@ def run(args) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file (on the
     Dask cluster of ``--scheduler``)."""
     lightmapping = args.lightmaps is not None
-    if lightmapping and args.scheduler:
-        raise CommandError("--lightmaps does not run on a cluster yet: bake the lightmaps "
-                           "without --scheduler")
+    if lightmapping and args.scheduler and args.backend == "cycles":
+        raise CommandError("--backend cycles bakes lightmaps on this machine only: drop "
+                           "--scheduler, or bake them with --backend bo2")
     scene = load_blend(Path(args.scene), bakes=lightmapping)
     cluster = connect(args.scheduler)
     try:
@@ -34,7 +34,7 @@ def _bake(args, scene, cluster) -> int:
     from ..core.render.job import Cancelled, Warnings
 
     lightmapping = args.lightmaps is not None
-    if cluster is not None:
+    if cluster is not None and not lightmapping:  # (a lightmap bake's workers need no file)
         with quiet_blender():
             scene = cluster.ship(Path(args.scene))
     if lightmapping:
@@ -61,7 +61,8 @@ def _bake(args, scene, cluster) -> int:
         with quiet_blender():
             if lightmapping:
                 folder = folder / bake_files.LIGHTMAPS
-                steps = bake.lightmap_steps(scene, objs, warnings, backend=args.backend.upper())
+                steps = bake.lightmap_steps(scene, objs, warnings, backend=args.backend.upper(),
+                                            cluster=cluster)
             else:
                 steps = bake.bake_steps(scene, objs, args.backend.upper(), warnings,
                                         cluster=cluster)

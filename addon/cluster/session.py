@@ -2,7 +2,7 @@
 submitted and gathered in order with progress, Ctrl-C and the cluster's faults as one error.
 
 Faults: a worker lost while it runs a task loses nothing (Dask runs the task again on another
-worker); a task that workers die of ``ALLOWED_FAILURES`` times in turn (out of memory, say) is
+worker); a task that workers die of in turn (out of memory, say; Dask's allowed failures) is
 one error with their memory limit; the scheduler lost is one error. Nothing is written by
 these functions: the commands write their files once every task is done, so a failure leaves
 the previous files as they were.
@@ -22,6 +22,7 @@ CONNECT_SECONDS = 8.0  # an unreachable scheduler is said within this long (and 
 POLL_SECONDS = 0.25  # how often Ctrl-C and the scheduler are looked at while tasks run
 LOOK_BLOCK = 64  # volume samples' looks per task
 SHOT_BLOCK = 32  # volume samples' captures per task (a reflection probe's: one per task)
+GATHER_BLOCK = 8  # lightmap gather jobs per task (``lightmap_bake.GATHER_CHUNK`` texels each)
 
 
 class ClusterError(Exception):
@@ -70,6 +71,8 @@ class Cluster:
             raise ClusterError(f"the workers of {self.address} cannot run BO2 Lighting "
                                f"({_reason(exc)}): start them in an environment with bpy and "
                                f"this package (bo2 worker {self.address})") from None
+        self.limits = {a: w.get("memory_limit") or 0 for a, w in
+                       self.client.scheduler_info(n_workers=-1)["workers"].items()}
         for worker, who in sorted(found.items()):
             if who != self.identity:
                 raise ClusterError(f"worker {worker} runs {tasks.describe(who)}; this machine "
@@ -88,16 +91,18 @@ class Cluster:
             pass
 
     def ship(self, path: Path):
-        """Send the open .blend ``path`` to the workers with every external file packed in (a
-        copy: the open file is opened again as it was); returns its scene, open again."""
+        """Send the open .blend ``path`` to the workers with every external file and linked
+        library packed in (a copy: the open file is opened again as it was); returns its
+        scene, open again."""
         import bpy
 
         with tempfile.TemporaryDirectory(prefix="bo2_ship_") as tmp:
             copy = Path(tmp) / path.name
-            try:
-                bpy.ops.file.pack_all()
-            except RuntimeError:  # a missing file: the workers miss it too, as here
-                pass
+            for pack in (bpy.ops.file.pack_libraries, bpy.ops.file.pack_all):
+                try:  # linked libraries' data too: an asset library's
+                    pack()
+                except RuntimeError:  # a missing file: the workers miss it too, as here
+                    pass
             bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=True)
             data = copy.read_bytes()
         bpy.ops.wm.open_mainfile(filepath=str(path.resolve()), load_ui=False)
@@ -106,16 +111,18 @@ class Cluster:
         return bpy.context.scene
 
     def submit(self, fn, *args):
-        """A task of ``fn(identity, blend, digest, name, *args)`` on the shipped .blend."""
-        future, digest, name = self.blend
+        """A task of ``fn(identity, blend, digest, name, *args)`` on the shipped .blend, or
+        of ``fn(identity, *args)`` when none is shipped."""
+        shipped = () if self.blend is None else self.blend
         with self.talking():
-            return self.client.submit(fn, self.identity, future, digest, name, *args,
-                                      pure=False)
+            return self.client.submit(fn, self.identity, *shipped, *args, pure=False)
 
     def scatter(self, data):
-        """``data`` sent to every worker: its future."""
+        """``data`` sent to the workers (the tasks that take it fetch it from a worker that
+        has it): its future. A task that returns it, not Dask's scatter: the scheduler keeps
+        the task, so data lost with every worker that held it is made again."""
         with self.talking():
-            return self.client.scatter(data, broadcast=True, hash=False)
+            return self.client.submit(tasks.hold, data, pure=False)
 
     @contextlib.contextmanager
     def talking(self):
@@ -193,21 +200,25 @@ class Cluster:
                                 "cancelled)")
         exc = future.exception()
         if isinstance(exc, KilledWorker):
-            limits = [w.get("memory_limit") or 0 for w in
-                      self.client.scheduler_info(n_workers=-1)["workers"].values()]
-            limit = (f"their memory limit is {min(limits) / 2**30:.1f} GiB" if any(limits)
+            with contextlib.suppress(Exception):  # (the workers that joined since)
+                self.limits.update({a: w.get("memory_limit") or 0 for a, w in self.client.
+                                    scheduler_info(n_workers=-1)["workers"].items()})
+            limits = [v for v in self.limits.values() if v]
+            limit = (f"their memory limit is {min(limits) / 2**30:.2f} GiB" if limits
                      else "they have no memory limit")
-            return ClusterError(f"a task ended {ALLOWED_FAILURES} workers in turn (killed, or "
-                                f"out of memory: {limit})")
+            return ClusterError(f"a task ended {exc.allowed_failures + 1} workers in turn "
+                                f"(killed, or out of memory: {limit})")
         return ClusterError(f"a worker failed: {_reason(exc)}")
+
+    def lightmap_runner(self):
+        """The runner of a lightmap bake's gathers on the workers
+        (``core.bakes.lightmap_bake.steps``)."""
+        return LightmapRunner(self)
 
     def probe_runner(self, backend: str, focus):
         """The runner of a probe bake's captures on the workers (``core.bakes.bake.Bake``):
         by ``backend``, the suns' shadows sharp over ``focus``."""
         return ProbeRunner(self, backend, focus)
-
-
-ALLOWED_FAILURES = 3  # Dask's distributed.scheduler.allowed-failures default
 
 
 class ProbeRunner:
@@ -237,7 +248,27 @@ class ProbeRunner:
         return [r for part in found for r in part]
 
 
+
+class LightmapRunner:
+    """``core.bakes.lightmap_bake.Here``'s generator on the cluster: the gathers' context sent
+    once (the texels, the scene's BVH: nothing of the .blend is needed), each bounce's
+    radiance once, ``GATHER_BLOCK`` jobs a task."""
+
+    def __init__(self, cluster: Cluster):
+        self.cluster, self.sent = cluster, None  # (the context, its future)
+
+    def gathers(self, g, jobs: list, rays: int, radiance) -> Iterator[int]:
+        if self.sent is None or self.sent[0] is not g:
+            self.sent = (g, self.cluster.scatter(g))
+        shared = self.cluster.scatter(radiance)
+        parts = [jobs[k:k + GATHER_BLOCK] for k in range(0, len(jobs), GATHER_BLOCK)]
+        futures = [self.cluster.submit(tasks.gathers, self.sent[1], shared, rays, part)
+                   for part in parts]
+        found = yield from self.cluster.gather(
+            futures, [sum(hi - lo for _, lo, hi in part) * rays for part in parts])
+        return [r for part in found for r in part]
+
+
 def _reason(exc: BaseException) -> str:
     text = " ".join(str(exc).split()) or type(exc).__name__
     return text if len(text) < 300 else text[:297] + "..."
-

@@ -87,11 +87,49 @@ def check(expected: dict) -> None:
         raise Mismatch(f"this worker runs {describe(mine)}, the client {describe(expected)}")
 
 
+def _own_bpy_path() -> None:
+    """Drop from ``sys.path`` the folders of Blender's own scripts that a parent process which
+    had imported ``bpy`` passes on to the workers it spawns (a local cluster started after
+    ``import bpy``): their ``bpy`` package would shadow the ``bpy`` module's."""
+    import sys
+
+    if "bpy" not in sys.modules:
+        sys.path[:] = [p for p in sys.path
+                       if not {"bpy", "scripts"} <= set(Path(p).parts)]
+
+
+def hold(data):
+    """``data`` itself: a task that holds what the tasks of a command share (``session``)."""
+    return data
+
+
+def _large_arrays_kept() -> None:
+    """Dask's nanny starts a worker with MALLOC_TRIM_THRESHOLD_=65536 (memory given back to
+    the system at once), which pins glibc's mmap threshold at 128 KiB: every large array is
+    then a fresh mapping and its page faults (a reflection probe's capture and prefilter took
+    1.9 times as long). Back to glibc's steady state for large arrays: mapped above 32 MiB,
+    trimmed above 64 MiB (``mallopt``; glibc only)."""
+    import ctypes
+    import ctypes.util
+
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6")
+        if hasattr(libc, "mallopt") and hasattr(libc, "gnu_get_libc_version"):
+            libc.mallopt(-3, 32 << 20)  # M_MMAP_THRESHOLD
+            libc.mallopt(-1, 64 << 20)  # M_TRIM_THRESHOLD
+    except OSError:  # no C library to tune (Windows)
+        pass
+
+
 def dask_setup(worker=None) -> None:
     """Dask's preload hook: Blender, the add-on, its modules and the kernels loaded on
     Blender's thread before the worker takes tasks (so that no other thread imports them at
-    the same time, unpickling a task's arguments)."""
+    the same time, unpickling a task's arguments); large arrays allocated as alone
+    (``_large_arrays_kept``)."""
+    _large_arrays_kept()
+
     def load():
+        _own_bpy_path()
         import bpy  # noqa: F401
 
         from .. import register
@@ -214,5 +252,16 @@ def review(expected, blend, digest, name, options: dict, old_methods: bool) -> d
             report.render_scene(scene, headless.view_layer(), Path(tmp), old_methods)
             return {p.relative_to(tmp).as_posix(): p.read_bytes()
                     for p in sorted(Path(tmp).rglob("*")) if p.is_file()}
+
+    return _task(run, expected)
+
+
+def gathers(expected, g, radiance, rays: int, jobs: list) -> list:
+    """``core.bakes.lightmap_bake.gather`` of each of ``jobs`` ((target, lo, hi) each) in the
+    context ``g``, from the lightmapped surfaces' ``radiance``."""
+    def run():
+        from ..core.bakes import lightmap_bake
+
+        return [lightmap_bake.gather(g, k, lo, hi, rays, radiance) for k, lo, hi in jobs]
 
     return _task(run, expected)

@@ -103,7 +103,8 @@ def baked(blend: Path) -> dict:
     """{probe name: (SH, chains)} of the bake folder beside ``blend``."""
     from bo2_lighting.addon.core.files import probe_file
 
-    files = sorted((blend.parent / "bo2_bake").rglob("*.exr"))
+    files = sorted(p for p in (blend.parent / "bo2_bake").rglob("*.exr")
+                   if p.parent.name != "lightmaps")
     assert files, "no bake files"
     read = [probe_file.read(p) for p in files]
     return {meta["probe"]: (sh, chains) for meta, sh, chains in read}
@@ -166,6 +167,30 @@ def watched(cmd, look, limit=300.0):
     reader.join(timeout=limit)
     proc.stderr_text = "".join(said)
     return proc
+
+
+def lightmaps(blend: Path) -> dict:
+    """{object: its lightmap image} of the bake folder beside ``blend``."""
+    from bo2_lighting.addon.core.files import lightmap_file
+
+    files = sorted((blend.parent / "bo2_bake").rglob("lightmaps/*.exr"))
+    assert files, "no lightmaps"
+    read = [lightmap_file.read(p) for p in files]
+    return {meta["object"]: lightmap.image for meta, lightmap in read}
+
+
+def test_lightmaps_baked_on_two_workers_are_the_lightmaps_baked_alone(cluster, tmp_path):
+    """The floor's lightmap (the box moves: not lightmapped), its gathers sent out in blocks
+    of texels, each bounce's radiance sent to the workers: the same bits."""
+    local, _ = cluster
+    here, there = build(tmp_path / "here"), build(tmp_path / "there")
+    assert bo2("bake", here, "--lightmaps").returncode == 0
+    proc = bo2("bake", there, "--lightmaps", "--scheduler", local.scheduler_address)
+    assert proc.returncode == 0, proc.stderr
+    a, b = lightmaps(here), lightmaps(there)
+    assert a.keys() == b.keys() == {"Plane"}
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+    assert a["Plane"].max() > 0.0
 
 
 def test_frames_on_the_cluster_are_the_frames_rendered_alone(cluster, tmp_path):
@@ -302,3 +327,48 @@ def test_the_scheduler_lost_during_a_bake_is_one_error_and_the_previous_bake_sta
     assert "lost the Dask scheduler" in proc.stderr_text, proc.stderr_text
     assert "previous bake files are as they were" in proc.stderr_text
     assert {p: p.read_bytes() for p in (blend.parent / "bo2_bake").rglob("*.exr")} == before
+
+
+WITHOUT_BPY = '''
+from bo2_lighting.addon.cluster import tasks
+
+def dask_setup(worker):
+    found = tasks.identity
+    tasks.identity = lambda: {**found(), "Blender": None}
+'''
+
+
+def test_a_worker_without_bpy_is_refused(alone, tmp_path):
+    preload = tmp_path / "no_bpy.py"
+    preload.write_text(WITHOUT_BPY)
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0", preload=[str(preload)]) as local:
+        proc = bo2("bake", alone[0], "--scheduler", local.scheduler_address)
+    assert proc.returncode == 1
+    assert "without the bpy module" in one_error_line(proc)
+
+
+def test_a_worker_out_of_memory_fails_the_bake_with_its_limit(tmp_path):
+    """A Sphere probe of 512 px faces on workers limited to 900 MiB: each worker running its
+    capture is ended by Dask's nanny, four in turn (Dask's allowed failures, 3, and one);
+    one error with the limit, and the previous bake stays."""
+    blend = build(tmp_path)
+    subprocess.run([sys.executable, "-c",
+                    "import sys, bpy, bo2_lighting; bo2_lighting.register(); "
+                    "bpy.ops.wm.open_mainfile(filepath=sys.argv[1]); "
+                    "bpy.context.scene.bo2.probes.face_size = '512'; "
+                    "bpy.ops.wm.save_mainfile()", str(blend)], check=True, capture_output=True)
+    (blend.parent / "bo2_bake").mkdir()
+    kept = blend.parent / "bo2_bake" / "kept.txt"
+    kept.write_text("a previous bake")
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                  dashboard_address=":0", memory_limit="900MiB",
+                                  preload=["bo2_lighting.addon.cluster.tasks"]) as local:
+        proc = bo2("bake", blend, "--scheduler", local.scheduler_address)
+    assert proc.returncode == 1
+    line = proc.stderr.strip().splitlines()[-1]  # (after the progress bar)
+    assert line.startswith("bo2: error: a task ended 4 workers in turn"), proc.stderr
+    assert "out of memory: their memory limit is 0.88 GiB" in line
+    assert "previous bake files are as they were" in line
+    assert not list((blend.parent / "bo2_bake").rglob("*.exr"))
+    assert kept.read_text() == "a previous bake"

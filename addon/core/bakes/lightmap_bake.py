@@ -303,27 +303,27 @@ def bake(job: RenderJob, targets: list[Target], settings: Settings | None = None
 STEP_SECONDS = 0.1  # ``steps`` yields at most this often: a modal bake redraws at each step
 
 
-def steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list
-          ) -> Iterator[float]:
+def steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list,
+          runner=None) -> Iterator[float]:
     """``bake`` as a generator of progress fractions in [0, 1], one every ``STEP_SECONDS``
     or so; the lightmaps are appended to ``results`` at the end. The scene's probes light the
     objects without a lightmap that the rays meet. Closing it early stops the work; nothing
-    is written here."""
+    is written here. ``runner``: where the bounces' gathers run (``Here``, on the job's
+    threads, by default; a cluster's runner has the same generator)."""
     last = time.monotonic()
-    for fraction in _steps(job, targets, settings, results):
+    for fraction in _steps(job, targets, settings, results, runner):
         now = time.monotonic()
         if fraction >= 1.0 or now - last >= STEP_SECONDS:
             last = now
             yield fraction
 
 
-def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list
-           ) -> Iterator[float]:
+def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, results: list,
+           runner=None) -> Iterator[float]:
     """``steps``, a fraction after every short piece of work."""
     from .. import kernels as all_kernels
 
     all_kernels.load(modules=all_kernels.MODULES)  # (the lightmaps' after a frame's)
-    from ..kernels import lightmap as kernels
 
     settings = settings or Settings()
     scene, poll = job.scene, job.poll
@@ -390,6 +390,9 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
         cube_size = 32
         cube = with_border(world_cube(world, cube_size)).reshape(-1).astype(np.float32)
     color = np.asarray(world.color, np.float32).reshape(-1)[:3].copy()
+    gathering = Gathering(texels, reach, tris, order, bounds, links, tri_map, tri_uv, corner,
+                          map_base, map_width, map_height, cube, cube_size, color)
+    runner = runner or Here(job)
     indirect = [np.zeros((len(tx.at), 3), np.float32) for tx in texels]
     sh = [np.zeros((len(tx.at), 4, 3), np.float32) for tx in texels]
     variance = [np.zeros(len(tx.at), np.float32) for tx in texels]
@@ -401,7 +404,6 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
     filtering = (bounces - 1 + bool(settings.denoise)) * DENOISE_RAYS
     total_work = max(texel_count * (sum(counts) + filtering), 1)
     done = [0]
-    lock = threading.Lock()
     threads = job.threads
 
     def at(work: float) -> float:
@@ -439,35 +441,17 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
             radiance[map_base[k]:map_base[k] + sizes[k]] = image.reshape(-1, 3)
         jobs = []
         for k, tx in enumerate(texels):
-            for lo in range(0, len(tx.at), 2048):
-                jobs.append((k, lo, min(lo + 2048, len(tx.at))))
-        new_e = [np.zeros_like(a) for a in indirect]
-        new_sh = [np.zeros_like(a) for a in sh]
-        new_var = [np.zeros_like(a) for a in variance]
-        stop = threading.Event()
-
-        def work(k, lo, hi, rays=rays, radiance=radiance, new_e=new_e, new_sh=new_sh,
-                new_var=new_var, stop=stop):
-            def run():
-                if stop.is_set():
-                    raise Cancelled()
-                tx = texels[k]
-                e = np.empty((hi - lo, 3), np.float32)
-                s = np.empty((hi - lo, 4, 3), np.float32)
-                b = np.empty(hi - lo, np.float32)
-                v = np.empty(hi - lo, np.float32)
-                kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], tx.offset[lo:hi], rays,
-                               reach, tris, order, bounds, links, tri_map, tri_uv, corner,
-                               map_base, map_width, map_height, radiance, cube, cube_size,
-                               color, _FACES, e, s, b, v)
-                new_e[k][lo:hi], new_sh[k][lo:hi], new_var[k][lo:hi] = e, s, v
-                with lock:
-                    done[0] += (hi - lo) * rays
-            return run
-
-        for _ in job.ordered([work(*j) for j in jobs], stop):
-            yield at(done[0])
-        indirect, sh, variance = new_e, new_sh, new_var
+            for lo in range(0, len(tx.at), GATHER_CHUNK):
+                jobs.append((k, lo, min(lo + GATHER_CHUNK, len(tx.at))))
+        base = done[0]
+        found = yield from _scaled(runner.gathers(gathering, jobs, rays, radiance),
+                                   lambda work, base=base: at(base + work))
+        done[0] = base + sum(hi - lo for _, lo, hi in jobs) * rays
+        indirect = [np.zeros_like(a) for a in indirect]
+        sh = [np.zeros_like(a) for a in sh]
+        variance = [np.zeros_like(a) for a in variance]
+        for (k, lo, hi), (e, s_, v) in zip(jobs, found, strict=True):
+            indirect[k][lo:hi], sh[k][lo:hi], variance[k][lo:hi] = e, s_, v
     out = []
     for k, (tx, target) in enumerate(zip(texels, targets, strict=True)):
         values = _lightmap_values(tx, indirect[k], sh[k], settings)
@@ -477,6 +461,81 @@ def _steps(job: RenderJob, targets: list[Target], settings: Settings | None, res
         yield at(done[0])
     results.extend(out)
     yield 1.0
+
+
+GATHER_CHUNK = 2048  # texels a gather job takes
+
+
+@dataclass
+class Gathering:
+    """What a bounce's gathers read besides the radiance of the lightmapped surfaces
+    (``gather``): each target's texels, the rays' reach, the scene's triangles and BVH, each
+    triangle's lightmap and UVs (-1: none), the radiance of the others' corners, the
+    lightmaps' places in the radiance atlas and the world's cube map or colour."""
+
+    texels: list
+    reach: float
+    tris: np.ndarray
+    order: np.ndarray
+    bounds: np.ndarray
+    links: np.ndarray
+    tri_map: np.ndarray
+    tri_uv: np.ndarray
+    corner: np.ndarray
+    map_base: np.ndarray
+    map_width: np.ndarray
+    map_height: np.ndarray
+    cube: np.ndarray
+    cube_size: int
+    color: np.ndarray
+
+
+def gather(g: Gathering, k: int, lo: int, hi: int, rays: int, radiance: np.ndarray):
+    """Texels ``lo:hi`` of target ``k`` gathering ``rays`` rays each from the lightmapped
+    surfaces' ``radiance`` (their atlas, (texels, 3) float32): (irradiance (n, 3), its SH
+    (n, 4, 3), its variance (n,)) float32."""
+    from ..kernels import lightmap as kernels
+
+    tx = g.texels[k]
+    e = np.empty((hi - lo, 3), np.float32)
+    s = np.empty((hi - lo, 4, 3), np.float32)
+    b = np.empty(hi - lo, np.float32)
+    v = np.empty(hi - lo, np.float32)
+    kernels.gather(tx.p[lo:hi], tx.n[lo:hi], tx.geo[lo:hi], tx.offset[lo:hi], rays, g.reach,
+                   g.tris, g.order, g.bounds, g.links, g.tri_map, g.tri_uv, g.corner,
+                   g.map_base, g.map_width, g.map_height, radiance, g.cube, g.cube_size,
+                   g.color, _FACES, e, s, b, v)
+    return e, s, v
+
+
+class Here:
+    """A lightmap bake's gathers on the job's threads (``steps``' runner). Another runner
+    (a cluster's) has the same generator."""
+
+    def __init__(self, job: RenderJob):
+        self.job = job
+
+    def gathers(self, g: Gathering, jobs: list, rays: int, radiance: np.ndarray
+                ) -> Iterator[int]:
+        """``gather`` of each of ``jobs`` ((target, lo, hi) each): yields the rays traced so
+        far, returns their results in order."""
+        lock, stop, traced = threading.Lock(), threading.Event(), [0]
+
+        def work(k, lo, hi):
+            def run():
+                if stop.is_set():
+                    raise Cancelled()
+                out = gather(g, k, lo, hi, rays, radiance)
+                with lock:
+                    traced[0] += (hi - lo) * rays
+                return out
+            return run
+
+        found = []
+        for result in self.job.ordered([work(*j) for j in jobs], stop):
+            found.append(result)
+            yield traced[0]
+        return found
 
 
 BAKE_BYTES = 340  # per texel of the lightmaps, while baking (``tools/bench_lightmap_bake.py``)
