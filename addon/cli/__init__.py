@@ -37,8 +37,9 @@ import sys
 from pathlib import Path
 
 # NumPy's BLAS on one thread, set before NumPy loads: the commands' own threads share the
-# cores (a bake took 14% less time), and sums that depend on the BLAS's thread count come out
-# the same on any machine and on a Dask cluster's workers, which run one BLAS thread too
+# cores (the demo room baked in 11.0 s, not 11.7-12.2 s), and sums that depend on the BLAS's
+# thread count come out the same on any machine and on a Dask cluster's workers, which run
+# one BLAS thread too
 for _name in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_name, "1")
 
