@@ -79,11 +79,6 @@ class Cluster:
                                    f"runs {tasks.describe(self.identity)}: install the same "
                                    "on every worker")
 
-    @property
-    def workers(self) -> int:
-        """The workers the scheduler has now."""
-        return len(self.client.scheduler_info(n_workers=-1)["workers"])
-
     def close(self) -> None:
         try:
             self.client.close(timeout=2)
@@ -98,9 +93,12 @@ class Cluster:
 
         with tempfile.TemporaryDirectory(prefix="bo2_ship_") as tmp:
             copy = Path(tmp) / path.name
-            for pack in (bpy.ops.file.pack_libraries, bpy.ops.file.pack_all):
-                try:  # linked libraries' data too: an asset library's
-                    pack()
+            # linked libraries' data too (an asset library's); what cannot be packed (a
+            # movie, a cache) keeps its absolute path: a shared disk's
+            for step in (bpy.ops.file.pack_libraries, bpy.ops.file.pack_all,
+                         bpy.ops.file.make_paths_absolute):
+                try:
+                    step()
                 except RuntimeError:  # a missing file: the workers miss it too, as here
                     pass
             bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=True)

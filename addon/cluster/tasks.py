@@ -12,6 +12,7 @@ Blender and the compiled kernels when the worker starts.
 
 from __future__ import annotations
 
+import atexit
 import concurrent.futures
 import functools
 import queue
@@ -161,6 +162,8 @@ def _scene(blend: bytes, digest: str, name: str, purpose: str):
     if _open.get("digest") != (digest, purpose):
         from ..blender import headless
 
+        if not _open:
+            atexit.register(_close)  # (the last file's copy, when the worker ends)
         _close()
         folder = Path(tempfile.mkdtemp(prefix="bo2_worker_"))
         path = folder / name
