@@ -137,6 +137,8 @@ class Cluster:
         """Wait for ``futures``: yields (index, result, None) or (index, None, the task's
         error) as each ends. Ctrl-C (``interrupt``) cancels those left and raises
         KeyboardInterrupt; the scheduler lost raises ClusterError, those left cancelled."""
+        from concurrent.futures import CancelledError
+
         from distributed import wait
 
         from ..blender import interrupt
@@ -153,9 +155,11 @@ class Cluster:
                                              return_when="FIRST_COMPLETED")
                 except TimeoutError:  # (none ended yet; or the scheduler's loss, seen above)
                     continue
-                except OSError as exc:
-                    raise ClusterError(f"lost the Dask scheduler at {self.address} "
-                                       f"({_reason(exc)})") from None
+                except (OSError, CancelledError) as exc:  # (cancelled as the scheduler went)
+                    why = ("its tasks were cancelled" if isinstance(exc, CancelledError)
+                           else _reason(exc))
+                    raise ClusterError(f"lost the Dask scheduler at {self.address} ({why})"
+                                       ) from None
                 for f in finished:
                     if f.status == "finished":
                         yield index[f.key], f.result(), None
