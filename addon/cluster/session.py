@@ -145,11 +145,13 @@ class Cluster:
 
         index = {f.key: k for k, f in enumerate(futures)}
         pending = set(futures)
+        paused = Paused(self)
         try:
             while pending:
                 interrupt.check()
                 if self.client.status not in ("running", "connecting"):
                     raise ClusterError(f"lost the Dask scheduler at {self.address}")
+                paused.check()
                 try:
                     finished, pending = wait(pending, timeout=POLL_SECONDS,
                                              return_when="FIRST_COMPLETED")
@@ -194,6 +196,15 @@ class Cluster:
                 raise error
             return result
 
+    def memory_limit(self) -> str:
+        """The workers' memory limit, in words."""
+        with contextlib.suppress(Exception):  # (the workers that joined since)
+            self.limits.update({a: w.get("memory_limit") or 0 for a, w in
+                                self.client.scheduler_info(n_workers=-1)["workers"].items()})
+        limits = [v for v in self.limits.values() if v]
+        return (f"their memory limit is {min(limits) / 2**30:.2f} GiB" if limits
+                else "they have no memory limit")
+
     def _failure(self, future) -> ClusterError:
         from distributed import KilledWorker
 
@@ -202,14 +213,8 @@ class Cluster:
                                 "cancelled)")
         exc = future.exception()
         if isinstance(exc, KilledWorker):
-            with contextlib.suppress(Exception):  # (the workers that joined since)
-                self.limits.update({a: w.get("memory_limit") or 0 for a, w in self.client.
-                                    scheduler_info(n_workers=-1)["workers"].items()})
-            limits = [v for v in self.limits.values() if v]
-            limit = (f"their memory limit is {min(limits) / 2**30:.2f} GiB" if limits
-                     else "they have no memory limit")
             return ClusterError(f"a task ended {exc.allowed_failures + 1} workers in turn "
-                                f"(killed, or out of memory: {limit})")
+                                f"(killed, or out of memory: {self.memory_limit()})")
         return ClusterError(f"a worker failed: {_reason(exc)}")
 
     def lightmap_runner(self):
@@ -221,6 +226,38 @@ class Cluster:
         """The runner of a probe bake's captures on the workers (``core.bakes.bake.Bake``):
         by ``backend``, the suns' shadows sharp over ``focus``."""
         return ProbeRunner(self, backend, focus)
+
+
+class Paused:
+    """Every worker paused by Dask (past 80% of its memory limit, it takes no new task) for
+    ``PAUSED_SECONDS``: the tasks would wait for ever, so ClusterError (``check``)."""
+
+    def __init__(self, cluster: Cluster):
+        self.cluster, self.since, self.looked = cluster, None, 0.0
+
+    def check(self) -> None:
+        import time
+
+        now = time.monotonic()
+        if now - self.looked < 5.0:
+            return
+        self.looked = now
+        try:
+            states = [w.get("status") for w in self.cluster.client.scheduler_info(
+                n_workers=-1)["workers"].values()]
+        except Exception:  # noqa: BLE001 - the scheduler's loss is seen by the caller
+            return
+        if not states or any(s != "paused" for s in states):
+            self.since = None
+        elif self.since is None:
+            self.since = now
+        elif now - self.since > PAUSED_SECONDS:
+            raise ClusterError(f"every worker has been paused by Dask for "
+                               f"{PAUSED_SECONDS:.0f} s, out of memory "
+                               f"({self.cluster.memory_limit()})")
+
+
+PAUSED_SECONDS = 60.0
 
 
 class ProbeRunner:

@@ -361,10 +361,17 @@ def test_a_worker_out_of_memory_fails_the_bake_with_its_limit(tmp_path):
     (blend.parent / "bo2_bake").mkdir()
     kept = blend.parent / "bo2_bake" / "kept.txt"
     kept.write_text("a previous bake")
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0", memory_limit="900MiB",
-                                  preload=["bo2_lighting.addon.cluster.tasks"]) as local:
-        proc = bo2("bake", blend, "--scheduler", local.scheduler_address)
+    # (no pausing at 80%: a worker paused before its task starts would wait, and the
+    # client's wait for paused workers is a minute)
+    import dask
+
+    with dask.config.set({"distributed.worker.memory.pause": False,
+                          "distributed.worker.memory.spill": False,
+                          "distributed.worker.memory.target": False}), \
+            distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                     dashboard_address=":0", memory_limit="900MiB",
+                                     preload=["bo2_lighting.addon.cluster.tasks"]) as local:
+        proc = bo2("bake", blend, "--scheduler", local.scheduler_address, timeout=240)
     assert proc.returncode == 1
     line = proc.stderr.strip().splitlines()[-1]  # (after the progress bar)
     assert line.startswith("bo2: error: a task ended 4 workers in turn"), proc.stderr
