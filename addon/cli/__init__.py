@@ -30,6 +30,7 @@ modules; ``bpy`` is imported only by the commands that need it, so ``bo2 --help`
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import re
@@ -93,17 +94,25 @@ def load_blend(path: Path, bakes: bool = False):
     return scene
 
 
-def connect(address: str | None):
-    """The Dask cluster of ``--scheduler ADDRESS`` (``cluster.session.Cluster``), or None
-    without it; CommandError when it cannot be used."""
-    if not address:
-        return None
-    from ..cluster.session import Cluster, ClusterError
+def on_cluster(command):
+    """``command(args, cluster)`` as a command ``run(args)``: ``cluster`` the Dask cluster of
+    ``--scheduler ADDRESS`` (``cluster.session.Cluster``, closed after), or None without it;
+    CommandError when it cannot be used."""
+    @functools.wraps(command)
+    def run(args) -> int:
+        if not args.scheduler:
+            return command(args, None)
+        from ..cluster.session import Cluster, ClusterError
 
-    try:
-        return Cluster(address)
-    except ClusterError as exc:
-        raise CommandError(str(exc)) from None
+        try:
+            cluster = Cluster(args.scheduler)
+        except ClusterError as exc:
+            raise CommandError(str(exc)) from None
+        try:
+            return command(args, cluster)
+        finally:
+            cluster.close()
+    return run
 
 
 MAX_RESOLUTION = headless.MAX_SIDE

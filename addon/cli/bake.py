@@ -8,32 +8,23 @@ import time
 from pathlib import Path
 
 from ..blender import interrupt
-from . import CommandError, connect, load_blend
+from . import CommandError, load_blend, on_cluster
 from .terminal import progress_bar, quiet_blender, stderr_copy
 
 
-def run(args) -> int:
+@on_cluster
+def run(args, cluster) -> int:
     """Bake the light probes, or with ``--lightmaps`` the lightmaps, of a .blend file (on the
     Dask cluster of ``--scheduler``)."""
     lightmapping = args.lightmaps is not None
-    if lightmapping and args.scheduler and args.backend == "cycles":
+    if lightmapping and cluster is not None and args.backend == "cycles":
         raise CommandError("--backend cycles bakes lightmaps on this machine only: drop "
                            "--scheduler, or bake them with --backend bo2")
     scene = load_blend(Path(args.scene), bakes=lightmapping)
-    cluster = connect(args.scheduler)
-    try:
-        return _bake(args, scene, cluster)
-    finally:
-        if cluster is not None:
-            cluster.close()
-
-
-def _bake(args, scene, cluster) -> int:
     from ..blender import bake, bake_files, lightmaps, probes
     from ..cluster.session import ClusterError
     from ..core.render.job import Cancelled, Warnings
 
-    lightmapping = args.lightmaps is not None
     if cluster is not None and not lightmapping:  # (a lightmap bake's workers need no file)
         with quiet_blender():
             scene = cluster.ship(Path(args.scene))

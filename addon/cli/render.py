@@ -11,7 +11,7 @@ from pathlib import Path
 
 from ..blender import headless, interrupt
 from ..core.system import atomic
-from . import CommandError, connect, load_blend, patterns, too_many_samples, usage_error
+from . import CommandError, load_blend, on_cluster, patterns, too_many_samples, usage_error
 from .terminal import BatchProgress, quiet_blender
 
 
@@ -97,19 +97,11 @@ def _write_summary(path: Path, args, images: list[dict], seconds: float,
         raise CommandError(f"{path}: cannot write the summary ({exc.strerror})") from None
 
 
-def run(args) -> int:
+@on_cluster
+def run(args, cluster) -> int:
     """Render frames of .blend files, one image each; the others go on when one fails (on
     the Dask cluster of ``--scheduler``: every frame of a file sent out at once, the images
     written here as they come, in order)."""
-    cluster = connect(args.scheduler)
-    try:
-        return _run(args, cluster)
-    finally:
-        if cluster is not None:
-            cluster.close()
-
-
-def _run(args, cluster) -> int:
     # --samples is checked here, where the engine is known
     if args.samples and (reason := too_many_samples(args.samples, args.engine)):
         usage_error(f"argument --samples: {reason}")

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from ..blender import headless, interrupt
-from . import CommandError, connect
+from . import CommandError, on_cluster
 from .compare import comparison_options, load_scene
 from .terminal import BatchProgress, exit_on_interrupt, quiet_blender
 
@@ -53,18 +53,10 @@ def distinct_names(paths: list[Path]) -> list[str]:
             depth[k] += 1
 
 
-def run(args) -> int:
+@on_cluster
+def run(args, cluster) -> int:
     """Compare each scene with Cycles and write the review page (docs/report.md); on the
     Dask cluster of ``--scheduler``, a task per scene."""
-    cluster = connect(args.scheduler)
-    try:
-        return _run(args, cluster)
-    finally:
-        if cluster is not None:
-            cluster.close()
-
-
-def _run(args, cluster) -> int:
     from ..core.review import flip
 
     if args.fail_above is not None and flip.unavailable():

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 from test_cli import BO2, bo2, one_error_line
-from test_interrupt import interrupted, progress
+from test_interrupt import interrupted, progress, watched
 
 distributed = pytest.importorskip("distributed")
 
@@ -148,27 +148,6 @@ def opened_file():
     return str(tasks._open.get("path") or "") or None
 
 
-def watched(cmd, look, limit=300.0):
-    """Run ``bo2 cmd`` to its end, ``look(stderr so far)`` called as it comes; returns the
-    process, its stderr in ``stderr_text``."""
-    import threading
-
-    proc = subprocess.Popen([str(BO2), *map(str, cmd)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True)
-    said = []
-    reader = threading.Thread(target=lambda: said.extend(iter(lambda: proc.stderr.read(1), "")))
-    reader.start()
-    start = time.monotonic()
-    while proc.poll() is None and time.monotonic() - start < limit:
-        look("".join(said))
-        time.sleep(0.05)
-    proc.stdout_text = proc.stdout.read()
-    proc.wait(timeout=limit)
-    reader.join(timeout=limit)
-    proc.stderr_text = "".join(said)
-    return proc
-
-
 def lightmaps(blend: Path) -> dict:
     """{object: its lightmap image} of the bake folder beside ``blend``."""
     from bo2_lighting.addon.core.files import lightmap_file
@@ -238,7 +217,7 @@ def test_a_worker_killed_during_a_bake_loses_nothing(cluster, alone, tmp_path):
     pids = list(client.run(os.getpid).values())
     killed = []
 
-    def look(said):
+    def look(said, _):
         if progress(said) > 20.0 and not killed:
             os.kill(pids[0], signal.SIGKILL)
             killed.append(pids[0])
@@ -275,28 +254,6 @@ def test_an_unreachable_scheduler_is_one_error(alone):
     assert "cannot reach the Dask scheduler at tcp://127.0.0.1:9" in one_error_line(proc)
 
 
-MISMATCH = '''
-from bo2_lighting.addon.cluster import tasks
-
-def dask_setup(worker):
-    tasks.identity = lambda: {"BO2 Lighting": "0.0.9", "code": "0", "Blender": "4.2.0"}
-'''
-
-
-def test_a_worker_of_another_version_is_refused_naming_both(alone, tmp_path):
-    preload = tmp_path / "other_version.py"
-    preload.write_text(MISMATCH)
-    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0", preload=[str(preload)]) as local:
-        proc = bo2("bake", alone[0], "--scheduler", local.scheduler_address)
-    assert proc.returncode == 1
-    line = one_error_line(proc)
-    assert "runs BO2 Lighting 0.0.9 (code 0) with Blender 4.2.0" in line
-    from bo2_lighting.addon.cluster.tasks import identity
-
-    assert f"with Blender {identity()['Blender']}" in line
-
-
 def test_the_scheduler_lost_during_a_bake_is_one_error_and_the_previous_bake_stays(
         alone, tmp_path):
     blend = build(tmp_path)
@@ -318,7 +275,7 @@ def test_the_scheduler_lost_during_a_bake_is_one_error_and_the_previous_bake_sta
         worker = subprocess.Popen([str(BO2), "worker", address], stdout=subprocess.DEVNULL,
                                   stderr=subprocess.DEVNULL)
         proc = watched(("bake", blend, "--scheduler", address),
-                       lambda said: progress(said) > 10.0 and scheduler.kill())
+                       lambda said, _: progress(said) > 10.0 and scheduler.kill())
     finally:
         scheduler.kill()
         if worker is not None:
@@ -329,23 +286,35 @@ def test_the_scheduler_lost_during_a_bake_is_one_error_and_the_previous_bake_sta
     assert {p: p.read_bytes() for p in (blend.parent / "bo2_bake").rglob("*.exr")} == before
 
 
-WITHOUT_BPY = '''
+OTHER_VERSION = ('''
+from bo2_lighting.addon.cluster import tasks
+
+def dask_setup(worker):
+    tasks.identity = lambda: {"BO2 Lighting": "0.0.9", "code": "0", "Blender": "4.2.0"}
+''', "runs BO2 Lighting 0.0.9 (code 0) with Blender 4.2.0")
+WITHOUT_BPY = ('''
 from bo2_lighting.addon.cluster import tasks
 
 def dask_setup(worker):
     found = tasks.identity
     tasks.identity = lambda: {**found(), "Blender": None}
-'''
+''', "runs BO2 Lighting 0.1.0 without the bpy module")
 
 
-def test_a_worker_without_bpy_is_refused(alone, tmp_path):
-    preload = tmp_path / "no_bpy.py"
-    preload.write_text(WITHOUT_BPY)
+@pytest.mark.parametrize(("preload", "said"), [OTHER_VERSION, WITHOUT_BPY],
+                         ids=["another version", "without bpy"])
+def test_a_worker_of_another_version_or_without_bpy_is_refused_naming_both(
+        alone, tmp_path, preload, said):
+    from bo2_lighting.addon.cluster.tasks import identity
+
+    (tmp_path / "worker_setup.py").write_text(preload)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
-                                  dashboard_address=":0", preload=[str(preload)]) as local:
+                                  dashboard_address=":0",
+                                  preload=[str(tmp_path / "worker_setup.py")]) as local:
         proc = bo2("bake", alone[0], "--scheduler", local.scheduler_address)
     assert proc.returncode == 1
-    assert "without the bpy module" in one_error_line(proc)
+    line = one_error_line(proc)
+    assert said in line and f"with Blender {identity()['Blender']}" in line, line
 
 
 def test_a_worker_out_of_memory_fails_the_bake_with_its_limit(tmp_path):

@@ -17,24 +17,37 @@ import numpy as np
 from test_cli import BO2, ROOT, bo2
 
 
-def interrupted(cmd, ready, limit=120.0):
-    """Run ``cmd``, send SIGINT once ``ready(said)`` is true (``said``: its stderr so far),
-    return the finished process (its output in ``stdout_text``, ``stderr_text``)."""
+def watched(cmd, look, limit=300.0):
+    """Run ``bo2 cmd`` to its end (or ``limit`` seconds), ``look(said, proc)`` called as its
+    stderr comes (``said``: its stderr so far); returns the finished process, its output in
+    ``stdout_text`` and ``stderr_text``."""
     proc = subprocess.Popen([str(BO2), *map(str, cmd)], stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     said = []
     reader = threading.Thread(target=lambda: said.extend(iter(lambda: proc.stderr.read(1), "")))
     reader.start()
     start = time.monotonic()
-    while (not ready("".join(said)) and proc.poll() is None
-           and time.monotonic() - start < limit):
+    while proc.poll() is None and time.monotonic() - start < limit:
+        look("".join(said), proc)
         time.sleep(0.05)
-    proc.send_signal(signal.SIGINT)
     proc.stdout_text = proc.stdout.read()  # (stderr is the reader's)
     proc.wait(timeout=limit)
     reader.join(timeout=limit)
     proc.stderr_text = "".join(said)
     return proc
+
+
+def interrupted(cmd, ready, limit=120.0):
+    """Run ``cmd``, send SIGINT once ``ready(said)`` is true (``said``: its stderr so far),
+    return the finished process (``watched``)."""
+    sent = []
+
+    def look(said, proc):
+        if not sent and ready(said):
+            proc.send_signal(signal.SIGINT)
+            sent.append(True)
+
+    return watched(cmd, look, limit)
 
 
 def progress(said: str) -> float:
