@@ -157,9 +157,11 @@ class Cluster:
                                              return_when="FIRST_COMPLETED")
                 except TimeoutError:  # (none ended yet; or the scheduler's loss, seen above)
                     continue
-                except (OSError, CancelledError) as exc:  # (cancelled as the scheduler went)
-                    why = ("its tasks were cancelled" if isinstance(exc, CancelledError)
-                           else _reason(exc))
+                except (OSError, CancelledError, ValueError) as exc:
+                    # (the scheduler gone: its tasks cancelled, or the client closed, which
+                    # wait() says as "no clients found")
+                    why = (_reason(exc) if isinstance(exc, OSError)
+                           else "its tasks were cancelled")
                     raise ClusterError(f"lost the Dask scheduler at {self.address} ({why})"
                                        ) from None
                 for f in finished:
