@@ -4,9 +4,10 @@ Blender's validator.
 Usage: python tools/build_extension.py [--offline]
 
 1. Downloads the Python wheels listed in ``blender_manifest.toml`` (``wheels = [...]``: numba,
-   llvmlite and OpenEXR for Python 3.11, 3.13 and 3.14 on every platform) into ``wheels/`` with
-   ``pip download --only-binary=:all: --platform TAG --python-version X.Y``; the manifest is the
-   one list of bundled wheels, this script only fetches what it names.
+   llvmlite, OpenEXR and Dask's compiled dependencies for Python 3.11, 3.13 and 3.14 on every
+   platform, and Dask's pure Python wheels) into ``wheels/`` with ``pip download
+   --only-binary=:all: --platform TAG --python-version X.Y`` (pure wheels: no platform); the
+   manifest is the one list of bundled wheels, this script only fetches what it names.
 2. Builds ``dist/<id>-<version>-<platform>.zip`` for each of the manifest's ``platforms``
    (``extension build --split-platforms``: each zip holds its platform's wheels) with
    ``blender --command extension build`` when a ``blender`` binary is on PATH, else with
@@ -28,7 +29,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 WHEEL_RE = re.compile(
-    r"^(?P<name>[A-Za-z0-9_.]+)-(?P<version>[^-]+)-(?P<py>cp\d+)-(?P<abi>[^-]+)-(?P<plat>[^-]+)\.whl$"
+    r"^(?P<name>[A-Za-z0-9_.]+)-(?P<version>[^-]+)-(?P<py>cp\d+|py[\d.py]+)-(?P<abi>[^-]+)"
+    r"-(?P<plat>[^-]+)\.whl$"
 )
 
 
@@ -59,12 +61,14 @@ def fetch_wheels(manifest: dict, offline: bool) -> None:
         m = WHEEL_RE.match(path.name)
         if not m:
             fail(f"cannot parse the wheel file name {path.name}")
-        py = m["py"][2:]
-        platforms = [arg for tag in m["plat"].split(".") for arg in ("--platform", tag)]
+        target = []  # a compiled wheel's platform and Python; none for pure Python ("any")
+        if m["plat"] != "any":
+            py = m["py"][2:]
+            target = [arg for tag in m["plat"].split(".") for arg in ("--platform", tag)]
+            target += ["--python-version", f"{py[0]}.{py[1:]}", "--implementation", "cp"]
         cmd = [
             sys.executable, "-m", "pip", "download", "--quiet", "--no-deps",
-            "--only-binary=:all:", *platforms,
-            "--python-version", f"{py[0]}.{py[1:]}", "--implementation", "cp",
+            "--only-binary=:all:", *target,
             "--dest", str(path.parent), f"{m['name']}=={m['version']}",
         ]
         print(f"downloading {path.name}")

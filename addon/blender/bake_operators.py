@@ -5,6 +5,8 @@ Invoked from the UI, a bake is modal: it runs one step (a capture, a block of te
 tick, shows its progress in the status bar (the window manager's progress cursor and the header
 text), and Esc or right click cancels it cleanly (nothing written, previous bakes untouched).
 Run from a script (``EXEC_DEFAULT``) it bakes to the end at once. Both report the time taken.
+A scene whose Bake On is Dask Cluster bakes on the workers of its scheduler (``scheduler``):
+the same steps, their captures and gathers tasks of the cluster (``cluster.session``).
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import time
 import bpy
 
 from ..core.render.job import Warnings
-from . import bake, bake_files, lightmaps, probes
+from . import bake, bake_files, lightmaps, probes, props
 
 _MODES = [("ALL", "All", "Every Sphere and Volume light probe"),
           ("SELECTED", "Selected", "The selected light probes"),
@@ -38,6 +40,36 @@ def _objects(context, mode: str) -> list:
     return objs
 
 
+def scheduler(scene) -> str | None:
+    """The address of the Dask scheduler that ``scene``'s bakes run on (``scene.bo2.bake_on``
+    Dask Cluster: its Scheduler, else the preferences' Dask Scheduler), or None to bake here;
+    BakeError when neither is set."""
+    if scene.bo2.bake_on != "CLUSTER":
+        return None
+    address = scene.bo2.scheduler.strip() or props.preferences().scheduler.strip()
+    if not address:
+        raise probes.BakeError("Bake On is Dask Cluster but no scheduler is set: give its "
+                               "address (tcp://host:8786) in the bake settings or in the "
+                               "add-on's preferences")
+    return address
+
+
+def _on_cluster(address: str, ship: bool, steps):
+    """``steps(cluster)`` on the Dask cluster at ``address`` (``cluster.session.Cluster``):
+    connected at the second step (the first one lets the status bar say so), the open .blend
+    sent to the workers when ``ship``; closed at the end, on an error and on cancel."""
+    from ..cluster.session import Cluster
+
+    yield 0.0
+    cluster = Cluster(address)
+    try:
+        if ship:
+            cluster.ship()
+        return (yield from steps(cluster))
+    finally:
+        cluster.close()
+
+
 def _busy() -> str | None:
     """Why a bake cannot start now (a render or another bake is running), or None."""
     if bpy.app.is_job_running("RENDER"):
@@ -50,11 +82,14 @@ def _busy() -> str | None:
 class _ModalBake:
     """A bake run a step per timer tick (Esc cancels, nothing written) or, from a script, to
     the end at once. Subclasses give ``noun`` (messages), ``_objects(context)`` (what to bake;
-    BakeError if nothing) and ``_bake_steps(scene, objs)`` (the generator of progress
-    fractions)."""
+    BakeError if nothing), ``_bake_steps(scene, objs, cluster)`` (the generator of progress
+    fractions; ``cluster``: None, or the cluster the bake runs on) and ``ships`` (whether the
+    cluster's workers need the .blend)."""
 
     noun = ""
     what = ""
+    where = ""  # " on ADDRESS" for a bake on a cluster
+    ships = True
 
     _timer = None
     _steps = None
@@ -78,14 +113,26 @@ class _ModalBake:
                 raise probes.BakeError(busy)
             objs = self._objects(context)
             probes.writable_folder(context.scene)  # fail early: unsaved file, unwritable folder
+            address = scheduler(context.scene)
             self.what = f"{self.noun}{'s' * (len(objs) != 1)}"
-            self._steps = self._bake_steps(context.scene, objs)
+            scene = context.scene
+            if address is None:
+                self.where = ""
+                self._steps = self._bake_steps(scene, objs, None)
+            else:
+                self._refuse_cluster(scene)
+                self.where = f" on {address}"
+                self._steps = _on_cluster(address, self.ships,
+                                          lambda cluster: self._bake_steps(scene, objs, cluster))
             self._count = len(objs)
         except probes.BakeError as exc:
             self.report({"ERROR"}, str(exc))
             return False
         self._start_time = time.perf_counter()
         return True
+
+    def _refuse_cluster(self, scene) -> None:
+        """BakeError when this bake cannot run on a cluster."""
 
     def _step(self) -> float | None:
         """Advance one step; the progress fraction, or None when done (``_count`` is then
@@ -100,7 +147,7 @@ class _ModalBake:
     def _finished(self, context) -> None:
         context.scene.update_tag()  # viewports read the new bakes
         seconds = time.perf_counter() - self._start_time
-        self.report({"INFO"}, f"Baked {self._count} {self.what} in {seconds:.1f} s")
+        self.report({"INFO"}, f"Baked {self._count} {self.what}{self.where} in {seconds:.1f} s")
 
     def execute(self, context):
         if not self._begin(context):
@@ -122,6 +169,8 @@ class _ModalBake:
         wm.progress_begin(0, 1000)
         wm.modal_handler_add(self)
         _ModalBake.running = True
+        if context.workspace is not None and self.where:
+            context.workspace.status_text_set(f"Baking {self.what}{self.where}: connecting")
         return {"RUNNING_MODAL"}
 
     def _end(self, context) -> None:
@@ -162,7 +211,7 @@ class _ModalBake:
         context.window_manager.progress_update(int(fraction * 1000))
         if context.workspace is not None:
             context.workspace.status_text_set(
-                f"Baking {self.what}: {fraction * 100:.0f}%  (Esc to cancel)")
+                f"Baking {self.what}{self.where}: {fraction * 100:.0f}%  (Esc to cancel)")
         return {"RUNNING_MODAL"}
 
 
@@ -180,8 +229,9 @@ class BO2_OT_bake_probes(_ModalBake, bpy.types.Operator):
     def _objects(self, context):
         return _objects(context, self.mode)
 
-    def _bake_steps(self, scene, objs):
-        return bake.bake_steps(scene, objs, probes.capture_backend(scene), self._warnings())
+    def _bake_steps(self, scene, objs, cluster):
+        return bake.bake_steps(scene, objs, probes.capture_backend(scene), self._warnings(),
+                               cluster=cluster)
 
 
 _LIGHTMAP_MODES = [("ALL", "All", "Every static mesh object"),
@@ -209,13 +259,20 @@ class BO2_OT_bake_lightmaps(_ModalBake, bpy.types.Operator):
     mode: bpy.props.EnumProperty(name="Objects", items=_LIGHTMAP_MODES, default="ALL")
 
     noun = "lightmap"
+    ships = False  # the gathers need the texels and the scene's rays, not the .blend
 
     def _objects(self, context):
         return _lightmap_objects(context, self.mode)
 
-    def _bake_steps(self, scene, objs):
+    def _refuse_cluster(self, scene):
+        if probes.capture_backend(scene) == "CYCLES":
+            raise probes.BakeError("The Cycles backend bakes lightmaps on this machine only: "
+                                   "set Bake On to This Machine, or bake them with the BO2 "
+                                   "backend")
+
+    def _bake_steps(self, scene, objs, cluster):
         return bake.lightmap_steps(scene, objs, self._warnings(),
-                                   backend=probes.capture_backend(scene))
+                                   backend=probes.capture_backend(scene), cluster=cluster)
 
 
 class BO2_OT_clear_lightmaps(bpy.types.Operator):

@@ -358,6 +358,21 @@ class BO2SceneSettings(bpy.types.PropertyGroup):
         "only in the bake folder, declared as external files",
         default=True,
     )
+    bake_on: bpy.props.EnumProperty(
+        name="Bake On",
+        description="Where the bakes (probes and lightmaps) run",
+        items=[("LOCAL", "This Machine", "Bake in this Blender"),
+               ("CLUSTER", "Dask Cluster", "Bake on the workers of a Dask scheduler (bo2 "
+                "worker ADDRESS on each machine): the .blend is sent to them, packed, and the "
+                "bakes written here")],
+        default="LOCAL",
+    )
+    scheduler: bpy.props.StringProperty(
+        name="Scheduler",
+        description="Address of the Dask scheduler that bakes of this scene run on "
+        "(tcp://host:8786); empty: the Dask Scheduler of the add-on's preferences",
+        default="",
+    )
     bakes_adopted: bpy.props.BoolProperty(
         name="Bakes Adopted",
         description="The bakes of earlier versions were looked for (once per scene)",
@@ -479,11 +494,19 @@ class BO2Preferences(bpy.types.AddonPreferences):
         items=_BACKENDS,
         default="BO2",
     )
+    scheduler: bpy.props.StringProperty(
+        name="Dask Scheduler",
+        description="Address of the studio's Dask scheduler (tcp://host:8786) that scenes "
+        "whose Bake On is Dask Cluster bake on, when their own Scheduler is empty",
+        default="",
+    )
+
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
         layout.prop(self, "bake_folder")
         layout.prop(self, "bake_backend")
+        layout.prop(self, "scheduler")
 
 
 class _Defaults:
@@ -492,6 +515,7 @@ class _Defaults:
 
     bake_folder = "//bo2_bake/"
     bake_backend = "BO2"
+    scheduler = ""
 
 
 def preferences():

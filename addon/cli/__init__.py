@@ -110,6 +110,8 @@ def on_cluster(command):
             raise CommandError(str(exc)) from None
         try:
             return command(args, cluster)
+        except ClusterError as exc:  # (the shipping of the file)
+            raise CommandError(str(exc)) from None
         finally:
             cluster.close()
     return run

@@ -27,7 +27,7 @@ def run(args, cluster) -> int:
 
     if cluster is not None and not lightmapping:  # (a lightmap bake's workers need no file)
         with quiet_blender():
-            scene = cluster.ship(Path(args.scene))
+            cluster.ship()
     if lightmapping:
         if args.probes:
             raise CommandError("--probes and --lightmaps: bake the probes first, then the "

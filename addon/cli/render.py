@@ -64,13 +64,13 @@ def fetch_frame(cluster, future, out: Path) -> tuple[float, list[str]]:
     return seconds, warnings
 
 
-def _submit(cluster, blend: Path, frames, args) -> dict:
-    """The frames of ``blend`` (its current frame for None) sent to the cluster, the file
-    shipped: {frame: its task}."""
+def _submit(cluster, scene, blend: Path, frames, args) -> dict:
+    """The frames of ``blend``, open as ``scene`` (its current frame for None), sent to the
+    cluster, the file shipped: {frame: its task}."""
     from ..cluster import tasks
 
     with quiet_blender():
-        scene = cluster.ship(blend)
+        cluster.ship()
     suffix = patterns.output_path(args.output, blend.stem, 0).suffix
     options = {"engine": args.engine, "resolution": args.resolution, "samples": args.samples,
                "specular_model": args.specular_model, "all_passes": args.all_passes}
@@ -158,7 +158,7 @@ def run(args, cluster) -> int:
                 progress.draw(f"{blend.name} (loading)")
             try:
                 scene = load_blend(blend)  # once per file
-                sent = _submit(cluster, blend, per_file, args) if cluster else {}
+                sent = _submit(cluster, scene, blend, per_file, args) if cluster else {}
                 scene = headless.current_scene() if cluster else scene
                 headless.apply_render_options(scene, args.engine, args.resolution, args.samples,
                                               args.specular_model, args.all_passes)

@@ -158,7 +158,7 @@ def send_blend(cluster, path: Path, args):
     try:
         load_scene(path, args)  # (the checks of a scene compared here)
         with quiet_blender():
-            cluster.ship(path)
+            cluster.ship()
     except CommandError as exc:
         return exc
     return cluster.submit(tasks.review, comparison_options(args), args.old_methods)

@@ -16,10 +16,12 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-from . import tasks
+from . import names, tasks
 
 CONNECT_SECONDS = 8.0  # an unreachable scheduler is said within this long (and 10 s of the start)
-POLL_SECONDS = 0.25  # how often Ctrl-C and the scheduler are looked at while tasks run
+POLL_SECONDS = 0.1  # how often Ctrl-C and the scheduler are looked at while tasks run (and a
+#                    modal bake redraws: ``as_done``'s ticks)
+PACK_SECONDS = 600.0  # the packing of a shipped copy (``pack_copy``) ends within this long
 LOOK_BLOCK = 64  # volume samples' looks per task
 SHOT_BLOCK = 32  # volume samples' captures per task (a reflection probe's: one per task)
 GATHER_BLOCK = 8  # lightmap gather jobs per task (``lightmap_bake.GATHER_CHUNK`` texels each)
@@ -54,10 +56,29 @@ class Cluster:
                                f"{timeout:.0f} s ({_reason(exc)})") from None
         self.blend = None  # (future of the shipped .blend's bytes, its digest, its name)
         try:
+            self._names()
             self._check(timeout)
         except BaseException:
             self.close()
             raise
+
+    def _names(self) -> None:
+        """The scheduler (which unpickles the tasks) and this process take the package's
+        names of the other side as theirs (``names``): the extension's here, pip's there."""
+        import cloudpickle
+
+        names.install()
+        cloudpickle.register_pickle_by_value(names)
+        try:
+            with self.talking():
+                self.client.run_on_scheduler(names.install, "bo2_lighting")
+        except Exception as exc:  # noqa: BLE001 - a scheduler that runs no client code
+            if isinstance(exc, ClusterError):
+                raise
+            raise ClusterError(f"the Dask scheduler at {self.address} did not take BO2 "
+                               f"Lighting's names ({_reason(exc)})") from None
+        finally:
+            cloudpickle.unregister_pickle_by_value(names)
 
     def _check(self, timeout: float) -> None:
         try:
@@ -85,28 +106,20 @@ class Cluster:
         except Exception:  # noqa: BLE001, S110 - a lost scheduler: nothing to close
             pass
 
-    def ship(self, path: Path):
-        """Send the open .blend ``path`` to the workers with every external file and linked
-        library packed in (a copy: the open file is opened again as it was); returns its
-        scene, open again."""
+    def ship(self) -> None:
+        """Send the open .blend to the workers as it is now (unsaved changes too): a copy,
+        every external file and linked library packed into it by a Blender of its own
+        (``pack_copy``); the open file is left as it is."""
         import bpy
 
+        name = Path(bpy.data.filepath).name or "untitled.blend"
         with tempfile.TemporaryDirectory(prefix="bo2_ship_") as tmp:
-            copy = Path(tmp) / path.name
-            # linked libraries' data too (an asset library's); what cannot be packed (a
-            # movie, a cache) keeps its absolute path: a shared disk's
-            for step in (bpy.ops.file.pack_libraries, bpy.ops.file.pack_all,
-                         bpy.ops.file.make_paths_absolute):
-                try:
-                    step()
-                except RuntimeError:  # a missing file: the workers miss it too, as here
-                    pass
-            bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=True)
+            copy = Path(tmp) / name
+            bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True)  # (paths remapped)
+            pack_copy(copy)
             data = copy.read_bytes()
-        bpy.ops.wm.open_mainfile(filepath=str(path.resolve()), load_ui=False)
         digest = hashlib.sha256(data).hexdigest()
-        self.blend = (self.scatter(data), digest, path.name)
-        return bpy.context.scene
+        self.blend = (self.scatter(data), digest, name)
 
     def submit(self, fn, *args):
         """A task of ``fn(identity, blend, digest, name, *args)`` on the shipped .blend, or
@@ -133,10 +146,12 @@ class Cluster:
             raise ClusterError(f"lost the Dask scheduler at {self.address} "
                                f"({_reason(exc)})") from None
 
-    def as_done(self, futures: list) -> Iterator[tuple[int, object, ClusterError | None]]:
+    def as_done(self, futures: list
+                ) -> Iterator[tuple[int, object, ClusterError | None] | None]:
         """Wait for ``futures``: yields (index, result, None) or (index, None, the task's
-        error) as each ends. Ctrl-C (``interrupt``) cancels those left and raises
-        KeyboardInterrupt; the scheduler lost raises ClusterError, those left cancelled."""
+        error) as each ends, and None every ``POLL_SECONDS`` that none did (a modal bake's
+        tick). Ctrl-C (``interrupt``) cancels those left and raises KeyboardInterrupt; the
+        scheduler lost raises ClusterError, those left cancelled."""
         from concurrent.futures import CancelledError
 
         from distributed import wait
@@ -156,6 +171,7 @@ class Cluster:
                     finished, pending = wait(pending, timeout=POLL_SECONDS,
                                              return_when="FIRST_COMPLETED")
                 except TimeoutError:  # (none ended yet; or the scheduler's loss, seen above)
+                    yield None
                     continue
                 except (OSError, CancelledError, ValueError) as exc:
                     # (the scheduler gone: its tasks cancelled, or the client closed, which
@@ -178,12 +194,16 @@ class Cluster:
 
     def gather(self, futures: list, sizes: list[int] | None = None) -> Iterator[int]:
         """Wait for ``futures`` (``as_done``): yields the work finished so far (``sizes``:
-        each one's, 1 by default) as they end, returns their results in order; the first
-        failed task raises its ClusterError, the others cancelled."""
+        each one's, 1 by default) as they end and at its ticks, returns their results in
+        order; the first failed task raises its ClusterError, the others cancelled."""
         sizes = sizes or [1] * len(futures)
         results, done = [None] * len(futures), 0
         waiting = self.as_done(futures)
-        for k, result, error in waiting:
+        for ended in waiting:
+            if ended is None:
+                yield done
+                continue
+            k, result, error = ended
             if error is not None:
                 waiting.throw(error)
             results[k] = result
@@ -193,10 +213,12 @@ class Cluster:
 
     def result(self, future):
         """``future``'s result once it ends (``as_done``); its ClusterError if it failed."""
-        for _, result, error in self.as_done([future]):
-            if error is not None:
-                raise error
-            return result
+        for ended in self.as_done([future]):
+            if ended is not None:
+                _, result, error = ended
+                if error is not None:
+                    raise error
+                return result
 
     def memory_limit(self) -> str:
         """The workers' memory limit, in words."""
@@ -308,6 +330,46 @@ class LightmapRunner:
         found = yield from self.cluster.gather(
             futures, [sum(hi - lo for _, lo, hi in part) * rays for part in parts])
         return [r for part in found for r in part]
+
+
+PACK = """
+import bpy
+for step in (bpy.ops.file.pack_libraries, bpy.ops.file.pack_all,
+             bpy.ops.file.make_paths_absolute):
+    try:
+        step()
+    except RuntimeError:  # a missing file: the workers miss it too
+        pass
+bpy.ops.wm.save_mainfile(compress=True)
+"""
+
+
+def pack_copy(path: Path) -> None:
+    """Pack into the saved .blend ``path`` its linked libraries' data (an asset library's)
+    and its external files (textures, fonts, sounds), and make absolute the paths of what
+    cannot be packed (a movie, a cache: a shared disk's), in a Blender of its own: this
+    process's, open in the UI or read by a command, is left as it is. ClusterError if that
+    Blender fails."""
+    import subprocess
+    import sys
+
+    import bpy
+
+    if bpy.app.binary_path:  # Blender itself
+        command = [bpy.app.binary_path, "--background", "--factory-startup", str(path),
+                   "--python-exit-code", "1", "--python-expr", PACK]
+    else:  # the bpy module
+        command = [sys.executable, "-c", "import sys\nimport bpy\nbpy.ops.wm.open_mainfile("
+                   "filepath=sys.argv[1], load_ui=False)\n" + PACK, str(path)]
+    try:
+        run = subprocess.run(command, capture_output=True, text=True, timeout=PACK_SECONDS,
+                             stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.TimeoutExpired) as exc:
+        raise ClusterError(f"could not pack {path.name} for the workers ({_reason(exc)})"
+                           ) from None
+    if run.returncode != 0:
+        lines = [line for line in run.stderr.splitlines() if line.strip()] or ["no message"]
+        raise ClusterError(f"could not pack {path.name} for the workers ({lines[-1].strip()})")
 
 
 def _reason(exc: BaseException) -> str:

@@ -136,8 +136,10 @@ def dask_setup(worker=None) -> None:
         from .. import register
         from ..blender import bake, headless  # noqa: F401
         from ..core import kernels
+        from . import names
 
         register()
+        names.install()  # (a task sent from the extension in Blender names its modules)
         kernels.load(None, kernels.MODULES)
         identity()
 

@@ -65,13 +65,15 @@ def test_install_render_disable_remove(user_repo):
     assert (directory / "bo2_lighting" / "blender_manifest.toml").exists()
     assert MODULE in bpy.context.preferences.addons
     assert engine_available("BO2_LIGHTING")
-    # The zip's wheels (numba, llvmlite, OpenEXR; FLIP where it has wheels) are installed for
-    # this platform and Python.
+    # The zip's wheels (numba, llvmlite, OpenEXR, Dask and its dependencies; FLIP where it has
+    # wheels) are installed for this platform and Python.
     site = (Path(bpy.utils.user_resource("EXTENSIONS", path=".local")) / "lib"
             / f"python{sys.version_info.major}.{sys.version_info.minor}" / "site-packages")
     found = {p.name for p in site.glob("*.dist-info")}
     assert {"numba-0.68.1.dist-info", "llvmlite-0.50.0.dist-info",
-            "openexr-3.5.3.dist-info"} <= found, found
+            "openexr-3.5.3.dist-info", "dask-2026.8.0.dist-info",
+            "distributed-2026.8.0.dist-info", "msgpack-1.2.4.dist-info",
+            "psutil-7.2.2.dist-info", "tornado-6.6.1.dist-info"} <= found, found
     assert ("flip_evaluator-1.7.dist-info" in found) == (sys.version_info[:2] < (3, 14)), found
     import OpenEXR  # noqa: F401
 

@@ -209,6 +209,76 @@ def test_a_review_on_the_cluster_is_the_review_made_alone(cluster, tmp_path):
     assert (tmp_path / "there" / "index.html").is_file()
 
 
+UI_BAKE = r"""
+import sys, tempfile
+import bpy
+zip_path, blend, where, address = sys.argv[1:5]
+repos = bpy.context.preferences.extensions.repos
+repos.new(name="BO2 cluster test", module="bo2_cluster_test",
+          custom_directory=tempfile.mkdtemp())
+assert bpy.ops.extensions.package_install_files(
+    filepath=zip_path, repo="bo2_cluster_test", enable_on_install=True) == {"FINISHED"}
+bpy.ops.wm.open_mainfile(filepath=blend)
+scene = bpy.context.scene
+bpy.data.lights["POINT"].energy = 600.0  # not saved: the bake sees it
+if where == "cluster":  # the preference's scheduler
+    addon = bpy.context.preferences.addons["bl_ext.bo2_cluster_test.bo2_lighting"]
+    addon.preferences.scheduler = address
+    scene.bo2.bake_on = "CLUSTER"
+elif where == "scene":  # the scene's own
+    scene.bo2.bake_on, scene.bo2.scheduler = "CLUSTER", address
+for op in (bpy.ops.bo2.bake_probes, bpy.ops.bo2.bake_lightmaps):
+    try:
+        print("RESULT", op("EXEC_DEFAULT"), flush=True)
+    except RuntimeError as exc:  # (a script's operator that reports an error)
+        print("RESULT", exc, flush=True)
+print("OPEN", bpy.data.is_dirty, bpy.data.images["checker"].packed_file is None,
+      bpy.data.images["checker"].filepath, flush=True)
+"""
+
+
+def ui_bake(blend: Path, where: str, address: str = "") -> subprocess.CompletedProcess:
+    """Blender with the extension installed from its zip (module ``bl_ext.*.bo2_lighting``)
+    bakes ``blend``'s probes, then its lightmaps, with the operators of the Bake buttons, an
+    unsaved change made: ``where`` "here", or "cluster" (the preferences' scheduler) or
+    "scene" (the scene's) at ``address``."""
+    zips = sorted((Path(__file__).resolve().parents[2] / "dist").glob("*-linux_x64.zip"))
+    assert zips, "run 'make build' first"
+    return subprocess.run([sys.executable, "-c", UI_BAKE, str(zips[0]), str(blend), where,
+                           address], capture_output=True, text=True, timeout=600)
+
+
+def test_the_uis_bakes_on_the_cluster_are_the_bakes_made_here(cluster, tmp_path):
+    """The extension (its modules named ``bl_ext.<repository>.bo2_lighting``) bakes on workers
+    of the pip package: the probes and the lightmaps are the same bits as its bakes here, the
+    unsaved change seen by both; the open file is not packed by the shipping."""
+    local, _ = cluster
+    here, there = build(tmp_path / "here"), build(tmp_path / "there")
+    alone = ui_bake(here, "here")
+    assert alone.stdout.count("RESULT {'FINISHED'}") == 2, alone.stdout + alone.stderr
+    proc = ui_bake(there, "cluster", local.scheduler_address)
+    assert proc.stdout.count("RESULT {'FINISHED'}") == 2, proc.stdout + proc.stderr
+    assert f"on {local.scheduler_address}" in proc.stdout
+    assert "OPEN True True //tex/checker.png" in proc.stdout, proc.stdout
+    assert same(baked(there), baked(here))
+    a, b = lightmaps(here), lightmaps(there)
+    assert a.keys() == b.keys() == {"Plane"}
+    assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_the_uis_bake_on_an_unreachable_or_unset_scheduler_is_one_error(tmp_path):
+    blend = build(tmp_path)
+    proc = ui_bake(blend, "scene", "tcp://127.0.0.1:9")
+    said = proc.stdout + proc.stderr
+    assert said.count("RESULT Error: Bake failed: cannot reach the Dask scheduler at "
+                      "tcp://127.0.0.1:9 within 8 s") == 2, said
+    assert "previous bakes kept" in said
+    assert not (tmp_path / "bo2_bake").exists() or not any((tmp_path / "bo2_bake").rglob("*.exr"))
+    proc = ui_bake(blend, "scene", "")
+    assert (proc.stdout + proc.stderr).count("RESULT Error: Bake On is Dask Cluster but no "
+                                             "scheduler is set") == 2
+
+
 def test_a_worker_killed_during_a_bake_loses_nothing(cluster, alone, tmp_path):
     """A worker process killed while it captures: Dask runs its tasks again elsewhere (the
     nanny starts a new worker) and the bake is the same."""
