@@ -140,15 +140,6 @@ class RENDER_PT_bo2_indirect(_Switched, _RenderSubPanel, bpy.types.Panel):
         sub.prop(settings, "use_specular_occlusion")
 
 
-def _bake_on(layout, scene) -> None:
-    """Where the bakes run (probes' and lightmaps'): here, or a Dask cluster and its address
-    (the preferences' shown when the scene has none)."""
-    layout.prop(scene.bo2, "bake_on")
-    if scene.bo2.bake_on == "CLUSTER":
-        layout.prop(scene.bo2, "scheduler",
-                    placeholder=props.preferences().scheduler or "tcp://host:8786")
-
-
 class RENDER_PT_bo2_bake(_RenderSubPanel, bpy.types.Panel):
     bl_label = "Light Probes"
     group = "probes"
@@ -164,7 +155,10 @@ class RENDER_PT_bo2_bake(_RenderSubPanel, bpy.types.Panel):
         row.prop(context.scene.bo2, "bake_pack")
         row.operator("bo2.pack_bakes", text="", icon="PACKAGE")
         row.operator("bo2.unpack_bakes", text="", icon="UGLYPACKAGE")
-        _bake_on(layout, context.scene)
+        layout.prop(context.scene.bo2, "bake_on")  # (the lightmaps' too)
+        if context.scene.bo2.bake_on == "CLUSTER":  # the preferences' address when empty
+            layout.prop(context.scene.bo2, "scheduler",
+                        placeholder=props.preferences().scheduler or "tcp://host:8786")
         if adoption.notices:  # the details are in the console
             count = len(adoption.notices)
             layout.label(text=f"{count} bake{'s' * (count != 1)} of an earlier version adopted "
@@ -195,7 +189,9 @@ class RENDER_PT_bo2_lightmaps(_Switched, _RenderSubPanel, bpy.types.Panel):
         row.operator("bo2.bake_lightmaps", text="Bake All", icon="RENDER_STILL").mode = "ALL"
         row.operator("bo2.bake_lightmaps", text="Bake Selected").mode = "SELECTED"
         layout.operator("bo2.clear_lightmaps", text="Clear Lightmaps", icon="TRASH").mode = "ALL"
-        _bake_on(layout, context.scene)
+        if context.scene.bo2.bake_on == "CLUSTER":  # (set in the Light Probes panel)
+            layout.label(text="Bakes on a Dask cluster (Light Probes: Bake On)",
+                         icon="NETWORK_DRIVE")
         for name in ("density", "max_resolution", "padding", "rays", "bounces", "directional",
                      "denoise"):
             layout.prop(settings, name)

@@ -64,9 +64,25 @@ class Cluster:
 
     def _names(self) -> None:
         """The scheduler (which unpickles the tasks) and this process take the package's
-        names of the other side as theirs (``names``): the extension's here, pip's there."""
+        names of the other side as theirs (``names``): the extension's here, pip's there;
+        ClusterError when the scheduler or a worker runs another Python (pickles of code
+        do not cross Pythons)."""
+        import sys
+
         import cloudpickle
 
+        mine = "{}.{}".format(*sys.version_info[:2])
+        with self.talking():
+            found = self.client.get_versions(check=False)
+        hosts = {"the Dask scheduler": found["scheduler"],
+                 **{f"worker {a}": w for a, w in sorted(found["workers"].items())}}
+        for who, versions in hosts.items():
+            theirs = ".".join(str(versions["host"].get("python", "?")).split(".")[:2])
+            if theirs != mine:
+                raise ClusterError(f"{who} of {self.address} runs Python {theirs}, this "
+                                   f"process Python {mine}: Dask's clients, scheduler and "
+                                   "workers need one Python (Blender 4.5 and 5.0: 3.11; "
+                                   "5.1 and 5.2: 3.13)")
         names.install()
         cloudpickle.register_pickle_by_value(names)
         try:

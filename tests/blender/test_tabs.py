@@ -109,7 +109,12 @@ def test_every_tab_draws(studio):
     assert {"BO2SceneSettings.samples", "BO2SceneSettings.shadow_resolution",
             "RenderSettings.preview_pixel_size", "ColorManagedViewSettings.view_transform",
             "RenderSettings.motion_blur_shutter", "CyclesRenderSettings.rolling_shutter_type",
-            "CyclesRenderSettings.rolling_shutter_duration"} <= set(props)
+            "CyclesRenderSettings.rolling_shutter_duration", "BO2SceneSettings.bake_on"
+            } <= set(props)
+    assert "BO2SceneSettings.scheduler" not in props  # (baking here)
+    scene.bo2.bake_on = "CLUSTER"
+    assert "BO2SceneSettings.scheduler" in tab(scene, "render")[1]
+    scene.bo2.bake_on = "LOCAL"
     _, props = tab(scene, "output")
     assert "RenderSettings.resolution_x" in props
     _, props = tab(scene, "view_layer")

@@ -10,13 +10,16 @@ when all passed. With ``--docs``, the screenshots the user guide shows are copie
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -31,6 +34,7 @@ DOCS = {"render_tab": "ui_render_tab.png", "spot_light_tab": "ui_light_tab.png",
         "object_tab_lightmap": "ui_object_lightmap.png",
         "viewport_lightmap_texels": "ui_viewport_lightmap_texels.png",
         "probe_bake_packed": "ui_probe_bake_packed.png",
+        "render_tab_cluster": "ui_bake_on_cluster.png",
         "render_tab_review": "ui_review.png"}
 
 
@@ -55,6 +59,23 @@ def farm_check(runner: str, zip_path: Path, env: dict, folder: Path, out: Path) 
     return {"check": name, "ok": ok, "detail": frame.stdout[-1500:]}
 
 
+def dask_scheduler() -> tuple[subprocess.Popen, str]:
+    """A Dask scheduler on 127.0.0.1, of this Python (the window's Blender runs another): the
+    process and its address, once it listens."""
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    proc = subprocess.Popen([sys.executable, "-m", "distributed.cli.dask_scheduler", "--host",
+                             "127.0.0.1", "--port", str(port), "--dashboard-address", ":0"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    for _ in range(200):
+        with socket.socket() as s, contextlib.suppress(OSError):
+            s.connect(("127.0.0.1", port))
+            break
+        time.sleep(0.1)
+    return proc, f"tcp://127.0.0.1:{port}"
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("zip", type=Path)
@@ -74,7 +95,9 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory(prefix="bo2-gui-", dir="/tmp") as user:
         zip_copy = Path(user) / args.zip.name
         shutil.copy(args.zip, zip_copy)
-        env = {**os.environ, "BLENDER_USER_RESOURCES": str(Path(user) / "blender")}
+        scheduler = dask_scheduler()
+        env = {**os.environ, "BLENDER_USER_RESOURCES": str(Path(user) / "blender"),
+               "BO2_GUI_SCHEDULER": scheduler[1]}
         cmd = [runner.stdout.strip(), "--factory-startup", "--python",
                str(ROOT / "tests" / "gui" / "walk.py"), "--", str(zip_copy), str(out)]
         # its own process group: a walk that hangs is ended with everything it started
@@ -86,6 +109,8 @@ def main(argv=None) -> int:
             os.killpg(proc.pid, signal.SIGKILL)
             log, _ = proc.communicate()
             log += f"\ntest-gui: the walk did not end within {args.timeout:.0f} s"
+        scheduler[0].kill()
+        scheduler[0].wait()
         farm = farm_check(runner.stdout.strip(), zip_copy, env, Path(user), out)
     (out / "blender.log").write_text(log)
     results = out / "results.json"

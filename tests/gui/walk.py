@@ -177,6 +177,7 @@ def walk():
                                        "BO2SceneSettings.shadow_resolution",
                                        "RenderSettings.preview_pixel_size",
                                        "CyclesRenderSettings.rolling_shutter_type",
+                                       "BO2SceneSettings.bake_on",
                                        "BO2LightmapSettings.density",
                                        "BO2LookDevSettings.report_source",
                                        "BO2LookDevSettings.report_folder"})
@@ -311,6 +312,37 @@ def walk():
     check("Bake All bakes every static object's lightmap", started == {"RUNNING_MODAL"}
           and states and set(states.values()) == {"BAKED"},
           f"{started}, {len(states)} objects: {set(states.values())} after {seconds:.0f} s")
+
+    # 5c. Bake On: Dask Cluster, at the preferences' scheduler (one that ``run.py`` started, of
+    # another Python): the bundled Dask reaches it, the bake says why it cannot run there in
+    # one line, and the bakes stay as they were
+    address = os.environ.get("BO2_GUI_SCHEDULER")
+    if address:
+        module("addon.blender.props").preferences().scheduler = address
+        scene.bo2.bake_on = "CLUSTER"
+        started, seconds = yield from bake_all(bpy.ops.bo2.bake_probes,
+                                               lambda: operators._ModalBake.running)
+        screenshot("cluster_refused")
+        said = yield from reports()
+        yield from show_tab(None, "RENDER")
+        properties = biggest("PROPERTIES")
+        window_region = next(r for r in properties.regions if r.type == "WINDOW")
+        with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+            for _ in range(8):  # down to the Light Probes panel
+                bpy.ops.view2d.scroll_down(deltay=120)
+        redraw()
+        yield 1.5
+        screenshot("render_tab_cluster", properties)
+        with bpy.context.temp_override(window=window(), area=properties, region=window_region):
+            for _ in range(40):
+                bpy.ops.view2d.scroll_up(deltay=120)
+        scene.bo2.bake_on = "LOCAL"
+        states = {o.name: probes.bake_state(o).state for o in probes.probe_objects(scene)}
+        wanted = f"the Dask scheduler of {address} runs Python 3.11, this process Python 3."
+        check("Bake On Dask Cluster reaches the preferences' scheduler; another Python is one "
+              "error, the bakes kept", started == {"RUNNING_MODAL"} and wanted in said
+              and "previous bakes kept" in said and set(states.values()) == {"BAKED"},
+              f"{started}, {states}, said: {said[-600:]!r}")
     yield from show_tab(None, "RENDER")
     properties = biggest("PROPERTIES")
     window_region = next(r for r in properties.regions if r.type == "WINDOW")
@@ -527,6 +559,22 @@ def gpu_view(scene, live):
     table.location.z -= 0.3
     scene.bo2.device = "AUTO"
     yield from drawn(300)
+
+
+def reports():
+    """The window's reports, as the Info editor lists them (the Timeline shown as one for a
+    moment, its reports copied to the clipboard)."""
+    area = biggest("DOPESHEET_EDITOR")
+    kind = area.ui_type
+    area.ui_type = "INFO"
+    redraw()
+    yield 0.5
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=area, region=region):
+        bpy.ops.info.select_all(action="SELECT")
+        bpy.ops.info.report_copy()
+    area.ui_type = kind
+    return bpy.context.window_manager.clipboard
 
 
 def bake_all(operator, running):
