@@ -227,6 +227,17 @@ if where == "cluster":  # the preference's scheduler
     scene.bo2.bake_on = "CLUSTER"
 elif where == "scene":  # the scene's own
     scene.bo2.bake_on, scene.bo2.scheduler = "CLUSTER", address
+if where == "cancel":  # what Esc does to a modal bake: its steps closed at 20%
+    import importlib
+    ext = "bl_ext.bo2_cluster_test.bo2_lighting.addon.blender."
+    operators, bake, probes = (importlib.import_module(ext + m)
+                               for m in ("bake_operators", "bake", "probes"))
+    steps = operators._on_cluster(address, True, lambda cluster: bake.bake_steps(
+        scene, probes.probe_objects(scene), "BO2", cluster=cluster))
+    at = next(f for f in steps if f > 0.2)
+    steps.close()
+    print("CANCELLED AT", at, flush=True)
+    sys.exit(0)
 for op in (bpy.ops.bo2.bake_probes, bpy.ops.bo2.bake_lightmaps):
     try:
         print("RESULT", op("EXEC_DEFAULT"), flush=True)
@@ -264,6 +275,24 @@ def test_the_uis_bakes_on_the_cluster_are_the_bakes_made_here(cluster, tmp_path)
     a, b = lightmaps(here), lightmaps(there)
     assert a.keys() == b.keys() == {"Plane"}
     assert all(np.array_equal(a[k], b[k]) for k in a)
+
+
+def test_esc_cancels_the_uis_bake_on_the_cluster(cluster, tmp_path):
+    """A modal bake's steps closed (Esc) at 20%: the scheduler forgets the bake's tasks and
+    nothing is written."""
+    local, client = cluster
+    blend = build(tmp_path)
+    proc = ui_bake(blend, "cancel", local.scheduler_address)
+    assert "CANCELLED AT 0." in proc.stdout, proc.stdout + proc.stderr
+    deadline = time.monotonic() + 20
+    while client.run_on_scheduler(tasks_known) and time.monotonic() < deadline:
+        time.sleep(0.5)
+    assert client.run_on_scheduler(tasks_known) == 0
+    assert not list(tmp_path.rglob("*.exr"))
+
+
+def tasks_known(dask_scheduler) -> int:
+    return len(dask_scheduler.tasks)
 
 
 def test_the_uis_bake_on_an_unreachable_or_unset_scheduler_is_one_error(tmp_path):

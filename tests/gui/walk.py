@@ -325,10 +325,11 @@ def walk():
         screenshot("cluster_refused")
         said = yield from reports()
         yield from show_tab(None, "RENDER")
+        yield 1.0
         properties = biggest("PROPERTIES")
         window_region = next(r for r in properties.regions if r.type == "WINDOW")
         with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-            for _ in range(8):  # down to the Light Probes panel
+            for _ in range(10):  # down to the Light Probes panel
                 bpy.ops.view2d.scroll_down(deltay=120)
         redraw()
         yield 1.5
