@@ -1,5 +1,5 @@
-"""Measure a probe bake on a Dask cluster: the scheduler's task rate, a generated level baked
-alone and on 1 and 2 local workers, and the time expected on more machines.
+"""Measure a probe bake and a lightmap bake on a Dask cluster: the scheduler's task rate, a
+generated level baked alone and on 1 and 2 local workers, and the time expected on more machines.
 
 Usage: python tools/bench_cluster.py [--volumes N] [--spheres N] [--objects N] [--keep DIR]
 
@@ -15,7 +15,9 @@ two-core machine. Prints:
 3. the model T(n) = S + P / n, S the serial part (the client's reading, shipping, dilation and
    gathers between bounces; from the 1- and 2-worker runs), each bounce's phases bounded by
    their task counts (a phase of k tasks keeps at most k workers busy), for 8, 32 and 128
-   one-core workers.
+   one-core workers;
+4. the level's lightmaps (the boxes and the ground: static) baked alone and on 1 and 2 workers,
+   and their model T(n) = S + ceil(k / n) P / k, k the gather tasks of a bounce.
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 BO2 = Path(sys.executable).parent / "bo2"
 
@@ -150,6 +154,16 @@ def main() -> int:
                 times[n] = bake(blend, "--scheduler", local.scheduler_address)
                 print(f"{n} worker{'s' * (n > 1)}: {times[n]:.1f} s", flush=True)
         ship = measure_ship(blend)
+        maps = {0: bake(blend, "--lightmaps")}
+        print(f"lightmaps alone: {maps[0]:.1f} s", flush=True)
+        for n in (1, 2):
+            with distributed.LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                          dashboard_address=":0",
+                                          preload=["bo2_lighting.addon.cluster.tasks"]
+                                          ) as local:
+                maps[n] = bake(blend, "--lightmaps", "--scheduler", local.scheduler_address)
+                print(f"lightmaps, {n} worker{'s' * (n > 1)}: {maps[n]:.1f} s", flush=True)
+        texels = lightmap_texels(blend)
     parallel = 2.0 * (times[1] - times[2])
     serial = times[1] - parallel
     volume_tasks = math.ceil(samples / session.SHOT_BLOCK)
@@ -169,7 +183,25 @@ def main() -> int:
                                                                    strict=True))
         expect += sum(phases) / rate
         print(f"{n:>8} {expect:11.1f}")
+    from bo2_lighting.addon.core.bakes import lightmap_bake
+
+    tasks = math.ceil(texels / (session.GATHER_BLOCK * lightmap_bake.GATHER_CHUNK))
+    parallel = 2.0 * (maps[1] - maps[2])
+    serial = maps[1] - parallel
+    print(f"\nlightmaps: {texels} texels, {tasks} gather tasks a bounce; model: serial "
+          f"{serial:.1f} s + parallel {parallel:.1f} s")
+    print(f"{'workers':>8} {'expected s':>11}")
+    for n in (1, 2, 8, 32, 128):
+        print(f"{n:>8} {serial + math.ceil(tasks / n) * parallel / tasks:11.1f}")
     return 0
+
+
+def lightmap_texels(blend: Path) -> int:
+    """The texels of the lightmaps baked beside ``blend``."""
+    from bo2_lighting.addon.core.files import lightmap_file
+
+    files = sorted((blend.parent / "bo2_bake").rglob("lightmaps/*.exr"))
+    return sum(int(np.prod(lightmap_file.read(p)[1].image.shape[:2])) for p in files)
 
 
 def measure_ship(blend: Path) -> float:
@@ -183,7 +215,7 @@ def measure_ship(blend: Path) -> float:
         " preload=['bo2_lighting.addon.cluster.tasks']) as local:\n"
         "    load_blend(Path(sys.argv[1]))\n"
         "    c = Cluster(local.scheduler_address)\n"
-        "    start = time.perf_counter(); c.ship(Path(sys.argv[1]))\n"
+        "    start = time.perf_counter(); c.ship()\n"
         "    print('SHIP', time.perf_counter() - start); c.close()\n")
     proc = subprocess.run([sys.executable, "-c", script, str(blend)], capture_output=True,
                           text=True, check=True)

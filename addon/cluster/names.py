@@ -5,8 +5,9 @@ Dask pickles functions and classes by the name of their module, and the schedule
 workers import it to unpickle them: a task sent from the extension names modules that a worker
 of the pip package does not have, and a result sent back names modules that Blender does not
 have. ``install`` makes each name import this process's package (the same module objects: no
-second copy). Standard library only: a client sends it to the scheduler and the workers by
-value (``cloudpickle.register_pickle_by_value``) before anything of its own.
+second copy). Standard library only: a client sends it to the scheduler by value
+(``cloudpickle.register_pickle_by_value``) before anything of its own; the workers' preload
+(``tasks.dask_setup``) and the client install it themselves.
 """
 
 from __future__ import annotations

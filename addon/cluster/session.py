@@ -55,6 +55,7 @@ class Cluster:
             raise ClusterError(f"cannot reach the Dask scheduler at {address} within "
                                f"{timeout:.0f} s ({_reason(exc)})") from None
         self.blend = None  # (future of the shipped .blend's bytes, its digest, its name)
+        self.limits = {}  # {worker: its memory limit, bytes}
         try:
             self._names()
             self._check(timeout)
@@ -100,6 +101,9 @@ class Cluster:
         try:
             self.client.wait_for_workers(1, timeout=timeout)
         except (TimeoutError, OSError):
+            if self._workers():  # (all paused: Dask counts running workers only)
+                raise ClusterError(f"every worker of {self.address} is paused by Dask, out "
+                                   f"of memory ({self.memory_limit()})") from None
             raise ClusterError(f"the Dask scheduler at {self.address} has no workers (start "
                                f"them with: bo2 worker {self.address})") from None
         try:
@@ -108,13 +112,16 @@ class Cluster:
             raise ClusterError(f"the workers of {self.address} cannot run BO2 Lighting "
                                f"({_reason(exc)}): start them in an environment with bpy and "
                                f"this package (bo2 worker {self.address})") from None
-        self.limits = {a: w.get("memory_limit") or 0 for a, w in
-                       self.client.scheduler_info(n_workers=-1)["workers"].items()}
+        self.limits = {a: w.get("memory_limit") or 0 for a, w in self._workers().items()}
         for worker, who in sorted(found.items()):
             if who != self.identity:
                 raise ClusterError(f"worker {worker} runs {tasks.describe(who)}; this machine "
                                    f"runs {tasks.describe(self.identity)}: install the same "
                                    "on every worker")
+
+    def _workers(self) -> dict:
+        """{address: the scheduler's information} of every worker, paused ones too."""
+        return self.client.scheduler_info(n_workers=-1)["workers"]
 
     def close(self) -> None:
         try:
@@ -239,8 +246,8 @@ class Cluster:
     def memory_limit(self) -> str:
         """The workers' memory limit, in words."""
         with contextlib.suppress(Exception):  # (the workers that joined since)
-            self.limits.update({a: w.get("memory_limit") or 0 for a, w in
-                                self.client.scheduler_info(n_workers=-1)["workers"].items()})
+            self.limits.update({a: w.get("memory_limit") or 0
+                                for a, w in self._workers().items()})
         limits = [v for v in self.limits.values() if v]
         return (f"their memory limit is {min(limits) / 2**30:.2f} GiB" if limits
                 else "they have no memory limit")
@@ -270,10 +277,14 @@ class Cluster:
 
 class Paused:
     """Every worker paused by Dask (past 80% of its memory limit, it takes no new task) for
-    ``PAUSED_SECONDS``: the tasks would wait for ever, so ClusterError (``check``)."""
+    ``PAUSED_SECONDS`` (Dask's setting ``bo2.paused-seconds``, or DASK_BO2__PAUSED_SECONDS):
+    the tasks would wait for ever, so ClusterError (``check``)."""
 
     def __init__(self, cluster: Cluster):
+        import dask
+
         self.cluster, self.since, self.looked = cluster, None, 0.0
+        self.limit = float(dask.config.get("bo2.paused-seconds", PAUSED_SECONDS))
 
     def check(self) -> None:
         import time
@@ -283,17 +294,16 @@ class Paused:
             return
         self.looked = now
         try:
-            states = [w.get("status") for w in self.cluster.client.scheduler_info(
-                n_workers=-1)["workers"].values()]
+            states = [w.get("status") for w in self.cluster._workers().values()]
         except Exception:  # noqa: BLE001 - the scheduler's loss is seen by the caller
             return
         if not states or any(s != "paused" for s in states):
             self.since = None
         elif self.since is None:
             self.since = now
-        elif now - self.since > PAUSED_SECONDS:
+        elif now - self.since > self.limit:
             raise ClusterError(f"every worker has been paused by Dask for "
-                               f"{PAUSED_SECONDS:.0f} s, out of memory "
+                               f"{self.limit:.0f} s, out of memory "
                                f"({self.cluster.memory_limit()})")
 
 

@@ -255,8 +255,11 @@ def ui_bake(blend: Path, where: str, address: str = "") -> subprocess.CompletedP
     "scene" (the scene's) at ``address``."""
     zips = sorted((Path(__file__).resolve().parents[2] / "dist").glob("*-linux_x64.zip"))
     assert zips, "run 'make build' first"
+    # a user folder of its own: the zip's wheels (Dask's too) installed there, not into the
+    # user's, whose site-packages the Blender of every other test puts on its path
+    env = {**os.environ, "BLENDER_USER_RESOURCES": str(blend.parent / "blender_user")}
     return subprocess.run([sys.executable, "-c", UI_BAKE, str(zips[0]), str(blend), where,
-                           address], capture_output=True, text=True, timeout=600)
+                           address], capture_output=True, text=True, timeout=600, env=env)
 
 
 def test_the_uis_bakes_on_the_cluster_are_the_bakes_made_here(cluster, tmp_path):
@@ -447,3 +450,45 @@ def test_a_worker_out_of_memory_fails_the_bake_with_its_limit(tmp_path):
     assert "previous bake files are as they were" in line
     assert not list((blend.parent / "bo2_bake").rglob("*.exr"))
     assert kept.read_text() == "a previous bake"
+
+
+def test_workers_paused_for_long_fail_the_bake_with_their_limit(tmp_path, monkeypatch):
+    """The worker paused by Dask during a bake (its pause fraction lowered under its memory:
+    it takes no new task) for ``bo2.paused-seconds`` (5 s here): one error with its limit, the
+    previous bake kept; a bake sent to it while it is paused: one error at once."""
+    blend = build(tmp_path)
+    (blend.parent / "bo2_bake").mkdir()
+    kept = blend.parent / "bo2_bake" / "kept.txt"
+    kept.write_text("a previous bake")
+    monkeypatch.setenv("DASK_BO2__PAUSED_SECONDS", "5")
+    import dask
+
+    with dask.config.set({"distributed.worker.memory.terminate": False}), \
+            distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                                     dashboard_address=":0", memory_limit="2GiB",
+                                     preload=["bo2_lighting.addon.cluster.tasks"]) as local, \
+            distributed.Client(local) as client:
+        paused = []
+
+        def look(said, _):
+            if progress(said) > 10.0 and not paused:
+                paused.append(client.run(pause))
+
+        proc = watched(("bake", blend, "--scheduler", local.scheduler_address), look)
+        again = bo2("bake", blend, "--scheduler", local.scheduler_address)
+    assert paused, "the bake ended before the worker could be paused"
+    assert proc.returncode == 1, proc.stderr_text
+    line = proc.stderr_text.strip().splitlines()[-1]  # (after the progress bar)
+    assert line.startswith("bo2: error: every worker has been paused by Dask for 5 s, out of "
+                           "memory (their memory limit is 2.00 GiB)"), proc.stderr_text
+    assert again.returncode == 1
+    assert again.stderr.strip().splitlines()[-1].startswith(
+        "bo2: error: every worker of tcp://127.0.0.1:"), again.stderr
+    assert "is paused by Dask, out of memory (their memory limit is 2.00 GiB)" in again.stderr
+    assert not list((blend.parent / "bo2_bake").rglob("*.exr"))
+    assert kept.read_text() == "a previous bake"
+
+
+def pause(dask_worker) -> None:
+    """Pause the worker as Dask does past its pause fraction (its memory now over it)."""
+    dask_worker.memory_manager.memory_pause_fraction = 0.01
