@@ -159,7 +159,6 @@ def run(args, cluster) -> int:
             try:
                 scene = load_blend(blend)  # once per file
                 sent = _submit(cluster, scene, blend, per_file, args) if cluster else {}
-                scene = headless.current_scene() if cluster else scene
                 headless.apply_render_options(scene, args.engine, args.resolution, args.samples,
                                               args.specular_model, args.all_passes)
             except Exception as exc:  # noqa: BLE001 - the other files still render

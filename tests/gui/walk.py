@@ -327,16 +327,11 @@ def walk():
         yield from show_tab(None, "RENDER")
         yield 1.0
         properties = biggest("PROPERTIES")
-        window_region = next(r for r in properties.regions if r.type == "WINDOW")
-        with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-            for _ in range(10):  # down to the Light Probes panel
-                bpy.ops.view2d.scroll_down(deltay=120)
+        scroll(properties, 10)  # down to the Light Probes panel
         redraw()
         yield 1.5
         screenshot("render_tab_cluster", properties)
-        with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-            for _ in range(40):
-                bpy.ops.view2d.scroll_up(deltay=120)
+        scroll(properties, -40)
         scene.bo2.bake_on = "LOCAL"
         states = {o.name: probes.bake_state(o).state for o in probes.probe_objects(scene)}
         wanted = f"the Dask scheduler of {address} runs Python 3.11, this process Python 3."
@@ -346,22 +341,17 @@ def walk():
               f"{started}, {states}, said: {said[-600:]!r}")
     yield from show_tab(None, "RENDER")
     properties = biggest("PROPERTIES")
-    window_region = next(r for r in properties.regions if r.type == "WINDOW")
-    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-        for _ in range(12):  # down to the Lightmaps panel
-            bpy.ops.view2d.scroll_down(deltay=120)
+    scroll(properties, 12)  # down to the Lightmaps panel
     redraw()
     yield 1.5
     screenshot("render_tab_lightmaps", properties)
-    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-        for _ in range(40):
-            bpy.ops.view2d.scroll_up(deltay=120)
+    scroll(properties, -40)
     floor = scene.objects.get("Floor") or mesh
     yield from show_tab(floor, "OBJECT")
     yield 1.5
     screenshot("object_tab_lightmap", properties)
 
-    # 5c. The look-dev review of the open file's scenes, from the Look-Dev panel's button, at a
+    # 5d. The look-dev review of the open file's scenes, from the Look-Dev panel's button, at a
     # tenth of the resolution; this Blender's Python 3.14 has no FLIP: the page says why
     review = OUT / "review"
     scene.bo2.lookdev.report_folder = "//" + os.path.relpath(review, ROOM.parent) + "/"
@@ -372,9 +362,7 @@ def walk():
     yield from show_tab(None, "RENDER")
     yield 1.5  # the tab drawn first: a region scrolls within what it has drawn
     window_region = next(r for r in properties.regions if r.type == "WINDOW")
-    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-        for _ in range(40):  # down to the Look-Dev panel, the last of BO2's
-            bpy.ops.view2d.scroll_down(deltay=120)
+    scroll(properties, 40)  # down to the Look-Dev panel, the last of BO2's
     redraw()
     yield 1.5
     screenshot("render_tab_review", properties)
@@ -396,9 +384,7 @@ def walk():
     check("without FLIP the page says why", data.get("flip") is None
           or "flip-evaluator" in data.get("flip", ""), data.get("flip"))
     r.resolution_percentage, scene.bo2.samples, scene.cycles.samples = kept
-    with bpy.context.temp_override(window=window(), area=properties, region=window_region):
-        for _ in range(40):
-            bpy.ops.view2d.scroll_up(deltay=120)
+    scroll(properties, -40)
 
     # 6. The viewport in Rendered shading, through the camera
     viewports = module("addon.blender.viewport")
@@ -560,6 +546,15 @@ def gpu_view(scene, live):
     table.location.z -= 0.3
     scene.bo2.device = "AUTO"
     yield from drawn(300)
+
+
+def scroll(area, notches: int) -> None:
+    """Scroll ``area``'s main region down ``notches`` wheel steps (up when negative)."""
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    step = bpy.ops.view2d.scroll_down if notches > 0 else bpy.ops.view2d.scroll_up
+    with bpy.context.temp_override(window=window(), area=area, region=region):
+        for _ in range(abs(notches)):
+            step(deltay=120)
 
 
 def reports():
