@@ -8,6 +8,7 @@ Rendered shading (the scene's world, the studio light, a look-dev view). A scree
 step goes to OUT; the checks go to OUT/results.json, then Blender quits.
 """
 
+import importlib
 import json
 import os
 import subprocess
@@ -63,9 +64,8 @@ def biggest(kind: str):
 
 def module(name: str):
     """A module of the installed extension (``bl_ext.<repo>.bo2_lighting.addon...``)."""
-    found = [m for k, m in sys.modules.items() if k.endswith(f"bo2_lighting.{name}")
-             and k.startswith("bl_ext.")]
-    return found[0] if found else None
+    roots = [k for k in sys.modules if k.startswith("bl_ext.") and k.endswith(".bo2_lighting")]
+    return importlib.import_module(f"{roots[0]}.{name}") if roots else None
 
 
 def redraw():
@@ -319,6 +319,16 @@ def walk():
     address = os.environ.get("BO2_GUI_SCHEDULER")
     if address:
         module("addon.blender.props").preferences().scheduler = address
+        yield from preferences_shot()
+        # what shipping does with the open file: a copy saved, packed by Blender's binary
+        copy = OUT / "shipped.blend"
+        bpy.ops.wm.save_as_mainfile(filepath=str(copy), copy=True, compress=False)
+        plain = copy.read_bytes()[:4]
+        module("addon.cluster.session").pack_copy(copy)
+        check("a shipped copy is packed and saved by Blender's own binary, the open file kept",
+              plain == b"BLEN" and copy.read_bytes()[:4] == b"\x28\xb5\x2f\xfd"
+              and Path(bpy.data.filepath).resolve() == ROOM.resolve(),
+              f"{plain!r} -> {copy.read_bytes()[:4]!r}, open {bpy.data.filepath}")
         scene.bo2.bake_on = "CLUSTER"
         started, seconds = yield from bake_all(bpy.ops.bo2.bake_probes,
                                                lambda: operators._ModalBake.running)
@@ -546,6 +556,28 @@ def gpu_view(scene, live):
     table.location.z -= 0.3
     scene.bo2.device = "AUTO"
     yield from drawn(300)
+
+
+def preferences_shot():
+    """The add-on's preferences in the Preferences editor (the 3D viewport shown as one for a
+    moment, the add-on expanded), as a screenshot."""
+    area = biggest("VIEW_3D")
+    area.ui_type = "PREFERENCES"
+    bpy.context.preferences.active_section = "ADDONS"
+    bpy.context.window_manager.addon_search = "BO2"
+    name = next(n for n in bpy.context.preferences.addons.keys() if n.endswith("bo2_lighting"))
+    region = next(r for r in area.regions if r.type == "WINDOW")
+    with bpy.context.temp_override(window=window(), area=area, region=region):
+        bpy.ops.preferences.addon_expand(module=name)
+    redraw()
+    yield 1.5
+    screenshot("addon_preferences", area)
+    with bpy.context.temp_override(window=window(), area=area, region=region):
+        bpy.ops.preferences.addon_expand(module=name)
+    bpy.context.window_manager.addon_search = ""
+    area.ui_type = "VIEW_3D"
+    redraw()
+    yield 0.5
 
 
 def scroll(area, notches: int) -> None:
